@@ -1,0 +1,17 @@
+"""The ``mgrao`` command line: run experiments, reproduce the paper, serve the dashboard."""
+
+from __future__ import annotations
+
+import click
+
+from mgrao_cli.experiments import reproduce, run
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="mgrao")
+def cli() -> None:
+    """MG-RAO experiments from the shell: simulate, reproduce the paper, serve the dashboard."""
+
+
+cli.add_command(run)
+cli.add_command(reproduce)

@@ -1,0 +1,62 @@
+"""MG-RAO core: the simulated systems and algorithms of Creech et al. (2021), batched and seeded.
+
+A pure library: numpy and numba, no I/O, no web, no database.
+
+    >>> from mgrao_core import make_spec, run_experiment
+    >>> result = run_experiment(make_spec("single", seeds=5, episodes=100))
+    >>> result.summary()["mgrao-max"].pct_from_uniform  # doctest: +SKIP
+"""
+
+from mgrao_core.algorithms import Algorithm, divisors, parent_groups, parse_algorithm
+from mgrao_core.errors import Cancelled, ConfigError, MgraoError, WorkLimitError
+from mgrao_core.params import PARAMETERS, Parameter, SystemParams, make_params
+from mgrao_core.presets import PRESETS, Preset, get_preset
+from mgrao_core.results import ExperimentResult, Run
+from mgrao_core.runner import run_experiment
+from mgrao_core.spec import (
+    MAX_ALGORITHMS,
+    MAX_EPISODES,
+    MAX_SEEDS,
+    MAX_STATE_BYTES,
+    MAX_WORK,
+    ExperimentSpec,
+    make_spec,
+    spec_from_dict,
+)
+from mgrao_core.stats import FINAL_EPISODES, ConfigSummary, episode_band, final_utilities, summarise
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "FINAL_EPISODES",
+    "MAX_ALGORITHMS",
+    "MAX_EPISODES",
+    "MAX_SEEDS",
+    "MAX_STATE_BYTES",
+    "MAX_WORK",
+    "PARAMETERS",
+    "PRESETS",
+    "Algorithm",
+    "Cancelled",
+    "ConfigError",
+    "ConfigSummary",
+    "ExperimentResult",
+    "ExperimentSpec",
+    "MgraoError",
+    "Parameter",
+    "Preset",
+    "Run",
+    "SystemParams",
+    "WorkLimitError",
+    "divisors",
+    "episode_band",
+    "final_utilities",
+    "get_preset",
+    "make_params",
+    "make_spec",
+    "parent_groups",
+    "parse_algorithm",
+    "run_experiment",
+    "spec_from_dict",
+    "summarise",
+]

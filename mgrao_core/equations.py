@@ -1,0 +1,86 @@
+"""The paper's equations, one small pure function each, named after the paper's terms.
+
+These are the reference definitions: readable, dense and per child. The batched engine
+(:mod:`mgrao_core.engine`) computes the same quantities lazily and is tested against them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def sumnorm(x: np.ndarray, axis: int = -1) -> np.ndarray:
+    """Sum-normalisation (paper footnote); an all-zero vector becomes the uniform vector."""
+    x = np.asarray(x, dtype=float)
+    total = x.sum(axis=axis, keepdims=True)
+    uniform = np.full_like(x, 1.0 / x.shape[axis])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(total > 0, x / np.where(total > 0, total, 1.0), uniform)
+
+
+def softmax(x: np.ndarray, temperature: float = 1.0) -> np.ndarray:
+    """Softmax normalisation (paper footnote) of ``x / temperature``."""
+    z = np.asarray(x, dtype=float) / temperature
+    z = np.exp(z - z.max())
+    return z / z.sum()
+
+
+def eligibility_update(trace: np.ndarray, group: int, task_type: int, decay: float) -> np.ndarray:
+    """Replacing eligibility trace update (paper equation ``etu``).
+
+    The entry ``(group, task_type)`` becomes 1; every other positive entry is multiplied by
+    ``decay``; zero entries stay zero.
+    """
+    updated = np.where(trace > 0, trace * decay, 0.0)
+    updated[group, task_type] = 1.0
+    return updated
+
+
+def pw_update(weights: np.ndarray, trace: np.ndarray, value: float, learning_rate: float) -> np.ndarray:
+    """Algorithm 1, last two lines: ``PW + alpha * atv * E``, then sum-normalise each row."""
+    return sumnorm(weights + learning_rate * value * trace, axis=1)
+
+
+def kl_to_uniform(weights: np.ndarray) -> np.ndarray:
+    """Parent group weights entropy: ``dkl[i] = sum_j PW[i,j] log(PW[i,j] * n)`` per row.
+
+    Zero weights contribute zero (the limit of ``x log x``); rounding can never make it negative.
+    """
+    n = weights.shape[-1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        terms = np.where(weights > 0, weights * np.log(weights * n), 0.0)
+    return np.maximum(terms.sum(axis=-1), 0.0)
+
+
+def blend_vector(weights: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """Resource weights blending vector ``B = sumnorm(dkl) + sumnorm(count)``."""
+    return sumnorm(kl_to_uniform(weights)) + sumnorm(counts)
+
+
+def combined_weights(weights: np.ndarray, counts: np.ndarray, temperature: float) -> np.ndarray:
+    """Combined resource weights ``softmax(sumnorm(B) @ PW / temperature)`` (algorithm 2)."""
+    return softmax(sumnorm(blend_vector(weights, counts)) @ weights, temperature)
+
+
+def atomic_quality(share: np.ndarray, n_types: int, quality_at_uniform: float, floor: float) -> np.ndarray:
+    """Atomic task quality from the share ``w[tp]`` of the child's resource given to the type.
+
+    ``q = min(1, quality_at_uniform * x / (ar / n_types))`` with ``x = w[tp] * ar`` simplifies to
+    ``min(1, quality_at_uniform * n_types * w[tp])``, kept above ``floor`` so that q is in (0, 1].
+    """
+    return np.clip(quality_at_uniform * n_types * np.asarray(share, dtype=float), floor, 1.0)
+
+
+def proportional_values(profile: np.ndarray, noise: np.ndarray, value_noise: float) -> np.ndarray:
+    """Component tasks proportional values ``ctv = sumnorm(profile * exp(value_noise * N))``."""
+    return sumnorm(profile * np.exp(value_noise * noise))
+
+
+def composite_quality(ctv: np.ndarray, quality: np.ndarray) -> float:
+    """Composite task quality ``taq = sum(ctv * q)``."""
+    return float(np.dot(ctv, quality))
+
+
+def absolute_values(ctv: np.ndarray, taq: float) -> np.ndarray:
+    """Component tasks absolute values ``atv = taq * ctv``."""
+    return taq * ctv

@@ -1,0 +1,29 @@
+"""The core library's exceptions; the web and command-line edges translate them."""
+
+from __future__ import annotations
+
+
+class MgraoError(Exception):
+    """Base class of every error the core raises on purpose."""
+
+
+class ConfigError(MgraoError, ValueError):
+    """A configuration value is missing, of the wrong type or outside its limits.
+
+    Attributes:
+        field: the name of the offending field (e.g. ``"n_parents"`` or ``"algorithms[2]"``).
+        message: what is wrong, naming the limit.
+    """
+
+    def __init__(self, field: str, message: str) -> None:
+        super().__init__(f"{field}: {message}")
+        self.field = field
+        self.message = message
+
+
+class WorkLimitError(ConfigError):
+    """The request would exceed a documented work or memory limit."""
+
+
+class Cancelled(MgraoError):
+    """The caller asked the run to stop (cooperative cancellation)."""

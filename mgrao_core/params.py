@@ -1,0 +1,235 @@
+"""Every parameter of the simulated system and of MG-RAO, with defaults, limits and help.
+
+The defaults are those of ``shared/SIMULATION.md``; the presets in :mod:`mgrao_core.presets`
+override a few of them per system. :data:`PARAMETERS` is the single schema that validation,
+the command line, the REST API and the dashboard's form all read.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from mgrao_core.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """The schema of one parameter.
+
+    Attributes:
+        name: field name in :class:`SystemParams`.
+        kind: ``"int"``, ``"float"`` or ``"choice"``.
+        default: the SIMULATION.md default (``None`` only where ``nullable``).
+        minimum: smallest allowed value (numbers only).
+        maximum: largest allowed value (numbers only).
+        exclusive_minimum: whether ``minimum`` itself is excluded.
+        choices: allowed values of a ``"choice"`` parameter.
+        nullable: whether ``None`` is allowed (it then means the documented automatic value).
+        group: which part of the model it belongs to (for forms and docs).
+        help: one sentence for people.
+    """
+
+    name: str
+    kind: str
+    default: Any
+    help: str
+    group: str
+    minimum: float | None = None
+    maximum: float | None = None
+    exclusive_minimum: bool = False
+    choices: tuple[str, ...] = ()
+    nullable: bool = False
+
+    def as_dict(self) -> dict[str, Any]:
+        """The schema entry as plain JSON-ready data."""
+        return dataclasses.asdict(self) | {"choices": list(self.choices)}
+
+
+PARAMETERS: tuple[Parameter, ...] = (
+    # The system (paper section 3, appendix "General parameter values").
+    Parameter("n_types", "int", 20, "Number of atomic task types.", "system", 2, 200),
+    Parameter("n_composite_types", "int", 10, "Number of composite task types.", "system", 1, 1000),
+    Parameter(
+        "types_per_composite", "int", 5,
+        "Distinct atomic types in each composite type (at most n_types).", "system", 1, 200,
+    ),
+    Parameter("n_parents", "int", 10, "Number of parent agents.", "system", 1, 1000),
+    Parameter("n_children", "int", 1, "Number of child agents.", "system", 1, 100),
+    Parameter(
+        "resource_mean", "float", 0.5,
+        "Mean of each child's resource amount, Normal(mean, sd) clipped into (0, 1].",
+        "system", 0.0, 1.0, exclusive_minimum=True,
+    ),
+    Parameter("resource_sd", "float", 0.2, "Standard deviation of each child's resource amount.",
+              "system", 0.0, 1.0),
+    # Values and quality (SIMULATION.md "Value of atomic tasks", "Quality").
+    Parameter(
+        "value_concentration", "float", 1.0,
+        "Dirichlet concentration of each parent's fixed value profile.",
+        "values", 0.01, 100.0,
+    ),
+    Parameter(
+        "value_noise", "float", 0.1,
+        "Log-normal noise on each task instance's proportional values.", "values", 0.0, 5.0,
+    ),
+    Parameter(
+        "quality_at_uniform", "float", 0.3,
+        "Atomic task quality when a type gets exactly the uniform share of resources.",
+        "values", 0.0, 1.0, exclusive_minimum=True,
+    ),
+    Parameter(
+        "quality_floor", "float", 1e-6,
+        "Smallest atomic task quality, so that quality stays in (0, 1].",
+        "values", 0.0, 0.1, exclusive_minimum=True,
+    ),
+    # MG-RAO (paper algorithms 1 and 2).
+    Parameter("learning_rate", "float", 0.1, "Learning rate alpha of the MG-RAO update.",
+              "mgrao", 0.0, 1.0),
+    Parameter(
+        "trace_decay", "float", 0.9, "Decay gamma of the replacing eligibility trace.",
+        "mgrao", 0.001, 0.999,
+    ),
+    Parameter(
+        "temperature", "float", None,
+        "Softmax temperature of the combined weights; empty means 1/n_types, 1 is paper-literal.",
+        "mgrao", 0.0, 100.0, exclusive_minimum=True, nullable=True,
+    ),
+    # Multi-child task allocation by parents.
+    Parameter(
+        "epsilon", "float", 0.1,
+        "Probability that a parent gives an atomic task to a non-greedy child.", "allocation", 0.0, 1.0,
+    ),
+    Parameter(
+        "boltzmann_temperature", "float", 0.1,
+        "Temperature of the Boltzmann choice among the non-greedy children.",
+        "allocation", 0.0, 100.0, exclusive_minimum=True,
+    ),
+    Parameter(
+        "initial_estimate", "float", 1.0,
+        "Value a parent assumes for a child it has not tried yet (optimistic start).",
+        "allocation", 0.0, 10.0,
+    ),
+    Parameter(
+        "tie_break", "choice", "random",
+        "How a parent breaks ties between equally good children.", "allocation",
+        choices=("random", "first"),
+    ),
+    # Volatility (the volatile system).
+    Parameter(
+        "leave_probability", "float", 0.0,
+        "Probability per episode that an active parent leaves.", "volatility", 0.0, 1.0,
+    ),
+    Parameter(
+        "join_probability", "float", 0.0,
+        "Probability per episode that an absent parent rejoins.", "volatility", 0.0, 1.0,
+    ),
+    Parameter(
+        "rejoin_profile", "choice", "same",
+        "Whether a rejoining parent keeps its value profile or brings a newly drawn one.",
+        "volatility", choices=("same", "new"),
+    ),
+)
+
+PARAMETERS_BY_NAME: dict[str, Parameter] = {p.name: p for p in PARAMETERS}
+
+
+@dataclass(frozen=True)
+class SystemParams:
+    """A complete, validated parameter set (build it with :func:`make_params`)."""
+
+    n_types: int = 20
+    n_composite_types: int = 10
+    types_per_composite: int = 5
+    n_parents: int = 10
+    n_children: int = 1
+    resource_mean: float = 0.5
+    resource_sd: float = 0.2
+    value_concentration: float = 1.0
+    value_noise: float = 0.1
+    quality_at_uniform: float = 0.3
+    quality_floor: float = 1e-6
+    learning_rate: float = 0.1
+    trace_decay: float = 0.9
+    temperature: float | None = None
+    epsilon: float = 0.1
+    boltzmann_temperature: float = 0.1
+    initial_estimate: float = 1.0
+    tie_break: str = "random"
+    leave_probability: float = 0.0
+    join_probability: float = 0.0
+    rejoin_profile: str = "same"
+
+    @property
+    def effective_temperature(self) -> float:
+        """The softmax temperature in use: ``temperature`` or, when unset, ``1 / n_types``."""
+        return self.temperature if self.temperature is not None else 1.0 / self.n_types
+
+    def as_dict(self) -> dict[str, Any]:
+        """All parameters as plain JSON-ready data."""
+        return dataclasses.asdict(self)
+
+
+def _coerce(param: Parameter, value: Any) -> Any:
+    if value is None:
+        if param.nullable:
+            return None
+        raise ConfigError(param.name, "must not be empty")
+    if param.kind == "choice":
+        if value not in param.choices:
+            raise ConfigError(param.name, f"must be one of {', '.join(param.choices)} (got {value!r})")
+        return value
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        if isinstance(value, str):
+            try:
+                value = float(value) if param.kind == "float" else int(value)
+            except ValueError:
+                raise ConfigError(param.name, f"must be a number (got {value!r})") from None
+        else:
+            raise ConfigError(param.name, f"must be a number (got {type(value).__name__})")
+    if param.kind == "int":
+        if isinstance(value, float) and not value.is_integer():
+            raise ConfigError(param.name, f"must be a whole number (got {value})")
+        value = int(value)
+    else:
+        value = float(value)
+        if not math.isfinite(value):
+            raise ConfigError(param.name, "must be a finite number")
+    low_ok = value > param.minimum if param.exclusive_minimum else value >= param.minimum
+    if not low_ok or value > param.maximum:
+        low = "(" if param.exclusive_minimum else "["
+        raise ConfigError(
+            param.name, f"must be in {low}{param.minimum:g}, {param.maximum:g}] (got {value:g})"
+        )
+    return value
+
+
+def make_params(overrides: Mapping[str, Any] | None = None, base: SystemParams | None = None) -> SystemParams:
+    """Validate ``overrides`` on top of ``base`` (the SIMULATION.md defaults when omitted).
+
+    Args:
+        overrides: parameter names to values; values may be strings from a command line.
+        base: the parameter set to start from, e.g. a preset's.
+
+    Returns:
+        A new, fully validated :class:`SystemParams`.
+
+    Raises:
+        ConfigError: an unknown name, a wrong type, a value outside its limits, or
+            ``types_per_composite`` larger than ``n_types``.
+    """
+    values = (base or SystemParams()).as_dict()
+    for name, value in (overrides or {}).items():
+        param = PARAMETERS_BY_NAME.get(name)
+        if param is None:
+            raise ConfigError(name, "unknown parameter (see the parameter schema for valid names)")
+        values[name] = _coerce(param, value)
+    if values["types_per_composite"] > values["n_types"]:
+        raise ConfigError(
+            "types_per_composite",
+            f"must be at most n_types = {values['n_types']} (got {values['types_per_composite']})",
+        )
+    return SystemParams(**values)

@@ -1,0 +1,72 @@
+"""The paper's four simulated systems (section 5, appendix "Simulation parameter values")."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from mgrao_core.errors import ConfigError
+from mgrao_core.params import SystemParams, make_params
+
+
+@dataclass(frozen=True)
+class Preset:
+    """A named system: parameter overrides on the defaults and the paper's algorithms for it."""
+
+    name: str
+    description: str
+    overrides: dict[str, Any]
+    algorithms: tuple[str, ...]
+    paper_pct_from_uniform: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def params(self) -> SystemParams:
+        """The preset's full parameter set."""
+        return make_params(self.overrides)
+
+
+PRESETS: dict[str, Preset] = {
+    "single": Preset(
+        "single",
+        "10 parents, 1 child: a stable task stream from every parent.",
+        {"n_parents": 10, "n_children": 1},
+        ("uniform", "mgrao-1:1", "mgrao-max"),
+        {"mgrao-max": 28.0, "mgrao-1:1": 23.4},
+    ),
+    "multi": Preset(
+        "multi",
+        "10 parents, 3 children: parents choose children epsilon-greedily by estimated value.",
+        {"n_parents": 10, "n_children": 3},
+        ("uniform", "mgrao-1:1", "mgrao-max"),
+        {"mgrao-max": 23.8, "mgrao-1:1": 21.4},
+    ),
+    "volatile": Preset(
+        "volatile",
+        "10 parents, 1 child: each parent leaves and rejoins with probability 0.25 per episode.",
+        {"n_parents": 10, "n_children": 1, "leave_probability": 0.25, "join_probability": 0.25},
+        ("uniform", "mgrao-1:1", "mgrao-max"),
+        {"mgrao-max": 7.1, "mgrao-1:1": 3.3},
+    ),
+    "large": Preset(
+        "large",
+        "50 parents, 1 child: group counts 1, 2, 5, 10, 25 and 50.",
+        {"n_parents": 50, "n_children": 1},
+        ("uniform", "mgrao-1:1", "mgrao-2:1", "mgrao-5:1", "mgrao-10:1", "mgrao-25:1", "mgrao-max"),
+        {
+            "mgrao-max": 19.6, "mgrao-1:1": 14.7, "mgrao-2:1": 17.2,
+            "mgrao-5:1": 17.9, "mgrao-10:1": 18.9, "mgrao-25:1": 19.5,
+        },
+    ),
+}
+
+
+def get_preset(name: str) -> Preset:
+    """The preset called ``name``.
+
+    Raises:
+        ConfigError: ``name`` is not one of single, multi, volatile, large.
+    """
+    try:
+        return PRESETS[name]
+    except (KeyError, TypeError):
+        raise ConfigError("system", f"unknown system {name!r}: use one of {', '.join(PRESETS)}") from None

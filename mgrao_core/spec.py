@@ -1,0 +1,143 @@
+"""What to run: a validated experiment specification, and the documented work limits."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from mgrao_core.algorithms import Algorithm, parse_algorithms
+from mgrao_core.errors import ConfigError, WorkLimitError
+from mgrao_core.params import SystemParams, make_params
+from mgrao_core.presets import get_preset
+
+MAX_SEEDS = 1000
+MAX_SEED_VALUE = 2**32 - 1
+MAX_EPISODES = 100_000
+MAX_ALGORITHMS = 20
+MAX_WORK = 2_000_000_000
+"""Atomic tasks per experiment: seeds x algorithms x episodes x parents x types per composite."""
+MAX_STATE_BYTES = 2 * 1024**3
+"""Memory for the learners' state across all runs of one experiment."""
+
+
+@dataclass(frozen=True)
+class ExperimentSpec:
+    """A complete, validated experiment (build it with :func:`make_spec`).
+
+    Attributes:
+        system: the preset it starts from (single, multi, volatile, large).
+        params: the full parameter set (preset plus overrides).
+        algorithms: algorithm labels, in the order given.
+        seeds: the seeds, one run per (algorithm, seed).
+        episodes: episodes per run.
+    """
+
+    system: str
+    params: SystemParams
+    algorithms: tuple[str, ...]
+    seeds: tuple[int, ...]
+    episodes: int
+
+    @property
+    def parsed_algorithms(self) -> tuple[Algorithm, ...]:
+        """The algorithms, parsed for this system's number of parents."""
+        return parse_algorithms(self.algorithms, self.params.n_parents)
+
+    @property
+    def work(self) -> int:
+        """Atomic tasks the experiment simulates (what :data:`MAX_WORK` bounds)."""
+        p = self.params
+        return len(self.seeds) * len(self.algorithms) * self.episodes * p.n_parents * p.types_per_composite
+
+    @property
+    def state_bytes(self) -> int:
+        """Approximate memory of the learners' state (what :data:`MAX_STATE_BYTES` bounds)."""
+        p = self.params
+        groups = max(a.n_groups for a in self.parsed_algorithms) or 1
+        lanes = len(self.seeds) * len(self.algorithms)
+        learner = 2 * groups * p.n_types + 4 * groups
+        allocation = 2 * p.n_parents * p.types_per_composite * p.n_children
+        return 8 * lanes * (p.n_children * learner + allocation)
+
+    def as_dict(self) -> dict[str, Any]:
+        """The specification as JSON-ready data (round-trips through :func:`spec_from_dict`)."""
+        return {
+            "system": self.system,
+            "params": self.params.as_dict(),
+            "algorithms": list(self.algorithms),
+            "seeds": list(self.seeds),
+            "episodes": self.episodes,
+        }
+
+
+def _count(field: str, value: Any, maximum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise ConfigError(field, f"must be a whole number (got {value!r})")
+    if not 1 <= value <= maximum:
+        raise ConfigError(field, f"must be between 1 and {maximum} (got {value})")
+    return value
+
+
+def _seeds(value: int | Sequence[int]) -> tuple[int, ...]:
+    if isinstance(value, int) and not isinstance(value, bool):
+        return tuple(range(_count("seeds", value, MAX_SEEDS)))
+    if isinstance(value, str) or not isinstance(value, Sequence):
+        raise ConfigError("seeds", "must be a count or a list of seeds")
+    if not 1 <= len(value) <= MAX_SEEDS:
+        raise ConfigError("seeds", f"must list between 1 and {MAX_SEEDS} seeds (got {len(value)})")
+    for i, seed in enumerate(value):
+        if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED_VALUE:
+            raise ConfigError(f"seeds[{i}]", f"must be a whole number in [0, {MAX_SEED_VALUE}] (got {seed!r})")
+    if len(set(value)) != len(value):
+        raise ConfigError("seeds", "must not repeat a seed")
+    return tuple(value)
+
+
+def make_spec(
+    system: str,
+    algorithms: Sequence[str] | None = None,
+    seeds: int | Sequence[int] = 30,
+    episodes: int = 100,
+    overrides: Mapping[str, Any] | None = None,
+) -> ExperimentSpec:
+    """Validate an experiment.
+
+    Args:
+        system: a preset name.
+        algorithms: labels; the preset's (the paper's table) when omitted.
+        seeds: a count ``S`` (seeds ``0 .. S-1``) or an explicit list.
+        episodes: episodes per run.
+        overrides: parameters to change on top of the preset.
+
+    Raises:
+        ConfigError: a field is invalid; the message names the field and the limit.
+        WorkLimitError: the experiment exceeds :data:`MAX_WORK` or :data:`MAX_STATE_BYTES`.
+    """
+    preset = get_preset(system)
+    params = make_params(overrides, base=preset.params)
+    labels = tuple(preset.algorithms if algorithms is None else algorithms)
+    if len(labels) > MAX_ALGORITHMS:
+        raise ConfigError("algorithms", f"at most {MAX_ALGORITHMS} algorithms (got {len(labels)})")
+    parse_algorithms(labels, params.n_parents)
+    spec = ExperimentSpec(system, params, labels, _seeds(seeds), _count("episodes", episodes, MAX_EPISODES))
+    if spec.work > MAX_WORK:
+        raise WorkLimitError(
+            "work",
+            f"seeds x algorithms x episodes x n_parents x types_per_composite = {spec.work:,} "
+            f"exceeds the limit of {MAX_WORK:,} atomic tasks per experiment",
+        )
+    if spec.state_bytes > MAX_STATE_BYTES:
+        raise WorkLimitError(
+            "memory",
+            f"the learners' state would need {spec.state_bytes / 1024**2:,.0f} MiB, "
+            f"over the limit of {MAX_STATE_BYTES // 1024**2:,} MiB",
+        )
+    return spec
+
+
+def spec_from_dict(data: Mapping[str, Any]) -> ExperimentSpec:
+    """Rebuild (and re-validate) a specification from :meth:`ExperimentSpec.as_dict` data."""
+    preset = get_preset(data["system"]).params.as_dict()
+    overrides = {k: v for k, v in data.get("params", {}).items() if preset.get(k, object()) != v}
+    return make_spec(data["system"], data["algorithms"], list(data["seeds"]), data["episodes"], overrides)
