@@ -1,0 +1,171 @@
+"""``mgrao run`` and ``mgrao reproduce``: experiments from the shell."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import sys
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any
+
+import click
+
+from mgrao_core import ConfigError, MgraoError, make_spec, run_experiment
+from mgrao_core.presets import PRESETS
+from mgrao_core.reproduction import reproduce as run_reproduction
+from mgrao_core.reproduction import reproduction_table
+
+PROGRESS_BAR_WORK = 20_000_000
+"""Atomic tasks above which a run draws a progress bar (about a second of simulation)."""
+
+
+def _parse_sets(values: tuple[str, ...]) -> dict[str, str]:
+    overrides = {}
+    for item in values:
+        name, sep, value = item.partition("=")
+        if not sep or not name:
+            raise click.BadParameter(f"expected name=value, got {item!r}", param_hint="--set")
+        overrides[name.strip()] = value.strip()
+    return overrides
+
+
+def _fmt(value: float | None, digits: int = 1) -> str:
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "-"
+    return f"{value:.{digits}f}"
+
+
+def _interval(pair: list[float] | tuple[float, float] | None, digits: int = 1) -> str:
+    if not pair or any(v is None or math.isnan(v) for v in pair):
+        return "-"
+    return f"[{pair[0]:.{digits}f}, {pair[1]:.{digits}f}]"
+
+
+def _render(headers: list[str], rows: list[list[str]]) -> str:
+    widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(headers)]
+    line = "  ".join(h.ljust(w) for h, w in zip(headers, widths, strict=True))
+    body = ["  ".join(c.rjust(w) if i else c.ljust(w) for i, (c, w) in enumerate(zip(r, widths, strict=True)))
+            for r in rows]
+    return "\n".join([line, "-" * len(line), *body])
+
+
+@contextmanager
+def _progress(label: str, show: bool) -> Iterator[Any]:
+    if not show:
+        yield lambda fraction: None
+        return
+    with click.progressbar(length=1000, label=label, file=sys.stderr, show_percent=True) as bar:
+        def update(fraction: float) -> None:
+            bar.update(int(round(fraction * 1000)) - bar.pos)
+
+        yield update
+
+
+def _emit(text: str, out: str | None) -> None:
+    if out:
+        with open(out, "w", encoding="utf-8") as handle:
+            handle.write(text if text.endswith("\n") else text + "\n")
+        click.echo(f"wrote {out}", err=True)
+    else:
+        click.echo(text)
+
+
+def _fail(error: MgraoError) -> None:
+    raise click.UsageError(str(error)) from error
+
+
+@click.command()
+@click.option("--system", required=True, type=click.Choice(list(PRESETS)), help="Preset to start from.")
+@click.option("--algorithms", help="Comma-separated labels, e.g. uniform,mgrao-1:1,mgrao-5:1,mgrao-max "
+              "(default: the paper's for the system).")
+@click.option("--seeds", default=30, show_default=True, type=int, help="Number of seeds (0 .. S-1).")
+@click.option("--episodes", default=100, show_default=True, type=int, help="Episodes per run.")
+@click.option("--set", "sets", multiple=True, metavar="NAME=VALUE", help="Override a parameter (repeatable).")
+@click.option("--format", "fmt", default="table", show_default=True, type=click.Choice(["table", "json", "csv"]))
+@click.option("--out", type=click.Path(dir_okay=False, writable=True), help="Write to FILE instead of stdout.")
+def run(system: str, algorithms: str | None, seeds: int, episodes: int, sets: tuple[str, ...],
+        fmt: str, out: str | None) -> None:
+    """Simulate one system with several algorithms and seeds; print the summary or every episode."""
+    labels = [a.strip() for a in algorithms.split(",")] if algorithms else None
+    try:
+        spec = make_spec(system, labels, seeds, episodes, _parse_sets(sets))
+    except ConfigError as error:
+        _fail(error)
+    started = time.perf_counter()
+    with _progress(f"{system}", spec.work >= PROGRESS_BAR_WORK) as update:
+        result = run_experiment(spec, on_progress=update)
+    elapsed = time.perf_counter() - started
+    summary = result.summary()
+    if fmt == "json":
+        payload = {
+            "spec": spec.as_dict(),
+            "simulation_seconds": elapsed,
+            "summary": {label: s.as_dict() for label, s in summary.items()},
+            "runs": [
+                {"algorithm": r.algorithm, "seed": r.seed, "utilities": r.utilities.tolist(),
+                 "combined_weights": r.combined_weights.tolist()}
+                for r in result.runs
+            ],
+        }
+        _emit(json.dumps(payload, indent=2), out)
+    elif fmt == "csv":
+        buffer = io.StringIO()
+        writer = csv.writer(buffer, lineterminator="\n")
+        writer.writerow(["algorithm", "seed", "episode", "utility"])
+        for r in result.runs:
+            writer.writerows((r.algorithm, r.seed, e, repr(float(u))) for e, u in enumerate(r.utilities))
+        _emit(buffer.getvalue(), out)
+    else:
+        rows = [
+            [s.algorithm, _fmt(s.final_mean, 3), _interval(s.ci95, 3), _fmt(s.pct_from_uniform),
+             _interval(s.pct_ci95), _fmt(s.pct_of_max)]
+            for s in summary.values()
+        ]
+        headers = ["algorithm", "final mean", "95% CI", "% from uniform", "95% CI", "% of max"]
+        title = (f"{system}: {len(spec.seeds)} seeds x {spec.episodes} episodes, "
+                 f"mean of the last 10 episodes ({elapsed:.2f} s)")
+        _emit(f"{title}\n{_render(headers, rows)}", out)
+
+
+@click.command()
+@click.option("--seeds", default=30, show_default=True, type=int, help="Seeds per configuration.")
+@click.option("--episodes", default=100, show_default=True, type=int, help="Episodes per run (paper: 100).")
+@click.option("--set", "sets", multiple=True, metavar="NAME=VALUE",
+              help="Override a parameter in every system, e.g. temperature=1 (repeatable).")
+@click.option("--format", "fmt", default="table", show_default=True, type=click.Choice(["table", "json"]))
+@click.option("--out", type=click.Path(dir_okay=False, writable=True), help="Write to FILE instead of stdout.")
+def reproduce(seeds: int, episodes: int, sets: tuple[str, ...], fmt: str, out: str | None) -> None:
+    """Run the paper's four systems and print its tables with ours beside them."""
+    overrides = _parse_sets(sets)
+    started = time.perf_counter()
+    try:
+        with _progress("reproduce", seeds * episodes >= 30_000) as update:
+            count = len(PRESETS)
+            order = {name: i for i, name in enumerate(PRESETS)}
+            results = run_reproduction(
+                seeds, episodes, overrides, on_progress=lambda name, f: update((order[name] + f) / count)
+            )
+    except ConfigError as error:
+        _fail(error)
+    elapsed = time.perf_counter() - started
+    table = reproduction_table(results)
+    table.update({"seeds": seeds, "episodes": episodes, "overrides": overrides, "simulation_seconds": elapsed})
+    if fmt == "json":
+        _emit(json.dumps(table, indent=2), out)
+        return
+    blocks = []
+    for name, rows in table["systems"].items():
+        body = [
+            [label, _fmt(r["pct_from_uniform"]), _interval(r["ci95"]), _fmt(r["paper_pct_from_uniform"]),
+             _fmt(r["pct_of_max"]), _fmt(r["paper_pct_of_max"])]
+            for label, r in rows.items() if label != "uniform"
+        ]
+        headers = ["algorithm", "% from uniform", "95% CI", "paper", "% of max", "paper"]
+        blocks.append(f"{name} ({PRESETS[name].description})\n{_render(headers, body)}")
+    footer = (f"{seeds} seeds x {episodes} episodes per configuration; mean of the last 10 episodes; "
+              f"simulation {elapsed:.2f} s")
+    _emit("\n\n".join(blocks) + f"\n\n{footer}", out)
