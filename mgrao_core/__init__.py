@@ -16,6 +16,7 @@ from mgrao_core.runner import run_experiment
 from mgrao_core.spec import (
     MAX_ALGORITHMS,
     MAX_EPISODES,
+    MAX_GROUP_UPDATES,
     MAX_SEEDS,
     MAX_STATE_BYTES,
     MAX_WORK,
@@ -31,6 +32,7 @@ __all__ = [
     "FINAL_EPISODES",
     "MAX_ALGORITHMS",
     "MAX_EPISODES",
+    "MAX_GROUP_UPDATES",
     "MAX_SEEDS",
     "MAX_STATE_BYTES",
     "MAX_WORK",

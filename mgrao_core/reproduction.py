@@ -13,14 +13,6 @@ from mgrao_core.spec import make_spec
 PAPER_EPISODES = 100
 
 
-def paper_pct_of_max(preset_name: str, algorithm: str) -> float | None:
-    """The paper's "% of max" column: the algorithm's gain over uniform as a share of max's."""
-    paper = PRESETS[preset_name].paper_pct_from_uniform
-    if algorithm not in paper or "mgrao-max" not in paper:
-        return None
-    return round(100.0 * paper[algorithm] / paper["mgrao-max"], 1)
-
-
 def reproduce(
     seeds: int = 30,
     episodes: int = PAPER_EPISODES,
@@ -56,7 +48,7 @@ def reproduction_table(results: Mapping[str, ExperimentResult]) -> dict[str, Any
                 "final_mean": summary.final_mean,
                 "final_ci95": list(summary.ci95),
                 "paper_pct_from_uniform": paper.get(label),
-                "paper_pct_of_max": paper_pct_of_max(name, label),
+                "paper_pct_of_max": PRESETS[name].paper_pct_of_max.get(label),
             }
         systems[name] = rows
     return {"systems": systems}

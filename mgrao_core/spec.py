@@ -17,6 +17,9 @@ MAX_EPISODES = 100_000
 MAX_ALGORITHMS = 20
 MAX_WORK = 2_000_000_000
 """Atomic tasks per experiment: seeds x algorithms x episodes x parents x types per composite."""
+MAX_GROUP_UPDATES = 40_000_000_000
+"""Row updates of algorithm 1 per experiment: each returned value renormalises every parent-group
+row of its child, so an MG-RAO run costs atomic tasks x groups (about 3 ns each here)."""
 MAX_STATE_BYTES = 2 * 1024**3
 """Memory for the learners' state across all runs of one experiment."""
 
@@ -49,6 +52,13 @@ class ExperimentSpec:
         """Atomic tasks the experiment simulates (what :data:`MAX_WORK` bounds)."""
         p = self.params
         return len(self.seeds) * len(self.algorithms) * self.episodes * p.n_parents * p.types_per_composite
+
+    @property
+    def group_updates(self) -> int:
+        """Algorithm-1 row updates the experiment needs (what :data:`MAX_GROUP_UPDATES` bounds)."""
+        p = self.params
+        per_run = self.episodes * p.n_parents * p.types_per_composite
+        return len(self.seeds) * per_run * sum(a.n_groups for a in self.parsed_algorithms)
 
     @property
     def state_bytes(self) -> int:
@@ -126,6 +136,13 @@ def make_spec(
             "work",
             f"seeds x algorithms x episodes x n_parents x types_per_composite = {spec.work:,} "
             f"exceeds the limit of {MAX_WORK:,} atomic tasks per experiment",
+        )
+    if spec.group_updates > MAX_GROUP_UPDATES:
+        raise WorkLimitError(
+            "work",
+            f"atomic tasks x parent groups = {spec.group_updates:,} exceeds the limit of "
+            f"{MAX_GROUP_UPDATES:,} algorithm-1 row updates per experiment (use fewer groups, "
+            "seeds or episodes)",
         )
     if spec.state_bytes > MAX_STATE_BYTES:
         raise WorkLimitError(

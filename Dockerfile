@@ -1,0 +1,13 @@
+# The service image: API, dashboard and local workers from one `mgrao serve`.
+FROM python:3.11-slim
+WORKDIR /app
+COPY pyproject.toml README.md ./
+COPY mgrao_core ./mgrao_core
+COPY mgrao_cli ./mgrao_cli
+COPY backend ./backend
+COPY frontend ./frontend
+RUN pip install --no-cache-dir . && useradd --create-home mgrao && mkdir /data && chown mgrao /data
+USER mgrao
+ENV MGRAO_DATABASE_URL=sqlite:////data/mgrao.db
+EXPOSE 8000
+CMD ["mgrao", "serve", "--host", "0.0.0.0", "--port", "8000"]
