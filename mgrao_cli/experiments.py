@@ -71,7 +71,7 @@ def _emit(text: str, out: str | None) -> None:
             handle.write(text if text.endswith("\n") else text + "\n")
         click.echo(f"wrote {out}", err=True)
     else:
-        click.echo(text)
+        click.echo(text.rstrip("\n"))
 
 
 def _fail(error: MgraoError) -> None:

@@ -21,8 +21,11 @@ EXPECTATION_SAMPLES = 1024
 
 
 def expected_type_values(params: SystemParams, world: World, seed: int) -> np.ndarray:
-    """``V[t]``: expected proportional value of type ``t`` per episode, by Monte Carlo on the
-    seed's own ``"oracle"`` stream (the profile alone would ignore the noise's effect on ctv)."""
+    """``V[t]``: the expected proportional value of type ``t`` per episode.
+
+    Estimated by Monte Carlo on the seed's own ``"oracle"`` stream; the profile alone would
+    ignore the effect of the value noise on ``ctv``.
+    """
     rng = stream(seed, "oracle")
     expected = np.zeros_like(world.profiles)
     remaining = EXPECTATION_SAMPLES

@@ -174,6 +174,8 @@ class SystemParams:
 
 
 def _coerce(param: Parameter, value: Any) -> Any:
+    if param.nullable and isinstance(value, str) and value.strip() in ("", "none", "null"):
+        value = None
     if value is None:
         if param.nullable:
             return None
@@ -185,7 +187,7 @@ def _coerce(param: Parameter, value: Any) -> Any:
     if isinstance(value, bool) or not isinstance(value, int | float):
         if isinstance(value, str):
             try:
-                value = float(value) if param.kind == "float" else int(value)
+                value = float(value)
             except ValueError:
                 raise ConfigError(param.name, f"must be a number (got {value!r})") from None
         else:

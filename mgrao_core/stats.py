@@ -14,6 +14,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from mgrao_core.errors import ConfigError
+
 FINAL_EPISODES = 10
 BASELINE = "uniform"
 REFERENCE = "mgrao-max"
@@ -82,7 +84,8 @@ def summarise(finals: Mapping[str, Mapping[int, float]]) -> dict[str, ConfigSumm
     Args:
         finals: configuration label -> seed -> final utility (see :func:`final_utilities`).
             "% from uniform" pairs each seed with the ``uniform`` run of the same seed and uses
-            the seeds both have; it is None without a uniform configuration.
+            the seeds both have where uniform's utility is positive (a world where every parent
+            is absent has no ratio); it is None when no seed qualifies.
 
     Returns:
         Label -> :class:`ConfigSummary`, in the order of ``finals``.
@@ -90,7 +93,7 @@ def summarise(finals: Mapping[str, Mapping[int, float]]) -> dict[str, ConfigSumm
     baseline = finals.get(BASELINE)
     pct: dict[str, tuple[float, float, float] | None] = {}
     for label, by_seed in finals.items():
-        common = sorted(set(by_seed) & set(baseline)) if baseline else []
+        common = sorted(s for s in set(by_seed) & set(baseline) if baseline[s] > 0) if baseline else []
         if not common:
             pct[label] = None
             continue
@@ -127,6 +130,8 @@ def episode_band(utilities: np.ndarray, points: int | None = None) -> dict[str, 
         ``{"episode": [...], "mean": [...], "low": [...], "high": [...]}``; ``episode`` is the
         bucket's first episode (0-based). With one run the band collapses onto the mean.
     """
+    if points is not None and points < 1:
+        raise ConfigError("points", f"must be at least 1 (got {points})")
     utilities = np.atleast_2d(np.asarray(utilities, dtype=float))
     runs, episodes = utilities.shape
     mean = utilities.mean(axis=0)

@@ -1,0 +1,116 @@
+"""The ``mgrao`` command line, through click's test runner."""
+
+import csv
+import io
+import json
+
+import pytest
+from click.testing import CliRunner
+
+from mgrao_cli.main import cli
+
+
+@pytest.fixture
+def runner():
+    return CliRunner()
+
+
+def _run(runner, *args):
+    return runner.invoke(cli, list(args), catch_exceptions=False)
+
+
+def test_run_json(runner):
+    result = _run(runner, "run", "--system", "single", "--seeds", "2", "--episodes", "12", "--format", "json")
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.stdout)
+    assert data["spec"]["system"] == "single"
+    assert data["spec"]["seeds"] == [0, 1]
+    assert set(data["summary"]) == {"uniform", "mgrao-1:1", "mgrao-max"}
+    assert data["summary"]["uniform"]["pct_from_uniform"] == 0.0
+    assert len(data["runs"]) == 6
+    assert len(data["runs"][0]["utilities"]) == 12
+
+
+def test_run_csv(runner):
+    result = _run(runner, "run", "--system", "multi", "--algorithms", "uniform,mgrao-2:1", "--seeds", "2",
+                  "--episodes", "4", "--format", "csv")
+    assert result.exit_code == 0, result.output
+    rows = [r for r in csv.reader(io.StringIO(result.stdout)) if r]
+    assert rows[0] == ["algorithm", "seed", "episode", "utility"]
+    assert len(rows) == 1 + 2 * 2 * 4
+    assert {r[0] for r in rows[1:]} == {"uniform", "mgrao-2:1"}
+    assert all(float(r[3]) >= 0 for r in rows[1:])
+
+
+def test_run_table(runner):
+    result = _run(runner, "run", "--system", "single", "--seeds", "3", "--episodes", "12")
+    assert result.exit_code == 0, result.output
+    assert "% from uniform" in result.stdout
+    assert "mgrao-max" in result.stdout
+    assert "3 seeds x 12 episodes" in result.stdout
+
+
+def test_run_set_overrides_parameters(runner):
+    result = _run(runner, "run", "--system", "single", "--seeds", "1", "--episodes", "3", "--format", "json",
+                  "--set", "temperature=1", "--set", "n_parents = 20")
+    assert result.exit_code == 0, result.output
+    params = json.loads(result.stdout)["spec"]["params"]
+    assert params["temperature"] == 1.0
+    assert params["n_parents"] == 20
+
+
+def test_run_out_file(runner, tmp_path):
+    out = tmp_path / "result.json"
+    result = _run(runner, "run", "--system", "single", "--seeds", "1", "--episodes", "3", "--format", "json",
+                  "--out", str(out))
+    assert result.exit_code == 0, result.output
+    assert result.stdout == ""
+    assert json.loads(out.read_text())["spec"]["episodes"] == 3
+
+
+def test_bad_set_without_equals(runner):
+    result = _run(runner, "run", "--system", "single", "--set", "temperature")
+    assert result.exit_code == 2
+    assert "--set" in result.output
+    assert "name=value" in result.output
+
+
+@pytest.mark.parametrize(("setting", "text"), [
+    ("n_parents=0", "n_parents"), ("bogus=1", "bogus"), ("n_types=abc", "n_types"),
+])
+def test_bad_parameter(runner, setting, text):
+    result = _run(runner, "run", "--system", "single", "--seeds", "1", "--episodes", "2", "--set", setting)
+    assert result.exit_code == 2
+    assert text in result.output
+
+
+def test_bad_algorithm_and_counts(runner):
+    result = _run(runner, "run", "--system", "single", "--algorithms", "uniform,mgrao-3:1")
+    assert result.exit_code == 2
+    assert "algorithms[1]" in result.output and "1, 2, 5, 10" in result.output
+    result = _run(runner, "run", "--system", "single", "--episodes", "0")
+    assert result.exit_code == 2
+    assert "episodes" in result.output
+
+
+def test_unknown_system(runner):
+    result = _run(runner, "run", "--system", "tiny")
+    assert result.exit_code == 2
+
+
+def test_reproduce_json(runner):
+    result = _run(runner, "reproduce", "--seeds", "3", "--episodes", "20", "--format", "json")
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.stdout)
+    assert isinstance(data["systems"]["single"]["mgrao-max"]["pct_from_uniform"], float)
+    assert set(data["systems"]) == {"single", "multi", "volatile", "large"}
+    assert data["seeds"] == 3 and data["episodes"] == 20
+
+
+def test_reproduce_table_and_bad_set(runner):
+    result = _run(runner, "reproduce", "--seeds", "2", "--episodes", "5")
+    assert result.exit_code == 0, result.output
+    assert "large" in result.stdout and "mgrao-25:1" in result.stdout
+    result = _run(runner, "reproduce", "--seeds", "2", "--episodes", "5", "--set", "trace_decay=1")
+    assert result.exit_code == 2
+    assert "trace_decay" in result.output

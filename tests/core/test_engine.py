@@ -1,0 +1,82 @@
+"""The batched numba engine equals the dense per-agent reference built from the equations."""
+
+import numpy as np
+import pytest
+
+from mgrao_core import engine, make_spec, reference, run_experiment
+from mgrao_core.params import make_params
+
+from ._helpers import assert_matches_reference
+
+CASES = [
+    ("single", {}, None, [0, 7]),
+    ("multi", {}, None, [0, 7]),
+    ("volatile", {}, None, [0, 7]),
+    ("volatile", {"rejoin_profile": "new"}, None, [1, 2]),
+    ("multi", {"tie_break": "first", "initial_estimate": 0}, None, [0, 5]),
+    ("multi", {"tie_break": "first"}, None, [3]),
+    ("single", {"trace_decay": 0.5}, None, [0, 4]),
+    ("single", {"trace_decay": 0.99}, None, [0, 4]),
+    ("single", {"trace_decay": 0.999, "learning_rate": 1.0}, None, [2]),
+    ("single", {"temperature": 1}, None, [0, 4]),
+    ("single", {}, ["oracle", "uniform", "mgrao-2:1", "mgrao-5:1"], [0, 9]),
+    ("multi", {"epsilon": 0.5, "boltzmann_temperature": 2.0}, ["oracle", "mgrao-5:1"], [6]),
+    ("large", {}, None, [3]),
+]
+
+
+@pytest.mark.parametrize(("system", "overrides", "algorithms", "seeds"), CASES,
+                         ids=[f"{c[0]}-{c[1]}-{c[2]}" for c in CASES])
+def test_engine_equals_reference(system, overrides, algorithms, seeds):
+    spec = make_spec(system, algorithms, seeds=seeds, episodes=30, overrides=overrides)
+    assert_matches_reference(run_experiment(spec))
+
+
+def test_engine_equals_reference_on_long_run_with_many_rebases():
+    # 200 episodes x 10 parents x 5 tasks = 10,000 updates: many lazy rebases, scale underflow guard
+    spec = make_spec("single", ["mgrao-1:1", "mgrao-max"], seeds=[11], episodes=200,
+                     overrides={"learning_rate": 1.0})
+    assert_matches_reference(run_experiment(spec))
+
+
+def test_engine_equals_reference_when_blocks_are_small():
+    spec = make_spec("multi", seeds=[2], episodes=20)
+    result = run_experiment(spec, episodes_per_block=3)
+    assert_matches_reference(result)
+
+
+def test_rebase_interval():
+    # 0.9 ** -k <= 64  <=>  k <= ln 64 / -ln 0.9 = 39.47
+    assert engine.rebase_interval(0.9) == 39
+    assert engine.rebase_interval(0.5) == 6  # 2 ** 6 = 64
+    assert engine.rebase_interval(0.001) == 1
+    assert 0.99 ** -engine.rebase_interval(0.99) <= engine.TRACE_SCALE_LIMIT
+
+
+def test_choose_child_kernel_equals_reference():
+    rng = np.random.default_rng(5)
+    for tie_break in ("random", "first"):
+        params = make_params({"n_children": 4, "epsilon": 0.3, "boltzmann_temperature": 0.2,
+                              "tie_break": tie_break})
+        for _ in range(300):
+            estimates = rng.choice([0.1, 0.5, 0.5, 0.9], size=4)
+            u = rng.random(3)
+            expected = reference.choose_child(estimates, u, params)
+            got = engine._choose_child(estimates, u, params.epsilon, params.boltzmann_temperature,
+                                       tie_break == "first")
+            assert got == expected
+
+
+def test_result_shapes():
+    spec = make_spec("multi", ["uniform", "mgrao-2:1", "mgrao-max"], seeds=[4, 1], episodes=6)
+    result = run_experiment(spec)
+    assert [(r.algorithm, r.seed) for r in result.runs] == [
+        ("uniform", 4), ("uniform", 1), ("mgrao-2:1", 4), ("mgrao-2:1", 1), ("mgrao-max", 4), ("mgrao-max", 1)
+    ]
+    by = {(r.algorithm, r.seed): r for r in result.runs}
+    assert by[("uniform", 4)].group_weights.shape == (3, 0, 20)
+    assert by[("mgrao-2:1", 4)].group_weights.shape == (3, 2, 20)
+    assert by[("mgrao-max", 1)].group_weights.shape == (3, 10, 20)
+    assert by[("mgrao-max", 1)].combined_weights.shape == (3, 20)
+    assert result.utilities("mgrao-2:1").shape == (2, 6)
+    np.testing.assert_array_equal(by[("uniform", 1)].combined_weights, np.full((3, 20), 0.05))

@@ -1,0 +1,138 @@
+"""The parameter schema, validation and the presets."""
+
+import dataclasses
+import math
+
+import pytest
+
+from mgrao_core import PARAMETERS, PRESETS, ConfigError, SystemParams, get_preset, make_params
+
+
+def test_schema_defaults_match_the_dataclass():
+    defaults = SystemParams().as_dict()
+    assert [p.name for p in PARAMETERS] == [f.name for f in dataclasses.fields(SystemParams)]
+    for p in PARAMETERS:
+        assert defaults[p.name] == p.default, p.name
+
+
+def test_simulation_md_defaults():
+    p = SystemParams()
+    assert (p.n_types, p.n_composite_types, p.types_per_composite) == (20, 10, 5)
+    assert (p.learning_rate, p.trace_decay, p.value_noise, p.quality_at_uniform) == (0.1, 0.9, 0.1, 0.3)
+    assert p.effective_temperature == pytest.approx(1 / 20)
+    assert make_params({"temperature": 1}).effective_temperature == 1.0
+    assert make_params({"n_types": 8}).effective_temperature == pytest.approx(1 / 8)
+
+
+def test_schema_entries_are_json_ready():
+    for p in PARAMETERS:
+        data = p.as_dict()
+        assert data["name"] == p.name
+        assert isinstance(data["choices"], list)
+
+
+def test_strings_are_coerced():
+    params = make_params({"n_parents": "12", "learning_rate": "0.25", "tie_break": "first"})
+    assert params.n_parents == 12 and isinstance(params.n_parents, int)
+    assert params.learning_rate == 0.25
+    assert params.tie_break == "first"
+
+
+def test_whole_float_is_accepted_for_an_int():
+    assert make_params({"n_parents": 12.0}).n_parents == 12
+
+
+@pytest.mark.parametrize(("name", "value", "limit"), [
+    ("n_parents", 0, "[1, 1000]"),
+    ("n_parents", 1001, "[1, 1000]"),
+    ("trace_decay", 1.0, "[0.001, 0.999]"),
+    ("trace_decay", 0.0, "[0.001, 0.999]"),
+    ("learning_rate", -0.1, "[0, 1]"),
+    ("temperature", 0.0, "(0, 100]"),
+    ("quality_at_uniform", 0.0, "(0, 1]"),
+    ("epsilon", 1.5, "[0, 1]"),
+    ("n_types", 1, "[2, 200]"),
+])
+def test_out_of_range(name, value, limit):
+    with pytest.raises(ConfigError) as info:
+        make_params({name: value})
+    assert info.value.field == name
+    assert limit in info.value.message
+    assert str(info.value).startswith(f"{name}: ")
+
+
+@pytest.mark.parametrize(("name", "value", "text"), [
+    ("n_types", "abc", "must be a number"),
+    ("learning_rate", "abc", "must be a number"),
+    ("n_types", 2.5, "whole number"),
+    ("n_types", True, "must be a number"),
+    ("n_types", [3], "must be a number"),
+    ("learning_rate", math.nan, "finite"),
+    ("learning_rate", "inf", "finite"),
+    ("tie_break", "last", "random, first"),
+    ("rejoin_profile", None, "must not be empty"),
+    ("n_parents", None, "must not be empty"),
+])
+def test_wrong_type(name, value, text):
+    with pytest.raises(ConfigError) as info:
+        make_params({name: value})
+    assert info.value.field == name
+    assert text in info.value.message
+
+
+def test_nullable_temperature():
+    assert make_params({"temperature": None}).temperature is None
+
+
+def test_unknown_parameter():
+    with pytest.raises(ConfigError) as info:
+        make_params({"n_parent": 3})
+    assert info.value.field == "n_parent"
+    assert "unknown parameter" in info.value.message
+
+
+def test_types_per_composite_at_most_n_types():
+    with pytest.raises(ConfigError) as info:
+        make_params({"n_types": 4, "types_per_composite": 5})
+    assert info.value.field == "types_per_composite"
+    assert "n_types = 4" in info.value.message
+    assert make_params({"n_types": 5, "types_per_composite": 5}).types_per_composite == 5
+
+
+def test_overrides_apply_on_the_base():
+    base = get_preset("volatile").params
+    params = make_params({"n_parents": 20}, base=base)
+    assert params.leave_probability == 0.25 and params.n_parents == 20
+
+
+def test_presets_match_the_paper():
+    assert set(PRESETS) == {"single", "multi", "volatile", "large"}
+    assert (PRESETS["single"].params.n_parents, PRESETS["single"].params.n_children) == (10, 1)
+    assert PRESETS["multi"].params.n_children == 3
+    assert PRESETS["volatile"].params.leave_probability == 0.25
+    assert PRESETS["volatile"].params.join_probability == 0.25
+    assert PRESETS["large"].params.n_parents == 50
+    assert PRESETS["large"].algorithms == (
+        "uniform", "mgrao-1:1", "mgrao-2:1", "mgrao-5:1", "mgrao-10:1", "mgrao-25:1", "mgrao-max")
+    assert PRESETS["single"].paper_pct_from_uniform == {"mgrao-max": 28.0, "mgrao-1:1": 23.4}
+
+
+def test_unknown_preset():
+    with pytest.raises(ConfigError) as info:
+        get_preset("huge")
+    assert info.value.field == "system"
+    assert "single, multi, volatile, large" in info.value.message
+
+
+def test_empty_temperature_means_the_automatic_value():
+    params = make_params({"temperature": ""})
+    assert params.temperature is None
+    assert params.effective_temperature == pytest.approx(1 / params.n_types)
+
+
+def test_integer_parameter_accepts_whole_numbers_written_as_floats():
+    assert make_params({"n_parents": "1e2"}).n_parents == 100
+    with pytest.raises(ConfigError) as error:
+        make_params({"n_parents": "10.5"})
+    assert error.value.field == "n_parents"
+    assert "whole number" in error.value.message

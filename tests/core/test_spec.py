@@ -1,0 +1,195 @@
+"""Experiment specifications: validation with clear errors, limits and the dict round trip."""
+
+import pytest
+
+from mgrao_core import (
+    MAX_GROUP_UPDATES,
+    MAX_STATE_BYTES,
+    MAX_WORK,
+    ConfigError,
+    WorkLimitError,
+    make_spec,
+    spec_from_dict,
+)
+
+
+def _error(**kwargs):
+    kwargs.setdefault("system", "single")
+    with pytest.raises(ConfigError) as info:
+        make_spec(**kwargs)
+    return info.value
+
+
+def test_defaults_from_the_preset():
+    spec = make_spec("large")
+    assert spec.algorithms[0] == "uniform" and len(spec.algorithms) == 7
+    assert spec.seeds == tuple(range(30))
+    assert spec.episodes == 100
+    assert spec.work == 30 * 7 * 100 * 50 * 5
+
+
+def test_unknown_system():
+    error = _error(system="tiny")
+    assert error.field == "system"
+    assert "single" in error.message
+
+
+def test_unknown_algorithm():
+    error = _error(algorithms=["uniform", "greedy"])
+    assert error.field == "algorithms[1]"
+    assert "greedy" in error.message
+
+
+def test_repeated_algorithm():
+    error = _error(algorithms=["uniform", "mgrao-max", "uniform"])
+    assert error.field == "algorithms"
+    assert "repeat" in error.message
+
+
+def test_no_algorithm():
+    assert _error(algorithms=[]).field == "algorithms"
+
+
+def test_too_many_algorithms():
+    labels = [f"mgrao-{d}:1" for d in range(1, 721) if 720 % d == 0][:21]
+    assert len(labels) == 21
+    error = _error(algorithms=labels, overrides={"n_parents": 720})
+    assert error.field == "algorithms"
+    assert "at most 20" in error.message
+
+
+@pytest.mark.parametrize("seeds", [0, -3, 1001])
+def test_bad_seed_count(seeds):
+    error = _error(seeds=seeds)
+    assert error.field == "seeds"
+    assert "1000" in error.message
+
+
+@pytest.mark.parametrize("episodes", [0, -1, 100_001])
+def test_bad_episodes(episodes):
+    error = _error(episodes=episodes)
+    assert error.field == "episodes"
+    assert "between 1 and 100000" in error.message
+
+
+@pytest.mark.parametrize("episodes", [2.0, "10", True, None])
+def test_episodes_wrong_type(episodes):
+    error = _error(episodes=episodes)
+    assert error.field == "episodes"
+    assert "whole number" in error.message
+
+
+def test_duplicate_seeds():
+    error = _error(seeds=[1, 2, 1])
+    assert error.field == "seeds"
+    assert "repeat" in error.message
+
+
+@pytest.mark.parametrize(("seeds", "field"), [([0, -1], "seeds[1]"), ([2**32], "seeds[0]"), ([1, "a"], "seeds[1]")])
+def test_bad_seed_values(seeds, field):
+    error = _error(seeds=seeds)
+    assert error.field == field
+    assert "[0, 4294967295]" in error.message
+
+
+def test_seeds_wrong_type():
+    assert _error(seeds="1,2").field == "seeds"
+    assert _error(seeds=[]).field == "seeds"
+
+
+def test_x_must_divide_the_parents():
+    error = _error(algorithms=["uniform", "mgrao-3:1"])
+    assert error.field == "algorithms[1]"
+    assert "valid: 1, 2, 5, 10" in error.message
+
+
+def test_x_to_y_other_than_one():
+    error = _error(algorithms=["mgrao-2:3"])
+    assert error.field == "algorithms[0]"
+    assert "x:1" in error.message
+
+
+def test_preset_algorithms_checked_against_overridden_parents():
+    # the large preset's 25:1 does not divide 40 parents
+    error = _error(system="large", overrides={"n_parents": 40})
+    assert error.field == "algorithms[5]"
+    assert "valid: 1, 2, 4, 5, 8, 10, 20, 40" in error.message
+
+
+@pytest.mark.parametrize(("name", "value", "limit"), [
+    ("n_parents", 0, "[1, 1000]"), ("trace_decay", 1.0, "0.999"), ("learning_rate", -0.1, "[0, 1]"),
+    ("n_types", "abc", "must be a number"), ("bogus", 1, "unknown parameter"),
+])
+def test_bad_parameters(name, value, limit):
+    error = _error(overrides={name: value})
+    assert error.field == name
+    assert limit in error.message
+
+
+def test_types_per_composite_over_n_types():
+    error = _error(overrides={"n_types": 3})
+    assert error.field == "types_per_composite"
+    assert "n_types = 3" in error.message
+
+
+def test_work_limit():
+    with pytest.raises(WorkLimitError) as info:
+        make_spec("large", seeds=1000, episodes=100_000)
+    assert info.value.field == "work"
+    assert f"{MAX_WORK:,}" in info.value.message
+    assert isinstance(info.value, ConfigError)
+
+
+def test_group_update_limit():
+    # work 100 x 100 x 1000 x 5 = 5e7 is fine, but x 1000 groups = 5e10 row updates > 4e10
+    with pytest.raises(WorkLimitError) as info:
+        make_spec("single", ["mgrao-max"], seeds=100, episodes=100, overrides={"n_parents": 1000})
+    assert info.value.field == "work"
+    assert f"{MAX_GROUP_UPDATES:,}" in info.value.message
+    spec = make_spec("single", ["uniform", "mgrao-1:1"], seeds=100, episodes=100, overrides={"n_parents": 1000})
+    assert spec.group_updates == 100 * 100 * 1000 * 5 * 1
+
+
+def test_work_at_the_limit_is_accepted():
+    # 1000 seeds x 1 algorithm x 400 episodes x 1000 parents x 5 = 2e9 = MAX_WORK exactly
+    spec = make_spec("single", ["uniform"], seeds=1000, episodes=400, overrides={"n_parents": 1000})
+    assert spec.work == MAX_WORK
+
+
+def test_memory_limit():
+    overrides = {"n_parents": 1000, "n_types": 200, "n_children": 100}
+    # per lane: 8 * (100 * (2 * 1000 * 200 + 4 * 1000) + 2 * 1000 * 5 * 100) = 324 MB; 7 lanes > 2 GiB
+    with pytest.raises(WorkLimitError) as info:
+        make_spec("single", ["mgrao-max"], seeds=7, episodes=1, overrides=overrides)
+    assert info.value.field == "memory"
+    assert f"{MAX_STATE_BYTES // 1024**2:,} MiB" in info.value.message
+    spec = make_spec("single", ["mgrao-max"], seeds=6, episodes=1, overrides=overrides)
+    assert spec.state_bytes <= MAX_STATE_BYTES
+
+
+@pytest.mark.parametrize("kwargs", [
+    {"system": "single"},
+    {"system": "large", "algorithms": ["uniform", "oracle", "mgrao-25:1"], "seeds": [9, 3, 4], "episodes": 7},
+    {"system": "volatile", "seeds": 4, "overrides": {"rejoin_profile": "new", "temperature": 1.0}},
+    {"system": "multi", "overrides": {"tie_break": "first", "initial_estimate": 0.0, "n_types": 30}},
+])
+def test_dict_round_trip(kwargs):
+    spec = make_spec(**kwargs)
+    again = spec_from_dict(spec.as_dict())
+    assert again == spec
+    assert again.as_dict() == spec.as_dict()
+
+
+def test_dict_round_trip_through_json():
+    import json
+
+    spec = make_spec("multi", ["uniform", "mgrao-2:1"], seeds=[5, 1], episodes=3, overrides={"epsilon": 0.2})
+    assert spec_from_dict(json.loads(json.dumps(spec.as_dict()))) == spec
+
+
+def test_spec_from_dict_revalidates():
+    data = make_spec("single", seeds=2, episodes=3).as_dict()
+    data["params"]["n_parents"] = 0
+    with pytest.raises(ConfigError) as info:
+        spec_from_dict(data)
+    assert info.value.field == "n_parents"
