@@ -1,0 +1,295 @@
+"""Dashboard rendering benchmark (not a test): prints figures.
+
+1. 10,000 stored jobs (inserted straight into the database through backend.models): time from
+   navigation to the runs table being rendered and interactive, and the latency of a filter change.
+2. A comparison of 10 jobs x 7 configurations x 30 seeds x 1,000 episodes (the large preset, really
+   simulated by `mgrao serve`'s workers; each job gets its own 30 seeds so the pooled groups hold 300
+   runs): time from navigation to both compare plots rendered, and the /api/compare time alone.
+
+Run:  python benchmarks/bench_dashboard.py [--jobs 10000] [--compare-jobs 10] [--episodes 1000] [--repeat 5]
+Needs /usr/bin/chromium (Debian) and playwright's Python package; never downloads browsers.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import random
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.request
+from datetime import timedelta
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+CHROMIUM = os.environ.get("MGRAO_CHROMIUM", "/usr/bin/chromium")
+CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"]
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def call(base: str, method: str, path: str, body: dict | None = None, timeout: float = 120):
+    data = None if body is None else json.dumps(body).encode()
+    req = urllib.request.Request(
+        f"{base}/api{path}", data=data, method=method, headers={"Content-Type": "application/json"}
+    )
+    with urllib.request.urlopen(req, timeout=timeout) as r:
+        return json.loads(r.read() or b"null")
+
+
+def insert_jobs(url: str, n: int) -> float:
+    """Insert n finished jobs (no runs) through the backend's models; returns seconds taken."""
+    sys.path.insert(0, str(ROOT))
+    import mgrao_core
+    from backend import crud
+    from backend.db import Database
+    from backend.models import Job, JobTag, utcnow
+    from mgrao_core.spec import make_spec
+
+    t0 = time.perf_counter()
+    db = Database(url)
+    db.migrate()
+    systems = ["single", "multi", "volatile", "large"]
+    configs = {s: make_spec(s, seeds=random.choice([3, 10, 30]), episodes=100).as_dict() for s in systems}
+    statuses = ["succeeded"] * 8 + ["failed", "cancelled"]
+    tag_pool = ["paper", "sweep", "baseline", "ablation", "draft"]
+    now = utcnow()
+    rng = random.Random(7)
+    with db.write() as session:
+        batch = []
+        for i in range(n):
+            system = systems[i % 4]
+            config = configs[system]
+            created = now - timedelta(minutes=n - i)
+            status = rng.choice(statuses)
+            tags = rng.sample(tag_pool, rng.randint(0, 2))
+            job = Job(
+                name=f"bench {system} {i}",
+                tags=tags,
+                notes="" if i % 3 else f"note {i}",
+                system=system,
+                config=config,
+                config_hash=crud.config_hash(config),
+                status=status,
+                progress=1.0,
+                attempts=1,
+                error="RuntimeError: synthetic failure" if status == "failed" else None,
+                version=mgrao_core.__version__,
+                created_at=created,
+                started_at=created,
+                finished_at=created + timedelta(seconds=rng.uniform(0.5, 30)),
+            )
+            job.tag_rows = [JobTag(tag=t) for t in tags]
+            batch.append(job)
+            if len(batch) == 1000:
+                session.add_all(batch)
+                session.flush()
+                batch = []
+        session.add_all(batch)
+    db.dispose()
+    return time.perf_counter() - t0
+
+
+def wait_health(base: str, proc: subprocess.Popen, timeout: float = 60) -> None:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if proc.poll() is not None:
+            raise SystemExit(f"mgrao serve exited with {proc.returncode}")
+        try:
+            call(base, "GET", "/health", timeout=2)
+            return
+        except OSError:
+            time.sleep(0.25)
+    raise SystemExit("mgrao serve did not become healthy")
+
+
+def median(xs: list[float]) -> float:
+    return statistics.median(xs) if xs else float("nan")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--jobs", type=int, default=10000, help="stored jobs for the runs page")
+    ap.add_argument("--compare-jobs", type=int, default=10)
+    ap.add_argument("--seeds", type=int, default=30)
+    ap.add_argument("--episodes", type=int, default=1000)
+    ap.add_argument("--workers", type=int, default=4)
+    ap.add_argument("--repeat", type=int, default=5)
+    args = ap.parse_args()
+    if not Path(CHROMIUM).exists():
+        raise SystemExit(f"{CHROMIUM} is absent: apt-get install chromium")
+    from playwright.sync_api import sync_playwright
+
+    tmp = Path(tempfile.mkdtemp(prefix="mgrao-bench-"))
+    url = f"sqlite:///{tmp / 'bench.db'}"
+    print(f"database: {url}")
+    took = insert_jobs(url, args.jobs)
+    print(f"inserted {args.jobs} jobs through backend.models in {took:.1f} s")
+
+    port = free_port()
+    base = f"http://127.0.0.1:{port}"
+    env = {**os.environ, "MGRAO_DATABASE_URL": url}
+    env.pop("MGRAO_API_TOKEN", None)
+    log = open(tmp / "serve.log", "wb")  # noqa: SIM115
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "mgrao_cli.main",
+            "serve",
+            "--host",
+            "127.0.0.1",
+            "--port",
+            str(port),
+            "--workers",
+            str(args.workers),
+        ],
+        env=env,
+        cwd=ROOT,
+        stdout=log,
+        stderr=subprocess.STDOUT,
+    )
+    try:
+        wait_health(base, proc)
+        # Real compare data: the large preset, 7 configurations, distinct seeds per job.
+        t0 = time.perf_counter()
+        ids = []
+        for k in range(args.compare_jobs):
+            seeds = list(range(k * args.seeds, (k + 1) * args.seeds))
+            job = call(
+                base,
+                "POST",
+                "/jobs",
+                {
+                    "system": "large",
+                    "seeds": seeds,
+                    "episodes": args.episodes,
+                    "name": f"bench compare {k}",
+                    "tags": ["bench-compare"],
+                },
+            )
+            ids.append(job["id"])
+        while True:
+            states = [call(base, "GET", f"/jobs/{i}")["status"] for i in ids]
+            if all(s in ("succeeded", "failed", "cancelled") for s in states):
+                break
+            time.sleep(1)
+        if any(s != "succeeded" for s in states):
+            raise SystemExit(f"compare jobs did not all succeed: {states}")
+        runs = args.compare_jobs * 7 * args.seeds
+        print(
+            f"simulated {args.compare_jobs} large jobs ({runs} runs x {args.episodes} episodes = "
+            f"{runs * args.episodes / 1e6:.2f} M utilities) with {args.workers} workers in "
+            f"{time.perf_counter() - t0:.1f} s"
+        )
+
+        api_times = []
+        for _ in range(args.repeat):
+            t = time.perf_counter()
+            data = call(base, "GET", f"/compare?jobs={','.join(map(str, ids))}&points=500")
+            api_times.append(time.perf_counter() - t)
+        print(
+            f"GET /api/compare ({len(data['groups'])} groups, "
+            f"{len(data['groups'][0]['episodes']['episode'])} points each): "
+            f"median {median(api_times) * 1000:.0f} ms"
+        )
+
+        with sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+            ctx = browser.new_context(viewport={"width": 1366, "height": 768}, base_url=base)
+            outside: list[str] = []
+            ctx.on("request", lambda r: outside.append(r.url) if not r.url.startswith(base) else None)
+
+            runs_total, runs_view, filter_ms = [], [], []
+            for _ in range(args.repeat):
+                page = ctx.new_page()
+                page.goto("/#/runs")
+                page.wait_for_selector("main[data-render-ms] table.runs tbody tr")
+                # performance.mark() in runs.js: ms from navigation start to the table in the DOM.
+                runs_total.append(page.evaluate("performance.getEntriesByName('runs-rendered')[0].startTime"))
+                runs_view.append(float(page.eval_on_selector("main", "el => el.dataset.renderMs")))
+                # Interactive: a filter change answers with a new table.
+                t = time.perf_counter()
+                page.select_option("select[name=status]", "failed")
+                page.wait_for_function(
+                    """() => { const rows = [...document.querySelectorAll('table.runs tbody tr')];
+                        return rows.length > 0 && rows.every(r => r.dataset.status === 'failed'); }"""
+                )
+                filter_ms.append((time.perf_counter() - t) * 1000)
+                count = page.inner_text("p.count")
+                page.close()
+            print(
+                f"runs page, {args.jobs} stored jobs: navigation -> table rendered median "
+                f"{median(runs_total):.0f} ms (view mount incl. API {median(runs_view):.0f} ms); "
+                f"status filter -> new table median {median(filter_ms):.0f} ms [{count}]"
+            )
+
+            cmp_total, cmp_view, cmp_warm = [], [], []
+            hash_ = f"/#/compare?jobs={','.join(map(str, ids))}&smooth=5"
+            for _ in range(args.repeat):
+                page = ctx.new_page()
+                page.goto(hash_)
+                page.wait_for_selector("main[data-render-ms] #compare-chart[data-rendered]", timeout=60000)
+                # performance.mark() in compare.js: ms from navigation start to both plots drawn
+                # (includes loading and evaluating plotly.min.js, which this page load needs).
+                cmp_total.append(page.evaluate("performance.getEntriesByName('compare-rendered')[0].startTime"))
+                cmp_view.append(float(page.eval_on_selector("main", "el => el.dataset.renderMs")))
+                n_traces = page.eval_on_selector("#compare-chart", "el => el.data.length")
+                # In-app navigation (Runs -> Compare, plotly.js already loaded): route change -> plots drawn.
+                page.evaluate("delete document.querySelector('main').dataset.renderMs; location.hash = '#/runs'")
+                page.wait_for_selector("main[data-render-ms] table.runs tbody tr")
+                page.evaluate("delete document.querySelector('main').dataset.renderMs")
+                t = time.perf_counter()
+                page.evaluate(f"location.hash = {json.dumps(hash_[1:])}")
+                page.wait_for_selector("main[data-render-ms] #compare-chart[data-rendered]", timeout=60000)
+                cmp_warm.append((time.perf_counter() - t) * 1000)
+                page.close()
+            print(
+                f"compare page, {args.compare_jobs} jobs x 7 configurations x {args.seeds} seeds x "
+                f"{args.episodes} episodes: navigation -> plots rendered median {median(cmp_total):.0f} ms "
+                f"(view mount incl. API {median(cmp_view):.0f} ms; {n_traces} traces); "
+                f"in-app Runs -> Compare median {median(cmp_warm):.0f} ms"
+            )
+            plotly_eval = []
+            for _ in range(3):
+                page = ctx.new_page()
+                page.goto("/#/new")
+                page.wait_for_selector("form.newjob")
+                plotly_eval.append(
+                    page.evaluate("""async () => { const t = performance.now();
+                    await new Promise(r => { const s = document.createElement('script');
+                      s.src = '/vendor/plotly.min.js'; s.onload = r; document.head.append(s); });
+                    return performance.now() - t; }""")
+                )
+                page.close()
+            print(f"loading + evaluating /vendor/plotly.min.js alone (cached): median {median(plotly_eval):.0f} ms")
+            print(f"requests leaving {base}: {len(outside)}")
+            browser.close()
+        ok_runs = median(runs_total) < 1000
+        ok_cmp = median(cmp_total) < 1000
+        ok_warm = median(cmp_warm) < 1000
+        print(
+            f"targets: runs < 1 s {'MET' if ok_runs else 'MISSED'}; compare < 1 s: cold page load "
+            f"{'MET' if ok_cmp else 'MISSED'}, in-app {'MET' if ok_warm else 'MISSED'}"
+        )
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+        log.close()
+        print(f"(server log and database in {tmp})")
+
+
+if __name__ == "__main__":
+    main()

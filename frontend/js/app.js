@@ -1,0 +1,134 @@
+// Hash router: #/runs, #/new, #/jobs/<id>, #/compare?jobs=1,2&smooth=5. Each view module exports
+// mount(container, params, ctx) and may return a cleanup function (stop polling, purge plots).
+
+import { api, getToken, setToken } from './api.js';
+import { parseHash, buildHash } from './stats.js';
+import * as runs from './runs.js';
+import * as newjob from './newjob.js';
+import * as job from './job.js';
+import * as compare from './compare.js';
+
+const main = document.getElementById('main');
+const banner = document.getElementById('banner');
+let cleanup = null;
+let generation = 0;
+
+const routes = [
+  { re: /^\/(runs)?$/, view: runs, nav: 'runs', title: 'Runs' },
+  { re: /^\/new$/, view: newjob, nav: 'new', title: 'New experiment' },
+  { re: /^\/jobs\/(\d+)$/, view: job, nav: 'runs', title: 'Job' },
+  { re: /^\/compare$/, view: compare, nav: 'compare', title: 'Compare' },
+];
+
+/** Context handed to views. */
+const ctx = {
+  navigate(path, params = {}) {
+    location.hash = buildHash(path, params);
+  },
+  /** Update the query part of the current URL without re-mounting the view (shareable settings). */
+  setQuery(params) {
+    const { path } = parseHash(location.hash);
+    history.replaceState(null, '', buildHash(path, params));
+  },
+  isCurrent(gen) {
+    return gen === generation;
+  },
+};
+
+async function render() {
+  const { path, params } = parseHash(location.hash || '#/runs');
+  const route = routes.find((r) => r.re.test(path));
+  if (typeof cleanup === 'function') {
+    try { cleanup(); } catch (e) { console.error(e); }
+  }
+  cleanup = null;
+  generation += 1;
+  const gen = generation;
+  main.replaceChildren();
+  for (const a of document.querySelectorAll('[data-nav]')) {
+    if (route && a.dataset.nav === route.nav) a.setAttribute('aria-current', 'page');
+    else a.removeAttribute('aria-current');
+  }
+  if (!route) {
+    const h1 = document.createElement('h1');
+    h1.textContent = 'Page not found';
+    const p = document.createElement('p');
+    p.innerHTML = 'Nothing lives at this address. <a href="#/runs">Go to the runs</a>.';
+    main.append(h1, p);
+    document.title = 'Not found · MG-RAO';
+    return;
+  }
+  document.title = `${route.title} · MG-RAO`;
+  const m = route.re.exec(path);
+  const routeParams = { ...params };
+  if (route.view === job) routeParams.id = Number(m[1]);
+  try {
+    const c = await route.view.mount(main, routeParams, { ...ctx, generation: gen });
+    if (gen === generation) cleanup = c;
+    else if (typeof c === 'function') c();
+  } catch (e) {
+    console.error(e);
+    const p = document.createElement('p');
+    p.className = 'notice error';
+    p.setAttribute('role', 'alert');
+    p.textContent = `This view failed: ${e.message}`;
+    main.append(p);
+  }
+  // Move focus to the new view's heading so keyboard and screen-reader users land on it.
+  const heading = main.querySelector('h1');
+  if (heading && gen === generation && document.activeElement === document.body) {
+    heading.setAttribute('tabindex', '-1');
+    heading.focus({ preventScroll: true });
+  }
+}
+
+window.addEventListener('api-status', (ev) => {
+  const { up, message } = ev.detail;
+  if (up) {
+    banner.hidden = true;
+    banner.textContent = '';
+  } else {
+    banner.hidden = false;
+    banner.textContent = `${message} The page retries automatically.`;
+  }
+});
+
+async function checkHealth() {
+  const el = document.getElementById('health');
+  try {
+    const hl = await api.health();
+    el.textContent = `server ${hl.version || ''} · ${hl.running ?? 0} running · ${hl.queued ?? 0} queued`;
+    el.className = 'health ok';
+  } catch {
+    el.textContent = 'server unreachable';
+    el.className = 'health down';
+  }
+}
+
+function setupToken() {
+  const form = document.getElementById('token-form');
+  const input = document.getElementById('api-token');
+  const status = document.getElementById('token-status');
+  input.value = getToken();
+  form.addEventListener('submit', (ev) => {
+    ev.preventDefault();
+    setToken(input.value.trim());
+    status.textContent = input.value.trim() ? 'Token saved in this browser.' : 'Token cleared.';
+  });
+}
+
+window.addEventListener('hashchange', () => {
+  // Blur whatever had focus so render() moves focus to the new heading.
+  if (document.activeElement && document.activeElement !== document.body) document.activeElement.blur();
+  render();
+});
+setupToken();
+// The skip link must not touch the hash (the router owns it): move focus to <main> instead.
+document.querySelector('.skip-link').addEventListener('click', (ev) => {
+  ev.preventDefault();
+  main.focus();
+});
+if (!location.hash) history.replaceState(null, '', '#/runs');
+render();
+checkHealth();
+setInterval(checkHealth, 10000);

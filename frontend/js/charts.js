@@ -1,0 +1,128 @@
+// Plotly helpers. Plotly itself is loaded by a classic <script> in index.html (window.Plotly).
+// Every trace carries `meta` {kind: 'mean'|'band'|'seed'|'bar', config} so tests and code can find it.
+
+import { bandPolygon, smoothSeries, movingAverage } from './stats.js';
+
+// Okabe-Ito, colour-blind safe, readable on white and in print.
+export const PALETTE = ['#0072B2', '#D55E00', '#009E73', '#CC79A7', '#E69F00', '#56B4E9', '#000000', '#F0E442'];
+
+export function colour(i) {
+  return PALETTE[i % PALETTE.length];
+}
+
+function rgba(hex, alpha) {
+  const n = parseInt(hex.slice(1), 16);
+  return `rgba(${(n >> 16) & 255}, ${(n >> 8) & 255}, ${n & 255}, ${alpha})`;
+}
+
+export const PLOTLY_SRC = '/vendor/plotly.min.js';
+
+export function plotlyReady() {
+  return typeof window !== 'undefined' && !!window.Plotly;
+}
+
+let plotlyPromise = null;
+
+/** Load plotly.js once, as a classic <script> from the page's origin; resolves to window.Plotly or null. */
+export function loadPlotly() {
+  if (plotlyReady()) return Promise.resolve(window.Plotly);
+  if (!plotlyPromise) {
+    plotlyPromise = new Promise((resolve) => {
+      const script = document.createElement('script');
+      script.src = PLOTLY_SRC;
+      script.id = 'plotly-js';
+      script.addEventListener('load', () => resolve(window.Plotly || null));
+      script.addEventListener('error', () => { plotlyPromise = null; resolve(null); });
+      document.head.append(script);
+    });
+  }
+  return plotlyPromise;
+}
+
+const CONFIG = {
+  responsive: true,
+  displaylogo: false,
+  modeBarButtonsToRemove: ['select2d', 'lasso2d', 'autoScale2d'],
+  toImageButtonOptions: { format: 'png', scale: 2 },
+};
+
+function baseLayout(extra = {}) {
+  return {
+    margin: { l: 64, r: 16, t: 24, b: 52 },
+    paper_bgcolor: '#ffffff',
+    plot_bgcolor: '#ffffff',
+    font: { family: 'system-ui, -apple-system, "Segoe UI", Roboto, sans-serif', size: 13, color: '#1d2430' },
+    legend: { orientation: 'h', y: -0.22, x: 0 },
+    hovermode: 'x unified',
+    ...extra,
+  };
+}
+
+/** Draw (or redraw) a plot; shows a message instead when plotly.js is missing. */
+export async function draw(el, traces, layout, config = {}) {
+  const Plotly = await loadPlotly();
+  if (!Plotly) {
+    el.textContent = `Charts are unavailable: ${PLOTLY_SRC} did not load.`;
+    el.classList.add('chart-missing');
+    return el;
+  }
+  el.classList.remove('chart-missing');
+  return Plotly.react(el, traces, baseLayout(layout), { ...CONFIG, ...config });
+}
+
+export function purge(el) {
+  if (plotlyReady() && el) window.Plotly.purge(el);
+}
+
+/** One band trace (95% CI, filled, no legend) and one mean line trace for a configuration. */
+export function meanBandTraces(name, series, color, smooth = 1, legendgroup = name) {
+  const s = smoothSeries(series, smooth);
+  const band = bandPolygon(s.episode, s.low, s.high);
+  return [
+    {
+      type: 'scatter', mode: 'lines', x: band.x, y: band.y, fill: 'toself',
+      fillcolor: rgba(color, 0.18), line: { width: 0, color: rgba(color, 0) },
+      hoverinfo: 'skip', showlegend: false, name: `${name} 95% CI`, legendgroup,
+      meta: { kind: 'band', config: name },
+    },
+    {
+      type: 'scatter', mode: 'lines', x: s.episode, y: s.mean, name, legendgroup,
+      line: { width: 2, color }, meta: { kind: 'mean', config: name },
+      hovertemplate: '%{y:.4f}<extra>' + name.replace(/</g, '&lt;') + '</extra>',
+    },
+  ];
+}
+
+/** Thin lines for individual seeds of a configuration. */
+export function seedTraces(name, seeds, color, smooth = 1, legendgroup = name) {
+  return (seeds || []).map((s) => ({
+    type: 'scatter', mode: 'lines', x: s.episode, y: movingAverage(s.utility, smooth),
+    name: `${name} seed ${s.seed}`, legendgroup, showlegend: false, hoverinfo: 'skip',
+    line: { width: 0.8, color: rgba(color, 0.45) }, meta: { kind: 'seed', config: name, seed: s.seed },
+  }));
+}
+
+export function utilityLayout(title = '') {
+  return {
+    xaxis: { title: { text: 'Episode' }, zeroline: false },
+    yaxis: { title: { text: 'System utility' }, zeroline: false },
+    title: title ? { text: title } : undefined,
+  };
+}
+
+/** Bar chart of % from uniform with asymmetric error bars. */
+export function pctBarTrace(labels, bars, colors) {
+  return {
+    type: 'bar', x: labels, y: bars.y, marker: { color: colors },
+    error_y: { type: 'data', symmetric: false, array: bars.plus, arrayminus: bars.minus, color: '#333', thickness: 1.2 },
+    hovertemplate: '%{x}: %{y:.1f}%<extra></extra>', meta: { kind: 'bar' },
+  };
+}
+
+export function heatmapTrace(z, groupLabels, typeLabels) {
+  return {
+    type: 'heatmap', z, x: typeLabels, y: groupLabels, colorscale: 'Viridis',
+    colorbar: { title: { text: 'weight' } }, hovertemplate: 'group %{y}, type %{x}: %{z:.4f}<extra></extra>',
+    meta: { kind: 'heatmap' },
+  };
+}

@@ -1,0 +1,161 @@
+// Compare view: several stored jobs pooled by configuration (server side), per-episode mean and
+// band per group, % from uniform bars with CI error bars. State lives in the URL:
+// #/compare?jobs=1,2&smooth=5&groups=<key>,<key>  (groups absent = all shown).
+
+import { api } from './api.js';
+import { h, notice, nextId } from './ui.js';
+import { draw, purge, loadPlotly, meanBandTraces, utilityLayout, pctBarTrace, colour } from './charts.js';
+import { parseIds, groupKey, groupLabels, pctErrorBars, fmtNumber, fmtPct, fmtCI, algorithmRank, seedCount } from './stats.js';
+
+const POINTS = 500;
+const SMOOTH_CHOICES = [1, 3, 5, 10, 25, 50];
+
+export async function mount(root, params, ctx) {
+  const t0 = performance.now();
+  loadPlotly(); // start fetching/evaluating plotly.js while the API answers
+  const state = {
+    jobs: parseIds(params.jobs),
+    smooth: Math.max(1, Number(params.smooth) || 1),
+    groups: params.groups ? params.groups.split(',').filter(Boolean) : null,
+    points: Math.min(5000, Math.max(10, Number(params.points) || POINTS)),
+  };
+  const plots = [];
+  let stopped = false;
+  const controller = new AbortController();
+
+  root.append(h('div', { class: 'view-head' }, h('h1', {}, 'Compare jobs')));
+  const idsId = nextId('ids');
+  const idsIn = h('input', { id: idsId, type: 'text', value: state.jobs.join(', '), placeholder: 'e.g. 3, 5, 8', 'aria-describedby': `${idsId}-help` });
+  const picker = h('div', { class: 'picker' });
+  const pickForm = h('form', { class: 'inline compare-pick', onsubmit: (e) => {
+    e.preventDefault();
+    ctx.navigate('/compare', { jobs: parseIds(idsIn.value).join(','), smooth: state.smooth > 1 ? state.smooth : '' });
+  } },
+  h('label', { for: idsId }, 'Job ids'), idsIn,
+  h('button', { type: 'submit', class: 'primary' }, 'Compare'),
+  h('small', { id: `${idsId}-help`, class: 'help' }, 'Comma separated ids of succeeded jobs, or tick them below.'));
+  const body = h('div', { 'aria-live': 'polite' });
+  root.append(pickForm, picker, body);
+
+  // Recent succeeded jobs to pick from (tick to add/remove).
+  api.listJobs({ status: 'succeeded', limit: 20 }, { signal: controller.signal }).then((page) => {
+    if (stopped || !page.data.length) return;
+    const list = h('ul', { class: 'pick-list' }, page.data.map((j) => {
+      const cbId = nextId('pick');
+      return h('li', {}, h('input', { type: 'checkbox', id: cbId, checked: state.jobs.includes(j.id), onchange: (e) => {
+        const ids = parseIds(idsIn.value).filter((x) => x !== j.id);
+        if (e.target.checked) ids.push(j.id);
+        idsIn.value = ids.join(', ');
+      } }), h('label', { for: cbId }, `#${j.id} ${j.name || ''} (${j.system}, ${seedCount(j)} seeds × ${j.episodes})`));
+    }));
+    picker.append(h('details', { open: state.jobs.length === 0 }, h('summary', {}, 'Recent succeeded jobs'), list));
+  }).catch(() => {});
+
+  if (!state.jobs.length) {
+    body.append(notice('empty', 'Pick two or more succeeded jobs to compare them. You can also select jobs on the Runs page.'));
+    return () => { stopped = true; controller.abort(); };
+  }
+
+  body.append(h('p', { class: 'loading' }, `Loading ${state.jobs.length} job${state.jobs.length > 1 ? 's' : ''}…`));
+  let data;
+  try {
+    data = await api.compare(state.jobs, state.points, { signal: controller.signal });
+  } catch (e) {
+    if (e.name === 'AbortError') return null;
+    body.replaceChildren(notice('error', `Cannot compare jobs ${state.jobs.join(', ')}: ${e.message}`));
+    return () => { stopped = true; controller.abort(); };
+  }
+  if (stopped) return null;
+  const groups = data.groups.slice().sort((a, b) => String(a.system).localeCompare(String(b.system))
+    || algorithmRank(a.algorithm) - algorithmRank(b.algorithm));
+  if (!groups.length) {
+    body.replaceChildren(notice('empty', 'These jobs have no results to compare (only succeeded jobs have results).'));
+    return () => { stopped = true; };
+  }
+  const labels = groupLabels(groups);
+  const keys = groups.map(groupKey);
+  const shown = new Set(state.groups ? keys.filter((k) => state.groups.includes(k)) : keys);
+
+  const smoothId = nextId('smooth');
+  const smoothSel = h('select', { id: smoothId }, SMOOTH_CHOICES.map((n) =>
+    h('option', { value: n, selected: n === state.smooth }, n === 1 ? 'none' : `${n} points`)));
+  const groupBoxes = h('fieldset', { class: 'groups' }, h('legend', {}, 'Shown configurations'),
+    groups.map((g, i) => {
+      const id = nextId('grp');
+      return h('label', { class: 'check swatch', for: id, style: `--c: ${colour(i)}` },
+        h('input', { type: 'checkbox', id, value: keys[i], checked: shown.has(keys[i]), onchange: (e) => {
+          if (e.target.checked) shown.add(keys[i]); else shown.delete(keys[i]);
+          redraw();
+        } }), ` ${labels[i]}`);
+    }),
+    h('span', { class: 'group-buttons' },
+      h('button', { type: 'button', class: 'small secondary', onclick: () => setAll(true) }, 'All'),
+      h('button', { type: 'button', class: 'small secondary', onclick: () => setAll(false) }, 'None')));
+  function setAll(on) {
+    for (const cb of groupBoxes.querySelectorAll('input[type=checkbox]')) {
+      cb.checked = on;
+      if (on) shown.add(cb.value); else shown.delete(cb.value);
+    }
+    redraw();
+  }
+  smoothSel.addEventListener('change', () => { state.smooth = Number(smoothSel.value); redraw(); });
+
+  const chart = h('div', { class: 'chart', id: 'compare-chart', role: 'img', 'aria-label': 'System utility per episode per pooled configuration' });
+  const bars = h('div', { class: 'chart bars', id: 'compare-bars', role: 'img', 'aria-label': 'Percent from uniform per configuration with 95% confidence intervals' });
+  plots.push(chart, bars);
+  const jobsLine = h('p', { class: 'help' }, 'Jobs: ', data.jobs.map((j, i) => [i ? ', ' : '',
+    h('a', { href: `#/jobs/${j.id}` }, `#${j.id} ${j.name || ''}`), ` (${j.status})`]));
+  const tableBody = h('tbody');
+
+  body.replaceChildren(
+    jobsLine,
+    h('div', { class: 'controls' }, h('label', { for: smoothId }, 'Smoothing (moving average)'), smoothSel),
+    groupBoxes,
+    h('section', { 'aria-labelledby': 'h-cu' }, h('h2', { id: 'h-cu' }, 'System utility per episode'), chart),
+    h('div', { class: 'grid2 wide' },
+      h('section', { 'aria-labelledby': 'h-cb' }, h('h2', { id: 'h-cb' }, '% from uniform (95% CI)'), bars),
+      h('section', { 'aria-labelledby': 'h-ct' }, h('h2', { id: 'h-ct' }, 'Pooled final utility'),
+        h('div', { class: 'table-wrap' }, h('table', { class: 'summary' },
+          h('thead', {}, h('tr', {}, ['Configuration', 'Jobs', 'Runs', 'Final mean', '95% CI', '% from uniform', '95% CI', '% of max']
+            .map((c) => h('th', { scope: 'col' }, c)))),
+          tableBody)))));
+
+  async function redraw() {
+    ctx.setQuery({
+      jobs: state.jobs.join(','),
+      smooth: state.smooth > 1 ? state.smooth : '',
+      points: state.points !== POINTS ? state.points : '',
+      groups: shown.size === keys.length ? '' : (shown.size ? keys.filter((k) => shown.has(k)).join(',') : 'none'),
+    });
+    const traces = [];
+    const barIdx = [];
+    groups.forEach((g, i) => {
+      if (!shown.has(keys[i])) return;
+      traces.push(...meanBandTraces(labels[i], g.episodes, colour(i), state.smooth));
+      if (g.summary && g.summary.pct_from_uniform !== null && g.summary.pct_from_uniform !== undefined) barIdx.push(i);
+    });
+    tableBody.replaceChildren(...groups.map((g, i) => {
+      const s = g.summary || {};
+      return h('tr', { class: shown.has(keys[i]) ? '' : 'muted' },
+        h('th', { scope: 'row' }, h('span', { class: 'dot', style: `background: ${colour(i)}`, 'aria-hidden': 'true' }), labels[i]),
+        h('td', {}, (g.job_ids || []).join(', ')),
+        h('td', { class: 'num' }, s.n_runs ?? '–'),
+        h('td', { class: 'num' }, fmtNumber(s.final_mean)),
+        h('td', { class: 'num ci' }, fmtCI(s.ci95)),
+        h('td', { class: 'num' }, fmtPct(s.pct_from_uniform)),
+        h('td', { class: 'num ci' }, fmtCI(s.pct_ci95, 1, true)),
+        h('td', { class: 'num' }, fmtPct(s.pct_of_max, 1, false)));
+    }));
+    const p1 = draw(chart, traces, utilityLayout());
+    const p2 = draw(bars, [pctBarTrace(barIdx.map((i) => labels[i]), pctErrorBars(barIdx.map((i) => groups[i].summary)), barIdx.map((i) => colour(i)))],
+      { yaxis: { title: { text: '% from uniform' }, zeroline: true }, xaxis: { automargin: true }, hovermode: 'closest', showlegend: false });
+    await Promise.all([p1, p2]);
+    chart.dataset.rendered = String(Date.now());
+  }
+
+  await redraw();
+  const ms = performance.now() - t0;
+  performance.mark('compare-rendered');
+  root.dataset.renderMs = ms.toFixed(1);
+  return () => { stopped = true; controller.abort(); for (const p of plots) purge(p); };
+}

@@ -1,0 +1,244 @@
+// Job view: live progress while queued/running (polls every second), then results: utility chart
+// with bands, seeds on demand, smoothing, paper-style table, weight heatmap and bars, downloads.
+
+import { api } from './api.js';
+import { h, statusCell, jobMeta, notice, editJobDialog, confirmDialog, nextId } from './ui.js';
+import { draw, purge, loadPlotly, meanBandTraces, seedTraces, utilityLayout, heatmapTrace, colour } from './charts.js';
+import { fmtNumber, fmtPct, fmtCI, pctProgress, algorithmRank } from './stats.js';
+
+const POINTS = 600;
+const SMOOTH_CHOICES = [1, 3, 5, 10, 25, 50];
+
+export async function mount(root, params, ctx) {
+  const id = params.id;
+  loadPlotly(); // start fetching/evaluating plotly.js while the API answers
+  let stopped = false;
+  let timer = null;
+  const plots = [];
+  let smooth = Math.max(1, Number(params.smooth) || 1);
+  let showSeeds = params.seeds === '1';
+
+  const title = h('h1', {}, `Job ${id}`);
+  const statusBox = h('div', { class: 'job-status', 'aria-live': 'polite' });
+  const headActions = h('div', { class: 'toolbar' });
+  const metaBox = h('dl', { class: 'meta' });
+  const body = h('div');
+  root.append(h('div', { class: 'view-head' }, title, headActions), statusBox, metaBox, body);
+
+  let job;
+  try {
+    job = await api.getJob(id);
+  } catch (e) {
+    title.textContent = `Job ${id}`;
+    body.append(notice('error', e.status === 404 ? `There is no job ${id}.` : `Cannot load job ${id}: ${e.message}`,
+      h('a', { href: '#/runs' }, 'Back to the runs')));
+    return null;
+  }
+
+  function renderHead() {
+    title.textContent = job.name ? `${job.name}` : `Job ${job.id}`;
+    const pairs = [['Id', job.id], ...jobMeta(job)];
+    if (job.notes) pairs.push(['Notes', job.notes]);
+    metaBox.replaceChildren(...pairs.map(([k, v]) => h('div', { class: k === 'Notes' ? 'notes' : null },
+      h('dt', {}, k), h('dd', {}, String(v)))));
+    headActions.replaceChildren(...[
+      h('button', { type: 'button', class: 'secondary', onclick: async () => {
+        const updated = await editJobDialog(job);
+        if (updated) { job = updated; renderHead(); }
+      } }, 'Edit name, tags, notes'),
+      (job.status === 'queued' || job.status === 'running')
+        ? h('button', { type: 'button', class: 'danger', onclick: async () => {
+          if (!(await confirmDialog('Cancel job?', `Cancel job ${job.id}?`, 'Cancel job', true))) return;
+          try { job = await api.cancelJob(job.id); update(); } catch (e) { statusBox.append(notice('error', e.message)); }
+        } }, 'Cancel job')
+        : null,
+      job.status === 'succeeded' ? h('a', { class: 'button secondary', href: `#/compare?jobs=${job.id}` }, 'Open in compare') : null,
+    ].filter(Boolean));
+  }
+
+  function renderStatus() {
+    const pct = pctProgress(job.progress);
+    if (job.status === 'queued' || job.status === 'running') {
+      statusBox.replaceChildren(h('div', { class: 'progress-block' },
+        h('span', { class: `badge status-${job.status}` },
+          job.status === 'running' ? h('span', { class: 'spinner', 'aria-hidden': 'true' }) : null, job.status),
+        h('progress', { class: 'big', max: 100, value: pct, 'aria-label': 'Job progress', id: 'job-progress' }),
+        h('span', { class: 'pct', role: 'status' }, job.status === 'queued' ? 'Waiting for a worker…' : `Running: ${pct}% done`)));
+    } else if (job.status === 'failed') {
+      statusBox.replaceChildren(notice('error', 'This job failed.', h('pre', { class: 'error-text' }, job.error || 'No reason was recorded.')));
+    } else if (job.status === 'cancelled') {
+      statusBox.replaceChildren(notice('warn', 'This job was cancelled; it has no results.'));
+    } else {
+      statusBox.replaceChildren(statusCell(job));
+    }
+  }
+
+  async function update() {
+    renderHead();
+    renderStatus();
+    if (job.status === 'succeeded') await showResults();
+  }
+
+  async function poll() {
+    if (stopped) return;
+    try {
+      const next = await api.getJob(id);
+      if (stopped) return;
+      const changed = next.status !== job.status;
+      job = next;
+      if (changed) await update();
+      else renderStatus();
+    } catch (e) {
+      if (e.status === 404) { stopped = true; statusBox.replaceChildren(notice('error', 'This job was deleted.')); return; }
+    }
+    if (!stopped && (job.status === 'queued' || job.status === 'running')) timer = setTimeout(poll, 1000);
+  }
+
+  // ---- results ---------------------------------------------------------------------------
+  let results = null;
+  let seedResults = null;
+
+  async function fetchResults(withSeeds) {
+    if (withSeeds && seedResults) return seedResults;
+    if (!withSeeds && results) return results;
+    const r = await api.results(id, { points: POINTS, include_seeds: withSeeds ? 'true' : undefined });
+    r.configurations.sort((a, b) => algorithmRank(a.algorithm) - algorithmRank(b.algorithm));
+    if (withSeeds) seedResults = r; else results = r;
+    return r;
+  }
+
+  async function showResults() {
+    body.replaceChildren(h('p', { class: 'loading' }, 'Loading results…'));
+    let r;
+    try {
+      r = await fetchResults(showSeeds);
+    } catch (e) {
+      body.replaceChildren(notice('error', `Cannot load the results: ${e.message}`));
+      return;
+    }
+    if (stopped) return;
+    const smoothId = nextId('smooth');
+    const seedsId = nextId('seeds');
+    const smoothSel = h('select', { id: smoothId }, SMOOTH_CHOICES.map((n) =>
+      h('option', { value: n, selected: n === smooth }, n === 1 ? 'none' : `${n} episodes`)));
+    const seedsCb = h('input', { type: 'checkbox', id: seedsId, checked: showSeeds });
+    const chart = h('div', { class: 'chart', id: 'utility-chart', role: 'img', 'aria-label': 'System utility per episode, mean over seeds with 95% band, per configuration' });
+    const chartStatus = h('span', { 'aria-live': 'polite', class: 'help' });
+    plots.push(chart);
+
+    const redraw = async () => {
+      const data = showSeeds ? await fetchResults(true) : await fetchResults(false);
+      if (stopped) return;
+      const traces = [];
+      data.configurations.forEach((c, i) => {
+        const col = colour(i);
+        if (showSeeds) traces.push(...seedTraces(c.algorithm, c.seeds, col, smooth));
+        traces.push(...meanBandTraces(c.algorithm, c.episodes, col, smooth));
+      });
+      await draw(chart, traces, utilityLayout());
+      chart.dataset.rendered = String(Date.now());
+      chartStatus.textContent = '';
+      ctx.setQuery({ smooth: smooth > 1 ? smooth : '', seeds: showSeeds ? '1' : '' });
+    };
+    smoothSel.addEventListener('change', () => { smooth = Number(smoothSel.value); redraw(); });
+    seedsCb.addEventListener('change', async () => {
+      showSeeds = seedsCb.checked;
+      chartStatus.textContent = showSeeds ? 'Loading seeds…' : '';
+      try { await redraw(); } catch (e) { chartStatus.textContent = e.message; }
+    });
+
+    body.replaceChildren(
+      h('section', { 'aria-labelledby': 'h-util' },
+        h('h2', { id: 'h-util' }, 'System utility per episode'),
+        h('div', { class: 'controls' },
+          h('label', { for: smoothId }, 'Smoothing (moving average)'), smoothSel,
+          h('label', { class: 'check', for: seedsId }, seedsCb, ' Show individual seeds'), chartStatus),
+        chart),
+      summaryTable(r),
+      weightsSection(r),
+      h('section', { 'aria-labelledby': 'h-dl' }, h('h2', { id: 'h-dl' }, 'Download'),
+        h('p', { class: 'downloads' },
+          h('a', { class: 'button secondary', href: api.episodesUrl(id, 'csv'), download: `job-${id}-episodes.csv` }, 'Episodes as CSV'),
+          ' ',
+          h('a', { class: 'button secondary', href: api.episodesUrl(id, 'json'), download: `job-${id}-episodes.json` }, 'Episodes as JSON'))));
+    await redraw();
+  }
+
+  function summaryTable(r) {
+    const paper = r.paper || null;
+    return h('section', { 'aria-labelledby': 'h-sum' },
+      h('h2', { id: 'h-sum' }, 'Final utility'),
+      h('div', { class: 'table-wrap' }, h('table', { class: 'summary' },
+        h('caption', {}, paper ? 'Ours against the paper’s published % from uniform.' : 'The paper has no figure for these parameters.'),
+        h('thead', {}, h('tr', {},
+          ['Configuration', 'Runs', 'Final mean', '95% CI', '% from uniform', '95% CI', '% of max']
+            .map((c) => h('th', { scope: 'col' }, c)),
+          paper ? h('th', { scope: 'col' }, 'Paper: % from uniform') : null)),
+        h('tbody', {}, r.configurations.map((c) => {
+          const s = c.summary || {};
+          const pv = paper ? paper[c.algorithm] : undefined;
+          return h('tr', {},
+            h('th', { scope: 'row' }, c.algorithm),
+            h('td', { class: 'num' }, s.n_runs ?? '–'),
+            h('td', { class: 'num' }, fmtNumber(s.final_mean)),
+            h('td', { class: 'num ci' }, fmtCI(s.ci95)),
+            h('td', { class: 'num' }, fmtPct(s.pct_from_uniform)),
+            h('td', { class: 'num ci' }, fmtCI(s.pct_ci95, 1, true)),
+            h('td', { class: 'num' }, fmtPct(s.pct_of_max, 1, false)),
+            paper ? h('td', { class: 'num paper' }, pv === undefined || pv === null ? '–' : fmtPct(pv)) : null);
+        })))));
+  }
+
+  function weightsSection(r) {
+    const configs = r.configurations.filter((c) => c.weights && Array.isArray(c.weights.combined) && c.weights.combined.length);
+    if (!configs.length) return h('section', {}, h('h2', {}, 'Learned weights'), notice('empty', 'No learned weights were stored for this job.'));
+    const cfgId = nextId('cfg');
+    const childId = nextId('child');
+    const nGroups = (c) => ((c.weights.groups || [])[0] || []).length;
+    const preferred = configs.reduce((best, c) => (nGroups(c) > nGroups(best) ? c : best), configs[0]);
+    const cfgSel = h('select', { id: cfgId }, configs.map((c) => h('option', { value: c.algorithm, selected: c === preferred }, c.algorithm)));
+    const childSel = h('select', { id: childId });
+    const heat = h('div', { class: 'chart heat', id: 'weights-heatmap', role: 'img', 'aria-label': 'Heatmap of parent-group weights per task type' });
+    const bars = h('div', { class: 'chart bars', id: 'weights-bars', role: 'img', 'aria-label': 'Combined weights per task type for each child' });
+    const heatNote = h('p', { class: 'help', 'aria-live': 'polite' });
+    plots.push(heat, bars);
+
+    const drawWeights = () => {
+      const c = configs.find((x) => x.algorithm === cfgSel.value) || configs[0];
+      const nChildren = c.weights.combined.length;
+      if (childSel.options.length !== nChildren) {
+        const prev = Number(childSel.value) || 0;
+        childSel.replaceChildren(...Array.from({ length: nChildren }, (_, i) => h('option', { value: i, selected: i === prev }, `child ${i}`)));
+      }
+      const child = Math.min(Number(childSel.value) || 0, nChildren - 1);
+      const nTypes = c.weights.combined[0].length;
+      const types = Array.from({ length: nTypes }, (_, i) => i);
+      const g = (c.weights.groups || [])[child];
+      if (g && g.length) {
+        heat.hidden = false;
+        heatNote.textContent = `${g.length} parent groups of child ${child} under ${c.algorithm}.`;
+        draw(heat, [heatmapTrace(g, g.map((_, i) => i), types)],
+          { xaxis: { title: { text: 'Task type' }, dtick: 1 }, yaxis: { title: { text: 'Parent group' }, autorange: 'reversed', dtick: 1 }, hovermode: 'closest' });
+      } else {
+        purge(heat);
+        heat.hidden = true;
+        heatNote.textContent = `${c.algorithm} learns no group weights; only its combined weights are shown.`;
+      }
+      draw(bars, c.weights.combined.map((w, i) => ({
+        type: 'bar', name: `child ${i}`, x: types, y: w, marker: { color: colour(i) }, meta: { kind: 'bar', child: i },
+      })), { barmode: 'group', xaxis: { title: { text: 'Task type' }, dtick: 1 }, yaxis: { title: { text: 'Combined weight' } }, hovermode: 'closest', showlegend: nChildren > 1 });
+    };
+    cfgSel.addEventListener('change', drawWeights);
+    childSel.addEventListener('change', drawWeights);
+    queueMicrotask(drawWeights);
+    return h('section', { 'aria-labelledby': 'h-w' },
+      h('h2', { id: 'h-w' }, 'Learned weights (mean over seeds, final episode)'),
+      h('div', { class: 'controls' }, h('label', { for: cfgId }, 'Configuration'), cfgSel, h('label', { for: childId }, 'Child'), childSel),
+      heatNote,
+      h('div', { class: 'grid2' }, heat, bars));
+  }
+
+  await update();
+  if (job.status === 'queued' || job.status === 'running') timer = setTimeout(poll, 1000);
+  return () => { stopped = true; clearTimeout(timer); for (const p of plots) purge(p); };
+}

@@ -1,0 +1,228 @@
+// Runs view: filterable, sortable, cursor-paginated table of jobs with compare/edit/cancel/delete.
+
+import { api } from './api.js';
+import { h, statusCell, confirmDialog, editJobDialog, notice, debounce, nextId } from './ui.js';
+import { fmtDate, fmtDuration, seedCount, sortAlgorithms } from './stats.js';
+
+const STATUSES = ['queued', 'running', 'succeeded', 'failed', 'cancelled'];
+const SORTS = [
+  ['-created_at', 'Newest first'], ['created_at', 'Oldest first'], ['name', 'Name A–Z'],
+  ['-name', 'Name Z–A'], ['status', 'Status A–Z'], ['-status', 'Status Z–A'],
+];
+const PAGE = 50;
+
+export async function mount(root, params, ctx) {
+  const t0 = performance.now();
+  const filters = {
+    status: params.status || '', system: params.system || '', tag: params.tag || '',
+    q: params.q || '', sort: params.sort || '-created_at',
+  };
+  const selected = new Set();
+  const rows = new Map(); // id -> {job, tr}
+  let cursor = null;
+  let loadToken = 0;
+  let pollTimer = null;
+  let stopped = false;
+
+  const live = h('p', { class: 'visually-hidden', 'aria-live': 'polite' });
+  const errorBox = h('div', { 'aria-live': 'assertive' });
+  const countEl = h('p', { class: 'count', 'aria-live': 'polite' });
+
+  const field = (label, control) => {
+    const id = nextId('f');
+    control.id = id;
+    return h('div', { class: 'field' }, h('label', { for: id }, label), control);
+  };
+  const statusSel = h('select', { name: 'status' }, h('option', { value: '' }, 'Any'),
+    STATUSES.map((s) => h('option', { value: s, selected: s === filters.status }, s)));
+  const systemSel = h('select', { name: 'system' }, h('option', { value: '' }, 'Any'));
+  const tagIn = h('input', { type: 'text', name: 'tag', value: filters.tag, placeholder: 'e.g. paper' });
+  const qIn = h('input', { type: 'search', name: 'q', value: filters.q, placeholder: 'name, notes, tags' });
+  const sortSel = h('select', { name: 'sort' },
+    SORTS.map(([v, l]) => h('option', { value: v, selected: v === filters.sort }, l)));
+
+  const compareBtn = h('button', { type: 'button', class: 'primary', disabled: true, onclick: () => {
+    ctx.navigate('/compare', { jobs: [...selected].sort((a, b) => a - b).join(',') });
+  } }, 'Compare selected');
+  const clearBtn = h('button', { type: 'button', class: 'secondary', disabled: true, onclick: () => {
+    selected.clear();
+    for (const cb of tbody.querySelectorAll('input[type=checkbox]')) cb.checked = false;
+    updateSelection();
+  } }, 'Clear selection');
+
+  const filterForm = h('form', { class: 'filters', role: 'search', 'aria-label': 'Filter jobs', onsubmit: (e) => { e.preventDefault(); reload(); } },
+    field('Status', statusSel), field('System', systemSel), field('Tag', tagIn), field('Search', qIn), field('Sort', sortSel));
+
+  const tbody = h('tbody');
+  const table = h('table', { class: 'runs' },
+    h('caption', { class: 'visually-hidden' }, 'Jobs'),
+    h('thead', {}, h('tr', {},
+      h('th', { scope: 'col' }, h('span', { class: 'visually-hidden' }, 'Select')),
+      ['Id', 'Name', 'Status', 'System', 'Configurations', 'Seeds', 'Episodes', 'Tags', 'Created', 'Duration', 'Actions']
+        .map((c) => h('th', { scope: 'col' }, c)))),
+    tbody);
+  const moreBtn = h('button', { type: 'button', class: 'secondary', hidden: true, onclick: () => load(false) }, 'Load more');
+  const tableWrap = h('div', { class: 'table-wrap' }, table);
+  const emptyBox = h('div');
+
+  root.append(
+    h('div', { class: 'view-head' }, h('h1', {}, 'Runs'),
+      h('div', { class: 'toolbar' }, compareBtn, clearBtn, h('a', { class: 'button primary', href: '#/new' }, 'New experiment'))),
+    filterForm, errorBox, countEl, tableWrap, emptyBox, h('div', { class: 'more' }, moreBtn), live);
+
+  api.systems().then((s) => {
+    for (const sys of s.systems) systemSel.append(h('option', { value: sys.name, selected: sys.name === filters.system }, sys.name));
+  }).catch(() => { /* the banner reports an unreachable server */ });
+
+  function readFilters() {
+    filters.status = statusSel.value;
+    filters.system = systemSel.value;
+    filters.tag = tagIn.value.trim();
+    filters.q = qIn.value.trim();
+    filters.sort = sortSel.value;
+    ctx.setQuery({ ...filters, sort: filters.sort === '-created_at' ? '' : filters.sort });
+  }
+  const reload = () => { readFilters(); load(true); };
+  const reloadSoon = debounce(reload, 300);
+  statusSel.addEventListener('change', reload);
+  systemSel.addEventListener('change', reload);
+  sortSel.addEventListener('change', reload);
+  tagIn.addEventListener('input', reloadSoon);
+  qIn.addEventListener('input', reloadSoon);
+
+  function updateSelection() {
+    compareBtn.disabled = selected.size === 0;
+    clearBtn.disabled = selected.size === 0;
+    compareBtn.textContent = selected.size ? `Compare selected (${selected.size})` : 'Compare selected';
+  }
+
+  function row(job) {
+    const cb = h('input', { type: 'checkbox', checked: selected.has(job.id), 'aria-label': `Select job ${job.id} for comparison`,
+      onchange: (e) => { if (e.target.checked) selected.add(job.id); else selected.delete(job.id); updateSelection(); } });
+    const actions = h('div', { class: 'row-actions' },
+      h('button', { type: 'button', class: 'small secondary', 'aria-label': `Edit name, tags and notes of job ${job.id}`, onclick: async () => {
+        const updated = await editJobDialog(job);
+        if (updated) { replaceRow(updated); live.textContent = `Job ${job.id} saved.`; }
+      } }, 'Edit'),
+      (job.status === 'queued' || job.status === 'running')
+        ? h('button', { type: 'button', class: 'small secondary', 'aria-label': `Cancel job ${job.id}`, onclick: async () => {
+          if (!(await confirmDialog('Cancel job?', `Cancel job ${job.id} “${job.name || ''}”? Its partial results are discarded.`, 'Cancel job', true))) return;
+          try { replaceRow(await api.cancelJob(job.id)); live.textContent = `Job ${job.id} cancelled.`; } catch (e) { showError(e); }
+        } }, 'Cancel')
+        : null,
+      job.status !== 'running'
+        ? h('button', { type: 'button', class: 'small danger', 'aria-label': `Delete job ${job.id}`, onclick: async () => {
+          if (!(await confirmDialog('Delete job?', `Delete job ${job.id} “${job.name || ''}” and all its results? This cannot be undone.`, 'Delete', true))) return;
+          try {
+            await api.deleteJob(job.id);
+            const r = rows.get(job.id);
+            if (r) r.tr.remove();
+            rows.delete(job.id);
+            selected.delete(job.id);
+            updateSelection();
+            live.textContent = `Job ${job.id} deleted.`;
+          } catch (e) { showError(e); }
+        } }, 'Delete')
+        : null);
+    const tr = h('tr', { dataset: { id: job.id, status: job.status } },
+      h('td', {}, cb),
+      h('td', { class: 'num' }, job.id),
+      h('td', {}, h('a', { href: `#/jobs/${job.id}` }, job.name || `job ${job.id}`),
+        job.notes ? h('div', { class: 'note', title: job.notes }, job.notes) : null),
+      h('td', { class: 'status' }, statusCell(job)),
+      h('td', {}, job.system),
+      h('td', { class: 'algos' }, sortAlgorithms(job.algorithms || []).join(', ')),
+      h('td', { class: 'num' }, seedCount(job)),
+      h('td', { class: 'num' }, job.episodes),
+      h('td', {}, (job.tags || []).map((t) => h('button', { type: 'button', class: 'tag', 'aria-label': `Filter by tag ${t}`,
+        onclick: () => { tagIn.value = t; reload(); } }, t))),
+      h('td', { class: 'nowrap' }, h('time', { datetime: job.created_at || '' }, fmtDate(job.created_at))),
+      h('td', { class: 'num nowrap' }, fmtDuration(job.duration_s)),
+      h('td', {}, actions));
+    return tr;
+  }
+
+  function replaceRow(job) {
+    const old = rows.get(job.id);
+    const tr = row(job);
+    if (old) old.tr.replaceWith(tr);
+    rows.set(job.id, { job, tr });
+    schedulePoll();
+  }
+
+  function showError(e) {
+    errorBox.replaceChildren(notice('error', e.message));
+  }
+
+  async function load(reset) {
+    const token = ++loadToken;
+    errorBox.replaceChildren();
+    if (reset) cursor = null;
+    moreBtn.disabled = true;
+    root.setAttribute('aria-busy', 'true');
+    let page;
+    try {
+      page = await api.listJobs({ status: filters.status, system: filters.system, tag: filters.tag, q: filters.q,
+        sort: filters.sort, limit: PAGE, cursor: reset ? undefined : cursor });
+    } catch (e) {
+      if (token === loadToken) { showError(e); root.removeAttribute('aria-busy'); moreBtn.disabled = false; }
+      return;
+    }
+    if (token !== loadToken || stopped) return;
+    root.removeAttribute('aria-busy');
+    if (reset) { tbody.replaceChildren(); rows.clear(); }
+    const frag = document.createDocumentFragment();
+    for (const job of page.data) {
+      if (rows.has(job.id)) continue;
+      const tr = row(job);
+      rows.set(job.id, { job, tr });
+      frag.append(tr);
+    }
+    tbody.append(frag);
+    cursor = page.next_cursor;
+    moreBtn.hidden = !cursor;
+    moreBtn.disabled = false;
+    const shown = rows.size;
+    countEl.textContent = `${page.count} job${page.count === 1 ? '' : 's'}${page.count > shown ? `, ${shown} shown` : ''}`;
+    const filtered = filters.status || filters.system || filters.tag || filters.q;
+    tableWrap.hidden = shown === 0;
+    emptyBox.replaceChildren(shown === 0
+      ? (filtered
+        ? notice('empty', 'No jobs match these filters.', h('button', { type: 'button', class: 'secondary', onclick: () => {
+          statusSel.value = ''; systemSel.value = ''; tagIn.value = ''; qIn.value = ''; reload();
+        } }, 'Clear filters'))
+        : notice('empty', 'No experiments yet.', h('a', { class: 'button primary', href: '#/new' }, 'Start a new experiment')))
+      : '');
+    schedulePoll();
+  }
+
+  // Jobs still queued or running are refreshed one by one so their progress bars move.
+  function schedulePoll() {
+    if (pollTimer || stopped) return;
+    const active = [...rows.values()].some((r) => r.job.status === 'queued' || r.job.status === 'running');
+    if (!active) return;
+    pollTimer = setTimeout(async () => {
+      pollTimer = null;
+      const ids = [...rows.values()].filter((r) => r.job.status === 'queued' || r.job.status === 'running').map((r) => r.job.id);
+      for (const id of ids.slice(0, 20)) {
+        if (stopped) return;
+        try {
+          const job = await api.getJob(id);
+          const r = rows.get(id);
+          if (r && !stopped && (job.status !== r.job.status || job.progress !== r.job.progress)) {
+            const focused = r.tr.contains(document.activeElement);
+            if (!focused) replaceRow(job);
+            else r.job = job;
+            if (job.status !== 'running' && job.status !== 'queued') live.textContent = `Job ${id} ${job.status}.`;
+          }
+        } catch { /* deleted meanwhile or server down: the banner reports the latter */ }
+      }
+      schedulePoll();
+    }, 1500);
+  }
+
+  await load(true);
+  root.dataset.renderMs = (performance.now() - t0).toFixed(1);
+  performance.mark('runs-rendered');
+  return () => { stopped = true; clearTimeout(pollTimer); };
+}

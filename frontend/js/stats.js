@@ -1,0 +1,258 @@
+// Pure helpers: smoothing, series handling, formatting and URL/query parsing.
+// No DOM access here, so that node's test runner can import this module directly.
+
+/**
+ * Trailing moving average over `window` points. Non-finite values (null, NaN) are skipped;
+ * an output point is null when its window holds no finite value. window <= 1 returns a copy.
+ */
+export function movingAverage(values, window) {
+  const w = Math.max(1, Math.floor(Number(window) || 1));
+  const out = new Array(values.length);
+  if (w === 1) {
+    for (let i = 0; i < values.length; i++) out[i] = isFiniteNumber(values[i]) ? values[i] : null;
+    return out;
+  }
+  let sum = 0;
+  let count = 0;
+  for (let i = 0; i < values.length; i++) {
+    const v = values[i];
+    if (isFiniteNumber(v)) { sum += v; count += 1; }
+    if (i >= w) {
+      const old = values[i - w];
+      if (isFiniteNumber(old)) { sum -= old; count -= 1; }
+    }
+    out[i] = count > 0 ? sum / count : null;
+  }
+  return out;
+}
+
+export function isFiniteNumber(v) {
+  return typeof v === 'number' && Number.isFinite(v);
+}
+
+/** Smooth a `{episode, mean, low, high}` series; the episode axis is kept as is. */
+export function smoothSeries(series, window) {
+  if (!series) return series;
+  return {
+    episode: series.episode.slice(),
+    mean: movingAverage(series.mean, window),
+    low: movingAverage(series.low, window),
+    high: movingAverage(series.high, window),
+  };
+}
+
+/** x/y arrays of a closed band polygon (upper edge forwards, lower edge backwards) for Plotly fill. */
+export function bandPolygon(x, low, high) {
+  const xs = [];
+  const ys = [];
+  for (let i = 0; i < x.length; i++) { xs.push(x[i]); ys.push(high[i]); }
+  for (let i = x.length - 1; i >= 0; i--) { xs.push(x[i]); ys.push(low[i]); }
+  return { x: xs, y: ys };
+}
+
+const FIXED_ORDER = { uniform: 0, 'mgrao-1:1': 1, 'mgrao-max': 1e9, oracle: 2e9 };
+
+/** Sort key putting uniform first, then x:1 by increasing x, then max, then oracle. */
+export function algorithmRank(name) {
+  if (name in FIXED_ORDER) return FIXED_ORDER[name];
+  const m = /^mgrao-(\d+):1$/.exec(name);
+  if (m) return Number(m[1]);
+  return 3e9;
+}
+
+export function sortAlgorithms(names) {
+  return names.slice().sort((a, b) => algorithmRank(a) - algorithmRank(b) || String(a).localeCompare(String(b)));
+}
+
+/**
+ * Parse extra "x:1" configurations typed by a user: "2, 5:1 mgrao-10:1" -> ["mgrao-2:1", "mgrao-5:1", "mgrao-10:1"].
+ * Returns {algorithms, invalid} where invalid lists tokens that are not a positive integer ratio.
+ */
+export function parseRatios(text) {
+  const algorithms = [];
+  const invalid = [];
+  for (const raw of String(text || '').split(/[\s,;]+/)) {
+    const token = raw.trim();
+    if (!token) continue;
+    const m = /^(?:mgrao-)?(\d+)(?::1)?$/i.exec(token);
+    if (m && Number(m[1]) >= 1) {
+      const name = `mgrao-${Number(m[1])}:1`;
+      if (!algorithms.includes(name)) algorithms.push(name);
+    } else {
+      invalid.push(token);
+    }
+  }
+  return { algorithms, invalid };
+}
+
+/** Tags from a comma separated string, trimmed, de-duplicated, empty ones dropped. */
+export function parseTags(text) {
+  const tags = [];
+  for (const t of String(text || '').split(',')) {
+    const tag = t.trim();
+    if (tag && !tags.includes(tag)) tags.push(tag);
+  }
+  return tags;
+}
+
+/** Positive integer ids from "1, 2,3" (or an array), unique, in the given order. */
+export function parseIds(value) {
+  const parts = Array.isArray(value) ? value : String(value || '').split(/[\s,]+/);
+  const ids = [];
+  for (const p of parts) {
+    const n = Number(String(p).trim());
+    if (Number.isInteger(n) && n > 0 && !ids.includes(n)) ids.push(n);
+  }
+  return ids;
+}
+
+/** Split a location hash "#/compare?jobs=1,2&smooth=5" into {path: "/compare", params: {jobs: "1,2", smooth: "5"}}. */
+export function parseHash(hash) {
+  let h = String(hash || '').replace(/^#/, '');
+  if (!h.startsWith('/')) h = '/' + h;
+  const q = h.indexOf('?');
+  const path = (q === -1 ? h : h.slice(0, q)).replace(/\/+$/, '') || '/';
+  const params = {};
+  if (q !== -1) {
+    for (const [k, v] of new URLSearchParams(h.slice(q + 1))) params[k] = v;
+  }
+  return { path, params };
+}
+
+/** Inverse of parseHash; empty, null and undefined values are left out. Commas stay readable. */
+export function buildHash(path, params = {}) {
+  const parts = [];
+  for (const [k, v] of Object.entries(params)) {
+    if (v === undefined || v === null || v === '' || (Array.isArray(v) && v.length === 0)) continue;
+    const value = Array.isArray(v) ? v.join(',') : String(v);
+    parts.push(`${encodeURIComponent(k)}=${encodeURIComponent(value).replace(/%2C/gi, ',').replace(/%3A/gi, ':')}`);
+  }
+  return '#' + path + (parts.length ? '?' + parts.join('&') : '');
+}
+
+/**
+ * Map a 422 error detail list to {fieldPath: message}. The field path is "params.<name>" for
+ * parameters (from `loc` ["body", "params", name]) and the plain field name otherwise.
+ * `knownParams` (a Set of parameter names) lets a bare `field` like "n_parents" find its parameter.
+ */
+export function fieldErrors(detail, knownParams = new Set()) {
+  const out = {};
+  if (!Array.isArray(detail)) return out;
+  for (const item of detail) {
+    if (!item || typeof item !== 'object') continue;
+    const loc = Array.isArray(item.loc) ? item.loc.filter((p) => p !== 'body') : [];
+    let key = null;
+    let field = typeof item.field === 'string' ? item.field : null;
+    if (field && field.startsWith('params.')) key = field;
+    else if (loc[0] === 'params' && loc.length > 1) key = `params.${loc[1]}`;
+    else if (field && knownParams.has(field)) key = `params.${field}`;
+    else if (field) key = field;
+    else if (loc.length) key = String(loc[0]);
+    else key = '_form';
+    const msg = item.msg || 'invalid value';
+    out[key] = out[key] ? `${out[key]}; ${msg}` : msg;
+  }
+  return out;
+}
+
+// ---- formatting -------------------------------------------------------------------------
+
+export function fmtNumber(x, digits = 3) {
+  if (!isFiniteNumber(x)) return '–';
+  const a = Math.abs(x);
+  if (a !== 0 && (a >= 1e6 || a < 1e-3)) return x.toExponential(2);
+  return x.toFixed(digits);
+}
+
+export function fmtPct(x, digits = 1, sign = true) {
+  if (!isFiniteNumber(x)) return '–';
+  const s = x.toFixed(digits);
+  return (sign && x > 0 ? '+' : '') + s + '%';
+}
+
+export function fmtCI(ci, digits = 3, pct = false) {
+  if (!Array.isArray(ci) || ci.length < 2 || !isFiniteNumber(ci[0]) || !isFiniteNumber(ci[1])) return '';
+  const f = pct ? (v) => fmtPct(v, digits) : (v) => fmtNumber(v, digits);
+  return `[${f(ci[0])}, ${f(ci[1])}]`;
+}
+
+export function fmtDuration(seconds) {
+  if (!isFiniteNumber(seconds)) return '–';
+  if (seconds < 1) return `${Math.round(seconds * 1000)} ms`;
+  if (seconds < 60) return `${seconds.toFixed(1)} s`;
+  const m = Math.floor(seconds / 60);
+  const s = Math.round(seconds - m * 60);
+  if (m < 60) return `${m} min ${s} s`;
+  const h = Math.floor(m / 60);
+  return `${h} h ${m - h * 60} min`;
+}
+
+/** "2026-11-21 10:05" in the viewer's time zone; '–' for a missing or bad date. */
+export function fmtDate(iso) {
+  if (!iso) return '–';
+  const d = new Date(iso);
+  if (Number.isNaN(d.getTime())) return '–';
+  const p = (n) => String(n).padStart(2, '0');
+  return `${d.getFullYear()}-${p(d.getMonth() + 1)}-${p(d.getDate())} ${p(d.getHours())}:${p(d.getMinutes())}`;
+}
+
+/** Progress as a whole percentage clamped into [0, 100]. */
+export function pctProgress(progress) {
+  if (!isFiniteNumber(progress)) return 0;
+  return Math.round(Math.min(1, Math.max(0, progress)) * 100);
+}
+
+/** Error bar arrays for Plotly from summaries' pct_from_uniform and pct_ci95. */
+export function pctErrorBars(summaries) {
+  const y = [];
+  const plus = [];
+  const minus = [];
+  for (const s of summaries) {
+    const v = s && isFiniteNumber(s.pct_from_uniform) ? s.pct_from_uniform : null;
+    y.push(v);
+    const ci = s && Array.isArray(s.pct_ci95) ? s.pct_ci95 : null;
+    if (v !== null && ci && isFiniteNumber(ci[0]) && isFiniteNumber(ci[1])) {
+      plus.push(Math.max(0, ci[1] - v));
+      minus.push(Math.max(0, v - ci[0]));
+    } else {
+      plus.push(0);
+      minus.push(0);
+    }
+  }
+  return { y, plus, minus };
+}
+
+/** Stable key of a compare group: first 8 characters of the config hash and the algorithm. */
+export function groupKey(group) {
+  return `${String(group.config_hash || '').slice(0, 8)}:${group.algorithm}`;
+}
+
+/**
+ * Human labels for compare groups: "single · mgrao-max", with a short hash appended only when
+ * two groups would otherwise share a label (same system and algorithm, different configuration).
+ */
+export function groupLabels(groups) {
+  const base = groups.map((g) => `${g.system} · ${g.algorithm}`);
+  const counts = {};
+  for (const b of base) counts[b] = (counts[b] || 0) + 1;
+  return groups.map((g, i) => (counts[base[i]] > 1 ? `${base[i]} (${String(g.config_hash || '').slice(0, 6)})` : base[i]));
+}
+
+/** Number of seeds of a job (its `seeds` list, or a count). */
+export function seedCount(job) {
+  if (!job) return 0;
+  if (Array.isArray(job.seeds)) return job.seeds.length;
+  return isFiniteNumber(job.seeds) ? job.seeds : 0;
+}
+
+/** Parameters in `values` that differ from `base` (numbers compared numerically, null vs value counts). */
+export function changedParams(values, base) {
+  const out = {};
+  for (const [k, v] of Object.entries(values)) {
+    const b = base ? base[k] : undefined;
+    if (v === b) continue;
+    if (isFiniteNumber(v) && isFiniteNumber(b) && Math.abs(v - b) <= 1e-12 * Math.max(1, Math.abs(b))) continue;
+    out[k] = v;
+  }
+  return out;
+}

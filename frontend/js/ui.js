@@ -1,0 +1,142 @@
+// Small DOM helpers shared by the views: element builder, status badges, dialogs.
+
+import { fmtDate, fmtDuration, pctProgress, seedCount } from './stats.js';
+import { api } from './api.js';
+
+/** h('button', {class: 'x', onclick: f}, 'text', child) -> element. Attributes starting with "on" are listeners. */
+export function h(tag, attrs = {}, ...children) {
+  const el = document.createElement(tag);
+  for (const [k, v] of Object.entries(attrs || {})) {
+    if (v === undefined || v === null || v === false) continue;
+    if (k.startsWith('on') && typeof v === 'function') el.addEventListener(k.slice(2), v);
+    else if (k === 'class') el.className = v;
+    else if (k === 'dataset') Object.assign(el.dataset, v);
+    else if (k === 'value' && 'value' in el) el.value = v;
+    else if (k === 'checked' || k === 'selected' || k === 'disabled' || k === 'open') el[k] = !!v;
+    else if (v === true) el.setAttribute(k, '');
+    else el.setAttribute(k, String(v));
+  }
+  append(el, children);
+  return el;
+}
+
+function append(el, children) {
+  for (const c of children) {
+    if (c === null || c === undefined || c === false) continue;
+    if (Array.isArray(c)) append(el, c);
+    else el.append(c instanceof Node ? c : document.createTextNode(String(c)));
+  }
+}
+
+let uid = 0;
+export function nextId(prefix = 'id') {
+  uid += 1;
+  return `${prefix}-${uid}`;
+}
+
+/** Status badge, with a progress bar and spinner for running/queued jobs. */
+export function statusCell(job) {
+  const badge = h('span', { class: `badge status-${job.status}` },
+    job.status === 'running' ? h('span', { class: 'spinner', 'aria-hidden': 'true' }) : null,
+    job.status);
+  if (job.status !== 'running' && job.status !== 'queued') return badge;
+  const pct = pctProgress(job.progress);
+  return h('div', { class: 'status-progress' }, badge,
+    h('progress', { max: 100, value: pct, 'aria-label': `Job ${job.id} progress` }),
+    h('span', { class: 'pct' }, `${pct}%`));
+}
+
+export function jobMeta(job) {
+  return [
+    ['System', job.system],
+    ['Configurations', (job.algorithms || []).join(', ')],
+    ['Seeds', seedCount(job)],
+    ['Episodes', job.episodes],
+    ['Tags', (job.tags || []).join(', ') || '–'],
+    ['Created', fmtDate(job.created_at)],
+    ['Duration', fmtDuration(job.duration_s)],
+    ['Attempts', job.attempts ?? '–'],
+    ['Config hash', job.config_hash ? String(job.config_hash).slice(0, 12) : '–'],
+    ['Version', job.version || '–'],
+  ];
+}
+
+function dialogShell(titleText) {
+  const titleId = nextId('dlg-title');
+  const dlg = h('dialog', { class: 'dialog', 'aria-labelledby': titleId });
+  dlg.append(h('h2', { id: titleId }, titleText));
+  document.body.append(dlg);
+  dlg.addEventListener('close', () => setTimeout(() => dlg.remove(), 0));
+  return dlg;
+}
+
+/** Modal confirmation; resolves true when confirmed. */
+export function confirmDialog(title, message, confirmLabel = 'Confirm', danger = false) {
+  return new Promise((resolve) => {
+    const dlg = dialogShell(title);
+    const form = h('form', { method: 'dialog' },
+      h('p', {}, message),
+      h('div', { class: 'actions' },
+        h('button', { type: 'submit', value: 'cancel', class: 'secondary' }, 'Keep'),
+        h('button', { type: 'submit', value: 'ok', class: danger ? 'danger' : 'primary' }, confirmLabel)));
+    dlg.append(form);
+    dlg.addEventListener('close', () => resolve(dlg.returnValue === 'ok'));
+    dlg.showModal();
+    form.querySelector('button.secondary').focus();
+  });
+}
+
+/** Dialog editing a job's name, tags and notes (PATCH). Resolves to the updated job or null. */
+export function editJobDialog(job) {
+  return new Promise((resolve) => {
+    const dlg = dialogShell(`Edit job ${job.id}`);
+    const nameId = nextId('name');
+    const tagsId = nextId('tags');
+    const notesId = nextId('notes');
+    const errId = nextId('err');
+    const name = h('input', { id: nameId, name: 'name', type: 'text', value: job.name || '', maxlength: 200 });
+    const tags = h('input', { id: tagsId, name: 'tags', type: 'text', value: (job.tags || []).join(', '), 'aria-describedby': `${tagsId}-help` });
+    const notes = h('textarea', { id: notesId, name: 'notes', rows: 4 });
+    notes.value = job.notes || '';
+    const err = h('p', { id: errId, class: 'error', role: 'alert' });
+    let result = null;
+    const form = h('form', { class: 'stack' },
+      h('label', { for: nameId }, 'Name'), name,
+      h('label', { for: tagsId }, 'Tags'), tags,
+      h('small', { id: `${tagsId}-help`, class: 'help' }, 'Comma separated, e.g. paper, sweep-3'),
+      h('label', { for: notesId }, 'Notes'), notes,
+      err,
+      h('div', { class: 'actions' },
+        h('button', { type: 'button', class: 'secondary', onclick: () => dlg.close() }, 'Cancel'),
+        h('button', { type: 'submit', class: 'primary' }, 'Save')));
+    form.addEventListener('submit', async (ev) => {
+      ev.preventDefault();
+      err.textContent = '';
+      const tagList = tags.value.split(',').map((t) => t.trim()).filter(Boolean);
+      try {
+        result = await api.patchJob(job.id, { name: name.value.trim(), tags: [...new Set(tagList)], notes: notes.value });
+        dlg.close();
+      } catch (e) {
+        err.textContent = e.message;
+      }
+    });
+    dlg.append(form);
+    dlg.addEventListener('close', () => resolve(result));
+    dlg.showModal();
+    name.focus();
+  });
+}
+
+/** A message block for empty states and errors. */
+export function notice(kind, text, ...extra) {
+  return h('div', { class: `notice ${kind}`, role: kind === 'error' ? 'alert' : null }, h('p', {}, text), ...extra);
+}
+
+/** Debounce a function by `ms`. */
+export function debounce(fn, ms) {
+  let t = null;
+  return (...args) => {
+    clearTimeout(t);
+    t = setTimeout(() => fn(...args), ms);
+  };
+}
