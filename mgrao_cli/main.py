@@ -5,6 +5,7 @@ from __future__ import annotations
 import click
 
 from mgrao_cli.experiments import reproduce, run
+from mgrao_cli.service_commands import serve, worker
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -15,3 +16,9 @@ def cli() -> None:
 
 cli.add_command(run)
 cli.add_command(reproduce)
+cli.add_command(serve)
+cli.add_command(worker)
+
+
+if __name__ == "__main__":
+    cli()

@@ -1,0 +1,1 @@
+"""The MG-RAO experiment service: REST API, job queue and local workers."""

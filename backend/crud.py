@@ -1,0 +1,198 @@
+"""Data functions on jobs: create, read, list (filters, keyset pagination), update, cancel, delete."""
+
+from __future__ import annotations
+
+import base64
+import hashlib
+import json
+from collections.abc import Sequence
+from datetime import datetime
+from typing import Any
+
+from sqlalchemy import ColumnElement, and_, func, or_, select
+from sqlalchemy.orm import Session
+
+import mgrao_core
+from backend.errors import BadQuery, Conflict, NotFound
+from backend.models import CANCELLED, QUEUED, RUNNING, Job, JobTag, utcnow
+from mgrao_core import ExperimentSpec
+
+
+def config_hash(config: dict[str, Any]) -> str:
+    """sha256 of the canonical JSON of a configuration without its seeds and algorithms.
+
+    A *configuration* in comparisons is ``(config_hash, algorithm)``: system, resolved
+    parameters and episodes; lanes are independent, so seeds and the other algorithms of a
+    job never change a run's numbers.
+    """
+    core = {k: v for k, v in config.items() if k not in ("seeds", "algorithms")}
+    canonical = json.dumps(core, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(canonical.encode()).hexdigest()
+
+
+def iso(moment: datetime | None) -> str | None:
+    """ISO 8601 UTC text of a stored (naive UTC) time."""
+    return None if moment is None else moment.isoformat(timespec="milliseconds") + "Z"
+
+
+def job_dict(job: Job) -> dict[str, Any]:
+    """A job as the API shows it (docs/api.md "Job")."""
+    config = job.config
+    duration = None
+    if job.started_at is not None and job.finished_at is not None:
+        duration = round((job.finished_at - job.started_at).total_seconds(), 3)
+    return {
+        "id": job.id, "name": job.name, "tags": list(job.tags), "notes": job.notes,
+        "system": job.system, "algorithms": config["algorithms"], "seeds": config["seeds"],
+        "episodes": config["episodes"], "params": config["params"], "config_hash": job.config_hash,
+        "status": job.status, "progress": job.progress, "attempts": job.attempts, "error": job.error,
+        "created_at": iso(job.created_at), "started_at": iso(job.started_at),
+        "finished_at": iso(job.finished_at), "duration_s": duration, "version": job.version,
+    }
+
+
+def _set_tags(session: Session, job: Job, tags: Sequence[str]) -> None:
+    unique = list(dict.fromkeys(tags))
+    job.tags = unique
+    job.tag_rows = [JobTag(tag=t) for t in unique]
+
+
+def create_job(
+    session: Session, *, spec: ExperimentSpec, name: str = "", tags: Sequence[str] = (), notes: str = ""
+) -> Job:
+    """Add a queued job for a validated spec (the caller commits)."""
+    config = spec.as_dict()
+    job = Job(
+        name=name, notes=notes, system=spec.system, config=config, config_hash=config_hash(config),
+        status=QUEUED, progress=0.0, attempts=0, version=mgrao_core.__version__, created_at=utcnow(),
+    )
+    _set_tags(session, job, tags)
+    session.add(job)
+    session.flush()
+    return job
+
+
+def get_job(session: Session, *, job_id: int) -> Job:
+    """The job, or :class:`NotFound`."""
+    job = session.get(Job, job_id)
+    if job is None:
+        raise NotFound(f"job {job_id} not found")
+    return job
+
+
+def update_job(
+    session: Session, *, job_id: int, name: str | None = None, tags: Sequence[str] | None = None,
+    notes: str | None = None,
+) -> Job:
+    """Change a job's labels (any status)."""
+    job = get_job(session, job_id=job_id)
+    if name is not None:
+        job.name = name
+    if notes is not None:
+        job.notes = notes
+    if tags is not None:
+        _set_tags(session, job, tags)
+    return job
+
+
+def cancel_job(session: Session, *, job_id: int) -> Job:
+    """Cancel a queued or running job; a running job's worker notices at its next heartbeat."""
+    job = get_job(session, job_id=job_id)
+    if job.status not in (QUEUED, RUNNING):
+        raise Conflict(f"job {job_id} is {job.status}: only queued or running jobs can be cancelled")
+    job.status = CANCELLED
+    job.lease = None
+    job.finished_at = utcnow()
+    return job
+
+
+def delete_job(session: Session, *, job_id: int) -> None:
+    """Delete a job that is not running, with its runs."""
+    job = get_job(session, job_id=job_id)
+    if job.status == RUNNING:
+        raise Conflict(f"job {job_id} is running: cancel it first")
+    session.delete(job)
+
+
+def count_by_status(session: Session) -> dict[str, int]:
+    """Number of jobs per status."""
+    rows = session.execute(select(Job.status, func.count()).group_by(Job.status)).all()
+    return {status: count for status, count in rows}
+
+
+# ---- listing ---------------------------------------------------------------------------------
+
+_SORT_COLUMNS = {"created_at": Job.created_at, "name": Job.name, "status": Job.status}
+
+
+def encode_cursor(sort: str, key: Any, job_id: int) -> str:
+    """An opaque cursor after the row ``(key, job_id)`` of ordering ``sort``."""
+    if isinstance(key, datetime):
+        key = key.isoformat()
+    raw = json.dumps([sort, key, job_id], separators=(",", ":")).encode()
+    return base64.urlsafe_b64encode(raw).decode().rstrip("=")
+
+
+def decode_cursor(cursor: str, sort: str) -> tuple[Any, int]:
+    """The ``(key, id)`` a cursor points after, or :class:`BadQuery`."""
+    try:
+        raw = base64.urlsafe_b64decode(cursor + "=" * (-len(cursor) % 4))
+        cursor_sort, key, job_id = json.loads(raw)
+        if cursor_sort != sort or not isinstance(job_id, int) or not isinstance(key, str):
+            raise ValueError
+        if sort.lstrip("-") == "created_at":
+            key = datetime.fromisoformat(key)
+    except (ValueError, TypeError, UnicodeDecodeError):
+        raise BadQuery("cursor", "is not a cursor of this listing (use next_cursor as given, same sort)") from None
+    return key, job_id
+
+
+def _escape_like(text: str) -> str:
+    return text.replace("\\", "\\\\").replace("%", "\\%").replace("_", "\\_")
+
+
+def _filters(*, status: str | None, system: str | None, tag: str | None, q: str | None) -> list[ColumnElement]:
+    clauses: list[ColumnElement] = []
+    if status:
+        clauses.append(Job.status == status)
+    if system:
+        clauses.append(Job.system == system)
+    if tag:
+        clauses.append(Job.id.in_(select(JobTag.job_id).where(JobTag.tag == tag)))
+    if q:
+        pattern = f"%{_escape_like(q.lower())}%"
+        clauses.append(
+            or_(
+                func.lower(Job.name).like(pattern, escape="\\"),
+                func.lower(Job.notes).like(pattern, escape="\\"),
+                Job.id.in_(select(JobTag.job_id).where(func.lower(JobTag.tag).like(pattern, escape="\\"))),
+            )
+        )
+    return clauses
+
+
+def list_jobs(
+    session: Session, *, status: str | None = None, system: str | None = None, tag: str | None = None,
+    q: str | None = None, sort: str = "-created_at", limit: int = 50, cursor: str | None = None,
+) -> tuple[list[Job], str | None, int]:
+    """One page of jobs, the cursor of the next page (None at the end) and the total matching."""
+    descending = sort.startswith("-")
+    column = _SORT_COLUMNS[sort.lstrip("-")]
+    clauses = _filters(status=status, system=system, tag=tag, q=q)
+    total = session.scalar(select(func.count()).select_from(Job).where(*clauses)) or 0
+    statement = select(Job).where(*clauses)
+    if cursor:
+        key, after = decode_cursor(cursor, sort)
+        if descending:
+            statement = statement.where(or_(column < key, and_(column == key, Job.id < after)))
+        else:
+            statement = statement.where(or_(column > key, and_(column == key, Job.id > after)))
+    order = (column.desc(), Job.id.desc()) if descending else (column.asc(), Job.id.asc())
+    jobs = list(session.scalars(statement.order_by(*order).limit(limit + 1)))
+    next_cursor = None
+    if len(jobs) > limit:
+        jobs = jobs[:limit]
+        last = jobs[-1]
+        next_cursor = encode_cursor(sort, getattr(last, column.key), last.id)
+    return jobs, next_cursor, total
+

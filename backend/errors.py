@@ -1,0 +1,46 @@
+"""The service's own exceptions; the app maps them to HTTP answers."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Collection
+
+from mgrao_core import ConfigError
+from mgrao_core.params import PARAMETERS_BY_NAME
+
+
+class NotFound(Exception):
+    """An id that does not exist (404)."""
+
+
+class Conflict(Exception):
+    """A state change the job's status does not allow (409)."""
+
+
+class BadQuery(Exception):
+    """A query parameter that cannot be used, e.g. a malformed cursor (422)."""
+
+    def __init__(self, field: str, message: str) -> None:
+        super().__init__(f"{field}: {message}")
+        self.field = field
+        self.message = message
+
+
+class InvalidSpec(Exception):
+    """The core refused the submitted configuration (422, in docs/api.md's validation shape)."""
+
+    def __init__(self, loc: list[str | int], field: str, msg: str) -> None:
+        super().__init__(msg)
+        self.loc, self.field, self.msg = loc, field, msg
+
+    @classmethod
+    def from_config_error(cls, error: ConfigError, *, params: Collection[str] = ()) -> InvalidSpec:
+        """Locate a core :class:`ConfigError` in the request body (``params`` are the override names)."""
+        match = re.fullmatch(r"(\w+)\[(\d+)\]", error.field)
+        if match:
+            loc: list[str | int] = ["body", match.group(1), int(match.group(2))]
+        elif error.field in params or error.field in PARAMETERS_BY_NAME:
+            loc = ["body", "params", error.field]
+        else:
+            loc = ["body", error.field]
+        return cls(loc, error.field, str(error))

@@ -1,0 +1,126 @@
+"""``/api/jobs``: submit, list, read, label, cancel, delete; results and episode export."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from typing import Annotated, Literal
+
+from fastapi import APIRouter, Query, Response, status
+from fastapi.responses import JSONResponse, StreamingResponse
+
+from backend import analysis, crud
+from backend.deps import Authorized, DatabaseDep, SessionDep
+from backend.errors import InvalidSpec
+from backend.schemas import JobCreate, JobOut, JobPage, JobPatch, Sort, Status
+from mgrao_core import MAX_EPISODES, ConfigError, make_spec
+
+router = APIRouter(prefix="/api/jobs", tags=["jobs"])
+
+JobId = Annotated[int, Query(ge=1)]
+Points = Annotated[int | None, Query(ge=1, le=MAX_EPISODES, description="Downsample to at most this many points.")]
+
+
+@router.post("", status_code=status.HTTP_202_ACCEPTED, response_model=JobOut, dependencies=[Authorized])
+def submit_job(body: JobCreate, db: DatabaseDep, response: Response) -> dict:
+    """Queue an experiment; answers once the job is committed."""
+    try:
+        spec = make_spec(body.system, body.algorithms, body.seeds, body.episodes, body.params)
+    except ConfigError as error:
+        raise InvalidSpec.from_config_error(error, params=body.params) from None
+    with db.write() as session:
+        job = crud.create_job(session, spec=spec, name=body.name, tags=body.tags, notes=body.notes)
+        session.flush()
+        out = crud.job_dict(job)
+    response.headers["Location"] = f"/api/jobs/{out['id']}"
+    return out
+
+
+@router.get("", response_model=JobPage)
+def list_jobs(
+    session: SessionDep,
+    status: Status | None = None,
+    system: Annotated[str | None, Query(max_length=32)] = None,
+    tag: Annotated[str | None, Query(max_length=50)] = None,
+    q: Annotated[str | None, Query(max_length=200, description="Text in name, notes or tags.")] = None,
+    sort: Sort = "-created_at",
+    limit: Annotated[int, Query(ge=1, le=200)] = 50,
+    cursor: Annotated[str | None, Query(max_length=500)] = None,
+) -> JSONResponse:
+    """Jobs matching the filters, one page at a time (keyset pagination)."""
+    jobs, next_cursor, total = crud.list_jobs(
+        session, status=status, system=system, tag=tag, q=q, sort=sort, limit=limit, cursor=cursor
+    )
+    return JSONResponse({"data": [crud.job_dict(job) for job in jobs], "next_cursor": next_cursor, "count": total})
+
+
+@router.get("/{job_id}", response_model=JobOut)
+def read_job(job_id: int, session: SessionDep) -> dict:
+    """One job."""
+    return crud.job_dict(crud.get_job(session, job_id=job_id))
+
+
+@router.patch("/{job_id}", response_model=JobOut, dependencies=[Authorized])
+def patch_job(job_id: int, body: JobPatch, db: DatabaseDep) -> dict:
+    """Change a job's name, tags or notes."""
+    with db.write() as session:
+        job = crud.update_job(session, job_id=job_id, name=body.name, tags=body.tags, notes=body.notes)
+        session.flush()
+        return crud.job_dict(job)
+
+
+@router.post("/{job_id}/cancel", response_model=JobOut, dependencies=[Authorized])
+def cancel_job(job_id: int, db: DatabaseDep) -> dict:
+    """Cancel a queued or running job (409 otherwise)."""
+    with db.write() as session:
+        job = crud.cancel_job(session, job_id=job_id)
+        session.flush()
+        return crud.job_dict(job)
+
+
+@router.delete("/{job_id}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[Authorized])
+def delete_job(job_id: int, db: DatabaseDep) -> Response:
+    """Delete a job that is not running, with its results (409 if running)."""
+    with db.write() as session:
+        crud.delete_job(session, job_id=job_id)
+    return Response(status_code=status.HTTP_204_NO_CONTENT)
+
+
+@router.get("/{job_id}/results")
+def job_results(job_id: int, session: SessionDep, points: Points = None, include_seeds: bool = False) -> Response:
+    """Per configuration: summary, episode band, mean final weights (and each seed's curve)."""
+    body = analysis.job_results_json(session, job_id=job_id, points=points, include_seeds=include_seeds)
+    return Response(body, media_type="application/json")
+
+
+@router.get("/{job_id}/episodes")
+def job_episodes(job_id: int, db: DatabaseDep, format: Literal["csv", "json"] = "csv") -> StreamingResponse:
+    """Every episode utility of the job, streamed as CSV or JSON."""
+    with db.session() as session:
+        job = crud.get_job(session, job_id=job_id)
+        analysis.require_succeeded(job)
+
+    def csv_lines() -> Iterator[str]:
+        yield "job_id,algorithm,seed,episode,utility\n"
+        with db.session() as session:
+            for algorithm, seed, values in analysis.stored_runs(session, job_id=job_id):
+                prefix = f"{job_id},{algorithm},{seed},"
+                yield "".join(f"{prefix}{episode},{utility!r}\n" for episode, utility in enumerate(values))
+
+    def json_lines() -> Iterator[str]:
+        yield "["
+        separator = ""
+        with db.session() as session:
+            for algorithm, seed, values in analysis.stored_runs(session, job_id=job_id):
+                head = json.dumps({"job_id": job_id, "algorithm": algorithm, "seed": seed})[:-1]
+                yield separator + ",".join(
+                    f'{head}, "episode": {episode}, "utility": {utility!r}}}' for episode, utility in enumerate(values)
+                )
+                separator = ","
+        yield "]\n"
+
+    media = "text/csv" if format == "csv" else "application/json"
+    return StreamingResponse(
+        csv_lines() if format == "csv" else json_lines(), media_type=media,
+        headers={"Content-Disposition": f'attachment; filename="job-{job_id}-episodes.{format}"'},
+    )

@@ -1,0 +1,26 @@
+"""``/api/systems``: presets, the parameter schema, algorithms and limits."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter
+
+from backend.deps import SettingsDep
+from mgrao_core import MAX_ALGORITHMS, MAX_EPISODES, MAX_SEEDS, MAX_WORK, PARAMETERS, PRESETS
+
+router = APIRouter(prefix="/api", tags=["systems"])
+
+
+@router.get("/systems")
+def systems(settings: SettingsDep) -> dict:
+    """What can be submitted: systems, parameters, algorithm labels and limits."""
+    return {
+        "systems": [
+            {"name": p.name, "description": p.description, "params": p.params.as_dict(),
+             "algorithms": list(p.algorithms), "paper": dict(p.paper_pct_from_uniform)}
+            for p in PRESETS.values()
+        ],
+        "parameters": [p.as_dict() for p in PARAMETERS],
+        "algorithms": {"fixed": ["uniform", "mgrao-1:1", "mgrao-max", "oracle"], "pattern": "mgrao-<x>:1"},
+        "limits": {"max_seeds": MAX_SEEDS, "max_episodes": MAX_EPISODES, "max_algorithms": MAX_ALGORITHMS,
+                   "max_work": MAX_WORK, "max_body_bytes": settings.max_body_bytes},
+    }

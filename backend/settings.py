@@ -1,0 +1,32 @@
+"""Service settings, read from ``MGRAO_*`` environment variables (pydantic-settings)."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+from pydantic import Field
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+
+class Settings(BaseSettings):
+    """Everything the API and the workers can be configured with."""
+
+    model_config = SettingsConfigDict(env_prefix="MGRAO_", extra="ignore")
+
+    database_url: str = "sqlite:///./mgrao.db"
+    workers: int = Field(1, ge=0, le=64, description="Local worker processes started by `mgrao serve`.")
+    api_token: str | None = Field(None, description="Bearer token for mutating routes; unset = auth off.")
+    stale_after_s: float = Field(60.0, gt=0, description="Heartbeat age after which a running job is re-queued.")
+    heartbeat_s: float = Field(5.0, gt=0, description="Seconds between a worker's heartbeats.")
+    progress_s: float = Field(1.0, gt=0, description="Smallest interval between progress writes.")
+    poll_s: float = Field(0.25, gt=0, description="Idle worker's polling interval for new jobs.")
+    max_attempts: int = Field(3, ge=1, le=100, description="Claims of a job before a lost worker fails it.")
+    max_body_bytes: int = Field(65536, ge=1024, description="Largest accepted request body (413 beyond).")
+    host: str = "127.0.0.1"
+    port: int = Field(8000, ge=0, le=65535)
+
+
+@lru_cache
+def get_settings() -> Settings:
+    """The settings of this process (read once from the environment)."""
+    return Settings()

@@ -1,0 +1,125 @@
+"""Helpers of the backend tests: real server and worker processes, and small utilities."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import httpx
+
+from backend.worker import Worker
+
+TOKEN = "s3cret-token"
+
+
+
+
+
+
+
+
+
+
+
+
+
+
+def drain(worker: Worker) -> int:
+    """Run queued jobs until the queue is empty; the number run."""
+    count = 0
+    while worker.run_once():
+        count += 1
+    return count
+
+
+# ---- real processes --------------------------------------------------------------------------
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class Service:
+    """`mgrao serve` and `mgrao worker` processes on one database; stops what it starts."""
+
+    def __init__(self, tmp_path: Path) -> None:
+        self.tmp_path = tmp_path
+        self.db_url = f"sqlite:///{tmp_path / 'service.db'}"
+        self.port = free_port()
+        self.base = f"http://127.0.0.1:{self.port}"
+        self.server: subprocess.Popen | None = None
+        self.workers: list[subprocess.Popen] = []
+        self.env = dict(os.environ, MGRAO_DATABASE_URL=self.db_url, MGRAO_STALE_AFTER_S="2",
+                        MGRAO_HEARTBEAT_S="0.2", MGRAO_PROGRESS_S="0.1", MGRAO_POLL_S="0.05",
+                        NUMBA_NUM_THREADS="1")
+        self.env.pop("MGRAO_API_TOKEN", None)
+        self._logs: list = []
+
+    def _spawn(self, *args: str) -> subprocess.Popen:
+        log = open(self.tmp_path / f"proc-{len(self._logs)}.log", "wb")  # noqa: SIM115
+        self._logs.append(log)
+        code = "import sys; from mgrao_cli.main import cli; sys.exit(cli())"
+        return subprocess.Popen([sys.executable, "-c", code, *args], env=self.env, stdout=log, stderr=log)
+
+    def start_server(self, workers: int = 0) -> None:
+        self.server = self._spawn("serve", "--host", "127.0.0.1", "--port", str(self.port),
+                                  "--workers", str(workers), "--database-url", self.db_url)
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            assert self.server.poll() is None, self.logs()
+            try:
+                if httpx.get(f"{self.base}/api/health", timeout=1).status_code == 200:
+                    return
+            except httpx.HTTPError:
+                pass
+            time.sleep(0.1)
+        raise AssertionError("server did not start\n" + self.logs())
+
+    def start_worker(self) -> subprocess.Popen:
+        process = self._spawn("worker", "--database-url", self.db_url)
+        self.workers.append(process)
+        return process
+
+    def kill_server(self) -> None:
+        assert self.server is not None
+        self.server.send_signal(signal.SIGKILL)
+        self.server.wait()
+
+    def stop(self) -> None:
+        for process in [*self.workers, *([self.server] if self.server else [])]:
+            if process.poll() is None:
+                process.send_signal(signal.SIGTERM)
+        for process in [*self.workers, *([self.server] if self.server else [])]:
+            try:
+                process.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait()
+        for log in self._logs:
+            log.close()
+
+    def logs(self) -> str:
+        return "\n".join(p.read_text(errors="replace")[-3000:] for p in sorted(self.tmp_path.glob("proc-*.log")))
+
+    def get(self, path: str, **kwargs: object) -> httpx.Response:
+        return httpx.get(self.base + path, timeout=30, **kwargs)
+
+    def post(self, path: str, **kwargs: object) -> httpx.Response:
+        return httpx.post(self.base + path, timeout=30, **kwargs)
+
+    def wait_for(self, predicate: Callable[[], bool], timeout: float = 90, what: str = "condition") -> None:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if predicate():
+                return
+            time.sleep(0.1)
+        raise AssertionError(f"timed out waiting for {what}\n" + self.logs())
+

@@ -1,0 +1,60 @@
+"""Fixtures: a real SQLite file per test, the app in-process, and real server/worker processes."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from backend_helpers import TOKEN, Service
+from fastapi.testclient import TestClient
+
+from backend.app import create_app
+from backend.db import Database
+from backend.settings import Settings
+from backend.worker import Worker
+
+
+@pytest.fixture
+def db_url(tmp_path: Path) -> str:
+    return f"sqlite:///{tmp_path / 'mgrao.db'}"
+
+
+@pytest.fixture
+def settings(db_url: str) -> Settings:
+    return Settings(database_url=db_url, stale_after_s=2, heartbeat_s=0.2, progress_s=0.1, poll_s=0.05)
+
+
+@pytest.fixture
+def client(settings: Settings) -> Iterator[TestClient]:
+    with TestClient(create_app(settings)) as test_client:
+        yield test_client
+
+
+@pytest.fixture
+def auth_client(settings: Settings) -> Iterator[TestClient]:
+    with TestClient(create_app(settings.model_copy(update={"api_token": TOKEN}))) as test_client:
+        yield test_client
+
+
+@pytest.fixture
+def worker(settings: Settings) -> Iterator[Worker]:
+    """A real worker, driven in-process with ``run_once``."""
+    w = Worker(settings, worker_id="test-worker")
+    yield w
+    w.db.dispose()
+
+
+@pytest.fixture
+def db(settings: Settings) -> Iterator[Database]:
+    database = Database(settings.database_url)
+    database.migrate()
+    yield database
+    database.dispose()
+
+
+@pytest.fixture
+def service(tmp_path: Path) -> Iterator[Service]:
+    svc = Service(tmp_path)
+    yield svc
+    svc.stop()
