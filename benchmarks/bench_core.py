@@ -48,8 +48,7 @@ _POINT = textwrap.dedent(
 
 def measure(**args) -> dict:
     """Run one point in a fresh interpreter; returns wall seconds, atomic tasks and peak MiB."""
-    out = subprocess.run([sys.executable, "-c", _POINT, json.dumps(args)], capture_output=True, text=True,
-                         check=True)
+    out = subprocess.run([sys.executable, "-c", _POINT, json.dumps(args)], capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
@@ -81,36 +80,64 @@ def main() -> None:
 
     print("Paper reproduction: 4 systems, the paper's algorithms, 30 seeds x 100 episodes")
     best = min((measure(what="reproduce", seeds=30, episodes=100) for _ in range(3)), key=lambda p: p["wall"])
-    print(f"  wall {best['wall']:.3f} s, {best['work']:,} atomic tasks, "
-          f"{best['work'] / best['wall']:.3g} tasks/s, peak {best['peak_mib']:.0f} MiB")
+    print(
+        f"  wall {best['wall']:.3f} s, {best['work']:,} atomic tasks, "
+        f"{best['work'] / best['wall']:.3g} tasks/s, peak {best['peak_mib']:.0f} MiB"
+    )
     ref = measure(what="reference", system="single", seeds=2, episodes=100)
     per_task = ref["wall"] / ref["work"]
-    print(f"  dense per-agent reference (mgrao_core.reference) on single, 2 seeds: {ref['work'] / ref['wall']:.3g} "
-          f"tasks/s; at that rate the reproduction would take about {per_task * best['work']:.0f} s")
+    print(
+        f"  dense per-agent reference (mgrao_core.reference) on single, 2 seeds: {ref['work'] / ref['wall']:.3g} "
+        f"tasks/s; at that rate the reproduction would take about {per_task * best['work']:.0f} s"
+    )
 
     def custom(parents: int, algorithms: list[str], seeds: int, episodes: int) -> dict:
-        return {"what": "run", "system": "single", "algorithms": algorithms, "seeds": seeds, "episodes": episodes,
-                "set": {"n_parents": parents, "n_composite_types": min(parents, 1000)}}
+        return {
+            "what": "run",
+            "system": "single",
+            "algorithms": algorithms,
+            "seeds": seeds,
+            "episodes": episodes,
+            "set": {"n_parents": parents, "n_composite_types": min(parents, 1000)},
+        }
 
     top = 300 if quick else 1000
     parents = [10, 30, 100, 300] + ([] if quick else [1000])
-    sweep("Parents, mgrao-1:1 (one group), 4 seeds x 100 episodes", "parents", parents,
-          lambda p: custom(p, ["mgrao-1:1"], 4, 100),
-          "expected 1: each value updates one row")
-    sweep("Parents, mgrao-max (a group per parent), 4 seeds x 100 episodes", "parents", parents,
-          lambda p: custom(p, ["mgrao-max"], 4, 100),
-          "expected 2: P*5 values per episode, each renormalising all P rows with a positive trace")
-    sweep(f"Groups at {top} parents, mgrao-x:1, 4 seeds x 100 episodes", "groups",
-          [1, 10, 100] + ([] if quick else [1000]),
-          lambda m: custom(top, [f"mgrao-{m}:1"], 4, 100),
-          "expected up to 1: O(groups) per value on top of O(1) per task")
-    sweep("Episodes, single system, uniform + 1:1 + max, 4 seeds", "episodes",
-          [100, 1000] + ([] if quick else [10000]),
-          lambda e: {"what": "run", "system": "single", "algorithms": None, "seeds": 4, "episodes": e, "set": {}},
-          "expected 1: constant work per episode")
-    sweep("Seeds, single system, uniform + 1:1 + max, 100 episodes", "seeds", [4, 16, 64] + ([] if quick else [256]),
-          lambda s: {"what": "run", "system": "single", "algorithms": None, "seeds": s, "episodes": 100, "set": {}},
-          "expected 1 (below 1 until both cores are busy)")
+    sweep(
+        "Parents, mgrao-1:1 (one group), 4 seeds x 100 episodes",
+        "parents",
+        parents,
+        lambda p: custom(p, ["mgrao-1:1"], 4, 100),
+        "expected 1: each value updates one row",
+    )
+    sweep(
+        "Parents, mgrao-max (a group per parent), 4 seeds x 100 episodes",
+        "parents",
+        parents,
+        lambda p: custom(p, ["mgrao-max"], 4, 100),
+        "expected 2: P*5 values per episode, each renormalising all P rows with a positive trace",
+    )
+    sweep(
+        f"Groups at {top} parents, mgrao-x:1, 4 seeds x 100 episodes",
+        "groups",
+        [1, 10, 100] + ([] if quick else [1000]),
+        lambda m: custom(top, [f"mgrao-{m}:1"], 4, 100),
+        "expected up to 1: O(groups) per value on top of O(1) per task",
+    )
+    sweep(
+        "Episodes, single system, uniform + 1:1 + max, 4 seeds",
+        "episodes",
+        [100, 1000] + ([] if quick else [10000]),
+        lambda e: {"what": "run", "system": "single", "algorithms": None, "seeds": 4, "episodes": e, "set": {}},
+        "expected 1: constant work per episode",
+    )
+    sweep(
+        "Seeds, single system, uniform + 1:1 + max, 100 episodes",
+        "seeds",
+        [4, 16, 64] + ([] if quick else [256]),
+        lambda s: {"what": "run", "system": "single", "algorithms": None, "seeds": s, "episodes": 100, "set": {}},
+        "expected 1 (below 1 until both cores are busy)",
+    )
 
 
 if __name__ == "__main__":

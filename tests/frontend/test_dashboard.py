@@ -10,6 +10,7 @@ import urllib.request
 from urllib.parse import urlparse
 
 import pytest
+from playwright.sync_api import expect
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
@@ -64,7 +65,7 @@ def test_submit_job_progress_chart_table_csv(page, server, screenshots):
     page.goto("/#/new")
     page.get_by_label("System preset").select_option("single")
     page.get_by_label("Seeds (number of runs)").fill("3")
-    page.get_by_label("Episodes per run").fill("30")
+    page.get_by_label("Episodes per run").fill("100")
     page.get_by_label("Name").fill("browser test job")
     page.get_by_label("Tags").fill("browser, e2e")
     page.screenshot(path=str(screenshots / "new-experiment.png"), full_page=True)
@@ -86,7 +87,7 @@ def test_submit_job_progress_chart_table_csv(page, server, screenshots):
     bands = [t for t in data if t["kind"] == "band"]
     assert sorted(t["config"] for t in means) == sorted(algorithms)
     assert sorted(t["config"] for t in bands) == sorted(algorithms)
-    assert all(t["n"] == 30 for t in means) and all(t["n"] == 60 and t["fill"] == "toself" for t in bands)
+    assert all(t["n"] == 100 for t in means) and all(t["n"] == 200 and t["fill"] == "toself" for t in bands)
 
     # Smoothing keeps one line and one band per configuration; seeds on demand add 3 per configuration.
     stamp = page.eval_on_selector("#utility-chart", "el => el.dataset.rendered")
@@ -120,7 +121,7 @@ def test_submit_job_progress_chart_table_csv(page, server, screenshots):
     path = info.value.path()
     lines = [ln for ln in open(path, encoding="utf-8").read().splitlines() if ln.strip()]
     assert lines[0] == "job_id,algorithm,seed,episode,utility"
-    assert len(lines) == len(algorithms) * 3 * 30 + 1
+    assert len(lines) == len(algorithms) * 3 * 100 + 1
     assert_local(page, server)
 
 
@@ -313,7 +314,7 @@ def test_unknown_job_and_keyboard_nav(page, server):
     page.get_by_role("link", name="New experiment").first.focus()
     page.keyboard.press("Enter")
     page.wait_for_url(re.compile("#/new"))
-    assert page.get_by_role("heading", name="New experiment").is_visible()
+    expect(page.get_by_role("heading", name="New experiment")).to_be_visible()
     # Every form control has an accessible label.
     unlabelled = page.evaluate(
         """() => [...document.querySelectorAll('input, select, textarea')]
