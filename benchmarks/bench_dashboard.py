@@ -16,7 +16,6 @@ import argparse
 import json
 import os
 import random
-import socket
 import statistics
 import subprocess
 import sys
@@ -27,14 +26,11 @@ from datetime import timedelta
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))  # run as a script: find tests.support and the project's packages
+from tests.support.local_service import free_port, serve_command, stop, wait_healthy  # noqa: E402
+
 CHROMIUM = os.environ.get("MGRAO_CHROMIUM", "/usr/bin/chromium")
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"]
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def call(base: str, method: str, path: str, body: dict | None = None, timeout: float = 120):
@@ -48,7 +44,6 @@ def call(base: str, method: str, path: str, body: dict | None = None, timeout: f
 
 def insert_jobs(url: str, n: int) -> float:
     """Insert n finished jobs (no runs) through the backend's models; returns seconds taken."""
-    sys.path.insert(0, str(ROOT))
     import mgrao_core
     from backend import crud
     from backend.db import Database
@@ -99,19 +94,6 @@ def insert_jobs(url: str, n: int) -> float:
     return time.perf_counter() - t0
 
 
-def wait_health(base: str, proc: subprocess.Popen, timeout: float = 60) -> None:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if proc.poll() is not None:
-            raise SystemExit(f"mgrao serve exited with {proc.returncode}")
-        try:
-            call(base, "GET", "/health", timeout=2)
-            return
-        except OSError:
-            time.sleep(0.25)
-    raise SystemExit("mgrao serve did not become healthy")
-
-
 def median(xs: list[float]) -> float:
     return statistics.median(xs) if xs else float("nan")
 
@@ -139,27 +121,12 @@ def main() -> None:
     base = f"http://127.0.0.1:{port}"
     env = {**os.environ, "MGRAO_DATABASE_URL": url}
     env.pop("MGRAO_API_TOKEN", None)
-    log = open(tmp / "serve.log", "wb")  # noqa: SIM115
-    proc = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "mgrao_cli.main",
-            "serve",
-            "--host",
-            "127.0.0.1",
-            "--port",
-            str(port),
-            "--workers",
-            str(args.workers),
-        ],
-        env=env,
-        cwd=ROOT,
-        stdout=log,
-        stderr=subprocess.STDOUT,
-    )
+    with open(tmp / "serve.log", "wb") as log:
+        proc = subprocess.Popen(
+            serve_command(port, args.workers), env=env, cwd=ROOT, stdout=log, stderr=subprocess.STDOUT
+        )
     try:
-        wait_health(base, proc)
+        wait_healthy(base, proc)
         # Real compare data: the large preset, 7 configurations, distinct seeds per job.
         t0 = time.perf_counter()
         ids = []
@@ -282,12 +249,7 @@ def main() -> None:
             f"{'MET' if ok_cmp else 'MISSED'}, in-app {'MET' if ok_warm else 'MISSED'}"
         )
     finally:
-        proc.terminate()
-        try:
-            proc.wait(timeout=15)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-        log.close()
+        stop(proc, timeout=15)
         print(f"(server log and database in {tmp})")
 
 

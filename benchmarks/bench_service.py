@@ -8,8 +8,6 @@ Starts real ``mgrao serve`` processes on 127.0.0.1 against a scratch SQLite file
 from __future__ import annotations
 
 import os
-import signal
-import socket
 import statistics
 import subprocess
 import sys
@@ -25,43 +23,23 @@ from backend.db import Database
 from backend.models import CANCELLED, SUCCEEDED, Job
 from mgrao_core import make_spec, run_experiment
 
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run as a script: find tests.support
+from tests.support.local_service import free_port, serve_command, stop, wait_healthy  # noqa: E402
 
 
 class Server:
     def __init__(self, db_url: str, workers: int, log: Path) -> None:
         self.port = free_port()
         self.base = f"http://127.0.0.1:{self.port}"
-        code = "import sys; from mgrao_cli.main import cli; sys.exit(cli())"
         self.log = open(log, "ab")  # noqa: SIM115
         self.process = subprocess.Popen(
-            [
-                sys.executable,
-                "-c",
-                code,
-                "serve",
-                "--port",
-                str(self.port),
-                "--workers",
-                str(workers),
-                "--database-url",
-                db_url,
-            ],
+            serve_command(self.port, workers, db_url),
             stdout=self.log,
             stderr=self.log,
             env=dict(os.environ, MGRAO_POLL_S="0.02", MGRAO_PROGRESS_S="0.5"),
         )
+        wait_healthy(self.base, self.process)
         self.client = httpx.Client(base_url=self.base, timeout=60)
-        while True:
-            try:
-                if self.client.get("/api/health").status_code == 200:
-                    break
-            except httpx.HTTPError:
-                time.sleep(0.1)
         time.sleep(2.0)  # let the workers warm up before timing anything
 
     def wait(self, job_id: int, poll: float = 0.05) -> dict:
@@ -73,8 +51,7 @@ class Server:
 
     def stop(self) -> None:
         self.client.close()
-        self.process.send_signal(signal.SIGTERM)
-        self.process.wait(timeout=120)
+        stop(self.process, timeout=120)
         self.log.close()
 
 

@@ -4,9 +4,7 @@ from __future__ import annotations
 
 import os
 import signal
-import socket
 import subprocess
-import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -14,20 +12,9 @@ from pathlib import Path
 import httpx
 
 from backend.worker import Worker
+from tests.support.local_service import free_port, mgrao_command, serve_command, wait_healthy
 
 TOKEN = "s3cret-token"
-
-
-
-
-
-
-
-
-
-
-
-
 
 
 def drain(worker: Worker) -> int:
@@ -39,12 +26,6 @@ def drain(worker: Worker) -> int:
 
 
 # ---- real processes --------------------------------------------------------------------------
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 class Service:
@@ -63,28 +44,20 @@ class Service:
         self.env.pop("MGRAO_API_TOKEN", None)
         self._logs: list = []
 
-    def _spawn(self, *args: str) -> subprocess.Popen:
+    def _spawn(self, argv: list[str]) -> subprocess.Popen:
         log = open(self.tmp_path / f"proc-{len(self._logs)}.log", "wb")  # noqa: SIM115
         self._logs.append(log)
-        code = "import sys; from mgrao_cli.main import cli; sys.exit(cli())"
-        return subprocess.Popen([sys.executable, "-c", code, *args], env=self.env, stdout=log, stderr=log)
+        return subprocess.Popen(argv, env=self.env, stdout=log, stderr=log)
 
     def start_server(self, workers: int = 0) -> None:
-        self.server = self._spawn("serve", "--host", "127.0.0.1", "--port", str(self.port),
-                                  "--workers", str(workers), "--database-url", self.db_url)
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline:
-            assert self.server.poll() is None, self.logs()
-            try:
-                if httpx.get(f"{self.base}/api/health", timeout=1).status_code == 200:
-                    return
-            except httpx.HTTPError:
-                pass
-            time.sleep(0.1)
-        raise AssertionError("server did not start\n" + self.logs())
+        self.server = self._spawn(serve_command(self.port, workers, self.db_url))
+        try:
+            wait_healthy(self.base, self.server)
+        except RuntimeError as error:
+            raise AssertionError(f"server did not start: {error}\n{self.logs()}") from None
 
     def start_worker(self) -> subprocess.Popen:
-        process = self._spawn("worker", "--database-url", self.db_url)
+        process = self._spawn(mgrao_command("worker", "--database-url", self.db_url))
         self.workers.append(process)
         return process
 

@@ -3,75 +3,18 @@
 from __future__ import annotations
 
 import os
-import socket
 import subprocess
-import sys
-import time
-import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
+from tests.support.local_service import free_port, serve_command, stop, wait_healthy
+
 ROOT = Path(__file__).resolve().parents[2]
 CHROMIUM = os.environ.get("MGRAO_CHROMIUM", "/usr/bin/chromium")
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"]
 SCREENSHOTS = ROOT / "test-output" / "screenshots"
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def wait_healthy(base: str, proc: subprocess.Popen | None, timeout: float = 60.0) -> None:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if proc is not None and proc.poll() is not None:
-            raise RuntimeError(f"mgrao serve exited with {proc.returncode}")
-        try:
-            with urllib.request.urlopen(f"{base}/api/health", timeout=2) as r:
-                if r.status == 200:
-                    return
-        except OSError:
-            pass
-        time.sleep(0.25)
-    raise RuntimeError(f"{base}/api/health did not answer within {timeout} s")
-
-
-def start_server(db_path: Path, port: int, log_path: Path, workers: int = 2) -> subprocess.Popen:
-    env = {**os.environ, "MGRAO_DATABASE_URL": f"sqlite:///{db_path}"}
-    env.pop("MGRAO_API_TOKEN", None)
-    log = open(log_path, "wb")  # noqa: SIM115 - closed with the process
-    return subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "mgrao_cli.main",
-            "serve",
-            "--host",
-            "127.0.0.1",
-            "--port",
-            str(port),
-            "--workers",
-            str(workers),
-        ],
-        env=env,
-        cwd=ROOT,
-        stdout=log,
-        stderr=subprocess.STDOUT,
-    )
-
-
-def stop_server(proc: subprocess.Popen) -> None:
-    if proc.poll() is None:
-        proc.terminate()
-        try:
-            proc.wait(timeout=15)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(timeout=5)
 
 
 @pytest.fixture(scope="session")
@@ -84,16 +27,19 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
         return
     tmp = tmp_path_factory.mktemp("dashboard")
     port = free_port()
-    proc = start_server(tmp / "t.db", port, tmp / "serve.log")
+    env = {**os.environ, "MGRAO_DATABASE_URL": f"sqlite:///{tmp / 't.db'}"}
+    env.pop("MGRAO_API_TOKEN", None)
+    with open(tmp / "serve.log", "wb") as log:
+        proc = subprocess.Popen(serve_command(port, workers=2), env=env, cwd=ROOT, stdout=log, stderr=subprocess.STDOUT)
     base = f"http://127.0.0.1:{port}"
     try:
         wait_healthy(base, proc)
     except RuntimeError as e:
-        stop_server(proc)
-        log = (tmp / "serve.log").read_text(errors="replace")[-3000:]
-        pytest.fail(f"could not start mgrao serve: {e}\n{log}")
+        stop(proc)
+        log_tail = (tmp / "serve.log").read_text(errors="replace")[-3000:]
+        pytest.fail(f"could not start mgrao serve: {e}\n{log_tail}")
     yield base
-    stop_server(proc)
+    stop(proc, timeout=15)
 
 
 @pytest.fixture(scope="session")
