@@ -6,7 +6,13 @@ These are the reference definitions: readable, dense and per child. The batched 
 
 from __future__ import annotations
 
+import math
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from mgrao_core.params import SystemParams
 
 
 def sumnorm(x: np.ndarray, axis: int = -1) -> np.ndarray:
@@ -62,23 +68,68 @@ def combined_weights(weights: np.ndarray, counts: np.ndarray, temperature: float
     return softmax(sumnorm(blend_vector(weights, counts)) @ weights, temperature)
 
 
-def atomic_quality(share: np.ndarray, n_types: int, quality_at_uniform: float, floor: float) -> np.ndarray:
-    """Atomic task quality from the share ``w[tp]`` of the child's resource given to the type.
+def resource_amount(weight: np.ndarray, resource: float, load: np.ndarray | float = 1.0) -> np.ndarray:
+    """Agent resource allocation ``x = w[tp] * ar[c]`` (paper definition), per instance of the type.
 
-    ``q = min(1, quality_at_uniform * x / (ar / n_types))`` with ``x = w[tp] * ar`` simplifies to
-    ``min(1, quality_at_uniform * n_types * w[tp])``, kept above ``floor`` so that q is in (0, 1].
+    ``load`` is the number of instances of the type the child receives in the episode when
+    ``load_sharing`` is on (the resource is shared among them), 1 otherwise.
     """
-    return np.clip(quality_at_uniform * n_types * np.asarray(share, dtype=float), floor, 1.0)
+    return np.asarray(weight, dtype=float) * resource / load
+
+
+def hyperbolic_quality(x: np.ndarray, half_saturation: float) -> np.ndarray:
+    """``q = x / (x + h)``: 0 without resource, 1/2 at ``x = h``, saturating towards 1."""
+    return x / (x + half_saturation)
+
+
+def exponential_quality(x: np.ndarray, half_saturation: float) -> np.ndarray:
+    """``q = 1 - exp(-x / h)`` (computed as ``-expm1(-x / h)``)."""
+    return -np.expm1(-x / half_saturation)
+
+
+def relative_linear_quality(weight: np.ndarray, n_types: int, quality_at_uniform: float,
+                            load: np.ndarray | float = 1.0) -> np.ndarray:
+    """``q = min(1, quality_at_uniform * x / (ar / n_types))``: the first reading.
+
+    That is ``quality_at_uniform * n_types * w[tp]`` capped at 1: the child's own resource ``ar``
+    cancels out.
+    """
+    return np.minimum(1.0, quality_at_uniform * n_types * (np.asarray(weight, dtype=float) / load))
+
+
+def atomic_quality(weight: np.ndarray, resource: float, params: SystemParams,
+                   load: np.ndarray | float = 1.0) -> np.ndarray:
+    """Atomic task quality under ``params.quality_model``, kept in ``[quality_floor, 1]``.
+
+    Args:
+        weight: ``w[tp]``, the share of the child's resource given to each task's type.
+        resource: ``ar[c]``, the child's resource amount.
+        params: the quality model, ``half_saturation``, ``quality_at_uniform`` and ``quality_floor``.
+        load: instances of each task's type the child receives this episode (load sharing), or 1.
+    """
+    if params.quality_model == "relative-linear":
+        quality = relative_linear_quality(weight, params.n_types, params.quality_at_uniform, load)
+    else:
+        x = resource_amount(weight, resource, load)
+        if params.quality_model == "hyperbolic":
+            quality = hyperbolic_quality(x, params.half_saturation)
+        else:
+            quality = exponential_quality(x, params.half_saturation)
+    return np.clip(quality, params.quality_floor, 1.0)
 
 
 def proportional_values(profile: np.ndarray, noise: np.ndarray, value_noise: float) -> np.ndarray:
-    """Component tasks proportional values ``ctv = sumnorm(profile * exp(value_noise * N))``."""
-    return sumnorm(profile * np.exp(value_noise * noise))
+    """Component tasks proportional values ``ctv = sumnorm(profile * exp(value_noise * N))``.
+
+    Summed left to right (as the engine does), so that both give the same bits.
+    """
+    raw = np.asarray(profile, dtype=float) * np.array([math.exp(value_noise * z) for z in np.ravel(noise)])
+    return raw / sum(raw.tolist())
 
 
 def composite_quality(ctv: np.ndarray, quality: np.ndarray) -> float:
-    """Composite task quality ``taq = sum(ctv * q)``."""
-    return float(np.dot(ctv, quality))
+    """Composite task quality ``taq = sum(ctv * q)``, summed left to right."""
+    return float(sum((np.asarray(ctv) * np.asarray(quality)).tolist()))
 
 
 def absolute_values(ctv: np.ndarray, taq: float) -> np.ndarray:

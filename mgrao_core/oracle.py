@@ -1,13 +1,22 @@
 """The ``oracle`` baseline: the best fixed allocation given the true expected values.
 
-With ``q = min(1, quality_at_uniform * n_types * w[t])`` the expected utility of a fixed
-allocation ``w`` is ``sum_t V[t] * q(w[t])``, where ``V[t]`` is the expected proportional value
-that type ``t`` carries over all composite tasks of an episode. That is a fractional knapsack:
-fill the types in decreasing ``V[t]`` up to the share that gives quality 1, until the resource is
-spent. No fixed allocation does better, so in a system whose task stream is stationary (single,
-large) it bounds every algorithm from above in expectation. In the multi-child system it is the
-best allocation *common to all children*, which specialising learners can beat; under volatility
-with ``rejoin_profile="new"`` it knows only the initial profiles.
+A fixed allocation ``w`` of a child with resource ``ar`` earns, in expectation per episode,
+``sum_t V[t] * q(w[t])``, where ``V[t]`` is the expected proportional value that type ``t``
+carries over all composite tasks of an episode and ``q`` is the quality model (with load
+sharing, the type's resource is shared among its ``L[t]`` instances). The oracle maximises that
+sum over allocations (``w >= 0``, ``sum w = 1``):
+
+* ``relative-linear``: ``q`` is linear up to its cap, so this is a fractional knapsack: fill the
+  types in decreasing value per unit of weight up to the share that gives quality 1.
+* ``hyperbolic`` and ``exponential``: ``q`` is concave, so the optimum equalises the marginal
+  value ``V[t] * dq/dw`` of every type that gets resource (water-filling); the level is found by
+  bisection.
+
+No fixed allocation does better, so in a system whose task stream is stationary (single, large)
+it bounds every algorithm from above in expectation. With several children each child gets the
+best allocation for its own resource were it to receive every task (the parents' routing is not
+known in advance), which specialising learners can beat; under volatility the oracle knows the
+full system's task stream and, with ``rejoin_profile="new"``, only the initial profiles.
 """
 
 from __future__ import annotations
@@ -18,6 +27,7 @@ from mgrao_core.params import SystemParams
 from mgrao_core.world import World, stream
 
 EXPECTATION_SAMPLES = 1024
+_BISECTIONS = 200
 
 
 def expected_type_values(params: SystemParams, world: World, seed: int) -> np.ndarray:
@@ -40,17 +50,64 @@ def expected_type_values(params: SystemParams, world: World, seed: int) -> np.nd
     return values
 
 
-def oracle_weights(params: SystemParams, world: World, seed: int) -> np.ndarray:
-    """The optimal fixed resource weights ``w`` (summing to 1) for the seed's world."""
-    values = expected_type_values(params, world, seed)
-    full_quality_share = 1.0 / (params.quality_at_uniform * params.n_types)
+def type_loads(params: SystemParams, world: World) -> np.ndarray:
+    """``L[t]``: instances of type ``t`` per episode in the full system (1 without load sharing)."""
+    if not params.load_sharing:
+        return np.ones(params.n_types)
+    loads = np.bincount(world.parent_types.ravel(), minlength=params.n_types).astype(float)
+    return np.maximum(loads, 1.0)
+
+
+def _knapsack(params: SystemParams, values: np.ndarray, loads: np.ndarray) -> np.ndarray:
+    """relative-linear: fill types by value per unit weight up to their full-quality share."""
+    full_quality_share = loads / (params.quality_at_uniform * params.n_types)
     weights = np.zeros(params.n_types)
     budget = 1.0
-    for t in np.argsort(-values, kind="stable"):
+    for t in np.argsort(-(values / loads), kind="stable"):
         if budget <= 0 or values[t] <= 0:
             break
-        weights[t] = min(full_quality_share, budget)
+        weights[t] = min(full_quality_share[t], budget)
         budget -= weights[t]
     if budget > 0:  # every valued type is at quality 1: spread what is left evenly
         weights += budget / params.n_types
     return weights
+
+
+def _weights_at_level(params: SystemParams, values: np.ndarray, per_weight: np.ndarray, level: float) -> np.ndarray:
+    """The weight of each type whose marginal value ``V * dq/dw`` equals ``level`` (0 if below)."""
+    h = params.half_saturation
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if params.quality_model == "hyperbolic":  # V a h / (a w + h)^2 = level
+            w = (np.sqrt(values * per_weight * h / level) - h) / per_weight
+        else:  # V a / h * exp(-a w / h) = level
+            w = h / per_weight * np.log(values * per_weight / (h * level))
+    return np.where(values > 0, np.maximum(w, 0.0), 0.0)
+
+
+def _water_filling(params: SystemParams, values: np.ndarray, per_weight: np.ndarray) -> np.ndarray:
+    """hyperbolic, exponential: the allocation that equalises the marginal values (bisection)."""
+    if not (values > 0).any():
+        return np.full(params.n_types, 1.0 / params.n_types)
+    high = float(np.max(values * per_weight) / params.half_saturation)  # the largest marginal value at w = 0
+    low = high
+    while _weights_at_level(params, values, per_weight, low).sum() < 1.0:
+        low /= 2.0
+    for _ in range(_BISECTIONS):
+        middle = np.sqrt(low * high)
+        if _weights_at_level(params, values, per_weight, middle).sum() >= 1.0:
+            low = middle
+        else:
+            high = middle
+        if high - low <= 1e-15 * high:
+            break
+    weights = _weights_at_level(params, values, per_weight, low)
+    return weights / weights.sum()
+
+
+def oracle_weights(params: SystemParams, world: World, seed: int) -> np.ndarray:
+    """The optimal fixed resource weights, ``(n_children, n_types)``, each row summing to 1."""
+    values = expected_type_values(params, world, seed)
+    loads = type_loads(params, world)
+    if params.quality_model == "relative-linear":  # the child's resource cancels out
+        return np.tile(_knapsack(params, values, loads), (params.n_children, 1))
+    return np.stack([_water_filling(params, values, resource / loads) for resource in world.resources])

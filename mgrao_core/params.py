@@ -15,6 +15,10 @@ from typing import Any
 
 from mgrao_core.errors import ConfigError
 
+QUALITY_MODELS = ("hyperbolic", "exponential", "relative-linear")
+ROUTINGS = ("per-composite", "per-task")
+ABSENT_TASKS = ("excluded", "counted")
+
 
 @dataclass(frozen=True)
 class Parameter:
@@ -22,7 +26,7 @@ class Parameter:
 
     Attributes:
         name: field name in :class:`SystemParams`.
-        kind: ``"int"``, ``"float"`` or ``"choice"``.
+        kind: ``"int"``, ``"float"``, ``"bool"`` or ``"choice"``.
         default: the SIMULATION.md default (``None`` only where ``nullable``).
         minimum: smallest allowed value (numbers only).
         maximum: largest allowed value (numbers only).
@@ -62,7 +66,7 @@ PARAMETERS: tuple[Parameter, ...] = (
     Parameter(
         "resource_mean", "float", 0.5,
         "Mean of each child's resource amount, Normal(mean, sd) clipped into (0, 1].",
-        "system", 0.0, 1.0, exclusive_minimum=True,
+        "system", 0.001, 1.0,
     ),
     Parameter("resource_sd", "float", 0.2, "Standard deviation of each child's resource amount.",
               "system", 0.0, 1.0),
@@ -76,15 +80,32 @@ PARAMETERS: tuple[Parameter, ...] = (
         "value_noise", "float", 0.1,
         "Log-normal noise on each task instance's proportional values.", "values", 0.0, 5.0,
     ),
+    # Quality of an atomic task (SIMULATION.md "Environment readings").
+    Parameter(
+        "quality_model", "choice", "hyperbolic",
+        "Atomic task quality from the resource x = w[type] * ar given to the type: hyperbolic x/(x+h), "
+        "exponential 1-exp(-x/h), or relative-linear min(1, quality_at_uniform * n_types * w[type]).",
+        "quality", choices=QUALITY_MODELS,
+    ),
+    Parameter(
+        "half_saturation", "float", 0.2,
+        "h: the resource at which hyperbolic quality is 1/2 (exponential: 1-1/e); unused by relative-linear.",
+        "quality", 0.001, 10.0,
+    ),
+    Parameter(
+        "load_sharing", "bool", False,
+        "Divide a type's resource among the instances of that type the child receives in the episode.",
+        "quality",
+    ),
     Parameter(
         "quality_at_uniform", "float", 0.3,
-        "Atomic task quality when a type gets exactly the uniform share of resources.",
-        "values", 0.0, 1.0, exclusive_minimum=True,
+        "relative-linear only: atomic task quality when a type gets exactly the uniform share.",
+        "quality", 0.001, 1.0,
     ),
     Parameter(
         "quality_floor", "float", 1e-6,
         "Smallest atomic task quality, so that quality stays in (0, 1].",
-        "values", 0.0, 0.1, exclusive_minimum=True,
+        "quality", 1e-12, 0.1,
     ),
     # MG-RAO (paper algorithms 1 and 2).
     Parameter("learning_rate", "float", 0.1, "Learning rate alpha of the MG-RAO update.",
@@ -96,17 +117,24 @@ PARAMETERS: tuple[Parameter, ...] = (
     Parameter(
         "temperature", "float", None,
         "Softmax temperature of the combined weights; empty means 1/n_types, 1 is paper-literal.",
-        "mgrao", 0.0, 100.0, exclusive_minimum=True, nullable=True,
+        "mgrao", 1e-4, 100.0, nullable=True,
     ),
     # Multi-child task allocation by parents.
     Parameter(
+        "routing", "choice", "per-composite",
+        "With several children: a parent gives its whole composite task to one child chosen by the "
+        "composite quality it got back (per-composite), or chooses a child for each atomic task by the "
+        "value it got back for that type (per-task).",
+        "allocation", choices=ROUTINGS,
+    ),
+    Parameter(
         "epsilon", "float", 0.1,
-        "Probability that a parent gives an atomic task to a non-greedy child.", "allocation", 0.0, 1.0,
+        "Probability that a parent chooses a non-greedy child.", "allocation", 0.0, 1.0,
     ),
     Parameter(
         "boltzmann_temperature", "float", 0.1,
         "Temperature of the Boltzmann choice among the non-greedy children.",
-        "allocation", 0.0, 100.0, exclusive_minimum=True,
+        "allocation", 1e-4, 100.0,
     ),
     Parameter(
         "initial_estimate", "float", 1.0,
@@ -132,6 +160,18 @@ PARAMETERS: tuple[Parameter, ...] = (
         "Whether a rejoining parent keeps its value profile or brings a newly drawn one.",
         "volatility", choices=("same", "new"),
     ),
+    Parameter(
+        "absent_tasks", "choice", "excluded",
+        "An absent parent's composite task: not received at all (excluded), or counted in system "
+        "utility at absent_quality without involving any child (counted).",
+        "volatility", choices=ABSENT_TASKS,
+    ),
+    Parameter(
+        "absent_quality", "float", None,
+        "Composite quality of an absent parent's task under absent_tasks=counted; empty means the "
+        "quality of a uniform allocation at resource_mean.",
+        "volatility", 0.0, 1.0, nullable=True,
+    ),
 )
 
 PARAMETERS_BY_NAME: dict[str, Parameter] = {p.name: p for p in PARAMETERS}
@@ -150,11 +190,15 @@ class SystemParams:
     resource_sd: float = 0.2
     value_concentration: float = 1.0
     value_noise: float = 0.1
+    quality_model: str = "hyperbolic"
+    half_saturation: float = 0.2
+    load_sharing: bool = False
     quality_at_uniform: float = 0.3
     quality_floor: float = 1e-6
     learning_rate: float = 0.1
     trace_decay: float = 0.9
     temperature: float | None = None
+    routing: str = "per-composite"
     epsilon: float = 0.1
     boltzmann_temperature: float = 0.1
     initial_estimate: float = 1.0
@@ -162,15 +206,44 @@ class SystemParams:
     leave_probability: float = 0.0
     join_probability: float = 0.0
     rejoin_profile: str = "same"
+    absent_tasks: str = "excluded"
+    absent_quality: float | None = None
 
     @property
     def effective_temperature(self) -> float:
         """The softmax temperature in use: ``temperature`` or, when unset, ``1 / n_types``."""
         return self.temperature if self.temperature is not None else 1.0 / self.n_types
 
+    @property
+    def effective_absent_quality(self) -> float:
+        """The quality an absent parent's task counts at under ``absent_tasks="counted"``.
+
+        ``absent_quality``, or when unset the quality of a uniform allocation at the mean resource
+        under the quality model.
+        """
+        if self.absent_quality is not None:
+            return self.absent_quality
+        from mgrao_core.equations import atomic_quality
+
+        return float(atomic_quality(1.0 / self.n_types, self.resource_mean, self))
+
     def as_dict(self) -> dict[str, Any]:
         """All parameters as plain JSON-ready data."""
         return dataclasses.asdict(self)
+
+
+_TRUE = ("true", "on", "yes", "1")
+_FALSE = ("false", "off", "no", "0")
+
+
+def _boolean(param: Parameter, value: Any) -> bool:
+    if isinstance(value, bool):
+        return value
+    if isinstance(value, int) and value in (0, 1):
+        return bool(value)
+    if isinstance(value, str) and value.strip().lower() in _TRUE + _FALSE:
+        return value.strip().lower() in _TRUE
+    raise ConfigError(param.name, f"must be true or false (got {value!r})")
 
 
 def _coerce(param: Parameter, value: Any) -> Any:
@@ -180,6 +253,8 @@ def _coerce(param: Parameter, value: Any) -> Any:
         if param.nullable:
             return None
         raise ConfigError(param.name, "must not be empty")
+    if param.kind == "bool":
+        return _boolean(param, value)
     if param.kind == "choice":
         if value not in param.choices:
             raise ConfigError(param.name, f"must be one of {', '.join(param.choices)} (got {value!r})")

@@ -66,56 +66,104 @@ def choose_child(estimates: np.ndarray, u: np.ndarray, params: SystemParams) -> 
     return others[-1]
 
 
+@dataclass
+class Parent:
+    """One parent agent: its value profile, presence and running estimates of each child.
+
+    ``estimates[k, c]`` is what child ``c`` gave back: per composite (``k = 0`` only) the
+    composite quality, per task the absolute value of atomic task ``k``.
+    """
+
+    task_types: np.ndarray
+    profile: np.ndarray
+    estimates: np.ndarray
+    tries: np.ndarray
+    active: bool = True
+
+    def allocate(self, routing: np.ndarray, params: SystemParams) -> list[int]:
+        """Task allocation: the child of each atomic task of this episode's composite task."""
+        n = len(self.task_types)
+        if params.n_children == 1:
+            return [0] * n
+        if params.routing == "per-composite":
+            return [choose_child(self.estimates[0], routing[0], params)] * n
+        return [choose_child(self.estimates[k], routing[k], params) for k in range(n)]
+
+    def observe(self, children: list[int], values: np.ndarray, taq: float, params: SystemParams) -> None:
+        """Update the running mean of what each child gave back."""
+        returns = [(0, children[0], taq)] if params.routing == "per-composite" else [
+            (k, c, values[k]) for k, c in enumerate(children)
+        ]
+        for k, c, value in returns:
+            self.tries[k, c] += 1
+            if self.tries[k, c] == 1:
+                self.estimates[k, c] = value
+            else:
+                self.estimates[k, c] += (value - self.estimates[k, c]) / self.tries[k, c]
+
+
 def simulate(params: SystemParams, algorithm: str, seed: int, episodes: int) -> tuple[np.ndarray, list[Child]]:
     """One run; returns the utility of every episode and the children's final state."""
     world = draw_world(params, seed)
     draws = EpisodeStreams(params, seed).draw(episodes)
     alg = parse_algorithm(algorithm, params.n_parents)
-    fixed = None
+    fixed: np.ndarray | list[None] = [None] * params.n_children
     if alg.kind == "uniform":
-        fixed = np.full(params.n_types, 1.0 / params.n_types)
+        fixed = np.full((params.n_children, params.n_types), 1.0 / params.n_types)
     elif alg.kind == "oracle":
         fixed = oracle_weights(params, world, seed)
-    children = [Child(max(alg.n_groups, 1), params.n_types, fixed) for _ in range(params.n_children)]
+    children = [Child(max(alg.n_groups, 1), params.n_types, fixed[c]) for c in range(params.n_children)]
     groups = parent_groups(params.n_parents, alg.n_groups) if alg.kind == "mgrao" else None
-    shape = (params.n_parents, params.types_per_composite, params.n_children)
-    estimates = np.full(shape, params.initial_estimate)
-    tries = np.zeros(shape, dtype=int)
-    active = np.ones(params.n_parents, dtype=bool)
-    profiles = world.profiles.copy()
+    choices = 1 if params.routing == "per-composite" else params.types_per_composite
+    parents = [
+        Parent(world.parent_types[p], world.profiles[p].copy(),
+               np.full((choices, params.n_children), params.initial_estimate),
+               np.zeros((choices, params.n_children), dtype=int))
+        for p in range(params.n_parents)
+    ]
     utilities = np.zeros(episodes)
     for e in range(episodes):
-        for p in range(params.n_parents):
-            if active[p] and draws.volatility[e, p] < params.leave_probability:
-                active[p] = False
-            elif not active[p] and draws.volatility[e, p] < params.join_probability:
-                active[p] = True
+        # 1. Composite tasks arrive at the parents present.
+        for p, parent in enumerate(parents):
+            if parent.active and draws.volatility[e, p] < params.leave_probability:
+                parent.active = False
+            elif not parent.active and draws.volatility[e, p] < params.join_probability:
+                parent.active = True
                 if params.rejoin_profile == "new":
-                    profiles[p] = draws.new_profiles[e, p]
+                    parent.profile = draws.new_profiles[e, p].copy()
         weights = [child.allocation(params.effective_temperature) for child in children]
-        assigned: dict[int, list[int]] = {}
+        # 2-3. Each present parent decomposes its task and allocates the atomic tasks.
+        present = [p for p, parent in enumerate(parents) if parent.active]
+        assigned = {p: parents[p].allocate(draws.routing[e, p] if params.n_children > 1 else None, params)
+                    for p in present}
+        load = np.zeros((params.n_children, params.n_types))
+        for p in present:
+            for c, t in zip(assigned[p], parents[p].task_types, strict=True):
+                load[c, t] += 1
+        # 4. Children perform the atomic tasks; composite qualities make the system utility.
         values: dict[int, np.ndarray] = {}
-        for p in np.flatnonzero(active):
-            assigned[p] = [
-                0 if params.n_children == 1 else choose_child(estimates[p, k], draws.routing[e, p, k], params)
-                for k in range(params.types_per_composite)
-            ]
-            ctv = eq.proportional_values(profiles[p], draws.noise[e, p], params.value_noise)
-            shares = np.array([weights[c][t] for c, t in zip(assigned[p], world.parent_types[p], strict=True)])
-            quality = eq.atomic_quality(shares, params.n_types, params.quality_at_uniform, params.quality_floor)
-            taq = eq.composite_quality(ctv, quality)
-            values[p] = eq.absolute_values(ctv, taq)
-            utilities[e] += taq
-        for p in draws.order[e]:
-            if not active[p]:
+        taqs: dict[int, float] = {}
+        for p, parent in enumerate(parents):
+            if not parent.active:
+                if params.absent_tasks == "counted":
+                    utilities[e] += params.effective_absent_quality
                 continue
-            for k, c in enumerate(assigned[p]):
-                if params.n_children > 1:
-                    tries[p, k, c] += 1
-                    if tries[p, k, c] == 1:
-                        estimates[p, k, c] = values[p][k]
-                    else:
-                        estimates[p, k, c] += (values[p][k] - estimates[p, k, c]) / tries[p, k, c]
-                if groups is not None:
-                    children[c].learn(int(groups[p]), int(world.parent_types[p, k]), values[p][k], params)
+            ctv = eq.proportional_values(parent.profile, draws.noise[e, p], params.value_noise)
+            quality = np.array([
+                eq.atomic_quality(weights[c][t], world.resources[c], params,
+                                  load[c, t] if params.load_sharing else 1.0)
+                for c, t in zip(assigned[p], parent.task_types, strict=True)
+            ])
+            taqs[p] = eq.composite_quality(ctv, quality)
+            values[p] = eq.absolute_values(ctv, taqs[p])
+            utilities[e] += taqs[p]
+        # 5. Values come back composite by composite, in a random order of parents.
+        for p in draws.order[e]:
+            if not parents[p].active:
+                continue
+            if params.n_children > 1:
+                parents[p].observe(assigned[p], values[p], taqs[p], params)
+            if groups is not None:
+                for k, c in enumerate(assigned[p]):
+                    children[c].learn(int(groups[p]), int(parents[p].task_types[k]), values[p][k], params)
     return utilities, children

@@ -55,6 +55,11 @@ def draw_world(params: SystemParams, seed: int) -> World:
     return World(composite_types, np.ascontiguousarray(parent_types), profiles, resources)
 
 
+def routing_choices(params: SystemParams) -> int:
+    """Child choices a parent makes per composite task: 1 per composite, or one per atomic task."""
+    return 1 if params.routing == "per-composite" else params.types_per_composite
+
+
 @dataclass(frozen=True)
 class EpisodeDraws:
     """The per-episode randomness of one seed for a block of episodes.
@@ -65,9 +70,10 @@ class EpisodeDraws:
         volatility: ``(episodes, n_parents)`` uniforms deciding leave/rejoin.
         new_profiles: ``(episodes, n_parents, types_per_composite)`` profiles a rejoining parent
             brings under ``rejoin_profile="new"`` (shape ``(episodes, 0, 0)`` otherwise).
-        routing: ``(episodes, n_parents, types_per_composite, 3)`` uniforms for a parent's choice of
-            child: explore or not, which other child, which of tied children (multi-child only;
-            shape ``(episodes, 0, 0, 3)`` otherwise).
+        routing: ``(episodes, n_parents, choices, 3)`` uniforms for a parent's choice of child:
+            explore or not, which other child, which of tied children. ``choices`` is 1 under
+            ``routing="per-composite"`` (one choice per composite task) and ``types_per_composite``
+            under ``"per-task"``; multi-child systems only (shape ``(episodes, 0, 0, 3)`` otherwise).
     """
 
     noise: np.ndarray
@@ -103,5 +109,9 @@ class EpisodeStreams:
             order=np.argsort(self._order.random(shape[:2]), axis=1, kind="stable"),
             volatility=self._volatility.random(shape[:2]) if volatile else np.ones(shape[:2]),
             new_profiles=new_profiles,
-            routing=self._routing.random(shape + (3,)) if p.n_children > 1 else np.zeros((episodes, 0, 0, 3)),
+            routing=(
+                self._routing.random(shape[:2] + (routing_choices(p), 3))
+                if p.n_children > 1
+                else np.zeros((episodes, 0, 0, 3))
+            ),
         )

@@ -2,20 +2,33 @@
 
 import numpy as np
 
+from mgrao_core import equations as eq
 from mgrao_core import reference
 
 
-def assert_matches_reference(result, atol=1e-11):
-    """Every run of ``result`` equals the dense per-agent reference simulator."""
+def assert_matches_reference(result, atol=1e-12):
+    """Every run of ``result`` equals the dense per-agent reference simulator.
+
+    Utilities and the learned PW must agree to ``atol``. The combined weights (algorithm 2) must
+    agree to ``atol`` with algorithm 2 applied to the engine's own PW, and to ``1000 * atol`` with
+    the reference's: ``dkl`` of a row within ``d`` of uniform is of order ``n d**2``, so a one-ulp
+    difference in PW (lazy versus dense update) changes it by up to 1e-5 relative when every row
+    is nearly uniform (a child that hardly received a task), which moves the weights by ~1e-12.
+    """
     spec = result.spec
     temperature = spec.params.effective_temperature
     for run in result.runs:
         utilities, children = reference.simulate(spec.params, run.algorithm, run.seed, spec.episodes)
         np.testing.assert_allclose(run.utilities, utilities, rtol=0, atol=atol,
                                    err_msg=f"{run.algorithm} seed {run.seed}")
+        combined = np.stack([c.allocation(temperature) for c in children])
         if run.group_weights.size:
             pw = np.stack([c.pw for c in children])
             assert run.group_weights.shape == pw.shape
             np.testing.assert_allclose(run.group_weights, pw, rtol=0, atol=atol)
-        combined = np.stack([c.allocation(temperature) for c in children])
-        np.testing.assert_allclose(run.combined_weights, combined, rtol=0, atol=atol)
+            on_engine_pw = np.stack([eq.combined_weights(run.group_weights[c], child.counts, temperature)
+                                     for c, child in enumerate(children)])
+            np.testing.assert_allclose(run.combined_weights, on_engine_pw, rtol=0, atol=atol)
+            np.testing.assert_allclose(run.combined_weights, combined, rtol=0, atol=1000 * atol)
+        else:
+            np.testing.assert_allclose(run.combined_weights, combined, rtol=0, atol=atol)

@@ -1,10 +1,13 @@
 """The batched numba engine equals the dense per-agent reference built from the equations."""
 
+import itertools
+
 import numpy as np
 import pytest
 
 from mgrao_core import engine, make_spec, reference, run_experiment
-from mgrao_core.params import make_params
+from mgrao_core.engine.environment import choose_child, environment_of
+from mgrao_core.params import ABSENT_TASKS, QUALITY_MODELS, ROUTINGS, make_params
 
 from ._helpers import assert_matches_reference
 
@@ -22,7 +25,24 @@ CASES = [
     ("single", {}, ["oracle", "uniform", "mgrao-2:1", "mgrao-5:1"], [0, 9]),
     ("multi", {"epsilon": 0.5, "boltzmann_temperature": 2.0}, ["oracle", "mgrao-5:1"], [6]),
     ("large", {}, None, [3]),
+    ("large", {"quality_model": "relative-linear", "routing": "per-task"}, None, [1]),
+    ("multi", {"quality_model": "relative-linear", "routing": "per-task"}, None, [0, 7]),
+    ("single", {"quality_model": "exponential", "half_saturation": 0.05}, None, [2]),
+    ("multi", {"n_children": 5, "epsilon": 0.3, "initial_estimate": 0.0}, None, [4]),
 ]
+
+READINGS = list(itertools.product(QUALITY_MODELS, ROUTINGS, (False, True), ABSENT_TASKS))
+
+
+@pytest.mark.parametrize(("quality_model", "routing", "load_sharing", "absent_tasks"), READINGS,
+                         ids=["-".join(map(str, r)) for r in READINGS])
+def test_engine_equals_reference_under_every_reading(quality_model, routing, load_sharing, absent_tasks):
+    # several children (routing matters), volatility (absent tasks matter), every kind of lane
+    overrides = {"quality_model": quality_model, "routing": routing, "load_sharing": load_sharing,
+                 "absent_tasks": absent_tasks, "leave_probability": 0.25, "join_probability": 0.25}
+    spec = make_spec("multi", ["uniform", "oracle", "mgrao-1:1", "mgrao-2:1", "mgrao-max"], seeds=[0, 5],
+                     episodes=25, overrides=overrides)
+    assert_matches_reference(run_experiment(spec), atol=1e-12)
 
 
 @pytest.mark.parametrize(("system", "overrides", "algorithms", "seeds"), CASES,
@@ -62,9 +82,7 @@ def test_choose_child_kernel_equals_reference():
             estimates = rng.choice([0.1, 0.5, 0.5, 0.9], size=4)
             u = rng.random(3)
             expected = reference.choose_child(estimates, u, params)
-            got = engine._choose_child(estimates, u, params.epsilon, params.boltzmann_temperature,
-                                       tie_break == "first")
-            assert got == expected
+            assert choose_child(estimates, u, environment_of(params)) == expected
 
 
 def test_result_shapes():

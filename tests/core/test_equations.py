@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from mgrao_core import equations as eq
+from mgrao_core.params import make_params
 
 
 def test_sumnorm_divides_by_the_total():
@@ -128,18 +129,72 @@ def test_combined_weights_of_untrained_child_are_uniform():
     np.testing.assert_allclose(out, np.full(4, 0.25), atol=1e-15)
 
 
-def test_quality_linear_capped_and_floored():
+def _params(**overrides):
+    return make_params(overrides)
+
+
+def test_quality_relative_linear_capped_and_floored():
     # n = 20, q_u = 0.3: q = 6 * share; 0.05 -> 0.3 (the uniform share), 0.025 -> 0.15,
-    # 0.1 -> 0.6, 0.2 -> 1.2 capped to 1, 0 -> floor 1e-6
+    # 0.1 -> 0.6, 0.2 -> 1.2 capped to 1, 0 -> floor 1e-6; the resource cancels out
     share = np.array([0.05, 0.025, 0.1, 0.2, 0.0])
-    out = eq.atomic_quality(share, 20, 0.3, 1e-6)
-    np.testing.assert_allclose(out, [0.3, 0.15, 0.6, 1.0, 1e-6], atol=1e-15)
+    params = _params(quality_model="relative-linear")
+    for resource in (0.1, 0.5, 1.0):
+        out = eq.atomic_quality(share, resource, params)
+        np.testing.assert_allclose(out, [0.3, 0.15, 0.6, 1.0, 1e-6], atol=1e-15)
 
 
 @pytest.mark.parametrize("n_types", [2, 7, 20, 200])
 @pytest.mark.parametrize("q_u", [0.1, 0.3, 1.0])
-def test_quality_at_uniform_share_is_quality_at_uniform(n_types, q_u):
-    assert eq.atomic_quality(np.array([1.0 / n_types]), n_types, q_u, 1e-6)[0] == pytest.approx(q_u, rel=1e-14)
+def test_relative_linear_quality_at_uniform_share_is_quality_at_uniform(n_types, q_u):
+    params = _params(quality_model="relative-linear", n_types=n_types, quality_at_uniform=q_u,
+                     types_per_composite=min(5, n_types))
+    assert eq.atomic_quality(np.array([1.0 / n_types]), 0.7, params)[0] == pytest.approx(q_u, rel=1e-14)
+
+
+def test_quality_hyperbolic_hand_computed():
+    # h = 1/8, resource 0.5: x = w * 0.5; w = 0.05 -> x = 0.025 -> 0.025 / 0.15 = 1/6;
+    # w = 0.25 -> x = h -> 1/2; w = 1 -> 0.5 / 0.625 = 0.8; w = 0 -> floor
+    params = _params(quality_model="hyperbolic", half_saturation=0.125)
+    out = eq.atomic_quality(np.array([0.05, 0.25, 1.0, 0.0]), 0.5, params)
+    np.testing.assert_allclose(out, [1 / 6, 0.5, 0.8, 1e-6], rtol=1e-14)
+    # the child's own resource counts: twice the resource, the quality of twice the weight
+    np.testing.assert_allclose(eq.atomic_quality(np.array([0.05]), 1.0, params),
+                               eq.atomic_quality(np.array([0.1]), 0.5, params), rtol=1e-15)
+
+
+def test_quality_exponential_hand_computed():
+    # h = 0.2, resource 0.4: w = 0.5 -> x = 0.2 = h -> 1 - 1/e; w = 1 -> 1 - e^-2
+    params = _params(quality_model="exponential", half_saturation=0.2)
+    out = eq.atomic_quality(np.array([0.5, 1.0]), 0.4, params)
+    np.testing.assert_allclose(out, [1 - math.exp(-1), 1 - math.exp(-2)], rtol=1e-14)
+
+
+def test_quality_with_load_sharing_divides_the_resource():
+    # hyperbolic, h = 0.1, resource 0.8, w = 0.25: x = 0.2 alone -> 2/3; shared by 2 -> x = 0.1 -> 1/2;
+    # by 4 -> x = 0.05 -> 1/3
+    params = _params(quality_model="hyperbolic", half_saturation=0.1, load_sharing=True)
+    out = eq.atomic_quality(np.array([0.25, 0.25, 0.25]), 0.8, params, np.array([1.0, 2.0, 4.0]))
+    np.testing.assert_allclose(out, [2 / 3, 0.5, 1 / 3], rtol=1e-14)
+    # relative-linear: the share is divided: 6 * 0.1 / 2 = 0.3
+    linear = _params(quality_model="relative-linear", load_sharing=True)
+    assert eq.atomic_quality(np.array([0.1]), 0.5, linear, 2.0)[0] == pytest.approx(0.3, rel=1e-14)
+
+
+@pytest.mark.parametrize("model", ["hyperbolic", "exponential"])
+def test_concave_qualities_rise_and_saturate_below_one(model):
+    params = _params(quality_model=model, half_saturation=0.125)
+    w = np.linspace(0.001, 1.0, 200)
+    q = eq.atomic_quality(w, 1.0, params)
+    assert (np.diff(q) > 0).all()
+    assert (np.diff(q, 2) < 0).all()  # concave: each extra unit of resource is worth less
+    assert (q < 1).all() and (q > 0).all()
+
+
+def test_absent_quality_defaults_to_the_uniform_allocation_at_the_mean_resource():
+    # hyperbolic h = 1/8: x = 0.5 / 20 = 0.025 -> 0.025 / 0.15 = 1/6
+    assert _params(half_saturation=0.125).effective_absent_quality == pytest.approx(1 / 6, rel=1e-14)
+    assert _params(quality_model="relative-linear").effective_absent_quality == pytest.approx(0.3, rel=1e-14)
+    assert _params(absent_quality=0.4).effective_absent_quality == 0.4
 
 
 def test_proportional_values_zero_noise_gives_profile():

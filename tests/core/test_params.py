@@ -48,8 +48,17 @@ def test_whole_float_is_accepted_for_an_int():
     ("trace_decay", 1.0, "[0.001, 0.999]"),
     ("trace_decay", 0.0, "[0.001, 0.999]"),
     ("learning_rate", -0.1, "[0, 1]"),
-    ("temperature", 0.0, "(0, 100]"),
-    ("quality_at_uniform", 0.0, "(0, 1]"),
+    ("temperature", 0.0, "[0.0001, 100]"),
+    ("temperature", 1e-310, "[0.0001, 100]"),
+    ("temperature", 5e-324, "[0.0001, 100]"),
+    ("temperature", "1e-320", "[0.0001, 100]"),
+    ("boltzmann_temperature", 1e-300, "[0.0001, 100]"),
+    ("quality_at_uniform", 0.0, "[0.001, 1]"),
+    ("half_saturation", 0.0, "[0.001, 10]"),
+    ("half_saturation", 11, "[0.001, 10]"),
+    ("absent_quality", 1.5, "[0, 1]"),
+    ("absent_quality", -0.1, "[0, 1]"),
+    ("resource_mean", 1e-9, "[0.001, 1]"),
     ("epsilon", 1.5, "[0, 1]"),
     ("n_types", 1, "[2, 200]"),
 ])
@@ -70,6 +79,12 @@ def test_out_of_range(name, value, limit):
     ("learning_rate", math.nan, "finite"),
     ("learning_rate", "inf", "finite"),
     ("tie_break", "last", "random, first"),
+    ("quality_model", "linear", "hyperbolic, exponential, relative-linear"),
+    ("routing", "per-child", "per-composite, per-task"),
+    ("absent_tasks", "ignored", "excluded, counted"),
+    ("load_sharing", "maybe", "true or false"),
+    ("load_sharing", 2, "true or false"),
+    ("load_sharing", None, "must not be empty"),
     ("rejoin_profile", None, "must not be empty"),
     ("n_parents", None, "must not be empty"),
 ])
@@ -136,3 +151,24 @@ def test_integer_parameter_accepts_whole_numbers_written_as_floats():
         make_params({"n_parents": "10.5"})
     assert error.value.field == "n_parents"
     assert "whole number" in error.value.message
+
+
+def test_new_environment_defaults():
+    p = SystemParams()
+    assert (p.quality_model, p.routing, p.load_sharing, p.absent_tasks) == (
+        "hyperbolic", "per-composite", False, "excluded")
+    assert p.absent_quality is None
+
+
+@pytest.mark.parametrize(("value", "expected"), [(True, True), ("on", True), ("true", True), ("1", True), (1, True),
+                                                 (False, False), ("off", False), ("False", False), (0, False)])
+def test_load_sharing_accepts_booleans_in_their_usual_spellings(value, expected):
+    assert make_params({"load_sharing": value}).load_sharing is expected
+
+
+def test_every_float_has_finite_documented_bounds():
+    for p in PARAMETERS:
+        if p.kind == "float":
+            assert p.minimum is not None and math.isfinite(p.minimum), p.name
+            assert p.maximum is not None and math.isfinite(p.maximum), p.name
+            assert p.minimum >= 0, p.name

@@ -3,9 +3,11 @@
 import numpy as np
 import pytest
 
+from mgrao_core import equations as eq
 from mgrao_core import make_spec, reference, run_experiment
+from mgrao_core.engine.environment import allocate_atomic_tasks, environment_of
 from mgrao_core.params import make_params
-from mgrao_core.world import EpisodeStreams
+from mgrao_core.world import EpisodeStreams, draw_world
 
 
 def test_volatile_everyone_leaves_at_the_first_episode():
@@ -37,17 +39,43 @@ def _active_counts(params, seed, episodes):
     return np.array(counts)
 
 
-def test_volatile_absent_parents_send_no_tasks():
-    spec = make_spec("volatile", ["uniform", "mgrao-max"], seeds=[0, 1, 2], episodes=40)
+def _uniform_quality(params, seed):
+    """Quality of every atomic task of a child with uniform weights: q(ar / n_types)."""
+    resource = draw_world(params, seed).resources[0]
+    return float(eq.atomic_quality(np.array([1.0 / params.n_types]), resource, params)[0])
+
+
+@pytest.mark.parametrize("overrides", [{}, {"quality_model": "relative-linear"}])
+def test_volatile_absent_parents_send_no_tasks(overrides):
+    spec = make_spec("volatile", ["uniform", "mgrao-max"], seeds=[0, 1, 2], episodes=40, overrides=overrides)
     result = run_experiment(spec)
     for run in result.runs:
         assert np.ptp(run.utilities) > 0  # the number of active parents changes
         if run.algorithm == "uniform":
-            active = run.utilities / 0.3
+            quality = _uniform_quality(spec.params, run.seed)
+            active = run.utilities / quality
             np.testing.assert_allclose(active, np.round(active), atol=1e-9)
-            np.testing.assert_allclose(run.utilities, 0.3 * _active_counts(spec.params, run.seed, 40),
+            np.testing.assert_allclose(run.utilities, quality * _active_counts(spec.params, run.seed, 40),
                                        atol=1e-12)
             assert np.round(active).max() <= 10
+
+
+@pytest.mark.parametrize("absent_quality", [None, 0.0, 0.4])
+def test_counted_absent_tasks_add_exactly_absent_quality_per_absent_parent(absent_quality):
+    algorithms = ["uniform", "oracle", "mgrao-1:1", "mgrao-max"]
+    excluded = run_experiment(make_spec("volatile", algorithms, seeds=[0, 4], episodes=40))
+    counted = run_experiment(make_spec("volatile", algorithms, seeds=[0, 4], episodes=40,
+                                       overrides={"absent_tasks": "counted", "absent_quality": absent_quality}))
+    quality = counted.spec.params.effective_absent_quality
+    if absent_quality is None:  # the documented default: a uniform allocation at resource_mean
+        x = 0.5 / 20
+        assert quality == pytest.approx(x / (x + counted.spec.params.half_saturation), rel=1e-14)
+    for a, b in zip(excluded.runs, counted.runs, strict=True):
+        absent = 10 - _active_counts(excluded.spec.params, a.seed, 40)
+        assert absent.max() > 0
+        # absent tasks involve no child: the present parents' utilities and learning are unchanged
+        np.testing.assert_allclose(b.utilities - a.utilities, quality * absent, rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(a.combined_weights, b.combined_weights)
 
 
 def test_volatile_utilities_never_exceed_active_parents():
@@ -80,6 +108,40 @@ def test_multi_epsilon_share_of_non_greedy_choices(epsilon):
     assert abs(share - epsilon) <= tolerance
     if epsilon == 0:
         assert share == 0
+
+
+@pytest.mark.parametrize("epsilon", [0.0, 0.1, 0.3])
+def test_per_composite_routing_sends_a_whole_composite_to_one_child(epsilon):
+    params = make_params({"n_children": 3, "epsilon": epsilon, "routing": "per-composite"})
+    env = environment_of(params)
+    estimates = np.array([[0.2, 0.9, 0.5]])  # composite quality each child gave back; child 1 is best
+    rng = np.random.default_rng(7)
+    n = 20_000
+    child_of = np.zeros(5, dtype=np.int64)
+    others = 0
+    for _ in range(n):
+        allocate_atomic_tasks(estimates, rng.random((1, 3)), env, child_of)
+        assert len(set(child_of.tolist())) == 1  # every atomic task of the composite to one child
+        others += child_of[0] != 1
+    assert abs(others / n - epsilon) <= 5 * np.sqrt(max(epsilon * (1 - epsilon), 1e-12) / n)
+
+
+def test_per_task_routing_chooses_per_atomic_task():
+    params = make_params({"n_children": 3, "epsilon": 0.0, "routing": "per-task"})
+    estimates = np.array([[0.9, 0.1, 0.1], [0.1, 0.9, 0.1], [0.1, 0.1, 0.9], [0.9, 0.1, 0.1], [0.1, 0.9, 0.1]])
+    child_of = np.zeros(5, dtype=np.int64)
+    allocate_atomic_tasks(estimates, np.random.default_rng(0).random((5, 3)), environment_of(params), child_of)
+    assert child_of.tolist() == [0, 1, 2, 0, 1]
+
+
+def test_per_composite_estimates_are_the_composite_quality_each_child_gave_back():
+    # the reference parent keeps one running mean per child of the composite quality taq
+    spec = make_spec("multi", ["uniform"], seeds=[3], episodes=1)
+    parent = reference.Parent(np.arange(5), np.full(5, 0.2), np.full((1, 3), 1.0), np.zeros((1, 3), dtype=int))
+    parent.observe([2] * 5, np.full(5, 0.06), 0.3, spec.params)
+    parent.observe([2] * 5, np.full(5, 0.1), 0.5, spec.params)
+    np.testing.assert_allclose(parent.estimates[0], [1.0, 1.0, 0.4])
+    assert parent.tries[0].tolist() == [0, 0, 2]
 
 
 def test_multi_boltzmann_among_the_others():
@@ -125,28 +187,45 @@ def test_multi_greedy_without_exploration_sticks_to_the_first_child():
     assert not np.allclose(optimistic.runs[0].combined_weights[1:], 0.05)
 
 
-@pytest.fixture(scope="module")
-def single_12():
-    return run_experiment(make_spec("single", seeds=12, episodes=100)).summary()
+ORDERING_SEEDS = 40
 
 
 @pytest.fixture(scope="module")
-def large_12():
-    return run_experiment(make_spec("large", seeds=12, episodes=100)).summary()
+def summaries():
+    """The paper's systems under the default reading at a modest seed count (fixed seeds: not flaky)."""
+    return {s: run_experiment(make_spec(s, seeds=ORDERING_SEEDS, episodes=100)) for s in ("single", "multi", "large")}
 
 
-@pytest.mark.parametrize("fixture", ["single_12", "large_12"])
-def test_paper_ordering_max_above_one_to_one_above_uniform(fixture, request):
-    summary = request.getfixturevalue(fixture)
+@pytest.mark.parametrize("system", ["single", "multi", "large"])
+def test_paper_ordering_max_above_one_to_one_above_uniform(system, summaries):
+    summary = summaries[system].summary()
+    assert summary["mgrao-max"].pct_from_uniform > summary["mgrao-1:1"].pct_from_uniform > 0
     assert summary["mgrao-max"].final_mean > summary["mgrao-1:1"].final_mean > summary["uniform"].final_mean
     # the gain over uniform is significant: the CI of 1:1's gain is above zero
     assert summary["mgrao-1:1"].pct_ci95[0] > 0
 
 
-def test_large_curve_rises_with_the_number_of_groups(large_12):
-    pct = {k: v.pct_from_uniform for k, v in large_12.items()}
-    assert pct["mgrao-1:1"] < pct["mgrao-5:1"]
-    low, high = large_12["mgrao-25:1"].pct_ci95
-    assert pct["mgrao-2:1"] <= pct["mgrao-25:1"] + (high - low) / 2
+def test_large_gain_rises_from_one_to_ten_groups(summaries):
+    pct = {k: v.pct_from_uniform for k, v in summaries["large"].summary().items()}
+    assert pct["mgrao-1:1"] < pct["mgrao-2:1"] < pct["mgrao-5:1"] < pct["mgrao-10:1"]
     assert pct["mgrao-1:1"] < pct["mgrao-max"]
-    assert large_12["uniform"].pct_from_uniform == 0.0
+    assert pct["uniform"] == 0.0
+
+
+@pytest.mark.parametrize("system", ["single", "multi", "large"])
+def test_uniform_utility_varies_across_seeds(system, summaries):
+    # the child's own resource counts: uniform is no longer a constant 0.3 * n_parents
+    finals = summaries[system].utilities("uniform")[:, -10:].mean(axis=1)
+    assert np.std(finals) > 0.05 * np.mean(finals)
+    low, high = summaries[system].summary()["uniform"].ci95
+    assert high - low > 0.01
+
+
+def test_one_to_one_learns_faster_early_and_max_overtakes_it(summaries):
+    from mgrao_core.reproduction import overtaking_episode
+
+    result = summaries["single"]
+    early = slice(0, 3)
+    gap = (result.utilities("mgrao-1:1") - result.utilities("mgrao-max"))[:, early].mean()
+    assert gap > 0  # 1:1 ahead in episodes 1-3 (paper: 1:1 initially learns faster)
+    assert overtaking_episode(result) is not None and overtaking_episode(result) <= 30

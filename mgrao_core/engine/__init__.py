@@ -1,0 +1,32 @@
+"""The compiled simulation engine (numba): the environment, MG-RAO's learning and the batched kernel.
+
+* :mod:`~mgrao_core.engine.environment`: what parents and children do with tasks (absent parents,
+  proportional values, choosing a child, quality of an atomic task, estimates of children);
+* :mod:`~mgrao_core.engine.learning`: algorithm 1 (applied lazily, O(groups) per value) and
+  algorithm 2;
+* :mod:`~mgrao_core.engine.kernel`: the lanes, the world and the draws as the kernel reads them,
+  and the loop over episodes that strings the paper's five processing steps together.
+
+Everything here is checked against the dense reference (:mod:`mgrao_core.reference`).
+"""
+
+from mgrao_core.engine.environment import Environment, environment_of
+from mgrao_core.engine.kernel import KIND_MGRAO, KIND_ORACLE, KIND_UNIFORM, Draws, Lanes, Worlds, finish, run_block
+from mgrao_core.engine.learning import TRACE_SCALE_LIMIT, Learning, learning_of, rebase_interval
+
+__all__ = [
+    "KIND_MGRAO",
+    "KIND_ORACLE",
+    "KIND_UNIFORM",
+    "TRACE_SCALE_LIMIT",
+    "Draws",
+    "Environment",
+    "Lanes",
+    "Learning",
+    "Worlds",
+    "environment_of",
+    "finish",
+    "learning_of",
+    "rebase_interval",
+    "run_block",
+]

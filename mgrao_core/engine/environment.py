@@ -1,0 +1,218 @@
+"""The simulated environment, compiled: one small function per concept of the paper's system.
+
+What a parent does with a composite task (absent parents, proportional values, choosing a child)
+and what a child's resources make of an atomic task (its quality) live here; what a child learns
+from the values it gets back lives in :mod:`mgrao_core.engine.learning`. Each function is the
+compiled twin of a step of the dense reference (:mod:`mgrao_core.reference`), which is built from
+:mod:`mgrao_core.equations`, and performs the same floating-point operations in the same order.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from mgrao_core.params import QUALITY_MODELS, SystemParams
+
+QUALITY_HYPERBOLIC = QUALITY_MODELS.index("hyperbolic")
+QUALITY_EXPONENTIAL = QUALITY_MODELS.index("exponential")
+QUALITY_RELATIVE_LINEAR = QUALITY_MODELS.index("relative-linear")
+
+
+class Environment(NamedTuple):
+    """The environment's parameters as the kernel reads them (see :mod:`mgrao_core.params`)."""
+
+    n_types: int
+    quality_model: int
+    half_saturation: float
+    quality_at_uniform: float
+    quality_floor: float
+    load_sharing: bool
+    value_noise: float
+    per_composite: bool
+    epsilon: float
+    boltzmann_temperature: float
+    tie_first: bool
+    leave: float
+    join: float
+    rejoin_new: bool
+    absent_counted: bool
+    absent_quality: float
+
+
+def environment_of(params: SystemParams) -> Environment:
+    """The kernel's view of a validated parameter set."""
+    return Environment(
+        n_types=params.n_types,
+        quality_model=QUALITY_MODELS.index(params.quality_model),
+        half_saturation=params.half_saturation,
+        quality_at_uniform=params.quality_at_uniform,
+        quality_floor=params.quality_floor,
+        load_sharing=params.load_sharing,
+        value_noise=params.value_noise,
+        per_composite=params.routing == "per-composite",
+        epsilon=params.epsilon,
+        boltzmann_temperature=params.boltzmann_temperature,
+        tie_first=params.tie_break == "first",
+        leave=params.leave_probability,
+        join=params.join_probability,
+        rejoin_new=params.rejoin_profile == "new",
+        absent_counted=params.absent_tasks == "counted",
+        absent_quality=params.effective_absent_quality,
+    )
+
+
+@njit(cache=True)
+def parents_leave_and_join(active, profiles, volatility, new_profiles, env):
+    """Absent parents: present ones leave, absent ones rejoin, at the start of an episode.
+
+    Each present parent leaves with probability ``leave`` and each absent one rejoins with
+    probability ``join``, keeping its value profile or, under ``rejoin_profile="new"``, bringing a
+    newly drawn one.
+    """
+    if env.leave <= 0.0 and env.join <= 0.0:
+        return
+    for p in range(active.shape[0]):
+        if active[p]:
+            if volatility[p] < env.leave:
+                active[p] = False
+        elif volatility[p] < env.join:
+            active[p] = True
+            if env.rejoin_new:
+                for k in range(profiles.shape[1]):
+                    profiles[p, k] = new_profiles[p, k]
+
+
+@njit(cache=True, inline="always")
+def proportional_values(profile, noise, value_noise, ctv):
+    """Component tasks proportional values ``ctv = sumnorm(profile * exp(value_noise * N))``."""
+    total = 0.0
+    for k in range(ctv.shape[0]):
+        ctv[k] = profile[k] * math.exp(value_noise * noise[k])
+        total += ctv[k]
+    for k in range(ctv.shape[0]):
+        ctv[k] /= total
+
+
+@njit(cache=True)
+def choose_child(estimates, u, env):
+    """A parent's epsilon-greedy choice of child from its running estimates of each child.
+
+    The best estimate wins (ties: the first, or one drawn with ``u[2]``); with probability
+    ``epsilon`` (``u[0] < epsilon``) one of the others is drawn with ``u[1]`` by a Boltzmann
+    distribution over their estimates.
+    """
+    n_children = estimates.shape[0]
+    best_value = estimates[0]
+    ties = 1
+    for c in range(1, n_children):
+        if estimates[c] > best_value:
+            best_value = estimates[c]
+            ties = 1
+        elif estimates[c] == best_value:
+            ties += 1
+    pick = 0 if env.tie_first else min(int(u[2] * ties), ties - 1)
+    best = 0
+    for c in range(n_children):
+        if estimates[c] == best_value:
+            if pick == 0:
+                best = c
+                break
+            pick -= 1
+    if n_children == 1 or u[0] >= env.epsilon:
+        return best
+    top = -np.inf
+    for c in range(n_children):
+        if c != best and estimates[c] > top:
+            top = estimates[c]
+    total = 0.0
+    for c in range(n_children):
+        if c != best:
+            total += math.exp((estimates[c] - top) / env.boltzmann_temperature)
+    target = u[1] * total
+    chosen = -1
+    for c in range(n_children):
+        if c != best:
+            chosen = c
+            target -= math.exp((estimates[c] - top) / env.boltzmann_temperature)
+            if target < 0.0:
+                break
+    return chosen
+
+
+@njit(cache=True)
+def allocate_atomic_tasks(estimates, routing, env, child_of):
+    """Task allocation of one composite task: the child of each atomic task, into ``child_of``.
+
+    Per composite, the parent chooses one child for the whole composite from its estimates
+    ``estimates[0]`` of the composite quality each child returned; per task, it chooses for
+    atomic task ``k`` from ``estimates[k]``, the value each child returned for that type.
+    """
+    n_children = estimates.shape[1]
+    if n_children == 1:
+        child_of[:] = 0
+    elif env.per_composite:
+        child_of[:] = choose_child(estimates[0], routing[0], env)
+    else:
+        for k in range(child_of.shape[0]):
+            child_of[k] = choose_child(estimates[k], routing[k], env)
+
+
+@njit(cache=True, inline="always")
+def atomic_task_quality(weight, resource, load, env):
+    """Quality of an atomic task under the environment's quality model.
+
+    ``weight`` is the share of the child's resource ``resource`` given to the task's type, shared
+    among ``load`` instances (1 without load sharing).
+    """
+    if env.quality_model == QUALITY_RELATIVE_LINEAR:
+        quality = min(1.0, env.quality_at_uniform * env.n_types * (weight / load))
+    else:
+        x = weight * resource / load
+        if env.quality_model == QUALITY_HYPERBOLIC:
+            quality = x / (x + env.half_saturation)
+        else:
+            quality = -math.expm1(-x / env.half_saturation)
+    return max(quality, env.quality_floor)
+
+
+@njit(cache=True, inline="always")
+def perform_composite_task(ctv, child_of, task_types, weights, resources, load, env, values):
+    """Children perform the atomic tasks; returns the composite task quality ``taq = sum(ctv * q)``.
+
+    Each atomic task's absolute value ``atv = taq * ctv`` goes into ``values``.
+    """
+    taq = 0.0
+    for k in range(ctv.shape[0]):
+        c = child_of[k]
+        t = task_types[k]
+        taq += ctv[k] * atomic_task_quality(weights[c, t], resources[c], load[c, t], env)
+    for k in range(ctv.shape[0]):
+        values[k] = taq * ctv[k]
+    return taq
+
+
+@njit(cache=True)
+def update_estimates(estimates, tries, child_of, values, taq, per_composite):
+    """A parent's running mean of what each child gave back.
+
+    Per composite that is the composite quality, per task each atomic task's absolute value. The
+    first return replaces the initial estimate.
+    """
+    if per_composite:
+        _running_mean(estimates[0], tries[0], child_of[0], taq)
+    else:
+        for k in range(child_of.shape[0]):
+            _running_mean(estimates[k], tries[k], child_of[k], values[k])
+
+
+@njit(cache=True)
+def _running_mean(estimates, tries, c, value):
+    tries[c] += 1
+    if tries[c] == 1:
+        estimates[c] = value
+    else:
+        estimates[c] += (value - estimates[c]) / tries[c]
