@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, StrictInt, StringConstraints
+from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt, StringConstraints
 
 from mgrao_core import MAX_ALGORITHMS, MAX_EPISODES, MAX_SEEDS, PARAMETERS
 from mgrao_core.spec import MAX_SEED_VALUE
@@ -21,7 +21,7 @@ Label = Annotated[str, StringConstraints(min_length=1, max_length=MAX_LABEL)]
 Seed = Annotated[StrictInt, Field(ge=0, le=MAX_SEED_VALUE)]
 SeedCount = Annotated[StrictInt, Field(ge=1, le=MAX_SEEDS)]
 SeedList = Annotated[list[Seed], Field(min_length=1, max_length=MAX_SEEDS)]
-ParamValue = StrictInt | float | Annotated[str, StringConstraints(max_length=64)] | None
+ParamValue = StrictBool | StrictInt | float | Annotated[str, StringConstraints(max_length=64)] | None
 Status = Literal["queued", "running", "succeeded", "failed", "cancelled"]
 Sort = Literal["-created_at", "created_at", "name", "-name", "status", "-status"]
 

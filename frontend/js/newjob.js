@@ -5,11 +5,12 @@ import { api } from './api.js';
 import { h, notice, nextId, confirmDialog } from './ui.js';
 import { parseRatios, parseTags, fieldErrors, changedParams, sortAlgorithms } from './stats.js';
 
-const PAPER_SEEDS = 30;
+const PAPER_SEEDS = 100;
 const PAPER_EPISODES = 100;
 
 function rangeText(p) {
   if (p.kind === 'choice') return `one of ${p.choices.join(', ')}`;
+  if (p.kind === 'bool') return 'on or off';
   const lo = p.minimum === null || p.minimum === undefined ? '−∞' : p.minimum;
   const hi = p.maximum === null || p.maximum === undefined ? '∞' : p.maximum;
   return `range ${p.exclusive_minimum ? '(' : '['}${lo}, ${hi}]`;
@@ -78,12 +79,14 @@ export async function mount(root, params, ctx) {
         let input;
         if (p.kind === 'choice') {
           input = h('select', { name: p.name }, p.choices.map((c) => h('option', { value: c }, c)));
+        } else if (p.kind === 'bool') {
+          input = h('input', { type: 'checkbox', name: p.name });
         } else {
           input = h('input', { type: 'number', name: p.name, step: p.kind === 'int' ? 1 : 'any',
             min: p.minimum ?? undefined, max: p.maximum ?? undefined, placeholder: p.nullable ? 'auto' : undefined });
         }
         paramInputs.set(p.name, { p, input });
-        const def = p.default === null ? 'auto' : p.default;
+        const def = p.default === null ? 'auto' : p.kind === 'bool' ? (p.default ? 'on' : 'off') : p.default;
         return fieldBlock(`params.${p.name}`, p.name, input, `${p.help} Default ${def}; ${rangeText(p)}${p.nullable ? '; empty = auto' : ''}.`);
       }))));
 
@@ -98,7 +101,8 @@ export async function mount(root, params, ctx) {
     ratioIn.value = s.algorithms.filter((a) => !fixed.includes(a)).map((a) => a.replace(/^mgrao-/, '').replace(/:1$/, '')).join(', ');
     for (const { p, input } of paramInputs.values()) {
       const v = s.params[p.name];
-      input.value = v === null || v === undefined ? '' : String(v);
+      if (p.kind === 'bool') input.checked = Boolean(v);
+      else input.value = v === null || v === undefined ? '' : String(v);
     }
     if (!nameIn.dataset.touched) nameIn.value = '';
     nameIn.placeholder = `${s.name} experiment`;
@@ -109,6 +113,7 @@ export async function mount(root, params, ctx) {
   function readParams() {
     const values = {};
     for (const { p, input } of paramInputs.values()) {
+      if (p.kind === 'bool') { values[p.name] = input.checked; continue; }
       const raw = input.value.trim();
       if (p.kind === 'choice') values[p.name] = raw;
       else if (raw === '') values[p.name] = p.nullable ? null : raw; // '' goes to the server, which explains

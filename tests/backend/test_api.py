@@ -186,6 +186,14 @@ def test_compare_pools_seeds_by_configuration(client: TestClient, worker: Worker
         ({"params": {"bogus": 1}}, "bogus", "unknown parameter"),
         ({"params": {"n_types": "many"}}, "n_types", "must be a number"),
         ({"params": {"types_per_composite": 30}}, "types_per_composite", "n_types = 20"),
+        ({"params": {"quality_model": "linear"}}, "quality_model", "hyperbolic, exponential, relative-linear"),
+        ({"params": {"half_saturation": 0}}, "half_saturation", "[0.001, 10]"),
+        ({"params": {"half_saturation": 50.0}}, "half_saturation", "[0.001, 10]"),
+        ({"params": {"load_sharing": "sometimes"}}, "load_sharing", "true or false"),
+        ({"params": {"routing": "random"}}, "routing", "per-composite, per-task"),
+        ({"params": {"absent_tasks": "dropped"}}, "absent_tasks", "excluded, counted"),
+        ({"params": {"absent_quality": 2}}, "absent_quality", "[0, 1]"),
+        ({"params": {"temperature": 1e-310}}, "temperature", "[0.0001, 100]"),
         ({"episodes": MAX_EPISODES + 1}, "episodes", "100000"),
         ({"episodes": 0}, "episodes", "greater than or equal to 1"),
         ({"seeds": 1001}, "seeds", "1000"),
@@ -304,3 +312,13 @@ def test_paper_figures_for_the_papers_own_experiment(client: TestClient, worker:
     job = submit(client, seeds=2, episodes=100)
     assert drain(worker) == 1
     assert client.get(f"/api/jobs/{job['id']}/results").json()["paper"] == {"mgrao-1:1": 23.4, "mgrao-max": 28.0}
+
+
+def test_new_environment_parameters_are_accepted_and_stored_resolved(client: TestClient) -> None:
+    body = {**SMALL, "params": {"load_sharing": True, "quality_model": "exponential", "routing": "per-task"}}
+    job = client.post("/api/jobs", json=body).json()
+    params = client.get(f"/api/jobs/{job['id']}").json()["params"]
+    assert (params["load_sharing"], params["quality_model"], params["routing"]) == (True, "exponential", "per-task")
+    assert params["half_saturation"] == 0.2 and params["absent_tasks"] == "excluded"
+    schema = {p["name"]: p for p in client.get("/api/systems").json()["parameters"]}
+    assert schema["load_sharing"]["kind"] == "bool" and schema["quality_model"]["default"] == "hyperbolic"
