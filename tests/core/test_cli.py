@@ -114,3 +114,34 @@ def test_reproduce_table_and_bad_set(runner):
     result = _run(runner, "reproduce", "--seeds", "2", "--episodes", "5", "--set", "trace_decay=1")
     assert result.exit_code == 2
     assert "trace_decay" in result.output
+
+
+def test_reproduce_defaults_to_100_seeds_and_flags_the_paper_outside_our_interval(runner):
+    from mgrao_cli.experiments import reproduce
+
+    seeds = next(p for p in reproduce.params if p.name == "seeds")
+    assert seeds.default == 100
+    result = _run(runner, "reproduce", "--seeds", "12", "--format", "json")
+    data = json.loads(result.stdout)
+    assert data["reading"] == "default"
+    row = data["systems"]["volatile"]["mgrao-1:1"]
+    assert row["paper_outside_ci"] is True  # 3.3 lies far below our interval
+    assert row["ci95"][0] > row["paper_pct_from_uniform"]
+    assert data["systems"]["single"]["uniform"]["paper_outside_ci"] is None
+    assert set(data["max_overtakes_1_1_at"]) == {"single", "multi", "volatile", "large"}
+    assert 1 <= data["max_overtakes_1_1_at"]["single"] <= 100
+    table = _run(runner, "reproduce", "--seeds", "12")
+    assert " 3.3 *" in table.stdout
+    assert "mgrao-max stays ahead of mgrao-1:1 from episode" in table.stdout
+    assert "paper's figure lies outside our 95% interval" in table.stdout
+
+
+def test_reproduce_under_a_named_reading_and_set_on_top(runner):
+    result = _run(runner, "reproduce", "--seeds", "3", "--episodes", "10", "--reading", "relative-linear",
+                  "--set", "learning_rate=0.2", "--format", "json")
+    data = json.loads(result.stdout)
+    assert data["overrides"] == {"quality_model": "relative-linear", "routing": "per-task", "learning_rate": "0.2"}
+    # the first reading: uniform scores exactly 0.3 per parent
+    assert data["systems"]["single"]["uniform"]["final_mean"] == pytest.approx(3.0, abs=1e-12)
+    bad = _run(runner, "reproduce", "--reading", "nonsense")
+    assert bad.exit_code == 2 and "nonsense" in bad.output
