@@ -9,7 +9,7 @@ from collections.abc import Sequence
 from datetime import datetime
 from typing import Any
 
-from sqlalchemy import ColumnElement, and_, func, or_, select
+from sqlalchemy import ColumnElement, and_, delete, func, or_, select, update
 from sqlalchemy.orm import Session
 
 import mgrao_core
@@ -96,22 +96,25 @@ def update_job(
 
 
 def cancel_job(session: Session, *, job_id: int) -> Job:
-    """Cancel a queued or running job; a running job's worker notices at its next heartbeat."""
+    """Cancel a queued or running job in one conditional update; a running job's worker notices at
+    its next heartbeat (its lease is gone) and keeps the chunks it stored (the job is partial)."""
+    result = session.execute(
+        update(Job).where(Job.id == job_id, Job.status.in_((QUEUED, RUNNING)))
+        .values(status=CANCELLED, lease=None, finished_at=utcnow())
+    )
     job = get_job(session, job_id=job_id)
-    if job.status not in (QUEUED, RUNNING):
+    if result.rowcount != 1:
         raise Conflict(f"job {job_id} is {job.status}: only queued or running jobs can be cancelled")
-    job.status = CANCELLED
-    job.lease = None
-    job.finished_at = utcnow()
+    session.refresh(job)
     return job
 
 
 def delete_job(session: Session, *, job_id: int) -> None:
-    """Delete a job that is not running, with its runs."""
-    job = get_job(session, job_id=job_id)
-    if job.status == RUNNING:
-        raise Conflict(f"job {job_id} is running: cancel it first")
-    session.delete(job)
+    """Delete a job that is not running, with its runs and tags, in one conditional delete."""
+    result = session.execute(delete(Job).where(Job.id == job_id, Job.status != RUNNING))
+    if result.rowcount != 1:
+        job = get_job(session, job_id=job_id)
+        raise Conflict(f"job {job_id} is {job.status}: cancel it first")
 
 
 def count_by_status(session: Session) -> dict[str, int]:

@@ -4,14 +4,19 @@ SQLite: WAL journal, ``busy_timeout`` and foreign keys on every connection; the 
 transaction handling is switched off so that we emit ``BEGIN`` ourselves, and a *write*
 transaction starts with ``BEGIN IMMEDIATE`` (it takes the write lock at once, so a transaction
 that reads and then writes never fails half-way with SQLITE_BUSY). PostgreSQL: the queue's
-claim uses ``SELECT ... FOR UPDATE SKIP LOCKED`` instead.
+claim uses ``SELECT ... FOR UPDATE SKIP LOCKED`` instead. Both: the database's clock, and an
+insert that skips rows already present.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from datetime import timedelta
 from typing import Any
 
-from sqlalchemy import Engine, Select, event
+from sqlalchemy import ColumnElement, Engine, Select, event, func
+from sqlalchemy.dialects.postgresql import insert as postgresql_insert
+from sqlalchemy.dialects.sqlite import insert as sqlite_insert
 from sqlalchemy.orm import Session
 
 WRITE_OPTION = "mgrao_write"
@@ -61,9 +66,43 @@ def begin_write(session: Session) -> None:
     session.connection(execution_options={WRITE_OPTION: True})
 
 
-def lock_for_claim(session: Session, statement: Select) -> Select:
-    """Prepare the queue's claim: lock the database (SQLite) or skip locked rows (PostgreSQL)."""
-    if session.get_bind().dialect.name == "sqlite":
-        begin_write(session)
+def _name(session: Session) -> str:
+    return session.get_bind().dialect.name
+
+
+def skip_locked(session: Session, statement: Select) -> Select:
+    """The queue's pick of a job: rows locked by another claim are skipped.
+
+    That is PostgreSQL's ``FOR UPDATE SKIP LOCKED``; SQLite's write transaction already holds the
+    whole database.
+    """
+    if _name(session) == "sqlite":
         return statement
     return statement.with_for_update(skip_locked=True)
+
+
+def db_now(session: Session, minus_seconds: float | None = None) -> ColumnElement:
+    """The database's current UTC time (naive, as the models store it), optionally minus a span.
+
+    SQLite keeps times as text, so the expression yields the text SQLAlchemy writes
+    (``YYYY-MM-DD HH:MM:SS.ffffff``) and compares correctly with stored values.
+    """
+    if _name(session) == "sqlite":
+        modifiers = [] if minus_seconds is None else [f"-{float(minus_seconds)!r} seconds"]
+        return func.strftime("%Y-%m-%d %H:%M:%f000", "now", *modifiers)
+    now = func.timezone("UTC", func.now())
+    return now if minus_seconds is None else now - timedelta(seconds=minus_seconds)
+
+
+def insert_ignoring_duplicates(session: Session, model: type, rows: Sequence[dict[str, Any]]) -> None:
+    """Insert ``rows`` into ``model``'s table; a row that collides with a unique key is skipped."""
+    if not rows:
+        return
+    name = _name(session)
+    if name == "sqlite":
+        statement = sqlite_insert(model).on_conflict_do_nothing()
+    elif name == "postgresql":
+        statement = postgresql_insert(model).on_conflict_do_nothing()
+    else:  # pragma: no cover - the project supports SQLite and PostgreSQL
+        raise NotImplementedError(f"no insert-or-ignore for {name}")
+    session.execute(statement, list(rows))

@@ -7,6 +7,8 @@ from functools import lru_cache
 from pydantic import Field
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
+from mgrao_core.budget import MAX_CHUNK_BYTES
+
 
 class Settings(BaseSettings):
     """Everything the API and the workers can be configured with."""
@@ -22,7 +24,17 @@ class Settings(BaseSettings):
     poll_s: float = Field(0.25, gt=0, description="Idle worker's polling interval for new jobs.")
     max_attempts: int = Field(3, ge=1, le=100, description="Claims of a job before a lost worker fails it.")
     max_body_bytes: int = Field(65536, ge=1024, description="Largest accepted request body (413 beyond).")
+    job_memory_mib: int = Field(
+        MAX_CHUNK_BYTES // 1024**2, ge=16, le=1024**2,
+        description="Memory a worker may use for one chunk of a job, above its baseline (422 for a job "
+                    "whose single seed needs more).",
+    )
     host: str = "127.0.0.1"
+
+    @property
+    def job_memory_bytes(self) -> int:
+        """:attr:`job_memory_mib` in bytes."""
+        return self.job_memory_mib * 1024**2
     port: int = Field(8000, ge=0, le=65535)
 
 

@@ -1,7 +1,10 @@
 """A local worker process: warm up the engine, then claim and run jobs until told to stop.
 
-While a job runs, a heartbeat thread records that the worker is alive and the job's progress,
-and notices a cancel (the job's lease is gone), which makes the run's ``should_stop`` True.
+A job runs chunk by chunk (every algorithm over a block of seeds, sized by the job memory
+budget); each chunk's runs are stored as soon as it completes, so a retried job computes only
+what is missing. While a job runs, a heartbeat thread records that the worker is alive and the
+job's progress, and notices a cancel (the job's lease is gone), which makes the run's
+``should_stop`` True.
 """
 
 from __future__ import annotations
@@ -12,13 +15,18 @@ import signal
 import socket
 import threading
 import time
+from collections.abc import Callable
 from types import FrameType
+from typing import TypeVar
+
+from sqlalchemy.exc import SQLAlchemyError
 
 from backend import queue
 from backend.db import Database
 from backend.settings import Settings
 
 log = logging.getLogger("mgrao.worker")
+T = TypeVar("T")
 
 
 class _Heartbeat(threading.Thread):
@@ -59,8 +67,29 @@ class _Heartbeat(threading.Thread):
                 log.exception("heartbeat of job %s failed", self.claim.job_id)
 
 
+class _Backoff:
+    """Capped exponential waits between retries of a failing database call."""
+
+    def __init__(self, first: float = 0.25, cap: float = 30.0) -> None:
+        self.first, self.cap, self.delay = first, cap, first
+
+    def next(self) -> float:
+        """The wait before the next retry (doubling up to the cap)."""
+        delay, self.delay = self.delay, min(self.delay * 2, self.cap)
+        return delay
+
+    def reset(self) -> None:
+        """Back to the first wait after a success."""
+        self.delay = self.first
+
+
 class Worker:
-    """Claims queued jobs one at a time and runs them with :func:`mgrao_core.run_experiment`."""
+    """Claims queued jobs one at a time and runs them chunk by chunk with :func:`mgrao_core.run_chunk`.
+
+    No database error stops a worker: every call is retried with a capped backoff until it goes
+    through or the worker is told to stop; a job whose lease lapses meanwhile is taken over by
+    another worker, which resumes it from the chunks already stored.
+    """
 
     def __init__(self, settings: Settings, *, worker_id: str | None = None) -> None:
         self.settings = settings
@@ -86,6 +115,23 @@ class Worker:
 
         run_experiment(make_spec("single", seeds=1, episodes=2))
 
+    def persist(self, call: Callable[[], T], what: str) -> T:
+        """``call()``, retried on database errors with a capped backoff until it succeeds.
+
+        Raises:
+            WorkerStopping: the worker was told to stop while the database was failing.
+        """
+        backoff = _Backoff()
+        while True:
+            try:
+                return call()
+            except SQLAlchemyError as error:
+                if self.shutdown.is_set():
+                    raise WorkerStopping(f"stopping while {what} failed: {error}") from error
+                delay = backoff.next()
+                log.warning("%s failed (%s); retrying in %.2f s", what, _reason(error), delay)
+                self.shutdown.wait(delay)
+
     def run_once(self) -> bool:
         """Claim and run one job; False when the queue was empty."""
         claim = queue.claim(
@@ -94,48 +140,103 @@ class Worker:
         )
         if claim is None:
             return False
-        self.execute(claim)
+        try:
+            self.execute(claim)
+        except WorkerStopping as error:
+            log.warning("job %s left to its lease: %s", claim.job_id, error)
         return True
 
     def execute(self, claim: queue.Claim) -> None:
         """Run a claimed job to its end: succeeded, failed, cancelled or handed back."""
-        from mgrao_core import Cancelled, MgraoError, run_experiment, spec_from_dict
+        from mgrao_core import Cancelled, MgraoError, NumericalError, plan_chunks, run_chunk, spec_from_dict
 
         log.info("worker %s runs job %s (attempt %s)", self.worker_id, claim.job_id, claim.attempt)
+        budget = self.settings.job_memory_bytes
         beat = _Heartbeat(self.db, claim, self.settings, self.shutdown)
         beat.start()
         try:
-            spec = spec_from_dict(claim.config)
-            result = run_experiment(spec, on_progress=beat.on_progress, should_stop=beat.should_stop)
+            spec = spec_from_dict(claim.config, memory_budget=budget)
+            done = self.persist(lambda: self._stored_seeds(claim.job_id, len(spec.algorithms)), "reading stored runs")
+            missing = tuple(seed for seed in spec.seeds if seed not in done)
+            finished = len(spec.seeds) - len(missing)
+            for chunk in plan_chunks(spec, missing, budget=budget):
+                def progress(fraction: float, chunk: tuple[int, ...] = chunk, finished: int = finished) -> None:
+                    beat.on_progress((finished + fraction * len(chunk)) / len(spec.seeds))
+
+                runs = run_chunk(spec, chunk, on_progress=progress, should_stop=beat.should_stop)
+                rows = queue.run_rows(claim.job_id, runs)
+                del runs
+                finished += len(chunk)
+                stored = self.persist(
+                    lambda rows=rows, finished=finished: queue.store_runs(
+                        self.db, claim=claim, rows=rows, progress=finished / len(spec.seeds)),
+                    f"storing runs of job {claim.job_id}",
+                )
+                del rows
+                if not stored:
+                    log.info("job %s was cancelled or taken over; stopped", claim.job_id)
+                    return
+            expected = len(spec.seeds) * len(spec.algorithms)
+            if not self.persist(lambda: queue.finish(self.db, claim=claim, expected_runs=expected),
+                                f"finishing job {claim.job_id}"):
+                log.info("job %s was cancelled or taken over before it finished", claim.job_id)
         except Cancelled:
             if not beat.lost.is_set():
-                queue.release(self.db, claim=claim)
-            return
+                self.persist(lambda: queue.release(self.db, claim=claim), f"handing back job {claim.job_id}")
+        except NumericalError as error:
+            self._fail(claim, str(error), discard_runs=True)
         except MgraoError as error:
-            queue.fail(self.db, claim=claim, error=str(error))
-            return
+            self._fail(claim, str(error))
+        except WorkerStopping:
+            raise
         except Exception as error:
             log.exception("job %s failed", claim.job_id)
-            queue.fail(self.db, claim=claim, error=f"{type(error).__name__}: {error}")
-            return
+            self._fail(claim, f"{type(error).__name__}: {error}")
         finally:
             beat.done.set()
             beat.join()
-        if not queue.finish(self.db, claim=claim, result=result):
-            log.info("job %s was cancelled or taken over; its results were discarded", claim.job_id)
+
+    def _fail(self, claim: queue.Claim, message: str, discard_runs: bool = False) -> None:
+        self.persist(lambda: queue.fail(self.db, claim=claim, error=message, discard_runs=discard_runs),
+                     f"failing job {claim.job_id}")
+
+    def _stored_seeds(self, job_id: int, algorithms: int) -> set[int]:
+        with self.db.session() as session:
+            return queue.stored_seeds(session, job_id=job_id, algorithms=algorithms)
 
     def serve_forever(self, *, warm_up: bool = True) -> None:
-        """Migrate, warm up, then run jobs until :meth:`stop`."""
-        self.db.migrate()
+        """Migrate, warm up, then run jobs until :meth:`stop`; database errors are waited out."""
+        try:
+            self.persist(self.db.migrate, "migrating the database")
+        except WorkerStopping:
+            return
         if warm_up:
             self.warm_up()
         log.info("worker %s ready", self.worker_id)
+        backoff = _Backoff()
         try:
             while not self.shutdown.is_set():
-                if not self.run_once():
+                try:
+                    ran = self.run_once()
+                    backoff.reset()
+                except Exception as error:  # noqa: BLE001 - a worker outlives every failure of one poll
+                    delay = backoff.next()
+                    log.warning("polling the queue failed (%s); retrying in %.2f s", _reason(error), delay)
+                    self.shutdown.wait(delay)
+                    continue
+                if not ran:
                     self.shutdown.wait(self.settings.poll_s)
         finally:
             self.db.dispose()
+
+
+class WorkerStopping(Exception):
+    """The worker was told to stop while a database call was still failing."""
+
+
+def _reason(error: BaseException) -> str:
+    text = str(getattr(error, "orig", None) or error).strip().splitlines()
+    return text[0] if text else type(error).__name__
 
 
 def main(settings: Settings | None = None) -> None:

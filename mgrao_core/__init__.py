@@ -8,17 +8,17 @@ A pure library: numpy and numba, no I/O, no web, no database.
 """
 
 from mgrao_core.algorithms import Algorithm, divisors, parent_groups, parse_algorithm
-from mgrao_core.errors import Cancelled, ConfigError, MgraoError, WorkLimitError
+from mgrao_core.budget import MAX_CHUNK_BYTES, MAX_RESULT_BYTES, plan_chunks
+from mgrao_core.errors import Cancelled, ConfigError, MgraoError, NumericalError, WorkLimitError
 from mgrao_core.params import PARAMETERS, Parameter, SystemParams, make_params
 from mgrao_core.presets import PRESETS, Preset, get_preset
 from mgrao_core.results import ExperimentResult, Run
-from mgrao_core.runner import run_experiment
+from mgrao_core.runner import run_chunk, run_experiment
 from mgrao_core.spec import (
     MAX_ALGORITHMS,
     MAX_EPISODES,
     MAX_GROUP_UPDATES,
     MAX_SEEDS,
-    MAX_STATE_BYTES,
     MAX_WORK,
     ExperimentSpec,
     make_spec,
@@ -31,10 +31,11 @@ __version__ = "0.1.0"
 __all__ = [
     "FINAL_EPISODES",
     "MAX_ALGORITHMS",
+    "MAX_CHUNK_BYTES",
     "MAX_EPISODES",
     "MAX_GROUP_UPDATES",
+    "MAX_RESULT_BYTES",
     "MAX_SEEDS",
-    "MAX_STATE_BYTES",
     "MAX_WORK",
     "PARAMETERS",
     "PRESETS",
@@ -45,6 +46,7 @@ __all__ = [
     "ExperimentResult",
     "ExperimentSpec",
     "MgraoError",
+    "NumericalError",
     "Parameter",
     "Preset",
     "Run",
@@ -58,6 +60,8 @@ __all__ = [
     "make_spec",
     "parent_groups",
     "parse_algorithm",
+    "plan_chunks",
+    "run_chunk",
     "run_experiment",
     "spec_from_dict",
     "summarise",

@@ -12,7 +12,7 @@ from mgrao_core.errors import ConfigError
 UNIFORM = "uniform"
 ORACLE = "oracle"
 MGRAO_MAX = "mgrao-max"
-_RATIO = re.compile(r"^mgrao-(\d+):(\d+)$")
+_RATIO = re.compile(r"^mgrao-0*(\d{1,9}):0*(\d{1,9})$")
 
 
 @dataclass(frozen=True)
@@ -36,14 +36,18 @@ def parse_algorithm(label: str, n_parents: int, field: str = "algorithm") -> Alg
     ``mgrao-x:1`` means x parent groups per child (paper: "an x:y ratio of parent-agent groups to
     each child-agent"); x must divide ``n_parents`` so that every group has the same size.
 
+    Labels are read without case or surrounding spaces, and ratios without leading zeros: the
+    returned ``label`` is the canonical spelling (``" MGRAO-05:1"`` is ``"mgrao-5:1"``).
+
     Raises:
         ConfigError: an unknown label, y other than 1, or an x that does not divide the parents.
     """
-    if label == UNIFORM or label == ORACLE:
-        return Algorithm(label, label)
-    if label == MGRAO_MAX:
-        return Algorithm(label, "mgrao", n_parents)
-    match = _RATIO.match(label) if isinstance(label, str) else None
+    text = label.strip().lower() if isinstance(label, str) else None
+    if text == UNIFORM or text == ORACLE:
+        return Algorithm(text, text)
+    if text == MGRAO_MAX:
+        return Algorithm(text, "mgrao", n_parents)
+    match = _RATIO.match(text) if text is not None else None
     if match is None:
         raise ConfigError(
             field, f"unknown algorithm {label!r}: use uniform, oracle, mgrao-max or mgrao-x:1"
@@ -57,16 +61,28 @@ def parse_algorithm(label: str, n_parents: int, field: str = "algorithm") -> Alg
             f"{label}: x must be a divisor of n_parents = {n_parents} "
             f"(valid: {', '.join(str(d) for d in divisors(n_parents))})",
         )
-    return Algorithm(label, "mgrao", groups)
+    return Algorithm(f"mgrao-{groups}:1", "mgrao", groups)
 
 
 def parse_algorithms(labels: list[str] | tuple[str, ...], n_parents: int) -> tuple[Algorithm, ...]:
-    """Parse a non-empty list of distinct labels (field names ``algorithms[i]`` in errors)."""
+    """Parse a non-empty list of distinct labels (field names ``algorithms[i]`` in errors).
+
+    Two spellings of one algorithm (``mgrao-1:1`` and ``mgrao-01:1``) are a repeat.
+    """
     if not labels:
         raise ConfigError("algorithms", "must name at least one algorithm")
-    if len(set(labels)) != len(labels):
-        raise ConfigError("algorithms", "must not repeat a label")
-    return tuple(parse_algorithm(lab, n_parents, f"algorithms[{i}]") for i, lab in enumerate(labels))
+    parsed = []
+    seen: dict[str, int] = {}
+    for i, label in enumerate(labels):
+        algorithm = parse_algorithm(label, n_parents, f"algorithms[{i}]")
+        parsed.append(algorithm)
+        if algorithm.label in seen:
+            raise ConfigError(
+                f"algorithms[{i}]",
+                f"repeats algorithms[{seen[algorithm.label]}] ({labels[i]!r} is {algorithm.label!r})",
+            )
+        seen[algorithm.label] = i
+    return tuple(parsed)
 
 
 def divisors(n: int) -> list[int]:

@@ -27,3 +27,7 @@ class WorkLimitError(ConfigError):
 
 class Cancelled(MgraoError):
     """The caller asked the run to stop (cooperative cancellation)."""
+
+
+class NumericalError(MgraoError):
+    """A simulation produced a utility or weight that is not finite (nothing of it may be stored)."""

@@ -21,8 +21,12 @@ full system's task stream and, with ``rejoin_profile="new"``, only the initial p
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
+from mgrao_core.budget import ORACLE_BATCH
+from mgrao_core.errors import Cancelled
 from mgrao_core.params import SystemParams
 from mgrao_core.world import World, stream
 
@@ -30,17 +34,21 @@ EXPECTATION_SAMPLES = 1024
 _BISECTIONS = 200
 
 
-def expected_type_values(params: SystemParams, world: World, seed: int) -> np.ndarray:
+def expected_type_values(params: SystemParams, world: World, seed: int,
+                         should_stop: Callable[[], bool] | None = None) -> np.ndarray:
     """``V[t]``: the expected proportional value of type ``t`` per episode.
 
     Estimated by Monte Carlo on the seed's own ``"oracle"`` stream; the profile alone would
-    ignore the effect of the value noise on ``ctv``.
+    ignore the effect of the value noise on ``ctv``. ``should_stop`` is polled between batches of
+    samples (:class:`Cancelled` when it returns True).
     """
     rng = stream(seed, "oracle")
     expected = np.zeros_like(world.profiles)
     remaining = EXPECTATION_SAMPLES
     while remaining:
-        batch = min(remaining, 128)
+        if should_stop is not None and should_stop():
+            raise Cancelled(f"stopped while estimating the oracle's values for seed {seed}")
+        batch = min(remaining, ORACLE_BATCH)
         noisy = world.profiles * np.exp(params.value_noise * rng.standard_normal((batch,) + world.profiles.shape))
         expected += (noisy / noisy.sum(axis=2, keepdims=True)).sum(axis=0)
         remaining -= batch
@@ -104,9 +112,10 @@ def _water_filling(params: SystemParams, values: np.ndarray, per_weight: np.ndar
     return weights / weights.sum()
 
 
-def oracle_weights(params: SystemParams, world: World, seed: int) -> np.ndarray:
+def oracle_weights(params: SystemParams, world: World, seed: int,
+                   should_stop: Callable[[], bool] | None = None) -> np.ndarray:
     """The optimal fixed resource weights, ``(n_children, n_types)``, each row summing to 1."""
-    values = expected_type_values(params, world, seed)
+    values = expected_type_values(params, world, seed, should_stop)
     loads = type_loads(params, world)
     if params.quality_model == "relative-linear":  # the child's resource cancels out
         return np.tile(_knapsack(params, values, loads), (params.n_children, 1))

@@ -1,37 +1,41 @@
-"""Run an experiment: every (algorithm, seed) lane through the engine, block by block."""
+"""Run an experiment: every (algorithm, seed) lane through the engine, chunk by chunk, block by block.
+
+A *chunk* is every algorithm over a block of seeds (:mod:`mgrao_core.budget` sizes it so that its
+memory stays within a budget); a *block* is a run of episodes between two progress reports and
+cancellation checks. Lanes never interact, so neither the chunking nor the blocks change a number.
+"""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Sequence
 
 import numpy as np
 
 from mgrao_core import engine
-from mgrao_core.errors import Cancelled
+from mgrao_core.budget import MAX_CHUNK_BYTES, block_episodes, plan_chunks
+from mgrao_core.errors import Cancelled, NumericalError
 from mgrao_core.oracle import oracle_weights
 from mgrao_core.results import ExperimentResult, Run
 from mgrao_core.spec import ExperimentSpec
-from mgrao_core.world import EpisodeDraws, EpisodeStreams, draw_world, routing_choices
+from mgrao_core.world import EpisodeDraws, EpisodeStreams, World, draw_world, routing_choices
 
-BLOCK_ATOMIC_TASKS = 4_000_000
-"""Atomic tasks per block: progress is reported and cancellation checked between blocks."""
 _KINDS = {"uniform": engine.KIND_UNIFORM, "oracle": engine.KIND_ORACLE, "mgrao": engine.KIND_MGRAO}
 
 ProgressCallback = Callable[[float], None]
 StopCheck = Callable[[], bool]
 
 
-def _build_lanes(spec: ExperimentSpec, worlds: list, oracle: dict[int, np.ndarray]) -> engine.Lanes:
+def _build_lanes(spec: ExperimentSpec, worlds: Sequence[World], oracle: Sequence[np.ndarray]) -> engine.Lanes:
     p = spec.params
     algorithms = spec.parsed_algorithms
-    n_lanes = len(algorithms) * len(spec.seeds)
+    n_lanes = len(algorithms) * len(worlds)
     max_groups = max([a.n_groups for a in algorithms] + [1])
     shape = (n_lanes, p.n_children)
     # Seed-major lanes: the kernel's parallel loop hands each thread a contiguous range of lanes, and
     # interleaving the algorithms gives every thread a share of the costly many-group lanes.
-    seed_index = np.repeat(np.arange(len(spec.seeds)), len(algorithms))
-    kind = np.tile([_KINDS[a.kind] for a in algorithms], len(spec.seeds)).astype(np.int64)
-    groups = np.tile([a.n_groups for a in algorithms], len(spec.seeds)).astype(np.int64)
+    seed_index = np.repeat(np.arange(len(worlds)), len(algorithms))
+    kind = np.tile([_KINDS[a.kind] for a in algorithms], len(worlds)).astype(np.int64)
+    groups = np.tile([a.n_groups for a in algorithms], len(worlds)).astype(np.int64)
     fixed = np.full(shape + (p.n_types,), 1.0 / p.n_types)
     for lane in np.flatnonzero(kind == engine.KIND_ORACLE):
         fixed[lane] = oracle[int(seed_index[lane])]
@@ -70,40 +74,43 @@ def _block_draws(draws: list[EpisodeDraws]) -> engine.Draws:
     )
 
 
-def block_episodes(spec: ExperimentSpec) -> int:
-    """Episodes per block, so that a block simulates about :data:`BLOCK_ATOMIC_TASKS` tasks."""
-    p = spec.params
-    per_episode = len(spec.seeds) * len(spec.algorithms) * p.n_parents * p.types_per_composite
-    return int(min(spec.episodes, max(1, BLOCK_ATOMIC_TASKS // per_episode)))
+def check_finite(runs: Iterable[Run]) -> None:
+    """Raise :class:`NumericalError` naming the first run whose utilities or weights are not all finite."""
+    for run in runs:
+        for what, values in (("utilities", run.utilities), ("combined weights", run.combined_weights),
+                             ("group weights", run.group_weights)):
+            if not np.isfinite(values).all():
+                raise NumericalError(f"numerical overflow in the {what} of {run.algorithm} seed {run.seed}: "
+                                     "a value is not finite; nothing was stored")
 
 
-def run_experiment(
+def run_chunk(
     spec: ExperimentSpec,
+    seeds: Sequence[int],
     on_progress: ProgressCallback | None = None,
     should_stop: StopCheck | None = None,
     episodes_per_block: int | None = None,
-) -> ExperimentResult:
-    """Simulate every (algorithm, seed) run of ``spec``.
+) -> tuple[Run, ...]:
+    """Simulate every algorithm of ``spec`` over ``seeds`` (a chunk), in the order algorithms x seeds.
 
     Args:
         spec: a validated experiment (see :func:`mgrao_core.make_spec`).
-        on_progress: called with the fraction done (0 < f <= 1) after every block.
-        should_stop: polled before every block; when it returns True the run stops.
+        seeds: some of the spec's seeds; a run's numbers do not depend on which others run with it.
+        on_progress: called with the fraction of the chunk done (0 < f <= 1) after every block.
+        should_stop: polled between seeds of the oracle and before every block.
         episodes_per_block: override the block size (results do not depend on it).
-
-    Returns:
-        The utilities of every episode of every run and each learner's final weights.
 
     Raises:
         Cancelled: ``should_stop`` returned True.
+        NumericalError: a utility or weight came out infinite or NaN.
     """
     p = spec.params
-    worlds = [draw_world(p, seed) for seed in spec.seeds]
-    oracle = {
-        i: oracle_weights(p, worlds[i], seed)
-        for i, seed in enumerate(spec.seeds)
-        if "oracle" in spec.algorithms
-    }
+    seeds = tuple(seeds)
+    worlds = [draw_world(p, seed) for seed in seeds]
+    oracle = []
+    if "oracle" in spec.algorithms:
+        for world, seed in zip(worlds, seeds, strict=True):
+            oracle.append(oracle_weights(p, world, seed, should_stop=should_stop))
     lanes = _build_lanes(spec, worlds, oracle)
     world = engine.Worlds(
         parent_types=np.ascontiguousarray(np.stack([w.parent_types for w in worlds]).astype(np.int64)),
@@ -111,9 +118,9 @@ def run_experiment(
     )
     environment = engine.environment_of(p)
     learning = engine.learning_of(p)
-    streams = [EpisodeStreams(p, seed) for seed in spec.seeds]
+    streams = [EpisodeStreams(p, seed) for seed in seeds]
     utilities = np.zeros((len(lanes.kind), spec.episodes))
-    block = episodes_per_block or block_episodes(spec)
+    block = episodes_per_block or block_episodes(spec, len(seeds))
     done = 0
     while done < spec.episodes:
         if should_stop is not None and should_stop():
@@ -129,7 +136,7 @@ def run_experiment(
     runs = []
     n_algorithms = len(spec.algorithms)
     for algorithm_index, algorithm in enumerate(spec.algorithms):
-        for seed_index, seed in enumerate(spec.seeds):
+        for seed_index, seed in enumerate(seeds):
             lane = seed_index * n_algorithms + algorithm_index
             m = int(lanes.groups[lane])
             runs.append(Run(
@@ -139,4 +146,40 @@ def run_experiment(
                 group_weights=lanes.Y[lane, :, :m].copy(),
                 combined_weights=lanes.weights[lane].copy(),
             ))
-    return ExperimentResult(spec=spec, runs=tuple(runs))
+    check_finite(runs)
+    return tuple(runs)
+
+
+def run_experiment(
+    spec: ExperimentSpec,
+    on_progress: ProgressCallback | None = None,
+    should_stop: StopCheck | None = None,
+    episodes_per_block: int | None = None,
+    memory_budget: int = MAX_CHUNK_BYTES,
+) -> ExperimentResult:
+    """Simulate every (algorithm, seed) run of ``spec``, a chunk of seeds at a time.
+
+    Args:
+        spec: a validated experiment (see :func:`mgrao_core.make_spec`).
+        on_progress: called with the fraction done (0 < f <= 1) after every block.
+        should_stop: polled before every block; when it returns True the run stops.
+        episodes_per_block: override the block size (results do not depend on it).
+        memory_budget: bytes a chunk may allocate (see :mod:`mgrao_core.budget`); the runs
+            themselves, every episode utility, accumulate on top.
+
+    Returns:
+        The utilities of every episode of every run and each learner's final weights.
+
+    Raises:
+        Cancelled: ``should_stop`` returned True.
+        NumericalError: a utility or weight came out infinite or NaN.
+    """
+    chunks = plan_chunks(spec, budget=memory_budget)
+    by_key: dict[tuple[str, int], Run] = {}
+    for i, chunk in enumerate(chunks):
+        share = len(chunk) / len(spec.seeds)
+        start = sum(len(c) for c in chunks[:i]) / len(spec.seeds)
+        progress = None if on_progress is None else (lambda f, start=start, share=share: on_progress(start + f * share))
+        for run in run_chunk(spec, chunk, progress, should_stop, episodes_per_block):
+            by_key[(run.algorithm, run.seed)] = run
+    return ExperimentResult(spec=spec, runs=tuple(by_key[(a, s)] for a in spec.algorithms for s in spec.seeds))

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from mgrao_core.algorithms import Algorithm, parse_algorithms
+from mgrao_core.budget import MAX_CHUNK_BYTES, MAX_RESULT_BYTES, chunk_cost, result_bytes
 from mgrao_core.errors import ConfigError, WorkLimitError
 from mgrao_core.params import SystemParams, make_params
 from mgrao_core.presets import get_preset
@@ -20,8 +21,6 @@ MAX_WORK = 2_000_000_000
 MAX_GROUP_UPDATES = 40_000_000_000
 """Row updates of algorithm 1 per experiment: each returned value renormalises every parent-group
 row of its child, so an MG-RAO run costs atomic tasks x groups (about 3 ns each here)."""
-MAX_STATE_BYTES = 2 * 1024**3
-"""Memory for the learners' state across all runs of one experiment."""
 
 
 @dataclass(frozen=True)
@@ -59,16 +58,6 @@ class ExperimentSpec:
         p = self.params
         per_run = self.episodes * p.n_parents * p.types_per_composite
         return len(self.seeds) * per_run * sum(a.n_groups for a in self.parsed_algorithms)
-
-    @property
-    def state_bytes(self) -> int:
-        """Approximate memory of the learners' state (what :data:`MAX_STATE_BYTES` bounds)."""
-        p = self.params
-        groups = max(a.n_groups for a in self.parsed_algorithms) or 1
-        lanes = len(self.seeds) * len(self.algorithms)
-        learner = 2 * groups * p.n_types + 4 * groups
-        allocation = 2 * p.n_parents * p.types_per_composite * p.n_children
-        return 8 * lanes * (p.n_children * learner + allocation)
 
     def as_dict(self) -> dict[str, Any]:
         """The specification as JSON-ready data (round-trips through :func:`spec_from_dict`)."""
@@ -110,6 +99,7 @@ def make_spec(
     seeds: int | Sequence[int] = 30,
     episodes: int = 100,
     overrides: Mapping[str, Any] | None = None,
+    memory_budget: int = MAX_CHUNK_BYTES,
 ) -> ExperimentSpec:
     """Validate an experiment.
 
@@ -119,17 +109,20 @@ def make_spec(
         seeds: a count ``S`` (seeds ``0 .. S-1``) or an explicit list.
         episodes: episodes per run.
         overrides: parameters to change on top of the preset.
+        memory_budget: bytes one chunk (every algorithm over one seed, at least) may allocate
+            (see :mod:`mgrao_core.budget`).
 
     Raises:
         ConfigError: a field is invalid; the message names the field and the limit.
-        WorkLimitError: the experiment exceeds :data:`MAX_WORK` or :data:`MAX_STATE_BYTES`.
+        WorkLimitError: the experiment exceeds :data:`MAX_WORK`, :data:`MAX_GROUP_UPDATES`,
+            :data:`mgrao_core.budget.MAX_RESULT_BYTES` or, for a single seed, ``memory_budget``.
     """
     preset = get_preset(system)
     params = make_params(overrides, base=preset.params)
-    labels = tuple(preset.algorithms if algorithms is None else algorithms)
-    if len(labels) > MAX_ALGORITHMS:
-        raise ConfigError("algorithms", f"at most {MAX_ALGORITHMS} algorithms (got {len(labels)})")
-    parse_algorithms(labels, params.n_parents)
+    given = tuple(preset.algorithms if algorithms is None else algorithms)
+    if len(given) > MAX_ALGORITHMS:
+        raise ConfigError("algorithms", f"at most {MAX_ALGORITHMS} algorithms (got {len(given)})")
+    labels = tuple(a.label for a in parse_algorithms(given, params.n_parents))
     spec = ExperimentSpec(system, params, labels, _seeds(seeds), _count("episodes", episodes, MAX_EPISODES))
     if spec.work > MAX_WORK:
         raise WorkLimitError(
@@ -144,17 +137,27 @@ def make_spec(
             f"{MAX_GROUP_UPDATES:,} algorithm-1 row updates per experiment (use fewer groups, "
             "seeds or episodes)",
         )
-    if spec.state_bytes > MAX_STATE_BYTES:
+    stored = result_bytes(spec)
+    if stored > MAX_RESULT_BYTES:
+        raise WorkLimitError(
+            "results",
+            f"the runs' utilities and weights would take {stored / 1024**2:,.0f} MiB, over the limit of "
+            f"{MAX_RESULT_BYTES // 1024**2:,} MiB per experiment (use fewer seeds, episodes or algorithms)",
+        )
+    one_seed = chunk_cost(spec, 1).total
+    if one_seed > memory_budget:
         raise WorkLimitError(
             "memory",
-            f"the learners' state would need {spec.state_bytes / 1024**2:,.0f} MiB, "
-            f"over the limit of {MAX_STATE_BYTES // 1024**2:,} MiB",
+            f"simulating one seed of every algorithm would need {one_seed / 1024**2:,.0f} MiB, over the memory "
+            f"budget of {memory_budget / 1024**2:,.0f} MiB per chunk (use fewer algorithms, groups, children, "
+            "parents or types)",
         )
     return spec
 
 
-def spec_from_dict(data: Mapping[str, Any]) -> ExperimentSpec:
+def spec_from_dict(data: Mapping[str, Any], memory_budget: int = MAX_CHUNK_BYTES) -> ExperimentSpec:
     """Rebuild (and re-validate) a specification from :meth:`ExperimentSpec.as_dict` data."""
     preset = get_preset(data["system"]).params.as_dict()
     overrides = {k: v for k, v in data.get("params", {}).items() if preset.get(k, object()) != v}
-    return make_spec(data["system"], data["algorithms"], list(data["seeds"]), data["episodes"], overrides)
+    return make_spec(data["system"], data["algorithms"], list(data["seeds"]), data["episodes"], overrides,
+                     memory_budget=memory_budget)

@@ -10,7 +10,7 @@ from fastapi import APIRouter, Query, Response, status
 from fastapi.responses import JSONResponse, StreamingResponse
 
 from backend import analysis, crud
-from backend.deps import Authorized, DatabaseDep, SessionDep
+from backend.deps import Authorized, DatabaseDep, SessionDep, SettingsDep
 from backend.errors import InvalidSpec
 from backend.schemas import JobCreate, JobOut, JobPage, JobPatch, Sort, Status
 from mgrao_core import MAX_EPISODES, ConfigError, make_spec
@@ -22,10 +22,11 @@ Points = Annotated[int | None, Query(ge=1, le=MAX_EPISODES, description="Downsam
 
 
 @router.post("", status_code=status.HTTP_202_ACCEPTED, response_model=JobOut, dependencies=[Authorized])
-def submit_job(body: JobCreate, db: DatabaseDep, response: Response) -> dict:
+def submit_job(body: JobCreate, db: DatabaseDep, settings: SettingsDep, response: Response) -> dict:
     """Queue an experiment; answers once the job is committed."""
     try:
-        spec = make_spec(body.system, body.algorithms, body.seeds, body.episodes, body.params)
+        spec = make_spec(body.system, body.algorithms, body.seeds, body.episodes, body.params,
+                         memory_budget=settings.job_memory_bytes)
     except ConfigError as error:
         raise InvalidSpec.from_config_error(error, params=body.params) from None
     with db.write() as session:

@@ -120,6 +120,10 @@ def combined_weights(PW, counts, m, n, temperature, out, scratch):
     for j in range(n):
         out[j] = math.exp(out[j] - top)
         total += out[j]
+    if not (total >= 1.0 and total < np.inf):  # a non-finite top (temperature far below the schema's
+        for j in range(n):                       # bounds): fall back to uniform rather than NaN
+            out[j] = 1.0
+        total = float(n)
     for j in range(n):
         out[j] /= total
 

@@ -96,8 +96,10 @@ def test_cancel_and_delete_state_rules(client: TestClient, db: Database) -> None
     assert client.get(f"/api/jobs/{running['id']}/results").status_code == 409
     assert client.post(f"/api/jobs/{running['id']}/cancel").json()["status"] == "cancelled"
     assert queue.heartbeat(db, claim=claim) is False  # the worker learns it must stop
-    result = run_experiment(make_spec(**{**SMALL, "seeds": 3}))
-    assert queue.finish(db, claim=claim, result=result) is False  # and may not store results
+    spec = make_spec(**{**SMALL, "seeds": 3})
+    rows = queue.run_rows(claim.job_id, run_experiment(spec).runs)
+    assert queue.store_runs(db, claim=claim, rows=rows, progress=1.0) is False  # and may not store results
+    assert queue.finish(db, claim=claim, expected_runs=len(rows)) is False
     assert client.get(f"/api/jobs/{running['id']}").json()["status"] == "cancelled"
 
     assert client.delete(f"/api/jobs/{running['id']}").status_code == 204

@@ -1,23 +1,26 @@
-"""The queue's data layer against a real SQLite file: claim, leases, stale re-queue, results."""
+"""The queue's data layer against a real SQLite file: claim, leases, stale re-queue, chunked results."""
 
 from __future__ import annotations
 
 from datetime import timedelta
 
 import numpy as np
-from sqlalchemy import func, select, update
+import pytest
+from sqlalchemy import event, func, select, update
 
 from backend import crud, queue
 from backend.db import Database
 from backend.models import Job, Run, utcnow
-from mgrao_core import make_spec, run_experiment
+from backend.settings import Settings
+from backend.worker import Worker
+from mgrao_core import make_spec, run_chunk, run_experiment
 
-SPEC = make_spec("single", seeds=2, episodes=12)
+SPEC = make_spec("single", seeds=4, episodes=12)
 
 
-def add_job(db: Database) -> int:
+def add_job(db: Database, spec=SPEC) -> int:
     with db.write() as session:
-        return crud.create_job(session, spec=SPEC).id
+        return crud.create_job(session, spec=spec).id
 
 
 def age_heartbeat(db: Database, job_id: int, seconds: float) -> None:
@@ -25,10 +28,33 @@ def age_heartbeat(db: Database, job_id: int, seconds: float) -> None:
         session.execute(update(Job).where(Job.id == job_id).values(heartbeat_at=utcnow() - timedelta(seconds=seconds)))
 
 
+def store_all(db: Database, claim: queue.Claim, spec=SPEC) -> None:
+    runs = run_chunk(spec, spec.seeds)
+    assert queue.store_runs(db, claim=claim, rows=queue.run_rows(claim.job_id, runs), progress=1.0)
+
+
 def test_claims_oldest_first_and_only_once(db: Database) -> None:
     ids = [add_job(db) for _ in range(3)]
     claims = [queue.claim(db, worker_id=f"w{i}", stale_after_s=60, max_attempts=3) for i in range(4)]
     assert [c.job_id for c in claims[:3]] == ids and claims[3] is None
+
+
+def test_an_idle_poll_takes_no_write_lock(db: Database) -> None:
+    statements: list[str] = []
+
+    def record(_conn, _cursor, statement, *_args) -> None:
+        statements.append(statement)
+
+    event.listen(db.engine, "before_cursor_execute", record)
+    try:
+        assert queue.claim(db, worker_id="w", stale_after_s=60, max_attempts=3) is None
+        assert not any("BEGIN IMMEDIATE" in s or s.lstrip().upper().startswith("UPDATE") for s in statements)
+        add_job(db)
+        statements.clear()
+        assert queue.claim(db, worker_id="w", stale_after_s=60, max_attempts=3) is not None
+        assert any("BEGIN IMMEDIATE" in s for s in statements)
+    finally:
+        event.remove(db.engine, "before_cursor_execute", record)
 
 
 def test_stale_job_is_requeued_then_failed_after_max_attempts(db: Database) -> None:
@@ -40,10 +66,16 @@ def test_stale_job_is_requeued_then_failed_after_max_attempts(db: Database) -> N
     second = queue.claim(db, worker_id="b", stale_after_s=5, max_attempts=2)
     assert second is not None and second.job_id == job_id and second.attempt == 2
     assert second.lease != first.lease
-    # the first worker lost its lease: no heartbeat, no results
+    # the first worker lost its lease: no heartbeat, no runs, no finish, no fail, no release
+    rows = queue.run_rows(job_id, run_chunk(SPEC, SPEC.seeds[:1]))
     assert queue.heartbeat(db, claim=first) is False
-    result = run_experiment(SPEC)
-    assert queue.finish(db, claim=first, result=result) is False
+    assert queue.store_runs(db, claim=first, rows=rows, progress=0.5) is False
+    assert queue.finish(db, claim=first, expected_runs=12) is False
+    assert queue.fail(db, claim=first, error="late") is False
+    assert queue.release(db, claim=first) is False
+    with db.session() as session:
+        assert session.scalar(select(func.count()).select_from(Run)) == 0
+        assert session.get(Job, job_id).lease == second.lease
     age_heartbeat(db, job_id, 10)
     assert queue.claim(db, worker_id="c", stale_after_s=5, max_attempts=2) is None
     with db.session() as session:
@@ -51,29 +83,98 @@ def test_stale_job_is_requeued_then_failed_after_max_attempts(db: Database) -> N
         assert job.status == "failed" and "2 attempts" in job.error and "heartbeat" in job.error
 
 
-def test_finish_stores_each_run_once_and_bit_identical(db: Database) -> None:
+def test_staleness_is_judged_by_the_database_clock(db: Database, monkeypatch: pytest.MonkeyPatch) -> None:
+    # a worker whose clock runs an hour ahead must not re-queue a job that beat a second ago
     job_id = add_job(db)
     claim = queue.claim(db, worker_id="a", stale_after_s=60, max_attempts=3)
-    result = run_experiment(SPEC)
-    assert queue.heartbeat(db, claim=claim, progress=0.5) is True
-    assert queue.finish(db, claim=claim, result=result) is True
-    assert queue.finish(db, claim=claim, result=result) is False  # no second copy
+    assert queue.heartbeat(db, claim=claim) is True
+    ahead = utcnow() + timedelta(hours=1)
+    monkeypatch.setattr(queue, "utcnow", lambda: ahead)
+    add_job(db)  # something to claim, so the claim does look for stale jobs
+    other = queue.claim(db, worker_id="skewed", stale_after_s=60, max_attempts=3)
+    assert other is not None and other.job_id != job_id
     with db.session() as session:
-        runs = session.scalars(select(Run).where(Run.job_id == job_id).order_by(Run.id)).all()
-        assert len(runs) == len(result.runs)
-        for stored, run in zip(runs, result.runs, strict=True):
-            assert (stored.algorithm, stored.seed) == (run.algorithm, run.seed)
-            assert np.array_equal(np.frombuffer(stored.utilities, dtype="<f8"), run.utilities)
-        assert session.scalar(select(func.count()).select_from(Run)) == 6
+        job = session.get(Job, job_id)
+        assert (job.status, job.lease) == ("running", claim.lease)
+    assert queue.heartbeat(db, claim=claim) is True
 
 
-def test_release_returns_the_job_without_counting_the_attempt(db: Database) -> None:
+def test_runs_are_stored_once_and_finish_needs_all_of_them(db: Database) -> None:
     job_id = add_job(db)
     claim = queue.claim(db, worker_id="a", stale_after_s=60, max_attempts=3)
+    first = run_chunk(SPEC, SPEC.seeds[:2])
+    rows = queue.run_rows(job_id, first)
+    assert queue.store_runs(db, claim=claim, rows=rows, progress=0.5) is True
+    assert queue.store_runs(db, claim=claim, rows=rows, progress=0.5) is True  # a second write is a no-op
+    with pytest.raises(RuntimeError, match="6 of 12 runs"):
+        queue.finish(db, claim=claim, expected_runs=12)
+    with db.session() as session:
+        assert session.get(Job, job_id).status == "running"  # the failed finish changed nothing
+        assert queue.stored_seeds(session, job_id=job_id, algorithms=3) == set(SPEC.seeds[:2])
+    rest = run_chunk(SPEC, SPEC.seeds[2:])
+    assert queue.store_runs(db, claim=claim, rows=queue.run_rows(job_id, rest), progress=1.0) is True
+    assert queue.finish(db, claim=claim, expected_runs=12) is True
+    assert queue.finish(db, claim=claim, expected_runs=12) is False  # the lease is spent
+    whole = {(r.algorithm, r.seed): r for r in run_experiment(SPEC).runs}
+    with db.session() as session:
+        runs = session.scalars(select(Run).where(Run.job_id == job_id)).all()
+        assert len(runs) == 12
+        for stored in runs:
+            expected = whole[(stored.algorithm, stored.seed)]
+            assert np.frombuffer(stored.utilities, dtype="<f8").tobytes() == expected.utilities.tobytes()
+
+
+def test_release_returns_the_job_without_counting_the_attempt_and_keeps_its_runs(db: Database) -> None:
+    job_id = add_job(db)
+    claim = queue.claim(db, worker_id="a", stale_after_s=60, max_attempts=3)
+    rows = queue.run_rows(job_id, run_chunk(SPEC, SPEC.seeds[:1]))
+    assert queue.store_runs(db, claim=claim, rows=rows, progress=0.25)
     assert queue.release(db, claim=claim) is True
     with db.session() as session:
         job = session.get(Job, job_id)
-        assert job.status == "queued" and job.attempts == 0
+        assert job.status == "queued" and job.attempts == 0 and job.progress == 0.25
+        assert session.scalar(select(func.count()).select_from(Run)) == 3
+
+
+def test_a_retried_job_computes_only_the_missing_seeds_and_equals_an_unsplit_run(db: Database, settings: Settings):
+    spec = make_spec("multi", seeds=[3, 1, 4, 9], episodes=20)
+    job_id = add_job(db, spec)
+    claim = queue.claim(db, worker_id="crashed", stale_after_s=60, max_attempts=3)
+    assert queue.store_runs(db, claim=claim, rows=queue.run_rows(job_id, run_chunk(spec, [1, 9])), progress=0.5)
+    with db.session() as session:
+        kept = {(r.algorithm, r.seed): r.id for r in session.scalars(select(Run)).all()}
+    age_heartbeat(db, job_id, 3600)  # the worker died: its lease lapses
+    worker = Worker(settings, worker_id="next")
+    try:
+        assert worker.run_once()
+    finally:
+        worker.db.dispose()
+    whole = {(r.algorithm, r.seed): r for r in run_experiment(spec).runs}
+    with db.session() as session:
+        job = session.get(Job, job_id)
+        assert job.status == "succeeded" and job.attempts == 2
+        runs = session.scalars(select(Run).where(Run.job_id == job_id)).all()
+    assert len(runs) == 12
+    for stored in runs:
+        if (stored.algorithm, stored.seed) in kept:
+            assert stored.id == kept[(stored.algorithm, stored.seed)]  # not recomputed or rewritten
+        expected = whole[(stored.algorithm, stored.seed)]
+        assert np.frombuffer(stored.utilities, dtype="<f8").tobytes() == expected.utilities.tobytes()
+        assert np.frombuffer(stored.combined_weights, dtype="<f8").tobytes() == expected.combined_weights.tobytes()
+
+
+def test_a_cancelled_job_keeps_its_completed_chunks(db: Database) -> None:
+    job_id = add_job(db)
+    claim = queue.claim(db, worker_id="a", stale_after_s=60, max_attempts=3)
+    assert queue.store_runs(db, claim=claim, rows=queue.run_rows(job_id, run_chunk(SPEC, SPEC.seeds[:1])),
+                            progress=0.25)
+    with db.write() as session:
+        crud.cancel_job(session, job_id=job_id)
+    assert queue.store_runs(db, claim=claim, rows=queue.run_rows(job_id, run_chunk(SPEC, SPEC.seeds[1:2])),
+                            progress=0.5) is False
+    with db.session() as session:
+        assert session.get(Job, job_id).status == "cancelled"
+        assert queue.stored_seeds(session, job_id=job_id, algorithms=3) == {SPEC.seeds[0]}
 
 
 def test_migrations_are_idempotent(db: Database) -> None:

@@ -61,7 +61,7 @@ def test_ratio_other_than_x_to_one_is_rejected():
     assert "y = 3" in info.value.message
 
 
-@pytest.mark.parametrize("label", ["greedy", "mgrao", "mgrao-x:1", "MGRAO-1:1", "", None, 3])
+@pytest.mark.parametrize("label", ["greedy", "mgrao", "mgrao-x:1", "mgrao-1:1:1", "mgrao-1234567890:1", "", None, 3])
 def test_unknown_labels(label):
     with pytest.raises(ConfigError) as info:
         parse_algorithm(label, 10)
@@ -74,7 +74,7 @@ def test_parse_algorithms_list_errors():
     assert info.value.field == "algorithms"
     with pytest.raises(ConfigError) as info:
         parse_algorithms(["uniform", "mgrao-1:1", "uniform"], 10)
-    assert info.value.field == "algorithms"
+    assert info.value.field == "algorithms[2]"
     assert "repeat" in info.value.message
     with pytest.raises(ConfigError) as info:
         parse_algorithms(["uniform", "mgrao-1:1", "mgrao-7:1"], 10)

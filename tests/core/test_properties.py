@@ -151,4 +151,5 @@ def test_hyperbolic_uniform_utility_follows_the_childs_resource(system, seeds, n
                      overrides={"n_types": n_types, "types_per_composite": min(5, n_types), "half_saturation": h})
     for run in run_experiment(spec).runs:
         x = draw_world(spec.params, run.seed).resources[0] / n_types
-        np.testing.assert_allclose(run.utilities, spec.params.n_parents * x / (x + h), rtol=1e-12, atol=0)
+        quality = max(x / (x + h), spec.params.quality_floor)
+        np.testing.assert_allclose(run.utilities, spec.params.n_parents * quality, rtol=1e-12, atol=0)

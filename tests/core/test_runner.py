@@ -3,7 +3,7 @@
 import pytest
 
 from mgrao_core import Cancelled, make_spec, run_experiment
-from mgrao_core.runner import BLOCK_ATOMIC_TASKS, block_episodes
+from mgrao_core.budget import BLOCK_ATOMIC_TASKS, block_episodes
 
 
 def test_progress_fractions_increase_to_one():

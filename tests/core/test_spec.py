@@ -3,14 +3,16 @@
 import pytest
 
 from mgrao_core import (
+    MAX_CHUNK_BYTES,
     MAX_GROUP_UPDATES,
-    MAX_STATE_BYTES,
+    MAX_RESULT_BYTES,
     MAX_WORK,
     ConfigError,
     WorkLimitError,
     make_spec,
     spec_from_dict,
 )
+from mgrao_core.budget import chunk_cost, plan_chunks, result_bytes
 
 
 def _error(**kwargs):
@@ -42,7 +44,7 @@ def test_unknown_algorithm():
 
 def test_repeated_algorithm():
     error = _error(algorithms=["uniform", "mgrao-max", "uniform"])
-    assert error.field == "algorithms"
+    assert error.field == "algorithms[2]"
     assert "repeat" in error.message
 
 
@@ -156,15 +158,49 @@ def test_work_at_the_limit_is_accepted():
     assert spec.work == MAX_WORK
 
 
-def test_memory_limit():
+def test_memory_limit_names_the_budget_per_chunk():
     overrides = {"n_parents": 1000, "n_types": 200, "n_children": 100}
-    # per lane: 8 * (100 * (2 * 1000 * 200 + 4 * 1000) + 2 * 1000 * 5 * 100) = 324 MB; 7 lanes > 2 GiB
+    # one seed of mgrao-max: Y and F alone are 2 * 100 * 1000 * 200 * 8 B = 320 MB per lane
     with pytest.raises(WorkLimitError) as info:
-        make_spec("single", ["mgrao-max"], seeds=7, episodes=1, overrides=overrides)
+        make_spec("single", ["mgrao-max"] + [f"mgrao-{g}:1" for g in (1, 2, 4, 5, 8, 10)], seeds=1, episodes=1,
+                  overrides=overrides)
     assert info.value.field == "memory"
-    assert f"{MAX_STATE_BYTES // 1024**2:,} MiB" in info.value.message
-    spec = make_spec("single", ["mgrao-max"], seeds=6, episodes=1, overrides=overrides)
-    assert spec.state_bytes <= MAX_STATE_BYTES
+    assert f"budget of {MAX_CHUNK_BYTES / 1024**2:,.0f} MiB per chunk" in info.value.message
+    # many seeds of one are fine: the chunks hold fewer seeds
+    overrides["n_children"] = 10
+    spec = make_spec("single", ["mgrao-max"], seeds=50, episodes=1, overrides=overrides)
+    assert all(chunk_cost(spec, len(c)).total <= MAX_CHUNK_BYTES for c in plan_chunks(spec))
+    assert len(plan_chunks(spec)) > 1
+    # a smaller budget refuses it
+    with pytest.raises(WorkLimitError) as info:
+        make_spec("single", ["mgrao-max"], seeds=50, episodes=1, overrides=overrides, memory_budget=50 * 1024**2)
+    assert "budget of 50 MiB per chunk" in info.value.message
+
+
+def test_stored_results_limit():
+    # 1000 seeds x 20 algorithms x 100,000 episodes x 8 B = 16 GB of utilities: refused, naming the limit
+    algorithms = ["uniform", "oracle", "mgrao-max"] + [f"mgrao-{g}:1" for g in (1, 2, 4, 5, 8, 10, 20, 25, 40, 50)]
+    with pytest.raises(WorkLimitError) as info:
+        make_spec("single", algorithms[:3], seeds=1000, episodes=100_000, overrides={"n_parents": 1})
+    assert info.value.field == "results"
+    assert f"{MAX_RESULT_BYTES // 1024**2:,} MiB per experiment" in info.value.message
+    assert result_bytes(make_spec("single", ["uniform"], seeds=10, episodes=100)) == 8 * 10 * (100 + 20)
+
+
+@pytest.mark.parametrize(("labels", "expected"), [
+    ([" MGRAO-05:1", "Uniform", "mgrao-max"], ("mgrao-5:1", "uniform", "mgrao-max")),
+    (["mgrao-0010:1"], ("mgrao-10:1",)),
+])
+def test_labels_are_read_in_their_canonical_spelling(labels, expected):
+    assert make_spec("single", labels, seeds=1, episodes=1).algorithms == expected
+
+
+def test_twenty_spellings_of_one_algorithm_are_a_repeat():
+    labels = ["mgrao-1:1"] + ["mgrao-" + "0" * i + "1:1" for i in range(1, 20)]
+    with pytest.raises(ConfigError) as info:
+        make_spec("single", labels, seeds=1, episodes=1)
+    assert info.value.field == "algorithms[1]"
+    assert "repeats algorithms[0]" in info.value.message
 
 
 @pytest.mark.parametrize("kwargs", [

@@ -1,0 +1,130 @@
+"""What an experiment costs in memory and in stored bytes, and how its work is split into chunks.
+
+An experiment runs as *chunks*: every algorithm over a block of seeds. Lanes do not interact, so
+the numbers do not depend on the chunking; what does is memory, which is bounded by the chunk,
+not the experiment. :func:`chunk_cost` counts every array a chunk allocates while it runs, as
+:mod:`mgrao_core.runner` and :mod:`mgrao_core.oracle` allocate them, and the copies a caller makes
+to store the chunk's runs (one serialised copy of every run, as the service's workers do):
+
+* ``state``: each lane's learner (PW and trace in lazy form, counts, weights), the parents'
+  estimates of children, presence and value profiles;
+* ``worlds``: what each seed drew once, and its stacked copies for the kernel;
+* ``draws``: one block of per-episode randomness per seed, the per-seed arrays and their stacked
+  copies (:data:`mgrao_core.runner.BLOCK_ATOMIC_TASKS` bounds a block);
+* ``utilities``: every episode utility of the chunk's runs, and the block's output;
+* ``oracle``: the Monte-Carlo temporaries of the oracle's expected values (one seed at a time);
+* ``results``: the final weights copied into each run, and the serialised copy of every run.
+
+The process's own baseline (the interpreter, numpy, numba and the compiled kernel, about 150 to
+200 MiB) comes on top and is not part of the budget.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import TYPE_CHECKING
+
+from mgrao_core.world import routing_choices
+
+if TYPE_CHECKING:
+    from mgrao_core.spec import ExperimentSpec
+
+MAX_CHUNK_BYTES = 2 * 1024**3
+"""Default memory budget of one chunk (what :func:`chunk_cost` counts, above the baseline)."""
+MAX_RESULT_BYTES = 2 * 1024**3
+"""Stored bytes of one experiment's runs: every episode utility and the final weights."""
+CHUNK_ATOMIC_TASKS = 50_000_000
+"""Atomic tasks per chunk, at most: a few seconds of simulation, so that a job's runs are stored,
+and its progress shown, a chunk at a time, and a cluster can share the chunks out."""
+BLOCK_ATOMIC_TASKS = 4_000_000
+"""Atomic tasks per block: progress is reported and cancellation checked between blocks."""
+ORACLE_BATCH = 128
+"""Monte-Carlo samples of the oracle's expected values drawn at once."""
+_F = 8  # bytes of a float64 or an int64
+
+
+@dataclass(frozen=True)
+class ChunkCost:
+    """Bytes a chunk allocates, by kind (see the module docstring)."""
+
+    state: int
+    worlds: int
+    draws: int
+    utilities: int
+    oracle: int
+    results: int
+
+    @property
+    def total(self) -> int:
+        """The peak: everything above is alive at once in the worst case."""
+        return sum(getattr(self, f.name) for f in fields(self))
+
+
+def block_episodes(spec: ExperimentSpec, n_seeds: int | None = None) -> int:
+    """Episodes per block for ``n_seeds`` seeds (all of the spec's by default), so that a block
+    simulates about :data:`BLOCK_ATOMIC_TASKS` atomic tasks."""
+    p = spec.params
+    seeds = len(spec.seeds) if n_seeds is None else n_seeds
+    per_episode = seeds * len(spec.algorithms) * p.n_parents * p.types_per_composite
+    return int(min(spec.episodes, max(1, BLOCK_ATOMIC_TASKS // per_episode)))
+
+
+def chunk_cost(spec: ExperimentSpec, n_seeds: int) -> ChunkCost:
+    """The memory a chunk of ``n_seeds`` seeds of ``spec`` allocates (every algorithm)."""
+    p = spec.params
+    algorithms = spec.parsed_algorithms
+    lanes = n_seeds * len(algorithms)
+    children, types, parents, per_composite = p.n_children, p.n_types, p.n_parents, p.types_per_composite
+    groups = max([a.n_groups for a in algorithms] + [1])
+    choices = routing_choices(p)
+    state = _F * lanes * (
+        children * (2 * groups * types + 4 * groups + 2 * types + 1)
+        + 2 * parents * choices * children
+        + parents * per_composite
+        + 3
+    ) + lanes * parents
+    per_seed_world = _F * (p.n_composite_types * types + 2 * parents * per_composite + children)
+    worlds = n_seeds * (per_seed_world + _F * (2 * parents * per_composite + children))
+    block = block_episodes(spec, n_seeds)
+    volatile = p.leave_probability > 0 or p.join_probability > 0
+    per_episode = parents * (
+        2 * per_composite  # value noise, and its stacked copy
+        + 4  # the order's uniforms, their argsort, its stacked copy and int64 copy
+        + 2  # volatility, and its stacked copy
+        + (3 * per_composite if volatile and p.rejoin_profile == "new" else 0)  # rejoin profiles (+ gamma draws)
+        + (2 * 3 * choices if children > 1 else 0)  # routing uniforms, and their stacked copy
+    )
+    draws = _F * n_seeds * block * per_episode
+    utilities = _F * lanes * (spec.episodes + block)
+    oracle = 0
+    if "oracle" in spec.algorithms:
+        oracle = _F * (4 * ORACLE_BATCH * parents * per_composite + 2 * parents * per_composite
+                       + 3 * types + n_seeds * children * types)
+    weights = sum(children * (a.n_groups + 1) * types for a in algorithms) * n_seeds
+    results = _F * (2 * weights + lanes * spec.episodes)
+    return ChunkCost(state, worlds, draws, utilities, oracle, results)
+
+
+def result_bytes(spec: ExperimentSpec) -> int:
+    """Bytes of every run's stored utilities and final weights (what :data:`MAX_RESULT_BYTES` bounds)."""
+    p = spec.params
+    per_seed = sum(p.n_children * (a.n_groups + 1) * p.n_types for a in spec.parsed_algorithms)
+    return _F * len(spec.seeds) * (len(spec.algorithms) * spec.episodes + per_seed)
+
+
+def seeds_per_chunk(spec: ExperimentSpec, budget: int = MAX_CHUNK_BYTES) -> int:
+    """The most seeds a chunk may hold: within ``budget`` and :data:`CHUNK_ATOMIC_TASKS` (at least 1)."""
+    p = spec.params
+    per_seed_tasks = len(spec.algorithms) * spec.episodes * p.n_parents * p.types_per_composite
+    count = max(1, min(len(spec.seeds), CHUNK_ATOMIC_TASKS // max(1, per_seed_tasks)))
+    while count > 1 and chunk_cost(spec, count).total > budget:
+        count = max(1, count * budget // chunk_cost(spec, count).total)
+    return count
+
+
+def plan_chunks(spec: ExperimentSpec, seeds: tuple[int, ...] | None = None,
+                budget: int = MAX_CHUNK_BYTES) -> list[tuple[int, ...]]:
+    """``seeds`` (the spec's by default) in chunks of at most :func:`seeds_per_chunk`, in order."""
+    seeds = spec.seeds if seeds is None else tuple(seeds)
+    size = seeds_per_chunk(spec, budget)
+    return [seeds[i : i + size] for i in range(0, len(seeds), size)]
