@@ -96,8 +96,11 @@ def update_job(
 
 
 def cancel_job(session: Session, *, job_id: int) -> Job:
-    """Cancel a queued or running job in one conditional update; a running job's worker notices at
-    its next heartbeat (its lease is gone) and keeps the chunks it stored (the job is partial)."""
+    """Cancel a queued or running job in one conditional update.
+
+    A running job's worker notices at its next heartbeat (its lease is gone); the chunks it stored
+    stay (the job is partial).
+    """
     result = session.execute(
         update(Job).where(Job.id == job_id, Job.status.in_((QUEUED, RUNNING)))
         .values(status=CANCELLED, lease=None, finished_at=utcnow())

@@ -1,6 +1,6 @@
 """Calibrate the environment's open knobs against the paper's ten non-volatile figures.
 
-Run: ``python benchmarks/calibrate.py`` (about six minutes on 2 cores; ``--quick`` for a smaller
+Run: ``python benchmarks/calibrate.py`` (about seven minutes on 2 cores; ``--quick`` for a smaller
 run, ``--json FILE`` to keep every number).
 
 The paper gives no value for the quality model's half-saturation ``h``, nor for MG-RAO's
@@ -109,8 +109,8 @@ def main() -> None:
             print(f"   {knob:<14} best {shown}: worst {top['worst']:5.2f} (gain {gain:+.2f}) "
                   f"{'ADOPTED' if adopted else 'not needed'}")
             report["second_knobs"][knob] = {"best": top, "gain": gain, "adopted": adopted}
-            if adopted and top["worst"] < evaluate(chosen, seeds)["worst"]:
-                chosen = dict(top["overrides"])
+            if adopted:  # each adopted knob joins the others (h as re-chosen beside it)
+                chosen |= top["overrides"]
 
     print(f"\n   chosen: {', '.join(f'{k} = {label(v)}' for k, v in chosen.items())}")
     report["chosen"] = chosen

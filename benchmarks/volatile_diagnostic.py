@@ -1,14 +1,14 @@
 """Why the volatile table is out of reach: what churn does to fixed and learned allocations.
 
-Run: ``python benchmarks/volatile_diagnostic.py`` (about 20 s; ``--seeds N``).
+Run: ``python benchmarks/volatile_diagnostic.py`` (about 5 s; ``--seeds N``).
 
 The paper reports that with parents leaving and rejoining (probability 0.25 each per episode)
 mgrao-max gains only 7.1% over uniform and mgrao-1:1 3.3% (46.5% of max). When absent parents
 contribute nothing, any *fixed* allocation ``w`` keeps its single-system gain: presence does not
 depend on ``w``, so ``E[U(w)] = sum_p P(p present) E[taq_p(w)]``, and with every parent present
 half the time in the long run both ``U(w)`` and ``U(uniform)`` halve, and so does nothing to their
-ratio. The oracle is such a fixed allocation; the learners track a subset that persists from one
-episode to the next with probability 0.75, which can only help them. This prints, for churn from
+ratio. The oracle is such a fixed allocation; the learners face a subset that persists from one
+episode to the next with probability 0.75, which they can track. This prints, for churn from
 none to heavy, the % from uniform of the oracle and of the learners, under both absent-task
 readings, on the held-out seeds of ``mgrao reproduce``.
 """

@@ -61,8 +61,10 @@ class ChunkCost:
 
 
 def block_episodes(spec: ExperimentSpec, n_seeds: int | None = None) -> int:
-    """Episodes per block for ``n_seeds`` seeds (all of the spec's by default), so that a block
-    simulates about :data:`BLOCK_ATOMIC_TASKS` atomic tasks."""
+    """Episodes per block for ``n_seeds`` seeds (all of the spec's by default).
+
+    A block simulates about :data:`BLOCK_ATOMIC_TASKS` atomic tasks.
+    """
     p = spec.params
     seeds = len(spec.seeds) if n_seeds is None else n_seeds
     per_episode = seeds * len(spec.algorithms) * p.n_parents * p.types_per_composite

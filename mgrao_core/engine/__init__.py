@@ -10,9 +10,12 @@
 Everything here is checked against the dense reference (:mod:`mgrao_core.reference`).
 """
 
+from mgrao_core.engine.cache import bind_to_sources
 from mgrao_core.engine.environment import Environment, environment_of
 from mgrao_core.engine.kernel import KIND_MGRAO, KIND_ORACLE, KIND_UNIFORM, Draws, Lanes, Worlds, finish, run_block
 from mgrao_core.engine.learning import TRACE_SCALE_LIMIT, Learning, learning_of, rebase_interval
+
+bind_to_sources([run_block, finish])
 
 __all__ = [
     "KIND_MGRAO",

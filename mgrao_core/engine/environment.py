@@ -15,11 +15,15 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from mgrao_core.params import QUALITY_MODELS, SystemParams
+from mgrao_core.params import SystemParams
 
-QUALITY_HYPERBOLIC = QUALITY_MODELS.index("hyperbolic")
-QUALITY_EXPONENTIAL = QUALITY_MODELS.index("exponential")
-QUALITY_RELATIVE_LINEAR = QUALITY_MODELS.index("relative-linear")
+# Literal codes: a compiled function must not depend on another file's values (numba's cache of
+# this file would not notice them change). tests/core/test_engine.py checks them against params.
+QUALITY_HYPERBOLIC = 0
+QUALITY_EXPONENTIAL = 1
+QUALITY_RELATIVE_LINEAR = 2
+QUALITY_CODES = {"hyperbolic": QUALITY_HYPERBOLIC, "exponential": QUALITY_EXPONENTIAL,
+                 "relative-linear": QUALITY_RELATIVE_LINEAR}
 
 
 class Environment(NamedTuple):
@@ -47,7 +51,7 @@ def environment_of(params: SystemParams) -> Environment:
     """The kernel's view of a validated parameter set."""
     return Environment(
         n_types=params.n_types,
-        quality_model=QUALITY_MODELS.index(params.quality_model),
+        quality_model=QUALITY_CODES[params.quality_model],
         half_saturation=params.half_saturation,
         quality_at_uniform=params.quality_at_uniform,
         quality_floor=params.quality_floor,

@@ -135,7 +135,7 @@ def run_block(lanes, worlds, draws, env, learning, utilities):
     """
     n_lanes = lanes.seed_index.shape[0]
     n_episodes = utilities.shape[1]
-    n_parents, per_composite = worlds.parent_types.shape[1], worlds.parent_types.shape[2]
+    n_parents, types_per_composite = worlds.parent_types.shape[1], worlds.parent_types.shape[2]
     n_children = lanes.weights.shape[1]
     for lane in prange(n_lanes):
         s = lanes.seed_index[lane]
@@ -144,9 +144,9 @@ def run_block(lanes, worlds, draws, env, learning, utilities):
         active = lanes.active[lane]
         Y, F, H, cs, G = lanes.Y[lane], lanes.F[lane], lanes.H[lane], lanes.cs[lane], lanes.G[lane]
         k_since_rebase, counts, weights = lanes.k_since_rebase[lane], lanes.counts[lane], lanes.weights[lane]
-        child_of = np.zeros((n_parents, per_composite), dtype=np.int64)
-        ctv = np.zeros((n_parents, per_composite))
-        values = np.zeros((n_parents, per_composite))
+        child_of = np.zeros((n_parents, types_per_composite), dtype=np.int64)
+        ctv = np.zeros((n_parents, types_per_composite))
+        values = np.zeros((n_parents, types_per_composite))
         taq = np.zeros(n_parents)
         load = np.ones((n_children, lanes.weights.shape[2]))
         scratch = np.zeros(max(m, 1))
@@ -165,12 +165,15 @@ def run_block(lanes, worlds, draws, env, learning, utilities):
             for p in range(n_parents):
                 if active[p]:
                     proportional_values(lanes.profiles[lane, p], draws.noise[s, e, p], env.value_noise, ctv[p])
-                    allocate_atomic_tasks(lanes.estimates[lane, p], draws.routing[s, e, p], env, child_of[p])
+                    if n_children == 1:  # no choice (and no routing draws to index)
+                        child_of[p, :] = 0
+                    else:
+                        allocate_atomic_tasks(lanes.estimates[lane, p], draws.routing[s, e, p], env, child_of[p])
             if env.load_sharing:
                 load[:, :] = 0.0
                 for p in range(n_parents):
                     if active[p]:
-                        for k in range(per_composite):
+                        for k in range(types_per_composite):
                             load[child_of[p, k], worlds.parent_types[s, p, k]] += 1.0
             # 4. Children perform the atomic tasks; composite qualities make the system utility.
             utility = 0.0
@@ -192,7 +195,7 @@ def run_block(lanes, worlds, draws, env, learning, utilities):
                                      env.per_composite)
                 if learning_lane:
                     group = (p * m) // n_parents
-                    for k in range(per_composite):
+                    for k in range(types_per_composite):
                         c = child_of[p, k]
                         k_since_rebase[c], rebase_due[c] = learn(
                             Y[c], F[c], H[c], cs[c], G[c], k_since_rebase[c], counts[c], m, group,

@@ -113,3 +113,33 @@ def test_downgrade_restores_revision_0001_configurations(tmp_path, settings):
     for (config, digest), legacy in zip(rows, LEGACY["jobs"], strict=True):
         assert json.loads(config) == legacy["config"]
         assert digest == legacy["config_hash"]
+
+
+def test_upgrade_leaves_configurations_that_name_a_reading_and_downgrade_keeps_other_readings(tmp_path, settings):
+    _database_at_0001(settings.database_url)
+    engine = create_engine(settings.database_url)
+    new_reading = make_spec("single", seeds=2, episodes=5, overrides={"quality_model": "exponential"}).as_dict()
+    first = {"quality_model": "relative-linear", "routing": "per-task", "half_saturation": 0.5}
+    odd_h = make_spec("single", seeds=2, episodes=5, overrides=first).as_dict()
+    with engine.begin() as connection:
+        for config in (new_reading, odd_h):
+            connection.execute(
+                text("INSERT INTO jobs (name, tags, notes, system, config, config_hash, status, progress, attempts,"
+                     " version, created_at) VALUES ('x', '[]', '', 'single', :config, :hash, 'queued', 0, 0,"
+                     " '0.2.0', :created)"),
+                {"config": json.dumps(config), "hash": config_hash(config), "created": datetime(2026, 11, 2)})
+    db = Database(settings.database_url)
+    db.migrate()
+    with db.session() as session:
+        stored = session.scalars(select(Job).order_by(Job.id)).all()[-2:]
+        assert stored[0].config == new_reading and stored[1].config == odd_h  # untouched by the upgrade
+    config = alembic_config()
+    with engine.connect() as connection:
+        config.attributes["connection"] = connection
+        command.downgrade(config, "0001")
+        connection.commit()
+        rows = [json.loads(c) for (c,) in connection.execute(text("SELECT config FROM jobs ORDER BY id"))]
+    engine.dispose()
+    db.dispose()
+    assert rows[-2]["params"]["quality_model"] == "exponential"  # not expressible at 0001: kept
+    assert "quality_model" not in rows[-1]["params"]  # the first reading, whatever its unused h

@@ -98,3 +98,30 @@ def test_result_shapes():
     assert by[("mgrao-max", 1)].combined_weights.shape == (3, 20)
     assert result.utilities("mgrao-2:1").shape == (2, 6)
     np.testing.assert_array_equal(by[("uniform", 1)].combined_weights, np.full((3, 20), 0.05))
+
+
+def test_quality_codes_cover_the_schema():
+    from mgrao_core.engine.environment import QUALITY_CODES
+
+    assert set(QUALITY_CODES) == set(QUALITY_MODELS)
+    assert len(set(QUALITY_CODES.values())) == len(QUALITY_MODELS)
+
+
+def test_compiled_estimates_per_composite_keep_one_running_mean_of_taq_per_child():
+    from mgrao_core.engine.environment import update_estimates
+
+    estimates = np.full((1, 3), 1.0)
+    tries = np.zeros((1, 3), dtype=np.int64)
+    child_of = np.full(5, 2, dtype=np.int64)
+    values = np.full(5, 0.06)
+    update_estimates(estimates, tries, child_of, values, 0.3, True)
+    update_estimates(estimates, tries, child_of, values * 2, 0.5, True)
+    np.testing.assert_allclose(estimates[0], [1.0, 1.0, 0.4])  # the first return replaces the start
+    assert tries[0].tolist() == [0, 0, 2]
+    # per task: one running mean per (atomic task, child) of the absolute value
+    estimates = np.full((5, 3), 1.0)
+    tries = np.zeros((5, 3), dtype=np.int64)
+    child_of = np.array([0, 1, 2, 0, 1])
+    update_estimates(estimates, tries, child_of, np.arange(5.0), 0.9, False)
+    assert [estimates[k, child_of[k]] for k in range(5)] == [0.0, 1.0, 2.0, 3.0, 4.0]
+    assert tries.sum() == 5

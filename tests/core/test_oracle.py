@@ -124,8 +124,24 @@ def test_type_loads_count_the_instances_per_episode():
     params = make_params({"load_sharing": True, "n_parents": 30})
     world = draw_world(params, 0)
     loads = type_loads(params, world)
-    assert loads.sum() >= 30 * 5 - (loads == 1).sum()  # types no parent sends count as 1
+    expected = np.array([(world.parent_types == t).sum() for t in range(20)], dtype=float)
+    assert expected.sum() == 30 * 5
+    np.testing.assert_array_equal(loads, np.maximum(expected, 1.0))  # a type no parent sends counts as 1
     np.testing.assert_array_equal(type_loads(make_params({}), world), np.ones(20))
+
+
+@pytest.mark.parametrize("overrides", [{"n_children": 3}, {"n_children": 3, "quality_model": "exponential"}])
+def test_every_childs_oracle_row_is_optimal_for_its_own_resource(overrides):
+    params = make_params(overrides | {"resource_sd": 0.3})
+    rng = np.random.default_rng(1)
+    for seed in range(3):
+        world = draw_world(params, seed)
+        values = expected_type_values(params, world, seed)
+        weights = oracle_weights(params, world, seed)
+        for child, resource in enumerate(world.resources):
+            best = _expected_utility(params, values, weights[child], float(resource))
+            for other in list(weights) + list(rng.dirichlet(np.full(params.n_types, 0.3), size=100)):
+                assert best >= _expected_utility(params, values, other, float(resource)) - 1e-12
 
 
 def test_oracle_run_uses_the_oracle_weights():

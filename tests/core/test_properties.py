@@ -80,7 +80,7 @@ _TIE_FLIP = make_spec("single", ["uniform", "oracle", "mgrao-1:1"], seeds=[0], e
 @given(configurations(children=(1, 3)))
 @example(_TIE_FLIP)
 def test_engine_equals_reference_on_random_configurations(spec):
-    assert_matches_reference(run_experiment(spec), atol=1e-10)
+    assert_matches_reference(run_experiment(spec))
 
 
 @SETTINGS

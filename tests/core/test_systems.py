@@ -228,4 +228,22 @@ def test_one_to_one_learns_faster_early_and_max_overtakes_it(summaries):
     early = slice(0, 3)
     gap = (result.utilities("mgrao-1:1") - result.utilities("mgrao-max"))[:, early].mean()
     assert gap > 0  # 1:1 ahead in episodes 1-3 (paper: 1:1 initially learns faster)
-    assert overtaking_episode(result) is not None and overtaking_episode(result) <= 30
+    assert overtaking_episode(result) is not None and overtaking_episode(result) <= 20  # 13 on these seeds
+
+
+def test_load_sharing_uniform_utility_by_hand():
+    # uniform, one child: type t gets x = ar / (n * L[t]) where L[t] is the number of present parents whose
+    # composite holds t, so a composite scores sum_k ctv_k * q(ar / (n * L[t_k]))
+    spec = make_spec("single", ["uniform"], seeds=[0, 7], episodes=4, overrides={"load_sharing": True})
+    p = spec.params
+    for run in run_experiment(spec).runs:
+        world = draw_world(p, run.seed)
+        draws = EpisodeStreams(p, run.seed).draw(4)
+        loads = np.bincount(world.parent_types.ravel(), minlength=p.n_types)
+        for e in range(4):
+            expected = 0.0
+            for parent in range(p.n_parents):
+                ctv = eq.proportional_values(world.profiles[parent], draws.noise[e, parent], p.value_noise)
+                x = world.resources[0] / p.n_types / loads[world.parent_types[parent]]
+                expected += float(np.sum(ctv * x / (x + p.half_saturation)))
+            assert run.utilities[e] == pytest.approx(expected, rel=1e-12)

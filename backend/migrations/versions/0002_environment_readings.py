@@ -6,7 +6,9 @@ quality, per-composite routing), so a stored configuration without these paramet
 mean something else. This data migration writes the old reading into every job's ``config``
 and recomputes its ``config_hash``, so that old jobs re-run bit-identically and never pool with
 jobs of the new default in comparisons. The values and the hash function are frozen here, as
-they were at this revision.
+they were at this revision. Configurations that already name a quality model are left alone.
+Stored values that the revision's tighter bounds refuse (e.g. a temperature below 1e-4) are kept
+as they are: such a job re-runs only after its configuration is corrected, and says why.
 
 Revision ID: 0002
 Revises: 0001
@@ -56,9 +58,11 @@ def upgrade() -> None:
 
 
 def downgrade() -> None:
-    # Only configurations in the first reading can be expressed without these parameters.
+    # Only configurations in the first reading can be expressed without these parameters
+    # (half_saturation does not matter to relative-linear quality). Jobs of another reading keep
+    # them: revision 0001's code refuses to re-run them, naming the unknown parameter.
     def strip(params: dict) -> dict | None:
-        if any(params.get(k, v) != v for k, v in FIRST_READING.items()):
+        if any(params.get(k, v) != v for k, v in FIRST_READING.items() if k != "half_saturation"):
             return None
         return {k: v for k, v in params.items() if k not in FIRST_READING}
 

@@ -1,0 +1,60 @@
+"""The compiled engine as built: the on-disk cache follows every engine source, and no index is out of bounds.
+
+Both compile the kernel afresh in a copy of the package (about 15 s each).
+"""
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import mgrao_core
+
+pytestmark = pytest.mark.slow
+
+PACKAGE = Path(mgrao_core.__file__).resolve().parent
+RUN = """
+import json, sys
+from mgrao_core import make_spec, run_experiment
+out = {}
+for system in sys.argv[1].split(","):
+    result = run_experiment(make_spec(system, seeds=[0, 1], episodes=3))
+    out[system] = [run.utilities.tolist() for run in result.runs]
+print(json.dumps(out))
+"""
+
+
+def _copy_package(tmp_path: Path) -> Path:
+    shutil.copytree(PACKAGE, tmp_path / "mgrao_core", ignore=shutil.ignore_patterns("__pycache__"))
+    (tmp_path / "run.py").write_text(RUN)
+    return tmp_path
+
+
+def _run(root: Path, systems: str, **env: str) -> str:
+    environment = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")} | env
+    environment["PYTHONPATH"] = str(root)
+    done = subprocess.run([sys.executable, "run.py", systems], cwd=root, env=environment, capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    return done.stdout
+
+
+def test_editing_an_inlined_engine_file_recompiles_the_kernel(tmp_path: Path) -> None:
+    root = _copy_package(tmp_path)
+    before = _run(root, "single")
+    assert list((root / "mgrao_core" / "engine" / "__pycache__").glob("kernel.run_block*.nbi"))
+    environment = root / "mgrao_core" / "engine" / "environment.py"
+    source = environment.read_text()
+    assert "quality = x / (x + env.half_saturation)" in source
+    environment.write_text(source.replace("quality = x / (x + env.half_saturation)", "quality = 0.5"))
+    after = _run(root, "single")
+    assert after != before  # the kernel inlines environment.py: it must not come from the old cache
+    assert '"single": [[5.0, 5.0, 5.0]' in after  # uniform, 10 parents at quality 0.5
+
+
+def test_no_index_is_out_of_bounds_in_any_system(tmp_path: Path) -> None:
+    root = _copy_package(tmp_path)
+    _run(root, "single,multi,volatile,large", NUMBA_BOUNDSCHECK="1")
