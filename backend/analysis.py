@@ -1,22 +1,38 @@
-"""Results and comparisons, computed from the stored episodes with the core's aggregation."""
+"""Results and comparisons, computed from the stored episodes with the core's aggregation.
+
+Runs are read a few at a time and folded into per-episode statistics, so the memory a request
+needs grows with the episodes of a configuration, not with its runs. Every answer is bounded:
+at most :data:`MAX_RESPONSE_VALUES` numbers in curves (beyond that the default downsamples and
+an explicit request is refused with 422 naming the limit) and at most
+:data:`MAX_WEIGHT_VALUES` learned weights per configuration. A job that is still running, or was
+cancelled or failed after storing some chunks, answers with what is stored, marked ``partial``.
+"""
 
 from __future__ import annotations
 
 import json
+import math
 import threading
 from collections import OrderedDict
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 import numpy as np
-from sqlalchemy import select
+from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from backend.crud import get_job, job_dict
-from backend.errors import Conflict
+from backend.errors import BadQuery, Conflict
 from backend.models import SUCCEEDED, Job, Run
-from mgrao_core import PRESETS, episode_band, final_utilities, summarise
+from mgrao_core import PRESETS, EpisodeStats, final_utilities, summarise
 from mgrao_core.reproduction import PAPER_EPISODES
+
+MAX_RESPONSE_VALUES = 1_000_000
+"""Numbers in the curves of one results or compare answer (about 20 MB of JSON)."""
+MAX_WEIGHT_VALUES = 200_000
+"""Learned weights shown per configuration (children x groups x types); larger PW are left out."""
+_BAND_ARRAYS = 3  # mean, low, high (the episode index is shared)
+_READ_BATCH = 16
 
 
 def utilities(run: Run) -> np.ndarray:
@@ -24,14 +40,12 @@ def utilities(run: Run) -> np.ndarray:
     return np.frombuffer(run.utilities, dtype="<f8")
 
 
-def _runs(session: Session, job_ids: Sequence[int]) -> list[Run]:
-    return list(session.scalars(select(Run).where(Run.job_id.in_(job_ids)).order_by(Run.id)))
-
-
-def require_succeeded(job: Job) -> None:
-    """Raise :class:`Conflict` unless the job has succeeded (only then are its results stored)."""
-    if job.status != SUCCEEDED:
-        raise Conflict(f"job {job.id} is {job.status}: results exist only for succeeded jobs")
+def require_runs(session: Session, job: Job) -> int:
+    """The number of stored runs; :class:`Conflict` when the job has none yet."""
+    stored = session.scalar(select(func.count()).select_from(Run).where(Run.job_id == job.id)) or 0
+    if stored == 0:
+        raise Conflict(f"job {job.id} is {job.status} and has no stored runs yet")
+    return stored
 
 
 def paper_figures(job: Job) -> dict[str, float] | None:
@@ -48,91 +62,192 @@ def paper_figures(job: Job) -> dict[str, float] | None:
     return figures or None
 
 
-def _weights(runs: list[Run]) -> dict[str, Any]:
-    combined = np.mean([np.frombuffer(r.combined_weights, dtype="<f8") for r in runs], axis=0)
-    shape = runs[0].group_shape
-    n_children = shape[0]
-    groups: list = []
-    if shape and shape[1] > 0:
-        groups = np.mean([np.frombuffer(r.group_weights, dtype="<f8") for r in runs], axis=0)
-        groups = groups.reshape(shape).tolist()
-    return {"combined": combined.reshape(n_children, -1).tolist(), "groups": groups}
+def choose_points(field: str, requested: int | None, episodes: int, curves: int) -> int:
+    """Points per curve for ``curves`` curves of ``episodes`` episodes within :data:`MAX_RESPONSE_VALUES`.
+
+    ``requested`` None: every episode if that fits, else the most that fit. An explicit request
+    that does not fit is refused, naming ``field`` and the largest that would.
+    """
+    fitting = max(1, MAX_RESPONSE_VALUES // max(1, curves))
+    if requested is None:
+        return min(episodes, fitting)
+    if min(requested, episodes) > fitting:
+        raise BadQuery(field, f"{min(requested, episodes):,} points x {curves:,} curves exceeds the limit of "
+                              f"{MAX_RESPONSE_VALUES:,} values per answer: use points <= {fitting:,}")
+    return min(requested, episodes)
 
 
-def _configurations(session: Session, job: Job, points: int | None, include_seeds: bool) -> list[dict[str, Any]]:
-    by_algorithm: dict[str, list[Run]] = {a: [] for a in job.config["algorithms"]}
-    for run in _runs(session, [job.id]):
-        by_algorithm[run.algorithm].append(run)
+def _stream(session: Session, job_ids: Sequence[int], *columns: Any) -> Iterator[Any]:
+    statement = (select(*columns).where(Run.job_id.in_(list(job_ids))).order_by(Run.job_id, Run.id)
+                 .execution_options(yield_per=_READ_BATCH))
+    yield from session.execute(statement)
+
+
+def _weights(session: Session, job_id: int, algorithm: str) -> dict[str, Any]:
+    combined: np.ndarray | None = None
+    groups: np.ndarray | None = None
+    shape: list[int] = []
+    count = 0
+    statement = (select(Run.combined_weights, Run.group_weights, Run.group_shape)
+                 .where(Run.job_id == job_id, Run.algorithm == algorithm).execution_options(yield_per=_READ_BATCH))
+    for combined_blob, group_blob, group_shape in session.execute(statement):
+        shape = list(group_shape)
+        values = np.frombuffer(combined_blob, dtype="<f8")
+        combined = values.copy() if combined is None else combined + values
+        if shape and shape[1] > 0 and math.prod(shape) <= MAX_WEIGHT_VALUES:
+            values = np.frombuffer(group_blob, dtype="<f8")
+            groups = values.copy() if groups is None else groups + values
+        count += 1
+    n_children = shape[0] if shape else 1
+    out: dict[str, Any] = {"combined": (combined / count).reshape(n_children, -1).tolist(), "groups": []}
+    if groups is not None:
+        out["groups"] = (groups / count).reshape(shape).tolist()
+    elif shape and shape[1] > 0:
+        out["groups"] = None
+        out["groups_omitted"] = (f"{math.prod(shape):,} parent-group weights per run exceed the "
+                                 f"{MAX_WEIGHT_VALUES:,} shown")
+    return out
+
+
+def _configurations(session: Session, job: Job, points: int | None, include_seeds: bool) -> dict[str, Any]:
+    algorithms = job.config["algorithms"]
+    episodes = job.config["episodes"]
+    stats = {a: EpisodeStats(episodes) for a in algorithms}
+    finals: dict[str, dict[int, float]] = {a: {} for a in algorithms}
     seed_order = {seed: i for i, seed in enumerate(job.config["seeds"])}
-    matrices: dict[str, np.ndarray] = {}
-    finals: dict[str, dict[int, float]] = {}
-    for algorithm, runs in by_algorithm.items():
-        runs.sort(key=lambda r: seed_order[r.seed])
-        matrices[algorithm] = np.stack([utilities(r) for r in runs])
-        finals[algorithm] = dict(zip([r.seed for r in runs], final_utilities(matrices[algorithm]).tolist(),
-                                     strict=True))
-    summaries = summarise(finals)
+    stored_seeds = session.execute(
+        select(Run.algorithm, func.count()).where(Run.job_id == job.id).group_by(Run.algorithm)
+    ).all()
+    seeds_done = {a: 0 for a in algorithms} | {a: n for a, n in stored_seeds}
+    curves = len(algorithms) * _BAND_ARRAYS + (sum(seeds_done.values()) if include_seeds else 0)
+    used = choose_points("points" if not include_seeds else "include_seeds", points, episodes, curves)
+    per_seed: dict[str, list[dict[str, Any]]] = {a: [] for a in algorithms}
+    for algorithm, seed, blob in _stream(session, [job.id], Run.algorithm, Run.seed, Run.utilities):
+        values = np.frombuffer(blob, dtype="<f8")
+        stats[algorithm].add(values)
+        finals[algorithm][seed] = float(final_utilities(values)[0])
+        if include_seeds:
+            one = EpisodeStats(episodes)
+            one.add(values)
+            band = one.band(used)
+            per_seed[algorithm].append({"seed": seed, "episode": band["episode"], "utility": band["mean"]})
+    summaries = summarise({a: dict(sorted(finals[a].items(), key=lambda kv: seed_order.get(kv[0], 0)))
+                           for a in algorithms if finals[a]})
     configurations = []
-    for algorithm, runs in by_algorithm.items():
+    for algorithm in algorithms:
+        if not finals[algorithm]:
+            continue
         entry: dict[str, Any] = {
-            "algorithm": algorithm, "config_hash": job.config_hash,
+            "algorithm": algorithm, "config_hash": job.config_hash, "seeds_done": seeds_done[algorithm],
             "summary": summaries[algorithm].as_dict(),
-            "episodes": episode_band(matrices[algorithm], points),
-            "weights": _weights(runs),
+            "episodes": stats[algorithm].band(used),
+            "weights": _weights(session, job.id, algorithm),
         }
         if include_seeds:
-            entry["seeds"] = []
-            for run, row in zip(runs, matrices[algorithm], strict=True):
-                band = episode_band(row[np.newaxis, :], points)
-                entry["seeds"].append({"seed": run.seed, "episode": band["episode"], "utility": band["mean"]})
+            entry["seeds"] = sorted(per_seed[algorithm], key=lambda s: seed_order.get(s["seed"], 0))
         configurations.append(entry)
-    return configurations
+    return {"points": used, "configurations": configurations}
 
 
 class _ResultsCache:
-    """Serialized ``configurations`` of succeeded jobs (immutable once stored), least recently used out.
+    """Serialized results of succeeded jobs (immutable once stored), least recently used out.
 
-    Entries are built from the stored episodes and keyed by the job's id, configuration hash and
-    finish time, so a deleted job's id reused by a new job never hits an old entry.
+    Each entry is built once, however many requests ask for it at the same time: the first builds,
+    the others wait for it. An entry larger than the cap is served but not kept. Entries are keyed
+    by the job's id, configuration hash and finish time, so a deleted job's id reused by a new job
+    never hits an old entry.
     """
 
     def __init__(self, max_bytes: int = 64 * 1024**2) -> None:
         self.max_bytes = max_bytes
         self._entries: OrderedDict[tuple, bytes] = OrderedDict()
+        self._size = 0
+        self._building: dict[tuple, threading.Event] = {}
         self._lock = threading.Lock()
+        self.builds = 0
 
     def get_or_build(self, key: tuple, build: Callable[[], bytes]) -> bytes:
-        """The cached bytes of ``key``, building (outside the lock) and storing them when missing."""
+        """The cached bytes of ``key``, built by one caller when missing."""
+        while True:
+            with self._lock:
+                if key in self._entries:
+                    self._entries.move_to_end(key)
+                    return self._entries[key]
+                pending = self._building.get(key)
+                if pending is None:
+                    pending = self._building[key] = threading.Event()
+                    break
+            pending.wait()  # another request builds it; then look again (it may not have been kept)
+            with self._lock:
+                if key in self._entries:
+                    self._entries.move_to_end(key)
+                    return self._entries[key]
+                if key not in self._building:
+                    return self._build_uncached(key, build)
+        try:
+            value = build()
+            with self._lock:
+                self.builds += 1
+                if len(value) <= self.max_bytes:
+                    self._entries[key] = value
+                    self._size += len(value)
+                    while self._size > self.max_bytes:
+                        _, evicted = self._entries.popitem(last=False)
+                        self._size -= len(evicted)
+            return value
+        finally:
+            with self._lock:
+                self._building.pop(key).set()
+
+    def _build_uncached(self, key: tuple, build: Callable[[], bytes]) -> bytes:
         with self._lock:
-            if key in self._entries:
-                self._entries.move_to_end(key)
-                return self._entries[key]
-        value = build()
-        with self._lock:
-            self._entries[key] = value
-            while sum(map(len, self._entries.values())) > self.max_bytes and len(self._entries) > 1:
-                self._entries.popitem(last=False)
-        return value
+            self.builds += 1
+        return build()
+
+    @property
+    def size(self) -> int:
+        """Bytes held."""
+        return self._size
 
 
 RESULTS_CACHE = _ResultsCache()
 
 
-def _dumps(value: Any) -> bytes:
-    return json.dumps(value, allow_nan=False, separators=(",", ":")).encode()
+def _finite(value: Any) -> Any:
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite(v) for v in value]
+    return value
+
+
+def dumps(value: Any) -> bytes:
+    """Compact JSON; a value that is not finite (a corrupted or legacy store) becomes ``null``."""
+    try:
+        return json.dumps(value, allow_nan=False, separators=(",", ":")).encode()
+    except ValueError:
+        return json.dumps(_finite(value), allow_nan=False, separators=(",", ":")).encode()
 
 
 def job_results_json(session: Session, *, job_id: int, points: int | None = None,
                      include_seeds: bool = False) -> bytes:
     """``GET /api/jobs/{id}/results`` (docs/api.md "Results") as JSON bytes."""
     job = get_job(session, job_id=job_id)
-    require_succeeded(job)
-    key = (job.id, job.config_hash, job.finished_at, points, include_seeds)
-    configurations = RESULTS_CACHE.get_or_build(
-        key, lambda: _dumps(_configurations(session, job, points, include_seeds))
-    )
-    return (b'{"job":' + _dumps(job_dict(job)) + b',"paper":' + _dumps(paper_figures(job))
-            + b',"configurations":' + configurations + b"}")
+    stored = require_runs(session, job)
+    partial = job.status != SUCCEEDED
+
+    def build() -> bytes:
+        return dumps(_configurations(session, job, points, include_seeds))
+
+    if partial:  # still changing (or never complete): not cached
+        body = build()
+    else:
+        body = RESULTS_CACHE.get_or_build((job.id, job.config_hash, job.finished_at, points, include_seeds), build)
+    expected = len(job.config["seeds"]) * len(job.config["algorithms"])
+    head = {"job": job_dict(job), "paper": paper_figures(job), "partial": partial or stored < expected}
+    return dumps(head)[:-1] + b"," + body[1:]
 
 
 def job_results(session: Session, *, job_id: int, points: int | None = None,
@@ -144,46 +259,53 @@ def job_results(session: Session, *, job_id: int, points: int | None = None,
 def compare(session: Session, *, job_ids: Sequence[int], points: int | None = None) -> dict[str, Any]:
     """``GET /api/compare``: configurations ``(config_hash, algorithm)`` pooled over the jobs' seeds.
 
-    Only succeeded jobs contribute groups; the others are listed in ``jobs`` and add nothing.
+    Only succeeded jobs contribute groups; the others are listed in ``jobs`` and add nothing. A
+    seed stored by two jobs of one configuration counts once (the first job's run). Groups are
+    folded one at a time, so memory grows with a group's episodes, not with the jobs compared.
     """
     jobs = [get_job(session, job_id=job_id) for job_id in dict.fromkeys(job_ids)]
-    order = {job.id: i for i, job in enumerate(jobs) if job.status == SUCCEEDED}
-    runs = sorted(_runs(session, list(order)), key=lambda r: (order[r.job_id], r.id))
-    jobs_by_id = {job.id: job for job in jobs}
-    # (config_hash, algorithm) -> seed -> utilities; the first job holding a seed supplies it.
-    pooled: dict[tuple[str, str], dict[int, np.ndarray]] = {}
-    contributors: dict[tuple[str, str], list[int]] = {}
-    for run in runs:
-        key = (jobs_by_id[run.job_id].config_hash, run.algorithm)
-        seeds = pooled.setdefault(key, {})
-        ids = contributors.setdefault(key, [])
-        if run.job_id not in ids:
-            ids.append(run.job_id)
-        seeds.setdefault(run.seed, utilities(run))
+    succeeded = [job for job in jobs if job.status == SUCCEEDED]
+    keys = list(dict.fromkeys((job.config_hash, a) for job in succeeded for a in job.config["algorithms"]))
+    finals: dict[tuple[str, str], dict[int, float]] = {}
+    bands: dict[tuple[str, str], dict[str, list[float]]] = {}
+    contributors: dict[tuple[str, str], list[Job]] = {}
+    for key in keys:
+        config, algorithm = key
+        members = [job for job in succeeded if job.config_hash == config]
+        episodes = members[0].config["episodes"]
+        stats = EpisodeStats(episodes)
+        finals[key], contributors[key] = {}, []
+        for job in members:
+            statement = (select(Run.seed, Run.utilities).where(Run.job_id == job.id, Run.algorithm == algorithm)
+                         .order_by(Run.id).execution_options(yield_per=_READ_BATCH))
+            for seed, blob in session.execute(statement):
+                if seed in finals[key]:
+                    continue
+                values = np.frombuffer(blob, dtype="<f8")
+                stats.add(values)
+                finals[key][seed] = float(final_utilities(values)[0])
+                if job not in contributors[key]:
+                    contributors[key].append(job)
+        bands[key] = stats.band(choose_points("points", points, episodes, len(keys) * _BAND_ARRAYS))
     summaries: dict[str, dict] = {}
-    for config in dict.fromkeys(h for h, _ in pooled):
-        finals = {
-            algorithm: dict(zip(seeds, final_utilities(np.stack(list(seeds.values()))).tolist(), strict=True))
-            for (h, algorithm), seeds in pooled.items() if h == config
-        }
-        summaries[config] = summarise(finals)
+    for config in dict.fromkeys(h for h, _ in keys):
+        summaries[config] = summarise({a: finals[(h, a)] for h, a in keys if h == config and finals[(h, a)]})
     groups = []
-    for (config, algorithm), seeds in pooled.items():
-        first = jobs_by_id[contributors[(config, algorithm)][0]]
+    for key in keys:
+        if not finals[key]:
+            continue
+        config, algorithm = key
+        first = contributors[key][0]
         groups.append({
             "config_hash": config, "algorithm": algorithm, "system": first.system,
-            "episodes_per_run": first.config["episodes"], "job_ids": contributors[(config, algorithm)],
+            "episodes_per_run": first.config["episodes"], "job_ids": [job.id for job in contributors[key]],
             "summary": summaries[config][algorithm].as_dict(),
-            "episodes": episode_band(np.stack(list(seeds.values())), points),
+            "episodes": bands[key],
         })
     return {"jobs": [job_dict(job) for job in jobs], "groups": groups}
 
 
 def stored_runs(session: Session, *, job_id: int) -> Iterator[tuple[str, int, list[float]]]:
     """Every stored run of a job as ``(algorithm, seed, utilities)``, fetched from the database a few at a time."""
-    statement = (
-        select(Run.algorithm, Run.seed, Run.utilities).where(Run.job_id == job_id)
-        .order_by(Run.id).execution_options(yield_per=16)
-    )
-    for algorithm, seed, blob in session.execute(statement):
+    for algorithm, seed, blob in _stream(session, [job_id], Run.algorithm, Run.seed, Run.utilities):
         yield algorithm, seed, np.frombuffer(blob, dtype="<f8").tolist()

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from alembic import command
 from alembic.config import Config
-from sqlalchemy import Engine, create_engine
+from sqlalchemy import Engine
 from sqlalchemy.orm import Session, sessionmaker
 
 from backend import dialect
@@ -19,10 +19,10 @@ PACKAGE_DIR = Path(__file__).resolve().parent
 class Database:
     """One engine and its session factory."""
 
-    def __init__(self, url: str) -> None:
+    def __init__(self, url: str, busy_timeout_s: float = dialect.BUSY_TIMEOUT_MS / 1000) -> None:
         self.url = url
-        self.engine: Engine = create_engine(url, connect_args=dialect.connect_args(url))
-        dialect.configure_engine(self.engine)
+        self.file = dialect.sqlite_file(url)
+        self.engine: Engine = dialect.create_engine_for(url, busy_timeout_s)
         self.sessions = sessionmaker(self.engine, expire_on_commit=False)
 
     @contextmanager
@@ -33,13 +33,29 @@ class Database:
 
     @contextmanager
     def write(self) -> Iterator[Session]:
-        """A write transaction: ``BEGIN IMMEDIATE`` on SQLite, committed on success."""
+        """A write transaction: ``BEGIN IMMEDIATE`` on SQLite, committed on success.
+
+        Raises:
+            DatabaseUnavailable: before the commit, when the SQLite file was moved, replaced or
+                deleted since the transaction's connection opened it (nothing is committed).
+        """
         with self.sessions() as session, session.begin():
             dialect.begin_write(session)
             yield session
+            dialect.check_file_identity(session)
+
+    def probe(self) -> None:
+        """Check that the database can be written now (a write that rolls back).
+
+        Raises:
+            DatabaseUnavailable: with the reason.
+        """
+        dialect.probe_write(self.engine)
 
     def migrate(self) -> None:
-        """Bring the schema to the newest Alembic revision."""
+        """Create the SQLite file if there is none, then bring the schema to the newest revision."""
+        if self.file is not None:
+            dialect.create_sqlite_file(self.file)
         upgrade(self.engine)
 
     def dispose(self) -> None:

@@ -10,14 +10,20 @@ insert that skips rows already present.
 
 from __future__ import annotations
 
+import os
+import sqlite3
 from collections.abc import Sequence
 from datetime import timedelta
+from pathlib import Path
 from typing import Any
+from urllib.parse import quote
 
-from sqlalchemy import ColumnElement, Engine, Select, event, func
+from sqlalchemy import ColumnElement, Engine, Select, create_engine, event, func, make_url
 from sqlalchemy.dialects.postgresql import insert as postgresql_insert
 from sqlalchemy.dialects.sqlite import insert as sqlite_insert
+from sqlalchemy.exc import SQLAlchemyError
 from sqlalchemy.orm import Session
+from sqlalchemy.pool import NullPool
 
 WRITE_OPTION = "mgrao_write"
 BUSY_TIMEOUT_MS = 30_000
@@ -30,24 +36,112 @@ def is_sqlite(url_or_engine: Any) -> bool:
     return str(url_or_engine).startswith("sqlite")
 
 
-def connect_args(url: str) -> dict[str, Any]:
-    """Extra DBAPI connect arguments for ``create_engine``."""
-    if is_sqlite(url):
-        return {"check_same_thread": False, "timeout": BUSY_TIMEOUT_MS / 1000}
-    return {}
+def sqlite_file(url: str) -> Path | None:
+    """The database file of a SQLite URL (None for other databases and in-memory SQLite)."""
+    parsed = make_url(url)
+    if parsed.get_backend_name() != "sqlite" or parsed.database in (None, "", ":memory:"):
+        return None
+    return Path(parsed.database).resolve()
 
 
-def configure_engine(engine: Engine) -> None:
+def create_engine_for(url: str, busy_timeout_s: float = BUSY_TIMEOUT_MS / 1000) -> Engine:
+    """The engine of ``url``, set up for this module's conventions (see the module docstring).
+
+    A SQLite file gets a fresh connection per session, opened without the right to create the
+    file: a connection that outlives a fault (the file made read-only, moved or deleted) would go
+    on writing into a file nobody reads, and a deleted file must not come back empty.
+    """
+    path = sqlite_file(url)
+    if path is None:
+        engine = create_engine(url, pool_pre_ping=not is_sqlite(url),
+                               connect_args={"check_same_thread": False, "timeout": busy_timeout_s}
+                               if is_sqlite(url) else {})
+    else:
+        def connect() -> sqlite3.Connection:
+            return sqlite3.connect(f"file:{quote(str(path))}?mode=rw", uri=True, timeout=busy_timeout_s,
+                                   check_same_thread=False)
+
+        engine = create_engine(url, creator=connect, poolclass=NullPool)
+    _configure(engine, path, int(busy_timeout_s * 1000))
+    return engine
+
+
+def create_sqlite_file(path: Path) -> None:
+    """Create an empty SQLite database file (the engine itself never creates one)."""
+    if not path.exists():
+        sqlite3.connect(path).close()
+
+
+def file_identity(path: Path) -> tuple[int, int] | None:
+    """``(device, inode)`` of the file now at ``path``, or None if there is none."""
+    try:
+        stat = os.stat(path)
+    except OSError:
+        return None
+    return stat.st_dev, stat.st_ino
+
+
+def check_file_identity(session: Session) -> None:
+    """Before a commit: the SQLite file at the URL's path is still the one this connection opened.
+
+    Raises:
+        DatabaseUnavailable: the file was moved, replaced or deleted meanwhile.
+    """
+    info = session.connection().connection.info
+    path, opened = info.get(_PATH_KEY), info.get(_IDENTITY_KEY)
+    if path is not None and file_identity(path) != opened:
+        raise DatabaseUnavailable(f"the database file {path} was moved, replaced or deleted; nothing was written")
+
+
+def probe_write(engine: Engine) -> None:
+    """A write transaction that rolls back: proves a fresh connection may write the database.
+
+    Raises:
+        DatabaseUnavailable: the reason it cannot (read-only, locked, missing, moved, ...).
+    """
+    try:
+        with engine.connect() as connection:
+            connection.execution_options(**{WRITE_OPTION: True})
+            transaction = connection.begin()
+            try:
+                connection.exec_driver_sql("UPDATE alembic_version SET version_num = version_num")
+                path, opened = connection.connection.info.get(_PATH_KEY), connection.connection.info.get(_IDENTITY_KEY)
+                if path is not None and file_identity(path) != opened:
+                    raise DatabaseUnavailable(f"the database file {path} was moved, replaced or deleted")
+            finally:
+                transaction.rollback()
+    except SQLAlchemyError as error:
+        raise DatabaseUnavailable(reason(error)) from error
+
+
+def reason(error: BaseException) -> str:
+    """A one-line reason for a database error (the driver's message without SQLAlchemy's noise)."""
+    text = str(getattr(error, "orig", None) or error).strip().splitlines()
+    return text[0] if text else type(error).__name__
+
+
+class DatabaseUnavailable(Exception):
+    """The database cannot be written or read right now (the service answers 503)."""
+
+
+_PATH_KEY = "mgrao_path"
+_IDENTITY_KEY = "mgrao_identity"
+
+
+def _configure(engine: Engine, path: Path | None, busy_timeout_ms: int) -> None:
     """Install the per-connection setup (SQLite only; a no-op elsewhere)."""
     if not is_sqlite(engine):
         return
 
     @event.listens_for(engine, "connect")
-    def _on_connect(dbapi_connection: Any, _record: Any) -> None:
+    def _on_connect(dbapi_connection: Any, record: Any) -> None:
+        if path is not None:
+            record.info[_PATH_KEY] = path
+            record.info[_IDENTITY_KEY] = file_identity(path)
         dbapi_connection.isolation_level = None  # we emit BEGIN ourselves (see _on_begin)
         cursor = dbapi_connection.cursor()
         cursor.execute("PRAGMA journal_mode=WAL")
-        cursor.execute(f"PRAGMA busy_timeout={BUSY_TIMEOUT_MS}")
+        cursor.execute(f"PRAGMA busy_timeout={busy_timeout_ms}")
         cursor.execute("PRAGMA foreign_keys=ON")
         cursor.execute("PRAGMA synchronous=NORMAL")
         cursor.close()

@@ -29,6 +29,10 @@ class Settings(BaseSettings):
         description="Memory a worker may use for one chunk of a job, above its baseline (422 for a job "
                     "whose single seed needs more).",
     )
+    db_busy_timeout_s: float = Field(
+        30.0, gt=0, le=3600,
+        description="How long a database call waits for another process's write lock before answering 503.",
+    )
     host: str = "127.0.0.1"
 
     @property

@@ -93,7 +93,7 @@ class Worker:
 
     def __init__(self, settings: Settings, *, worker_id: str | None = None) -> None:
         self.settings = settings
-        self.db = Database(settings.database_url)
+        self.db = Database(settings.database_url, settings.db_busy_timeout_s)
         self.worker_id = worker_id or f"{socket.gethostname()}:{os.getpid()}"
         self.shutdown = threading.Event()
 

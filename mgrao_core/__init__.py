@@ -24,7 +24,7 @@ from mgrao_core.spec import (
     make_spec,
     spec_from_dict,
 )
-from mgrao_core.stats import FINAL_EPISODES, ConfigSummary, episode_band, final_utilities, summarise
+from mgrao_core.stats import FINAL_EPISODES, ConfigSummary, EpisodeStats, episode_band, final_utilities, summarise
 
 __version__ = "0.1.0"
 
@@ -43,6 +43,7 @@ __all__ = [
     "Cancelled",
     "ConfigError",
     "ConfigSummary",
+    "EpisodeStats",
     "ExperimentResult",
     "ExperimentSpec",
     "MgraoError",

@@ -119,6 +119,55 @@ def summarise(finals: Mapping[str, Mapping[int, float]]) -> dict[str, ConfigSumm
     return summaries
 
 
+class EpisodeStats:
+    """Per-episode mean and spread over runs, accumulated one run at a time (Welford's method).
+
+    Memory is O(episodes) whatever the number of runs, so stored results can be aggregated as
+    they are read; :meth:`band` gives what :func:`episode_band` gives for the stacked runs.
+    """
+
+    def __init__(self, episodes: int) -> None:
+        self.runs = 0
+        self.mean = np.zeros(episodes)
+        self._m2 = np.zeros(episodes)
+
+    def add(self, utilities: np.ndarray) -> None:
+        """Account one run's ``(episodes,)`` utilities."""
+        utilities = np.asarray(utilities, dtype=float)
+        self.runs += 1
+        delta = utilities - self.mean
+        self.mean += delta / self.runs
+        self._m2 += delta * (utilities - self.mean)
+
+    def band(self, points: int | None = None) -> dict[str, list[float]]:
+        """Mean with a 95% t-band per episode, optionally averaged into ``points`` buckets.
+
+        Returns:
+            ``{"episode": [...], "mean": [...], "low": [...], "high": [...]}``; ``episode`` is the
+            bucket's first episode (0-based). With one run the band collapses onto the mean.
+        """
+        if points is not None and points < 1:
+            raise ConfigError("points", f"must be at least 1 (got {points})")
+        episodes = self.mean.shape[0]
+        mean = self.mean
+        if self.runs > 1:
+            half = t95(self.runs - 1) * np.sqrt(np.maximum(self._m2, 0.0) / (self.runs - 1)) / math.sqrt(self.runs)
+        else:
+            half = np.zeros(episodes)
+        starts = np.arange(episodes)
+        if points is not None and points < episodes:
+            edges = np.linspace(0, episodes, points + 1).round().astype(int)
+            starts = edges[:-1]
+            mean = np.add.reduceat(mean, starts) / np.diff(edges)
+            half = np.add.reduceat(half, starts) / np.diff(edges)
+        return {
+            "episode": starts.tolist(),
+            "mean": mean.tolist(),
+            "low": (mean - half).tolist(),
+            "high": (mean + half).tolist(),
+        }
+
+
 def episode_band(utilities: np.ndarray, points: int | None = None) -> dict[str, list[float]]:
     """Mean over runs per episode with a 95% band, optionally averaged into ``points`` buckets.
 
@@ -130,24 +179,8 @@ def episode_band(utilities: np.ndarray, points: int | None = None) -> dict[str, 
         ``{"episode": [...], "mean": [...], "low": [...], "high": [...]}``; ``episode`` is the
         bucket's first episode (0-based). With one run the band collapses onto the mean.
     """
-    if points is not None and points < 1:
-        raise ConfigError("points", f"must be at least 1 (got {points})")
     utilities = np.atleast_2d(np.asarray(utilities, dtype=float))
-    runs, episodes = utilities.shape
-    mean = utilities.mean(axis=0)
-    if runs > 1:
-        half = t95(runs - 1) * utilities.std(axis=0, ddof=1) / math.sqrt(runs)
-    else:
-        half = np.zeros(episodes)
-    starts = np.arange(episodes)
-    if points is not None and points < episodes:
-        edges = np.linspace(0, episodes, points + 1).round().astype(int)
-        starts = edges[:-1]
-        mean = np.add.reduceat(mean, starts) / np.diff(edges)
-        half = np.add.reduceat(half, starts) / np.diff(edges)
-    return {
-        "episode": starts.tolist(),
-        "mean": mean.tolist(),
-        "low": (mean - half).tolist(),
-        "high": (mean + half).tolist(),
-    }
+    stats = EpisodeStats(utilities.shape[1])
+    for row in utilities:
+        stats.add(row)
+    return stats.band(points)

@@ -1,7 +1,6 @@
 """Alembic environment: uses the caller's connection when given (the service), else the URL."""
 
 from alembic import context
-from sqlalchemy import create_engine
 
 from backend import dialect
 from backend.models import Base
@@ -21,8 +20,7 @@ def run_migrations_online() -> None:
     connection = config.attributes.get("connection")
     if connection is None:
         url = config.get_main_option("sqlalchemy.url")
-        engine = create_engine(url)
-        dialect.configure_engine(engine)
+        engine = dialect.create_engine_for(url)
         with engine.connect() as connection:
             connection.execution_options(**{dialect.WRITE_OPTION: True})
             _run(connection)

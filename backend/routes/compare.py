@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Annotated
 
 from fastapi import APIRouter, Query
-from fastapi.responses import JSONResponse
+from fastapi.responses import Response
 
 from backend import analysis
 from backend.deps import SessionDep
@@ -33,6 +33,7 @@ def compare(
     session: SessionDep,
     jobs: Annotated[str, Query(max_length=1000, description="Comma-separated job ids.")],
     points: Annotated[int | None, Query(ge=1, le=MAX_EPISODES)] = None,
-) -> JSONResponse:
+) -> Response:
     """Configurations (config_hash, algorithm) of succeeded jobs, seeds pooled across jobs."""
-    return JSONResponse(analysis.compare(session, job_ids=parse_ids(jobs), points=points))
+    body = analysis.dumps(analysis.compare(session, job_ids=parse_ids(jobs), points=points))
+    return Response(body, media_type="application/json")

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 from fastapi import APIRouter
 from fastapi.responses import JSONResponse
-from sqlalchemy import text
 from sqlalchemy.exc import SQLAlchemyError
 
 import mgrao_core
 from backend import crud
 from backend.deps import DatabaseDep
+from backend.dialect import DatabaseUnavailable, reason
+from backend.faults import RETRY_AFTER_S
 from backend.models import QUEUED, RUNNING
 from backend.schemas import Health
 
@@ -18,15 +19,19 @@ router = APIRouter(prefix="/api", tags=["health"])
 
 @router.get("/health", response_model=Health)
 def health(db: DatabaseDep) -> JSONResponse:
-    """Service status, version, database reachability and queue depth."""
+    """Service status, version, whether the database can be written now, and queue depth.
+
+    The database check is what a submission needs: a write transaction on a fresh connection,
+    rolled back, on the file the service was configured with. 503 with the reason otherwise.
+    """
     try:
+        db.probe()
         with db.session() as session:
-            session.execute(text("SELECT 1"))
             counts = crud.count_by_status(session)
-    except SQLAlchemyError:
-        body = {"status": "error", "version": mgrao_core.__version__, "database": "error", "queued": 0,
-                "running": 0}
-        return JSONResponse(body, status_code=503)
+    except (DatabaseUnavailable, SQLAlchemyError) as error:
+        why = str(error) if isinstance(error, DatabaseUnavailable) else reason(error)
+        body = {"status": "error", "version": mgrao_core.__version__, "database": why, "queued": 0, "running": 0}
+        return JSONResponse(body, status_code=503, headers={"Retry-After": str(RETRY_AFTER_S)})
     return JSONResponse({
         "status": "ok", "version": mgrao_core.__version__, "database": "ok",
         "queued": counts.get(QUEUED, 0), "running": counts.get(RUNNING, 0),

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Iterator
 from typing import Annotated, Literal
 
@@ -96,10 +97,11 @@ def job_results(job_id: int, session: SessionDep, points: Points = None, include
 
 @router.get("/{job_id}/episodes")
 def job_episodes(job_id: int, db: DatabaseDep, format: Literal["csv", "json"] = "csv") -> StreamingResponse:
-    """Every episode utility of the job, streamed as CSV or JSON."""
+    """Every stored episode utility of the job, streamed as CSV or JSON (partial while it runs)."""
     with db.session() as session:
         job = crud.get_job(session, job_id=job_id)
-        analysis.require_succeeded(job)
+        stored = analysis.require_runs(session, job)
+        partial = job.status != "succeeded" or stored < len(job.config["seeds"]) * len(job.config["algorithms"])
 
     def csv_lines() -> Iterator[str]:
         yield "job_id,algorithm,seed,episode,utility\n"
@@ -115,7 +117,8 @@ def job_episodes(job_id: int, db: DatabaseDep, format: Literal["csv", "json"] = 
             for algorithm, seed, values in analysis.stored_runs(session, job_id=job_id):
                 head = json.dumps({"job_id": job_id, "algorithm": algorithm, "seed": seed})[:-1]
                 yield separator + ",".join(
-                    f'{head}, "episode": {episode}, "utility": {utility!r}}}' for episode, utility in enumerate(values)
+                    f'{head}, "episode": {episode}, "utility": {_json_number(utility)}}}'
+                    for episode, utility in enumerate(values)
                 )
                 separator = ","
         yield "]\n"
@@ -123,5 +126,10 @@ def job_episodes(job_id: int, db: DatabaseDep, format: Literal["csv", "json"] = 
     media = "text/csv" if format == "csv" else "application/json"
     return StreamingResponse(
         csv_lines() if format == "csv" else json_lines(), media_type=media,
-        headers={"Content-Disposition": f'attachment; filename="job-{job_id}-episodes.{format}"'},
+        headers={"Content-Disposition": f'attachment; filename="job-{job_id}-episodes.{format}"',
+                 "X-MGRAO-Partial": "true" if partial else "false"},
     )
+
+
+def _json_number(value: float) -> str:
+    return repr(value) if math.isfinite(value) else "null"

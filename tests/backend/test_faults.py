@@ -1,0 +1,184 @@
+"""Fault injection against real processes: the database made read-only, moved, deleted or locked.
+
+Run alone with ``python -m pytest tests/backend/test_faults.py -v``. Each test starts a real
+``mgrao serve`` (and, where it says so, a standalone ``mgrao worker``) on a real SQLite file,
+injects a fault, and counts: submissions acknowledged (202) against jobs stored, health answers,
+and processes still alive. A read-only file is made with ``chattr +i`` (which binds root too);
+where the file system has no such flag the tests that need it skip, saying so.
+"""
+
+from __future__ import annotations
+
+import shutil
+import sqlite3
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+from backend_helpers import Service
+
+pytestmark = pytest.mark.slow
+SMALL = {"system": "single", "seeds": 2, "episodes": 10}
+
+
+def _chattr_works(tmp_path: Path) -> bool:
+    probe = tmp_path / "chattr-probe"
+    probe.write_text("x")
+    try:
+        done = subprocess.run(["chattr", "+i", str(probe)], capture_output=True, check=False)
+    except FileNotFoundError:
+        return False
+    subprocess.run(["chattr", "-i", str(probe)], capture_output=True, check=False)
+    return done.returncode == 0
+
+
+@pytest.fixture
+def immutable(tmp_path: Path):
+    """``immutable(path, True/False)``: set or clear the immutable flag; cleared at the end."""
+    if not _chattr_works(tmp_path):
+        pytest.skip("chattr +i is not supported here (needs ext4/xfs-like flags and CAP_LINUX_IMMUTABLE)")
+    flagged: list[Path] = []
+
+    def set_flag(path: Path, on: bool) -> None:
+        subprocess.run(["chattr", "+i" if on else "-i", str(path)], check=True)
+        (flagged.append if on else flagged.remove)(path)
+
+    yield set_flag
+    for path in flagged:
+        subprocess.run(["chattr", "-i", str(path)], check=False)
+
+
+def _fast_faults(service: Service) -> Service:
+    service.env["MGRAO_DB_BUSY_TIMEOUT_S"] = "1"
+    return service
+
+
+def _stored_jobs(db_file: Path) -> int:
+    with sqlite3.connect(f"file:{db_file}?mode=ro", uri=True) as connection:
+        return connection.execute("SELECT count(*) FROM jobs").fetchone()[0]
+
+
+def _submit(service: Service, count: int) -> tuple[int, list[int]]:
+    """POST ``count`` jobs; (acknowledged, every status code)."""
+    codes = [service.post("/api/jobs", json=SMALL).status_code for _ in range(count)]
+    return codes.count(202), codes
+
+
+def _alive(*processes: subprocess.Popen | None) -> bool:
+    return all(p is not None and p.poll() is None for p in processes)
+
+
+def _wait_succeeded(service: Service, job_id: int) -> None:
+    service.wait_for(lambda: service.get(f"/api/jobs/{job_id}").json()["status"] == "succeeded", what=f"job {job_id}")
+
+
+def test_read_only_database(service: Service, immutable) -> None:
+    _fast_faults(service)
+    service.start_server(workers=2)
+    db_file = Path(service.db_url.removeprefix("sqlite:///"))
+    first = service.post("/api/jobs", json=SMALL).json()["id"]
+    _wait_succeeded(service, first)
+    running = service.post("/api/jobs", json={"system": "large", "seeds": 20, "episodes": 3000}).json()["id"]
+    service.wait_for(lambda: service.get(f"/api/jobs/{running}").json()["status"] == "running", what="running")
+    immutable(db_file, True)
+
+    health = service.get("/api/health")
+    assert health.status_code == 503 and "readonly" in health.json()["database"], health.text
+    acknowledged, codes = _submit(service, 10)
+    assert acknowledged == 0 and set(codes) == {503}
+    refused = service.post("/api/jobs", json=SMALL)
+    assert refused.headers["retry-after"] and "was not queued" in refused.json()["detail"]
+    assert service.post(f"/api/jobs/{first}/cancel").status_code in (409, 503)
+    assert service.get("/api/jobs").status_code == 200  # reading still works
+    time.sleep(3)  # workers keep failing to heartbeat and store meanwhile
+    assert _alive(service.server) and service.get("/api/health").status_code == 503
+
+    immutable(db_file, False)
+    service.wait_for(lambda: service.get("/api/health").status_code == 200, what="health after the fault")
+    later = service.post("/api/jobs", json=SMALL)
+    assert later.status_code == 202
+    _wait_succeeded(service, later.json()["id"])
+    _wait_succeeded(service, running)  # the job that ran through the fault finishes too
+    assert _alive(service.server)
+    assert _stored_jobs(db_file) == 3  # exactly the acknowledged ones
+
+
+def test_deleted_database_directory(tmp_path: Path) -> None:
+    directory = tmp_path / "data"
+    directory.mkdir()
+    service = _fast_faults(Service(tmp_path))
+    service.db_url = f"sqlite:///{directory / 'mgrao.db'}"
+    service.env["MGRAO_DATABASE_URL"] = service.db_url
+    try:
+        service.start_server(workers=1)
+        _wait_succeeded(service, service.post("/api/jobs", json=SMALL).json()["id"])
+        shutil.rmtree(directory)
+        health = service.get("/api/health")
+        assert health.status_code == 503 and "unable to open" in health.json()["database"], health.text
+        acknowledged, codes = _submit(service, 13)
+        assert acknowledged == 0 and set(codes) == {503}
+        time.sleep(2)
+        assert _alive(service.server) and not directory.exists()  # nothing recreated the lost file
+    finally:
+        service.stop()
+
+
+def test_moved_database_file(service: Service) -> None:
+    _fast_faults(service)
+    service.start_server(workers=1)
+    db_file = Path(service.db_url.removeprefix("sqlite:///"))
+    _wait_succeeded(service, service.post("/api/jobs", json=SMALL).json()["id"])
+    moved = db_file.with_name("moved.db")
+    db_file.rename(moved)
+    health = service.get("/api/health")
+    assert health.status_code == 503, health.text
+    acknowledged, codes = _submit(service, 5)
+    assert acknowledged == 0 and set(codes) == {503}
+    moved.rename(db_file)
+    service.wait_for(lambda: service.get("/api/health").status_code == 200, what="health after moving back")
+    assert service.post("/api/jobs", json=SMALL).status_code == 202
+    assert _stored_jobs(db_file) == 2 and _alive(service.server)
+
+
+def test_write_lock_held_by_another_process(service: Service) -> None:
+    _fast_faults(service)
+    service.start_server(workers=0)
+    lone = service.start_worker()
+    db_file = Path(service.db_url.removeprefix("sqlite:///"))
+    job = service.post("/api/jobs", json=SMALL).json()["id"]
+    _wait_succeeded(service, job)
+    queued = service.post("/api/jobs", json=SMALL).json()["id"]
+    service.wait_for(lambda: service.get(f"/api/jobs/{queued}").json()["status"] == "succeeded", what="second job")
+    locker = sqlite3.connect(db_file, isolation_level=None, timeout=10)
+    locker.execute("BEGIN IMMEDIATE")
+    try:
+        refused = service.post("/api/jobs", json=SMALL)
+        assert refused.status_code == 503 and refused.headers["content-type"].startswith("application/json")
+        assert "locked" in refused.json()["detail"] and "was not queued" in refused.json()["detail"]
+        assert service.get("/api/health").status_code == 503
+        time.sleep(3)  # the standalone worker polls into the lock meanwhile
+        assert _alive(service.server, lone)
+    finally:
+        locker.execute("ROLLBACK")
+        locker.close()
+    after = service.post("/api/jobs", json=SMALL)
+    assert after.status_code == 202
+    _wait_succeeded(service, after.json()["id"])
+    assert _alive(service.server, lone)
+    assert _stored_jobs(db_file) == 3
+
+
+def test_a_worker_started_on_a_read_only_database_waits_and_then_works(service: Service, immutable) -> None:
+    _fast_faults(service)
+    service.start_server(workers=0)
+    db_file = Path(service.db_url.removeprefix("sqlite:///"))
+    job = service.post("/api/jobs", json=SMALL).json()["id"]
+    immutable(db_file, True)
+    lone = service.start_worker()
+    time.sleep(4)  # migrate and claim fail: the worker retries instead of exiting
+    assert _alive(lone)
+    assert service.get(f"/api/jobs/{job}").json()["status"] == "queued"
+    immutable(db_file, False)
+    _wait_succeeded(service, job)
+    assert _alive(lone, service.server)
