@@ -1,18 +1,15 @@
-"""The FastAPI application factory: routers under ``/api``, error mapping, static dashboard."""
+"""The FastAPI application factory: routers under ``/api``, error mapping, docs, dashboard, middleware."""
 
 from __future__ import annotations
 
-import importlib.resources
-import importlib.util
 from collections.abc import AsyncIterator, Sequence
 from contextlib import asynccontextmanager
-from pathlib import Path
 from typing import Any
 
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import FileResponse, JSONResponse
-from fastapi.staticfiles import StaticFiles
+from fastapi.middleware.gzip import GZipMiddleware
+from fastapi.responses import JSONResponse
 
 import mgrao_core
 from backend.db import Database
@@ -20,28 +17,10 @@ from backend.errors import BadQuery, Conflict, InvalidSpec, NotFound
 from backend.limits import BodyLimit
 from backend.routes import compare, health, jobs, systems
 from backend.settings import Settings
+from backend.static import frontend_dir, install_static, plotly_js
 from mgrao_core import ConfigError
 
-
-def frontend_dir() -> Path | None:
-    """The directory of the ``frontend`` package (the dashboard's files), if installed."""
-    try:
-        path = Path(str(importlib.resources.files("frontend")))
-        if path.is_dir():
-            return path
-    except (ModuleNotFoundError, NotADirectoryError, TypeError):
-        pass
-    spec = importlib.util.find_spec("frontend")
-    for location in (spec.submodule_search_locations or []) if spec else []:
-        if Path(location).is_dir():
-            return Path(location)
-    fallback = Path(__file__).resolve().parent.parent / "frontend"
-    return fallback if fallback.is_dir() else None
-
-
-def plotly_js() -> Path:
-    """plotly.min.js from the installed ``plotly`` package (never a CDN)."""
-    return Path(str(importlib.resources.files("plotly") / "package_data" / "plotly.min.js"))
+__all__ = ["create_app", "frontend_dir", "plotly_js", "validation_details"]
 
 
 def _validation_detail(loc: list[str | int], field: str, msg: str) -> dict[str, Any]:
@@ -106,7 +85,7 @@ def _install_error_handlers(app: FastAPI) -> None:
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
-    """Build the service: API routers first, then the dashboard's static files at ``/``."""
+    """Build the service: API routers first, then the libraries and the dashboard at ``/``."""
     settings = settings or Settings()
     db = Database(settings.database_url)
 
@@ -126,12 +105,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     for module in (jobs, compare, systems, health):
         app.include_router(module.router)
 
-    @app.get("/vendor/plotly.min.js", include_in_schema=False)
-    def vendor_plotly() -> FileResponse:
-        return FileResponse(plotly_js(), media_type="text/javascript")
+    install_static(app)  # last: the dashboard is mounted at "/"
 
-    static = frontend_dir()
-    if static is not None:
-        app.mount("/", StaticFiles(directory=static, html=True), name="dashboard")
+    # add_middleware wraps: the last added runs first. Order of a request: body limit (413), gzip of
+    # the answer when the client accepts it (text of 1000 bytes or more), the app.
+    app.add_middleware(GZipMiddleware, minimum_size=1000, compresslevel=6)
     app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
     return app
