@@ -12,6 +12,7 @@ from fastapi.middleware.gzip import GZipMiddleware
 from fastapi.responses import JSONResponse
 
 import mgrao_core
+from backend.apidocs import install_api_docs
 from backend.db import Database
 from backend.errors import BadQuery, Conflict, InvalidSpec, NotFound
 from backend.limits import BodyLimit
@@ -85,7 +86,7 @@ def _install_error_handlers(app: FastAPI) -> None:
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
-    """Build the service: API routers first, then the libraries and the dashboard at ``/``."""
+    """Build the service: API routers first, then the API docs, libraries and the dashboard at ``/``."""
     settings = settings or Settings()
     db = Database(settings.database_url)
 
@@ -98,6 +99,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app = FastAPI(
         title="MG-RAO experiment service", version=mgrao_core.__version__, lifespan=lifespan,
         description="Submit MG-RAO simulation jobs, follow them and compare their results.",
+        docs_url=None, redoc_url=None,  # backend/apidocs.py serves /docs from local assets
     )
     app.state.settings = settings
     app.state.db = db
@@ -105,6 +107,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     for module in (jobs, compare, systems, health):
         app.include_router(module.router)
 
+    install_api_docs(app)
     install_static(app)  # last: the dashboard is mounted at "/"
 
     # add_middleware wraps: the last added runs first. Order of a request: body limit (413), gzip of

@@ -3,15 +3,16 @@
 * The dashboard (the ``frontend`` package) is revalidated on every use (``Cache-Control:
   no-cache`` with ETag/Last-Modified), so an upgrade shows at the next load. ``index.html`` is
   served with the versioned plotly.js address filled in.
-* Libraries (plotly.js from the ``plotly`` package) live under addresses that carry their version
-  and are cached for a year (``immutable``); each is gzip-compressed once, in memory, for the
-  clients that accept gzip. Every file answers HEAD.
+* Libraries (plotly.js from the ``plotly`` package, Swagger UI from ``fastapi-offline``)
+  live under addresses that carry their version and are cached for a year (``immutable``); each is
+  gzip-compressed once, in memory, for the clients that accept gzip. Every file answers HEAD.
 """
 
 from __future__ import annotations
 
 import gzip
 import hashlib
+import importlib.metadata
 import importlib.resources
 import importlib.util
 from dataclasses import dataclass
@@ -55,6 +56,20 @@ def plotly_url() -> str:
     from plotly.offline import get_plotlyjs_version
 
     return f"/vendor/plotly-{get_plotlyjs_version()}.min.js"
+
+
+def docs_assets_dir() -> Path:
+    """Swagger UI's files, shipped by the ``fastapi-offline`` package."""
+    return Path(str(importlib.resources.files("fastapi_offline") / "static"))
+
+
+@cache
+def docs_asset_url(name: str) -> str:
+    """The versioned address of one of :func:`docs_assets_dir`'s files."""
+    return f"/vendor/docs-{importlib.metadata.version('fastapi-offline')}/{name}"
+
+
+DOCS_ASSETS = {"swagger-ui-bundle.js": "text/javascript", "swagger-ui.css": "text/css"}
 
 
 def accepts_gzip(request: Request) -> bool:
@@ -132,6 +147,9 @@ def install_static(app: FastAPI) -> None:
     def plotly_alias() -> Response:
         """The unversioned address of earlier releases: a redirect, revalidated, to the versioned one."""
         return RedirectResponse(versioned, status_code=307, headers={"cache-control": REVALIDATE})
+
+    for name, media_type in DOCS_ASSETS.items():
+        _serve_vendor_file(app, docs_asset_url(name), VendorFile(docs_assets_dir() / name, media_type))
 
     static = frontend_dir()
     if static is None:

@@ -49,6 +49,7 @@ export function loadPlotly() {
 const CONFIG = {
   responsive: true,
   displaylogo: false,
+  showSendToCloud: false, // plotly.js 4 adds a "Share chart..." button that uploads the data to Plotly's cloud
   modeBarButtonsToRemove: ['select2d', 'lasso2d', 'autoScale2d'],
   toImageButtonOptions: { format: 'png', scale: 2 },
 };

@@ -9,7 +9,7 @@ import httpx
 import pytest
 from fastapi.testclient import TestClient
 
-from backend.static import frontend_dir, plotly_js, plotly_url
+from backend.static import docs_asset_url, docs_assets_dir, frontend_dir, plotly_js, plotly_url
 
 IDENTITY = {"Accept-Encoding": "identity"}
 GZIP = {"Accept-Encoding": "gzip"}
@@ -49,7 +49,7 @@ def test_old_plotly_address_redirects_to_the_versioned_one(client: TestClient) -
 
 
 def test_versioned_files_revalidate_by_etag(client: TestClient) -> None:
-    for url in (plotly_url(),):
+    for url in (plotly_url(), docs_asset_url("swagger-ui-bundle.js")):
         etag = client.head(url).headers["etag"]
         response = client.get(url, headers={"If-None-Match": etag})
         assert response.status_code == 304 and response.content == b""
@@ -57,7 +57,8 @@ def test_versioned_files_revalidate_by_etag(client: TestClient) -> None:
 
 @pytest.mark.parametrize("encoding", [IDENTITY, GZIP])
 def test_head_answers_every_static_file(client: TestClient, encoding: dict) -> None:
-    urls = [*DASHBOARD_FILES, plotly_url(), "/vendor/plotly.min.js", "/openapi.json"]
+    urls = [*DASHBOARD_FILES, plotly_url(), "/vendor/plotly.min.js", docs_asset_url("swagger-ui-bundle.js"),
+            docs_asset_url("swagger-ui.css"), "/docs", "/docs/swagger-init.js", "/openapi.json"]
     for url in urls:
         head = client.head(url, headers=encoding)
         assert head.status_code == 200, (url, head.status_code)
@@ -96,10 +97,21 @@ def test_text_is_gzipped_when_accepted(client: TestClient, url: str) -> None:
     assert gzip.decompress(body) == plain.content and len(body) < len(plain.content)
 
 
+def test_docs_assets_come_from_fastapi_offline(client: TestClient) -> None:
+    for name in ("swagger-ui-bundle.js", "swagger-ui.css"):
+        response = client.get(docs_asset_url(name), headers=IDENTITY)
+        assert response.status_code == 200 and response.content == (docs_assets_dir() / name).read_bytes()
+        assert response.headers["cache-control"] == "public, max-age=31536000, immutable"
+    page = client.get("/docs").text
+    assert docs_asset_url("swagger-ui-bundle.js") in page and docs_asset_url("swagger-ui.css") in page
+    assert "<script>" not in page and "http" not in page.replace('"http://www.w3.org', "")
+    assert client.get("/redoc", follow_redirects=False).headers["location"] == "/docs"
+
+
 def test_real_server_head_and_gzip(live_server: str) -> None:
     raw = plotly_js().read_bytes()
     with httpx.Client(base_url=live_server, timeout=60) as http:
-        for url in ("/", "/js/app.js", "/style.css", plotly_url()):
+        for url in ("/", "/js/app.js", "/style.css", plotly_url(), docs_asset_url("swagger-ui-bundle.js")):
             head = http.head(url, headers=IDENTITY)
             assert head.status_code == 200 and head.content == b"", url
             assert int(head.headers["content-length"]) == len(http.get(url, headers=IDENTITY).content), url

@@ -1,0 +1,68 @@
+"""Every page of the product works offline: every request stays on 127.0.0.1."""
+
+from __future__ import annotations
+
+import re
+from urllib.parse import urlparse
+
+import pytest
+from test_dashboard import api, assert_local, wait_job, wait_rendered
+
+pytestmark = [pytest.mark.browser, pytest.mark.slow]
+
+REPORT_VIOLATIONS = """
+document.addEventListener('securitypolicyviolation', (e) => window.__cspViolation(
+  `${e.effectiveDirective} blocked ${e.blockedURI || '(inline)'} in ${e.sourceFile || e.documentURI}:${e.lineNumber}`));
+"""
+
+
+@pytest.fixture
+def watched(page):
+    """The dashboard fixture's page, also recording CSP violations, console and page errors, failed answers."""
+    page.problems = []  # type: ignore[attr-defined]
+    page.expose_function("__cspViolation", lambda text: page.problems.append(f"CSP violation: {text}"))
+    page.add_init_script(REPORT_VIOLATIONS)
+    page.on("console", lambda m: m.type == "error" and page.problems.append(f"console error: {m.text}"))
+    page.on("pageerror", lambda e: page.problems.append(f"page error: {e}"))
+    page.on("response", lambda r: r.status >= 400 and page.problems.append(f"{r.status} for {r.url}"))
+    return page
+
+
+@pytest.fixture(scope="module")
+def finished_job(server) -> int:
+    job = api(server, "POST", "/jobs", {"system": "single", "seeds": 2, "episodes": 30, "name": "csp check"})
+    assert wait_job(server, job["id"])["status"] == "succeeded"
+    return job["id"]
+
+
+def test_api_docs_render_offline(watched, server, finished_job):
+    page = watched
+    page.goto("/")
+    page.locator("table.runs, .notice.empty").first.wait_for()
+    page.goto(f"/#/jobs/{finished_job}")
+    wait_rendered(page, "#utility-chart")
+    buttons = page.eval_on_selector_all("#utility-chart .modebar-btn", "bs => bs.map(b => b.dataset.title)")
+    assert "Download plot as a PNG" in buttons
+    assert not [b for b in buttons if "Share" in b]  # plotly.js's upload to its cloud is not offered
+
+    # The footer's link leads to Swagger UI, drawn from local assets: the operations are listed.
+    page.get_by_role("link", name="API docs").click()
+    page.wait_for_url(re.compile(r"/docs$"))
+    submit = page.locator(".opblock-post").filter(has=page.locator("[data-path='/api/jobs']"))
+    submit.locator(".opblock-summary-description", has_text="Submit Job").wait_for()
+    assert submit.locator(".opblock-summary-method").inner_text() == "POST"
+    assert page.get_by_text("/api/jobs/{job_id}/cancel").first.is_visible()
+    submit.locator(".opblock-summary-control").first.click()  # expand: parameters and schemas render
+    submit.get_by_text("Request body").first.wait_for()
+
+    # FastAPI's other page, ReDoc, always loads its vendor's logo from outside: /redoc leads to /docs.
+    page.goto("/redoc")
+    page.wait_for_url(re.compile(r"/docs$"))
+    page.locator(".opblock-summary-description", has_text="Submit Job").wait_for()
+
+    assert page.problems == []
+    assert_local(page, server)
+    hosts = {urlparse(u).hostname for u in page.requests if u.startswith("http")}
+    assert hosts == {"127.0.0.1"}
+    paths = {urlparse(u).path for u in page.requests}
+    assert {"/docs", "/openapi.json", "/docs/swagger-init.js"} <= paths
