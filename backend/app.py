@@ -17,6 +17,7 @@ from backend.db import Database
 from backend.errors import BadQuery, Conflict, InvalidSpec, NotFound
 from backend.limits import BodyLimit
 from backend.routes import compare, health, jobs, systems
+from backend.security import AllowedHosts, SameOriginWrites, SecurityHeaders, allowed_hosts
 from backend.settings import Settings
 from backend.static import frontend_dir, install_static, plotly_js
 from mgrao_core import ConfigError
@@ -110,8 +111,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     install_api_docs(app)
     install_static(app)  # last: the dashboard is mounted at "/"
 
-    # add_middleware wraps: the last added runs first. Order of a request: body limit (413), gzip of
+    # add_middleware wraps: the last added runs first. Order of a request: security headers on
+    # whatever answers, Host check (400), same-origin writes (403/415), body limit (413), gzip of
     # the answer when the client accepts it (text of 1000 bytes or more), the app.
     app.add_middleware(GZipMiddleware, minimum_size=1000, compresslevel=6)
     app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
+    app.add_middleware(SameOriginWrites)
+    app.add_middleware(AllowedHosts, hosts=allowed_hosts(settings.allowed_hosts, settings.host))
+    app.add_middleware(SecurityHeaders)
     return app

@@ -8,7 +8,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from backend_helpers import TOKEN, Service
+from backend_helpers import BASE_URL, TOKEN, Service
 from fastapi.testclient import TestClient
 
 from backend.app import create_app
@@ -30,13 +30,13 @@ def settings(db_url: str) -> Settings:
 
 @pytest.fixture
 def client(settings: Settings) -> Iterator[TestClient]:
-    with TestClient(create_app(settings)) as test_client:
+    with TestClient(create_app(settings), base_url=BASE_URL) as test_client:
         yield test_client
 
 
 @pytest.fixture
 def auth_client(settings: Settings) -> Iterator[TestClient]:
-    with TestClient(create_app(settings.model_copy(update={"api_token": TOKEN}))) as test_client:
+    with TestClient(create_app(settings.model_copy(update={"api_token": TOKEN})), base_url=BASE_URL) as test_client:
         yield test_client
 
 
