@@ -8,7 +8,6 @@ from typing import Any
 
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
-from fastapi.middleware.gzip import GZipMiddleware
 from fastapi.responses import JSONResponse
 
 import mgrao_core
@@ -19,7 +18,7 @@ from backend.limits import BodyLimit
 from backend.routes import compare, health, jobs, systems
 from backend.security import AllowedHosts, SameOriginWrites, SecurityHeaders, allowed_hosts
 from backend.settings import Settings
-from backend.static import frontend_dir, install_static, plotly_js
+from backend.static import CompressAssets, frontend_dir, install_static, plotly_js
 from mgrao_core import ConfigError
 
 __all__ = ["create_app", "frontend_dir", "plotly_js", "validation_details"]
@@ -113,8 +112,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     # add_middleware wraps: the last added runs first. Order of a request: security headers on
     # whatever answers, Host check (400), same-origin writes (403/415), body limit (413), gzip of
-    # the answer when the client accepts it (text of 1000 bytes or more), the app.
-    app.add_middleware(GZipMiddleware, minimum_size=1000, compresslevel=6)
+    # browser files when the client accepts it (text of 1000 bytes or more, not /api), the app.
+    app.add_middleware(CompressAssets, minimum_size=1000, compresslevel=6)
     app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
     app.add_middleware(SameOriginWrites)
     app.add_middleware(AllowedHosts, hosts=allowed_hosts(settings.allowed_hosts, settings.host))

@@ -15,6 +15,7 @@ import hashlib
 import importlib.metadata
 import importlib.resources
 import importlib.util
+import os
 from dataclasses import dataclass
 from functools import cache, cached_property
 from pathlib import Path
@@ -22,6 +23,9 @@ from pathlib import Path
 from fastapi import FastAPI, Request, Response
 from fastapi.responses import FileResponse, RedirectResponse
 from fastapi.staticfiles import StaticFiles
+from starlette.middleware.gzip import GZipMiddleware
+from starlette.staticfiles import PathLike
+from starlette.types import Receive, Scope, Send
 
 IMMUTABLE = "public, max-age=31536000, immutable"
 REVALIDATE = "no-cache"
@@ -118,11 +122,26 @@ class VendorFile:
 class DashboardFiles(StaticFiles):
     """The dashboard's files, revalidated on every use: ``Cache-Control: no-cache``."""
 
-    def file_response(self, *args: object, **kwargs: object) -> Response:
+    def file_response(self, full_path: PathLike, stat_result: os.stat_result, scope: Scope,
+                      status_code: int = 200) -> Response:
         """StaticFiles' answer (ETag, Last-Modified, 304), told to revalidate."""
-        response = super().file_response(*args, **kwargs)  # type: ignore[arg-type]
+        response = super().file_response(full_path, stat_result, scope, status_code)
         response.headers["cache-control"] = REVALIDATE
         return response
+
+
+class CompressAssets(GZipMiddleware):
+    """gzip for the browser files when the client accepts it; API answers go out as they are.
+
+    The API is mostly read over the loopback interface, where compressing costs more than it saves.
+    """
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        """Compress unless the path is under ``/api/``."""
+        if scope["type"] == "http" and scope.get("path", "").startswith("/api/"):
+            await self.app(scope, receive, send)
+            return
+        await super().__call__(scope, receive, send)
 
 
 def _dashboard_index(static: Path) -> Response:

@@ -87,7 +87,7 @@ def test_index_names_the_versioned_plotly(client: TestClient) -> None:
     assert static is not None and 'href="/vendor/plotly.min.js"' in (static / "index.html").read_text()
 
 
-@pytest.mark.parametrize("url", ["/js/app.js", "/style.css", "/", "/openapi.json", "/api/systems"])
+@pytest.mark.parametrize("url", ["/js/app.js", "/js/job.js", "/style.css", "/", "/openapi.json"])
 def test_text_is_gzipped_when_accepted(client: TestClient, url: str) -> None:
     plain = client.get(url, headers=IDENTITY)
     assert "content-encoding" not in plain.headers
@@ -95,6 +95,12 @@ def test_text_is_gzipped_when_accepted(client: TestClient, url: str) -> None:
         body = b"".join(response.iter_raw())
     assert response.headers["content-encoding"] == "gzip"
     assert gzip.decompress(body) == plain.content and len(body) < len(plain.content)
+
+
+def test_api_answers_are_not_compressed(client: TestClient) -> None:
+    for url in ("/api/systems", "/api/jobs"):
+        response = client.get(url, headers=GZIP)
+        assert response.status_code == 200 and "content-encoding" not in response.headers
 
 
 def test_docs_assets_come_from_fastapi_offline(client: TestClient) -> None:
