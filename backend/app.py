@@ -1,48 +1,28 @@
-"""The FastAPI application factory: routers under ``/api``, error mapping, static dashboard."""
+"""The FastAPI application factory: routers under ``/api``, error mapping, docs, dashboard, middleware."""
 
 from __future__ import annotations
 
-import importlib.resources
-import importlib.util
 from collections.abc import AsyncIterator, Sequence
 from contextlib import asynccontextmanager
-from pathlib import Path
 from typing import Any
 
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import FileResponse, JSONResponse
-from fastapi.staticfiles import StaticFiles
+from fastapi.responses import JSONResponse
 
 import mgrao_core
 from backend import faults
+from backend.apidocs import install_api_docs
 from backend.db import Database
 from backend.errors import BadQuery, Conflict, InvalidSpec, NotFound
 from backend.limits import BodyLimit
 from backend.routes import compare, health, jobs, systems
+from backend.security import AllowedHosts, SameOriginWrites, SecurityHeaders, allowed_hosts
 from backend.settings import Settings
+from backend.static import CompressAssets, frontend_dir, install_static, plotly_js
 from mgrao_core import ConfigError
 
-
-def frontend_dir() -> Path | None:
-    """The directory of the ``frontend`` package (the dashboard's files), if installed."""
-    try:
-        path = Path(str(importlib.resources.files("frontend")))
-        if path.is_dir():
-            return path
-    except (ModuleNotFoundError, NotADirectoryError, TypeError):
-        pass
-    spec = importlib.util.find_spec("frontend")
-    for location in (spec.submodule_search_locations or []) if spec else []:
-        if Path(location).is_dir():
-            return Path(location)
-    fallback = Path(__file__).resolve().parent.parent / "frontend"
-    return fallback if fallback.is_dir() else None
-
-
-def plotly_js() -> Path:
-    """plotly.min.js from the installed ``plotly`` package (never a CDN)."""
-    return Path(str(importlib.resources.files("plotly") / "package_data" / "plotly.min.js"))
+__all__ = ["create_app", "frontend_dir", "plotly_js", "validation_details"]
 
 
 def _validation_detail(loc: list[str | int], field: str, msg: str) -> dict[str, Any]:
@@ -107,7 +87,7 @@ def _install_error_handlers(app: FastAPI) -> None:
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
-    """Build the service: API routers first, then the dashboard's static files at ``/``."""
+    """Build the service: API routers first, then the API docs, libraries and the dashboard at ``/``."""
     settings = settings or Settings()
     db = Database(settings.database_url, settings.db_busy_timeout_s)
 
@@ -120,6 +100,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app = FastAPI(
         title="MG-RAO experiment service", version=mgrao_core.__version__, lifespan=lifespan,
         description="Submit MG-RAO simulation jobs, follow them and compare their results.",
+        docs_url=None, redoc_url=None,  # backend/apidocs.py serves /docs from local assets
     )
     app.state.settings = settings
     app.state.db = db
@@ -128,12 +109,15 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     for module in (jobs, compare, systems, health):
         app.include_router(module.router)
 
-    @app.get("/vendor/plotly.min.js", include_in_schema=False)
-    def vendor_plotly() -> FileResponse:
-        return FileResponse(plotly_js(), media_type="text/javascript")
+    install_api_docs(app)
+    install_static(app)  # last: the dashboard is mounted at "/"
 
-    static = frontend_dir()
-    if static is not None:
-        app.mount("/", StaticFiles(directory=static, html=True), name="dashboard")
+    # add_middleware wraps: the last added runs first. Order of a request: security headers on
+    # whatever answers, Host check (400), same-origin writes (403/415), body limit (413), gzip of
+    # browser files when the client accepts it (text of 1000 bytes or more, not /api), the app.
+    app.add_middleware(CompressAssets, minimum_size=1000, compresslevel=6)
     app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
+    app.add_middleware(SameOriginWrites)
+    app.add_middleware(AllowedHosts, hosts=allowed_hosts(settings.allowed_hosts, settings.host))
+    app.add_middleware(SecurityHeaders)
     return app

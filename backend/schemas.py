@@ -15,6 +15,7 @@ MAX_TAGS = 20
 MAX_NOTES = 10_000
 MAX_LABEL = 32
 MAX_COMPARE_JOBS = 50
+MAX_JOB_ID = 2**63 - 1  # SQLite INTEGER is a signed 64-bit integer
 
 Tag = Annotated[str, StringConstraints(strip_whitespace=True, min_length=1, max_length=MAX_TAG)]
 Label = Annotated[str, StringConstraints(min_length=1, max_length=MAX_LABEL)]

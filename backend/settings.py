@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import Annotated
 
-from pydantic import Field
-from pydantic_settings import BaseSettings, SettingsConfigDict
+from pydantic import Field, field_validator
+from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
 
 from mgrao_core.budget import MAX_CHUNK_BYTES
 
@@ -40,6 +41,19 @@ class Settings(BaseSettings):
         """:attr:`job_memory_mib` in bytes."""
         return self.job_memory_mib * 1024**2
     port: int = Field(8000, ge=0, le=65535)
+    allowed_hosts: Annotated[list[str], NoDecode] = Field(
+        ["127.0.0.1", "localhost"], min_length=1,
+        description="Host header names the service answers to (any port), comma-separated; '*' = any.",
+    )
+
+    @field_validator("allowed_hosts", mode="before")
+    @classmethod
+    def _split_hosts(cls, value: object) -> object:
+        """``MGRAO_ALLOWED_HOSTS=a,b`` (or a list) as a list of non-empty names."""
+        items = value.split(",") if isinstance(value, str) else value
+        if isinstance(items, list | tuple):
+            items = [str(item).strip() for item in items if str(item).strip()]
+        return items
 
 
 @lru_cache

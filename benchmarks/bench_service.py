@@ -161,7 +161,7 @@ def main() -> None:
     deep = server.client.get(f"/api/jobs?limit=50&cursor={page['next_cursor']}")
     assert deep.status_code == 200
     for job_id in busy:
-        server.client.post(f"/api/jobs/{job_id}/cancel")
+        server.client.post(f"/api/jobs/{job_id}/cancel", headers={"Content-Type": "application/json"})
     server.stop()
 
     width = max(len(r[0]) for r in rows)

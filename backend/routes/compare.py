@@ -10,22 +10,26 @@ from fastapi.responses import Response
 from backend import analysis
 from backend.deps import SessionDep
 from backend.errors import BadQuery
-from backend.schemas import MAX_COMPARE_JOBS
+from backend.schemas import MAX_COMPARE_JOBS, MAX_JOB_ID
 from mgrao_core import MAX_EPISODES
 
 router = APIRouter(prefix="/api", tags=["compare"])
 
 
 def parse_ids(text: str) -> list[int]:
-    """``"1,2,3"`` as ids, or :class:`BadQuery` naming the field ``jobs``."""
+    """``"1,2,3"`` as ids in [1, MAX_JOB_ID], or :class:`BadQuery` naming the field ``jobs``."""
     parts = [p.strip() for p in text.split(",") if p.strip()]
     if not parts:
         raise BadQuery("jobs", "give at least one job id, e.g. jobs=1,2,3")
     if len(parts) > MAX_COMPARE_JOBS:
         raise BadQuery("jobs", f"at most {MAX_COMPARE_JOBS} jobs (got {len(parts)})")
-    if not all(p.isdigit() for p in parts):
-        raise BadQuery("jobs", f"must be comma-separated job ids (got {text!r})")
-    return [int(p) for p in parts]
+    if not all(p.isascii() and p.isdigit() for p in parts):
+        raise BadQuery("jobs", f"must be comma-separated job ids, digits 0-9 only (got {text!r})")
+    ids = [int(p) for p in parts]
+    for job_id in ids:
+        if not 1 <= job_id <= MAX_JOB_ID:
+            raise BadQuery("jobs", f"job ids must be in [1, {MAX_JOB_ID}] (got {job_id})")
+    return ids
 
 
 @router.get("/compare")

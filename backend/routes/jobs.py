@@ -7,19 +7,26 @@ import math
 from collections.abc import Iterator
 from typing import Annotated, Literal
 
-from fastapi import APIRouter, Query, Response, status
+from fastapi import APIRouter, Path, Query, Response, status
 from fastapi.responses import JSONResponse, StreamingResponse
 
 from backend import analysis, crud
 from backend.deps import Authorized, DatabaseDep, SessionDep, SettingsDep
-from backend.errors import InvalidSpec
-from backend.schemas import JobCreate, JobOut, JobPage, JobPatch, Sort, Status
+from backend.errors import BadQuery, InvalidSpec
+from backend.schemas import MAX_JOB_ID, JobCreate, JobOut, JobPage, JobPatch, Sort, Status
 from mgrao_core import MAX_EPISODES, ConfigError, make_spec
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 
-JobId = Annotated[int, Query(ge=1)]
+JobId = Annotated[int, Path(ge=1, le=MAX_JOB_ID, description="A job's id.")]
 Points = Annotated[int | None, Query(ge=1, le=MAX_EPISODES, description="Downsample to at most this many points.")]
+
+
+def check_cursor(cursor: str, sort: Sort) -> None:
+    """:class:`BadQuery` naming ``cursor`` unless it decodes for ``sort`` to a job id in [1, MAX_JOB_ID]."""
+    _key, after = crud.decode_cursor(cursor, sort)
+    if not 1 <= after <= MAX_JOB_ID:
+        raise BadQuery("cursor", f"its job id must be in [1, {MAX_JOB_ID}] (got {after})")
 
 
 @router.post("", status_code=status.HTTP_202_ACCEPTED, response_model=JobOut, dependencies=[Authorized])
@@ -50,6 +57,8 @@ def list_jobs(
     cursor: Annotated[str | None, Query(max_length=500)] = None,
 ) -> JSONResponse:
     """Jobs matching the filters, one page at a time (keyset pagination)."""
+    if cursor:
+        check_cursor(cursor, sort)
     jobs, next_cursor, total = crud.list_jobs(
         session, status=status, system=system, tag=tag, q=q, sort=sort, limit=limit, cursor=cursor
     )
@@ -57,13 +66,13 @@ def list_jobs(
 
 
 @router.get("/{job_id}", response_model=JobOut)
-def read_job(job_id: int, session: SessionDep) -> dict:
+def read_job(job_id: JobId, session: SessionDep) -> dict:
     """One job."""
     return crud.job_dict(crud.get_job(session, job_id=job_id))
 
 
 @router.patch("/{job_id}", response_model=JobOut, dependencies=[Authorized])
-def patch_job(job_id: int, body: JobPatch, db: DatabaseDep) -> dict:
+def patch_job(job_id: JobId, body: JobPatch, db: DatabaseDep) -> dict:
     """Change a job's name, tags or notes."""
     with db.write() as session:
         job = crud.update_job(session, job_id=job_id, name=body.name, tags=body.tags, notes=body.notes)
@@ -72,7 +81,7 @@ def patch_job(job_id: int, body: JobPatch, db: DatabaseDep) -> dict:
 
 
 @router.post("/{job_id}/cancel", response_model=JobOut, dependencies=[Authorized])
-def cancel_job(job_id: int, db: DatabaseDep) -> dict:
+def cancel_job(job_id: JobId, db: DatabaseDep) -> dict:
     """Cancel a queued or running job (409 otherwise)."""
     with db.write() as session:
         job = crud.cancel_job(session, job_id=job_id)
@@ -81,7 +90,7 @@ def cancel_job(job_id: int, db: DatabaseDep) -> dict:
 
 
 @router.delete("/{job_id}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[Authorized])
-def delete_job(job_id: int, db: DatabaseDep) -> Response:
+def delete_job(job_id: JobId, db: DatabaseDep) -> Response:
     """Delete a job that is not running, with its results (409 if running)."""
     with db.write() as session:
         crud.delete_job(session, job_id=job_id)
@@ -89,14 +98,14 @@ def delete_job(job_id: int, db: DatabaseDep) -> Response:
 
 
 @router.get("/{job_id}/results")
-def job_results(job_id: int, session: SessionDep, points: Points = None, include_seeds: bool = False) -> Response:
+def job_results(job_id: JobId, session: SessionDep, points: Points = None, include_seeds: bool = False) -> Response:
     """Per configuration: summary, episode band, mean final weights (and each seed's curve)."""
     body = analysis.job_results_json(session, job_id=job_id, points=points, include_seeds=include_seeds)
     return Response(body, media_type="application/json")
 
 
 @router.get("/{job_id}/episodes")
-def job_episodes(job_id: int, db: DatabaseDep, format: Literal["csv", "json"] = "csv") -> StreamingResponse:
+def job_episodes(job_id: JobId, db: DatabaseDep, format: Literal["csv", "json"] = "csv") -> StreamingResponse:
     """Every stored episode utility of the job, streamed as CSV or JSON (partial while it runs)."""
     with db.session() as session:
         job = crud.get_job(session, job_id=job_id)

@@ -53,7 +53,9 @@ export function url(path, query) {
 
 export async function request(method, path, { query, body, signal } = {}) {
   const headers = { Accept: 'application/json' };
-  if (body !== undefined) headers['Content-Type'] = 'application/json';
+  // Every change is sent as JSON, with or without a body: the server refuses (415) a write without
+  // Content-Type: application/json unless its Origin is the server's own (docs/api.md, "Cross-site requests").
+  if (body !== undefined || method !== 'GET') headers['Content-Type'] = 'application/json';
   const token = getToken();
   if (token && method !== 'GET') headers.Authorization = `Bearer ${token}`;
   let response;

@@ -15,7 +15,14 @@ function rgba(hex, alpha) {
   return `rgba(${(n >> 16) & 255}, ${(n >> 8) & 255}, ${n & 255}, ${alpha})`;
 }
 
-export const PLOTLY_SRC = '/vendor/plotly.min.js';
+// The unversioned address redirects to the versioned one; index.html names the versioned one directly.
+export const PLOTLY_FALLBACK_SRC = '/vendor/plotly.min.js';
+
+/** The address of plotly.js: the one the server wrote into index.html's prefetch link (cached for a year). */
+export function plotlySrc() {
+  const link = typeof document !== 'undefined' && document.getElementById('plotly-src');
+  return (link && link.getAttribute('href')) || PLOTLY_FALLBACK_SRC;
+}
 
 export function plotlyReady() {
   return typeof window !== 'undefined' && !!window.Plotly;
@@ -29,7 +36,7 @@ export function loadPlotly() {
   if (!plotlyPromise) {
     plotlyPromise = new Promise((resolve) => {
       const script = document.createElement('script');
-      script.src = PLOTLY_SRC;
+      script.src = plotlySrc();
       script.id = 'plotly-js';
       script.addEventListener('load', () => resolve(window.Plotly || null));
       script.addEventListener('error', () => { plotlyPromise = null; resolve(null); });
@@ -42,6 +49,7 @@ export function loadPlotly() {
 const CONFIG = {
   responsive: true,
   displaylogo: false,
+  showSendToCloud: false, // plotly.js 4 adds a "Share chart..." button that uploads the data to Plotly's cloud
   modeBarButtonsToRemove: ['select2d', 'lasso2d', 'autoScale2d'],
   toImageButtonOptions: { format: 'png', scale: 2 },
 };
@@ -62,7 +70,7 @@ function baseLayout(extra = {}) {
 export async function draw(el, traces, layout, config = {}) {
   const Plotly = await loadPlotly();
   if (!Plotly) {
-    el.textContent = `Charts are unavailable: ${PLOTLY_SRC} did not load.`;
+    el.textContent = `Charts are unavailable: ${plotlySrc()} did not load.`;
     el.classList.add('chart-missing');
     return el;
   }

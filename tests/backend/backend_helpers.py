@@ -15,6 +15,10 @@ from backend.worker import Worker
 from tests.support.local_service import free_port, mgrao_command, serve_command, wait_healthy
 
 TOKEN = "s3cret-token"
+JSON = {"Content-Type": "application/json"}  # what a write without a body must still say
+# The service answers only to allowed Host names (127.0.0.1 and localhost by default), so the
+# in-process clients address it as 127.0.0.1 (TestClient's own default is "testserver").
+BASE_URL = "http://127.0.0.1"
 
 
 def drain(worker: Worker) -> int:

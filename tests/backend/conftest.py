@@ -2,17 +2,20 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from backend_helpers import TOKEN, Service
+from backend_helpers import BASE_URL, TOKEN, Service
 from fastapi.testclient import TestClient
 
 from backend.app import create_app
 from backend.db import Database
 from backend.settings import Settings
 from backend.worker import Worker
+from tests.support.local_service import free_port, serve_command, stop, wait_healthy
 
 
 @pytest.fixture
@@ -27,13 +30,13 @@ def settings(db_url: str) -> Settings:
 
 @pytest.fixture
 def client(settings: Settings) -> Iterator[TestClient]:
-    with TestClient(create_app(settings)) as test_client:
+    with TestClient(create_app(settings), base_url=BASE_URL) as test_client:
         yield test_client
 
 
 @pytest.fixture
 def auth_client(settings: Settings) -> Iterator[TestClient]:
-    with TestClient(create_app(settings.model_copy(update={"api_token": TOKEN}))) as test_client:
+    with TestClient(create_app(settings.model_copy(update={"api_token": TOKEN})), base_url=BASE_URL) as test_client:
         yield test_client
 
 
@@ -58,3 +61,22 @@ def service(tmp_path: Path) -> Iterator[Service]:
     svc = Service(tmp_path)
     yield svc
     svc.stop()
+
+
+@pytest.fixture(scope="session")
+def live_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
+    """Base URL of one real `mgrao serve` (no workers, default settings) for tests of real HTTP traffic."""
+    tmp = tmp_path_factory.mktemp("live")
+    port = free_port()
+    env = {k: v for k, v in os.environ.items() if not k.startswith("MGRAO_")}
+    with open(tmp / "serve.log", "wb") as log:
+        process = subprocess.Popen(serve_command(port, 0, f"sqlite:///{tmp / 'live.db'}"), env=env,
+                                   stdout=log, stderr=subprocess.STDOUT)
+    base = f"http://127.0.0.1:{port}"
+    try:
+        wait_healthy(base, process)
+    except RuntimeError as error:
+        stop(process)
+        pytest.fail(f"mgrao serve did not start: {error}\n{(tmp / 'serve.log').read_text(errors='replace')[-3000:]}")
+    yield base
+    stop(process, timeout=15)

@@ -7,7 +7,7 @@ import io
 
 import numpy as np
 import pytest
-from backend_helpers import TOKEN, drain
+from backend_helpers import JSON, TOKEN, drain
 from fastapi.testclient import TestClient
 from sqlalchemy import func, select
 
@@ -85,16 +85,16 @@ def test_paper_is_null_when_params_differ(client: TestClient, worker: Worker) ->
 
 def test_cancel_and_delete_state_rules(client: TestClient, db: Database) -> None:
     queued = submit(client)
-    cancelled = client.post(f"/api/jobs/{queued['id']}/cancel")
+    cancelled = client.post(f"/api/jobs/{queued['id']}/cancel", headers=JSON)
     assert cancelled.status_code == 200 and cancelled.json()["status"] == "cancelled"
-    assert client.post(f"/api/jobs/{queued['id']}/cancel").status_code == 409
+    assert client.post(f"/api/jobs/{queued['id']}/cancel", headers=JSON).status_code == 409
 
     running = submit(client)
     claim = queue.claim(db, worker_id="w", stale_after_s=60, max_attempts=3)
     assert claim is not None and claim.job_id == running["id"]
-    assert client.delete(f"/api/jobs/{running['id']}").status_code == 409
+    assert client.delete(f"/api/jobs/{running['id']}", headers=JSON).status_code == 409
     assert client.get(f"/api/jobs/{running['id']}/results").status_code == 409
-    assert client.post(f"/api/jobs/{running['id']}/cancel").json()["status"] == "cancelled"
+    assert client.post(f"/api/jobs/{running['id']}/cancel", headers=JSON).json()["status"] == "cancelled"
     assert queue.heartbeat(db, claim=claim) is False  # the worker learns it must stop
     spec = make_spec(**{**SMALL, "seeds": 3})
     rows = queue.run_rows(claim.job_id, run_experiment(spec).runs)
@@ -102,7 +102,7 @@ def test_cancel_and_delete_state_rules(client: TestClient, db: Database) -> None
     assert queue.finish(db, claim=claim, expected_runs=len(rows)) is False
     assert client.get(f"/api/jobs/{running['id']}").json()["status"] == "cancelled"
 
-    assert client.delete(f"/api/jobs/{running['id']}").status_code == 204
+    assert client.delete(f"/api/jobs/{running['id']}", headers=JSON).status_code == 204
     assert client.get(f"/api/jobs/{running['id']}").status_code == 404
 
 
@@ -121,7 +121,7 @@ def test_filters_sort_and_cursor_pagination(client: TestClient, sort: str) -> No
         made.append(submit(client, name=f"job {i % 5}", tags=["even" if i % 2 == 0 else "odd"],
                            notes="needle" if i % 7 == 0 else "", system="single" if i % 3 else "multi"))
     for job in made[:6]:
-        client.post(f"/api/jobs/{job['id']}/cancel")
+        client.post(f"/api/jobs/{job['id']}/cancel", headers=JSON)
 
     def collect(query: str) -> tuple[list[dict], int]:
         seen: list[dict] = []
@@ -252,7 +252,7 @@ def test_body_over_limit_is_413(client: TestClient) -> None:
      ("delete", "/api/jobs/999"), ("get", "/api/jobs/999/results"), ("get", "/api/jobs/999/episodes")],
 )
 def test_unknown_ids_are_404(client: TestClient, method: str, path: str) -> None:
-    kwargs = {"json": {"name": "x"}} if method == "patch" else {}
+    kwargs = {"json": {"name": "x"}} if method == "patch" else {"headers": JSON}
     assert getattr(client, method)(path, **kwargs).status_code == 404
 
 
@@ -264,12 +264,12 @@ def test_auth_on_mutating_routes(auth_client: TestClient) -> None:
     job = auth_client.post("/api/jobs", json=SMALL, headers=good).json()
     for method, path in [("patch", f"/api/jobs/{job['id']}"), ("post", f"/api/jobs/{job['id']}/cancel"),
                          ("delete", f"/api/jobs/{job['id']}")]:
-        kwargs = {"json": {"name": "y"}} if method == "patch" else {}
+        kwargs = {"json": {"name": "y"}} if method == "patch" else {"headers": JSON}
         assert getattr(auth_client, method)(path, **kwargs).status_code == 401
     assert auth_client.get("/api/jobs").status_code == 200  # reads stay open
     assert auth_client.get(f"/api/jobs/{job['id']}").status_code == 200
-    assert auth_client.post(f"/api/jobs/{job['id']}/cancel", headers=good).status_code == 200
-    assert auth_client.delete(f"/api/jobs/{job['id']}", headers=good).status_code == 204
+    assert auth_client.post(f"/api/jobs/{job['id']}/cancel", headers={**good, **JSON}).status_code == 200
+    assert auth_client.delete(f"/api/jobs/{job['id']}", headers={**good, **JSON}).status_code == 204
 
 
 def test_auth_off_accepts_anonymous_writes(client: TestClient) -> None:
@@ -304,7 +304,7 @@ def test_delete_removes_the_runs(client: TestClient, worker: Worker, db: Databas
     drain(worker)
     with db.session() as session:
         assert session.scalar(select(func.count()).select_from(Run)) == 9
-    assert client.delete(f"/api/jobs/{job['id']}").status_code == 204
+    assert client.delete(f"/api/jobs/{job['id']}", headers=JSON).status_code == 204
     with db.session() as session:
         assert session.scalar(select(func.count()).select_from(Run)) == 0
     assert client.get(f"/api/jobs/{job['id']}/episodes").status_code == 404

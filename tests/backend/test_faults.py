@@ -16,7 +16,7 @@ import time
 from pathlib import Path
 
 import pytest
-from backend_helpers import Service
+from backend_helpers import JSON, Service
 
 pytestmark = pytest.mark.slow
 SMALL = {"system": "single", "seeds": 2, "episodes": 10}
@@ -89,7 +89,7 @@ def test_read_only_database(service: Service, immutable) -> None:
     assert acknowledged == 0 and set(codes) == {503}
     refused = service.post("/api/jobs", json=SMALL)
     assert refused.headers["retry-after"] and "was not queued" in refused.json()["detail"]
-    assert service.post(f"/api/jobs/{first}/cancel").status_code in (409, 503)
+    assert service.post(f"/api/jobs/{first}/cancel", headers=JSON).status_code in (409, 503)
     assert service.get("/api/jobs").status_code == 200  # reading still works
     time.sleep(3)  # workers keep failing to heartbeat and store meanwhile
     assert _alive(service.server) and service.get("/api/health").status_code == 503

@@ -7,7 +7,7 @@ import time
 
 import numpy as np
 import pytest
-from backend_helpers import drain
+from backend_helpers import JSON, drain
 from fastapi.testclient import TestClient
 from sqlalchemy import update
 
@@ -116,7 +116,7 @@ def test_a_running_job_shows_the_chunks_stored_so_far(client: TestClient, db: Da
     assert [c["summary"]["n_runs"] for c in partial["configurations"]] == [2, 2, 2]
     episodes = client.get(f"/api/jobs/{job['id']}/episodes")
     assert episodes.headers["x-mgrao-partial"] == "true" and len(episodes.text.splitlines()) == 1 + 3 * 2 * 15
-    assert client.post(f"/api/jobs/{job['id']}/cancel").json()["status"] == "cancelled"
+    assert client.post(f"/api/jobs/{job['id']}/cancel", headers=JSON).json()["status"] == "cancelled"
     kept = client.get(f"/api/jobs/{job['id']}/results").json()
     assert kept["partial"] is True and [c["seeds_done"] for c in kept["configurations"]] == [2, 2, 2]
     with db.session() as session:

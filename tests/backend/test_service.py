@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from backend_helpers import Service
+from backend_helpers import JSON, Service
 
 from mgrao_core import make_spec, run_experiment
 
@@ -49,7 +49,7 @@ def test_serve_with_workers_runs_cancels_and_stops_cleanly(service: Service) -> 
     # a long job: seen running with progress, then cancelled
     long = service.post("/api/jobs", json={"system": "single", "seeds": 4, "episodes": 60000}).json()
     service.wait_for(lambda: job(service, long["id"])["progress"] > 0, what="progress")
-    assert service.post(f"/api/jobs/{long['id']}/cancel").json()["status"] == "cancelled"
+    assert service.post(f"/api/jobs/{long['id']}/cancel", headers=JSON).json()["status"] == "cancelled"
     after = service.post("/api/jobs", json={"system": "single", "seeds": 1, "episodes": 10}).json()
     service.wait_for(lambda: job(service, after["id"])["status"] == "succeeded", what="next job")
     assert job(service, long["id"])["status"] == "cancelled"

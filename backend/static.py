@@ -1,0 +1,185 @@
+"""The browser files the service serves: the dashboard, and libraries from installed packages.
+
+* The dashboard (the ``frontend`` package) is revalidated on every use (``Cache-Control:
+  no-cache`` with ETag/Last-Modified), so an upgrade shows at the next load. ``index.html`` is
+  served with the versioned plotly.js address filled in.
+* Libraries (plotly.js from the ``plotly`` package, Swagger UI from ``fastapi-offline``)
+  live under addresses that carry their version and are cached for a year (``immutable``); each is
+  gzip-compressed once, in memory, for the clients that accept gzip. Every file answers HEAD.
+"""
+
+from __future__ import annotations
+
+import gzip
+import hashlib
+import importlib.metadata
+import importlib.resources
+import importlib.util
+import os
+from dataclasses import dataclass
+from functools import cache, cached_property
+from pathlib import Path
+
+from fastapi import FastAPI, Request, Response
+from fastapi.responses import FileResponse, RedirectResponse
+from fastapi.staticfiles import StaticFiles
+from starlette.middleware.gzip import GZipMiddleware
+from starlette.staticfiles import PathLike
+from starlette.types import Receive, Scope, Send
+
+IMMUTABLE = "public, max-age=31536000, immutable"
+REVALIDATE = "no-cache"
+PLOTLY_ALIAS = "/vendor/plotly.min.js"
+HTML_PLACEHOLDER = f'href="{PLOTLY_ALIAS}"'
+
+
+def frontend_dir() -> Path | None:
+    """The directory of the ``frontend`` package (the dashboard's files), if installed."""
+    try:
+        path = Path(str(importlib.resources.files("frontend")))
+        if path.is_dir():
+            return path
+    except (ModuleNotFoundError, NotADirectoryError, TypeError):
+        pass
+    spec = importlib.util.find_spec("frontend")
+    for location in (spec.submodule_search_locations or []) if spec else []:
+        if Path(location).is_dir():
+            return Path(location)
+    fallback = Path(__file__).resolve().parent.parent / "frontend"
+    return fallback if fallback.is_dir() else None
+
+
+def plotly_js() -> Path:
+    """plotly.min.js from the installed ``plotly`` package (never a CDN)."""
+    return Path(str(importlib.resources.files("plotly") / "package_data" / "plotly.min.js"))
+
+
+@cache
+def plotly_url() -> str:
+    """The versioned address of plotly.js, e.g. ``/vendor/plotly-4.1.1.min.js`` (plotly.js's own version)."""
+    from plotly.offline import get_plotlyjs_version
+
+    return f"/vendor/plotly-{get_plotlyjs_version()}.min.js"
+
+
+def docs_assets_dir() -> Path:
+    """Swagger UI's files, shipped by the ``fastapi-offline`` package."""
+    return Path(str(importlib.resources.files("fastapi_offline") / "static"))
+
+
+@cache
+def docs_asset_url(name: str) -> str:
+    """The versioned address of one of :func:`docs_assets_dir`'s files."""
+    return f"/vendor/docs-{importlib.metadata.version('fastapi-offline')}/{name}"
+
+
+DOCS_ASSETS = {"swagger-ui-bundle.js": "text/javascript", "swagger-ui.css": "text/css"}
+
+
+def accepts_gzip(request: Request) -> bool:
+    """Whether the request's Accept-Encoding admits gzip (by name or ``*``, with a q above 0)."""
+    for part in request.headers.get("accept-encoding", "").split(","):
+        coding, *params = (p.strip().lower() for p in part.split(";"))
+        if coding in ("gzip", "x-gzip", "*"):
+            q = next((p[2:] for p in params if p.startswith("q=")), "1")
+            try:
+                if float(q) > 0:
+                    return True
+            except ValueError:
+                continue
+    return False
+
+
+@dataclass(frozen=True)
+class VendorFile:
+    """A library file served under a versioned address: cached for a year, gzip once."""
+
+    path: Path
+    media_type: str
+
+    @cached_property
+    def etag(self) -> str:
+        """Strong validator of the file's bytes."""
+        return '"' + hashlib.sha256(self.path.read_bytes()).hexdigest()[:32] + '"'
+
+    @cached_property
+    def gzipped(self) -> bytes:
+        """The file's bytes, gzip-compressed (level 9, once per process)."""
+        return gzip.compress(self.path.read_bytes(), compresslevel=9, mtime=0)
+
+    def response(self, request: Request) -> Response:
+        """200 (gzip when accepted), 304 for a matching If-None-Match; HEAD answers the headers alone."""
+        headers = {"cache-control": IMMUTABLE, "etag": self.etag, "vary": "Accept-Encoding"}
+        if self.etag in request.headers.get("if-none-match", ""):
+            return Response(status_code=304, headers=headers)
+        if not accepts_gzip(request):
+            return FileResponse(self.path, media_type=self.media_type, headers=headers)
+        body = self.gzipped
+        headers |= {"content-encoding": "gzip", "content-length": str(len(body))}
+        return Response(b"" if request.method == "HEAD" else body, media_type=self.media_type, headers=headers)
+
+
+class DashboardFiles(StaticFiles):
+    """The dashboard's files, revalidated on every use: ``Cache-Control: no-cache``."""
+
+    def file_response(self, full_path: PathLike, stat_result: os.stat_result, scope: Scope,
+                      status_code: int = 200) -> Response:
+        """StaticFiles' answer (ETag, Last-Modified, 304), told to revalidate."""
+        response = super().file_response(full_path, stat_result, scope, status_code)
+        response.headers["cache-control"] = REVALIDATE
+        return response
+
+
+class CompressAssets(GZipMiddleware):
+    """gzip for the browser files when the client accepts it; API answers go out as they are.
+
+    The API is mostly read over the loopback interface, where compressing costs more than it saves.
+    """
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        """Compress unless the path is under ``/api/``."""
+        if scope["type"] == "http" and scope.get("path", "").startswith("/api/"):
+            await self.app(scope, receive, send)
+            return
+        await super().__call__(scope, receive, send)
+
+
+def _dashboard_index(static: Path) -> Response:
+    html = (static / "index.html").read_text(encoding="utf-8").replace(HTML_PLACEHOLDER, f'href="{plotly_url()}"')
+    body = html.encode()
+    etag = '"' + hashlib.sha256(body).hexdigest()[:32] + '"'
+    return Response(body, media_type="text/html", headers={"cache-control": REVALIDATE, "etag": etag})
+
+
+def _serve_vendor_file(app: FastAPI, url: str, file: VendorFile) -> None:
+    @app.api_route(url, methods=["GET", "HEAD"], include_in_schema=False)
+    def vendor_file(request: Request) -> Response:
+        return file.response(request)
+
+
+def install_static(app: FastAPI) -> None:
+    """Vendored libraries, then the dashboard at ``/`` (after every other route)."""
+    versioned = plotly_url()
+    _serve_vendor_file(app, versioned, VendorFile(plotly_js(), "text/javascript"))
+
+    @app.api_route(PLOTLY_ALIAS, methods=["GET", "HEAD"], include_in_schema=False)
+    def plotly_alias() -> Response:
+        """The unversioned address of earlier releases: a redirect, revalidated, to the versioned one."""
+        return RedirectResponse(versioned, status_code=307, headers={"cache-control": REVALIDATE})
+
+    for name, media_type in DOCS_ASSETS.items():
+        _serve_vendor_file(app, docs_asset_url(name), VendorFile(docs_assets_dir() / name, media_type))
+
+    static = frontend_dir()
+    if static is None:
+        return
+
+    @app.api_route("/", methods=["GET", "HEAD"], include_in_schema=False)
+    @app.api_route("/index.html", methods=["GET", "HEAD"], include_in_schema=False)
+    def dashboard_index(request: Request) -> Response:
+        response = _dashboard_index(static)
+        if response.headers["etag"] in request.headers.get("if-none-match", ""):
+            return Response(status_code=304, headers={"cache-control": REVALIDATE, "etag": response.headers["etag"]})
+        return response
+
+    app.mount("/", DashboardFiles(directory=static, html=True), name="dashboard")

@@ -1,0 +1,129 @@
+"""Static files: HEAD, gzip, a year of caching for versioned libraries, revalidation for the dashboard."""
+
+from __future__ import annotations
+
+import gzip
+import re
+
+import httpx
+import pytest
+from fastapi.testclient import TestClient
+
+from backend.static import docs_asset_url, docs_assets_dir, frontend_dir, plotly_js, plotly_url
+
+IDENTITY = {"Accept-Encoding": "identity"}
+GZIP = {"Accept-Encoding": "gzip"}
+DASHBOARD_FILES = ["/", "/index.html", "/js/app.js", "/js/charts.js", "/js/api.js", "/style.css", "/favicon.svg"]
+
+
+def test_plotly_is_served_under_its_version(client: TestClient) -> None:
+    from plotly.offline import get_plotlyjs_version
+
+    url = plotly_url()
+    assert url == f"/vendor/plotly-{get_plotlyjs_version()}.min.js"
+    response = client.get(url, headers=IDENTITY)
+    assert response.status_code == 200 and response.content == plotly_js().read_bytes()
+    assert response.headers["content-type"].startswith("text/javascript")
+    assert response.headers["cache-control"] == "public, max-age=31536000, immutable"
+    assert "content-encoding" not in response.headers
+    assert client.get("/vendor/plotly-0.0.1.min.js").status_code == 404
+
+
+def test_plotly_gzip_when_accepted(client: TestClient) -> None:
+    raw = plotly_js().read_bytes()
+    with client.stream("GET", plotly_url(), headers=GZIP) as response:
+        body = b"".join(response.iter_raw())
+    assert response.status_code == 200
+    assert response.headers["content-encoding"] == "gzip" and "Accept-Encoding" in response.headers["vary"]
+    assert int(response.headers["content-length"]) == len(body) < len(raw) * 0.4
+    assert gzip.decompress(body) == raw
+    assert response.headers["cache-control"] == "public, max-age=31536000, immutable"
+
+
+def test_old_plotly_address_redirects_to_the_versioned_one(client: TestClient) -> None:
+    response = client.get("/vendor/plotly.min.js", follow_redirects=False)
+    assert response.status_code == 307 and response.headers["location"] == plotly_url()
+    assert response.headers["cache-control"] == "no-cache"
+    followed = client.get("/vendor/plotly.min.js", headers=IDENTITY)
+    assert followed.status_code == 200 and followed.content == plotly_js().read_bytes()
+
+
+def test_versioned_files_revalidate_by_etag(client: TestClient) -> None:
+    for url in (plotly_url(), docs_asset_url("swagger-ui-bundle.js")):
+        etag = client.head(url).headers["etag"]
+        response = client.get(url, headers={"If-None-Match": etag})
+        assert response.status_code == 304 and response.content == b""
+
+
+@pytest.mark.parametrize("encoding", [IDENTITY, GZIP])
+def test_head_answers_every_static_file(client: TestClient, encoding: dict) -> None:
+    urls = [*DASHBOARD_FILES, plotly_url(), "/vendor/plotly.min.js", docs_asset_url("swagger-ui-bundle.js"),
+            docs_asset_url("swagger-ui.css"), "/docs", "/docs/swagger-init.js", "/openapi.json"]
+    for url in urls:
+        head = client.head(url, headers=encoding)
+        assert head.status_code == 200, (url, head.status_code)
+        assert head.content == b""
+        get = client.get(url, headers=encoding)
+        assert head.headers["content-type"] == get.headers["content-type"], url
+        assert int(head.headers["content-length"]) > 0
+
+
+@pytest.mark.parametrize("url", DASHBOARD_FILES)
+def test_dashboard_files_revalidate(client: TestClient, url: str) -> None:
+    response = client.get(url)
+    assert response.status_code == 200
+    assert response.headers["cache-control"] == "no-cache"
+    etag = response.headers["etag"]
+    again = client.get(url, headers={"If-None-Match": etag})
+    assert again.status_code == 304 and again.headers["cache-control"] == "no-cache"
+
+
+def test_index_names_the_versioned_plotly(client: TestClient) -> None:
+    html = client.get("/").text
+    assert re.search(r'<link rel="prefetch" id="plotly-src" href="([^"]+)" as="script">', html)[1] == plotly_url()
+    assert "/vendor/plotly.min.js" not in html
+    assert client.get("/index.html").text == html
+    static = frontend_dir()
+    assert static is not None and 'href="/vendor/plotly.min.js"' in (static / "index.html").read_text()
+
+
+@pytest.mark.parametrize("url", ["/js/app.js", "/js/job.js", "/style.css", "/", "/openapi.json"])
+def test_text_is_gzipped_when_accepted(client: TestClient, url: str) -> None:
+    plain = client.get(url, headers=IDENTITY)
+    assert "content-encoding" not in plain.headers
+    with client.stream("GET", url, headers=GZIP) as response:
+        body = b"".join(response.iter_raw())
+    assert response.headers["content-encoding"] == "gzip"
+    assert gzip.decompress(body) == plain.content and len(body) < len(plain.content)
+
+
+def test_api_answers_are_not_compressed(client: TestClient) -> None:
+    for url in ("/api/systems", "/api/jobs"):
+        response = client.get(url, headers=GZIP)
+        assert response.status_code == 200 and "content-encoding" not in response.headers
+
+
+def test_docs_assets_come_from_fastapi_offline(client: TestClient) -> None:
+    for name in ("swagger-ui-bundle.js", "swagger-ui.css"):
+        response = client.get(docs_asset_url(name), headers=IDENTITY)
+        assert response.status_code == 200 and response.content == (docs_assets_dir() / name).read_bytes()
+        assert response.headers["cache-control"] == "public, max-age=31536000, immutable"
+    page = client.get("/docs").text
+    assert docs_asset_url("swagger-ui-bundle.js") in page and docs_asset_url("swagger-ui.css") in page
+    assert "<script>" not in page and "http" not in page.replace('"http://www.w3.org', "")
+    assert client.get("/redoc", follow_redirects=False).headers["location"] == "/docs"
+
+
+def test_real_server_head_and_gzip(live_server: str) -> None:
+    raw = plotly_js().read_bytes()
+    with httpx.Client(base_url=live_server, timeout=60) as http:
+        for url in ("/", "/js/app.js", "/style.css", plotly_url(), docs_asset_url("swagger-ui-bundle.js")):
+            head = http.head(url, headers=IDENTITY)
+            assert head.status_code == 200 and head.content == b"", url
+            assert int(head.headers["content-length"]) == len(http.get(url, headers=IDENTITY).content), url
+        assert http.head("/vendor/plotly.min.js").status_code == 307
+        with http.stream("GET", plotly_url(), headers=GZIP) as response:
+            body = b"".join(response.iter_raw())
+        assert response.headers["content-encoding"] == "gzip" and gzip.decompress(body) == raw
+        assert response.headers["cache-control"] == "public, max-age=31536000, immutable"
+        assert http.get("/js/app.js").headers["cache-control"] == "no-cache"
