@@ -3,13 +3,40 @@
 from __future__ import annotations
 
 import contextlib
+import errno
 import signal
+import socket
 from collections.abc import Iterator
 from types import FrameType
 
 import click
 
 from mgrao_cli.supervisor import WorkerPool
+
+LISTEN_BACKLOG = 2048  # uvicorn's default
+
+
+def listen(host: str, port: int) -> socket.socket:
+    """A listening TCP socket on ``host:port``, as uvicorn would bind it.
+
+    ``serve`` binds before anything else (migrations, workers) and hands the socket to uvicorn, so a
+    busy port fails at once and nothing can take the port between the check and the start.
+
+    Raises:
+        click.ClickException: the port is in use, or the address cannot be bound.
+    """
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    sock = socket.socket(family, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        sock.bind((host, port))
+        sock.listen(LISTEN_BACKLOG)
+    except OSError as error:
+        sock.close()
+        if error.errno == errno.EADDRINUSE:
+            raise click.ClickException(f"port {port} on {host} is in use (choose another with --port)") from None
+        raise click.ClickException(f"cannot listen on {host} port {port}: {error.strerror or error}") from None
+    return sock
 
 
 def _server_class() -> type:
@@ -43,6 +70,7 @@ def serve(host: str | None, port: int | None, workers: int | None, database_url:
                  {"host": host, "port": port, "workers": workers, "database_url": database_url}.items()
                  if v is not None}
     settings = Settings(**overrides)
+    sock = listen(settings.host, settings.port)  # first: a busy port fails before anything starts
     _Server = _server_class()  # noqa: N806
     db = Database(settings.database_url)
     db.migrate()  # once, before the workers and the API start
@@ -57,10 +85,12 @@ def serve(host: str | None, port: int | None, workers: int | None, database_url:
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
     pool = WorkerPool(settings.workers, settings.database_url)
-    click.echo(f"mgrao: http://{settings.host}:{settings.port}/ with {settings.workers} worker(s), "
+    port = sock.getsockname()[1]
+    url_host = f"[{settings.host}]" if ":" in settings.host else settings.host
+    click.echo(f"mgrao: http://{url_host}:{port}/ with {settings.workers} worker(s), "
                f"database {settings.database_url}", err=True)
     try:
-        server.run()
+        server.run(sockets=[sock])
     finally:
         pool.stop()
     click.echo("mgrao: stopped", err=True)

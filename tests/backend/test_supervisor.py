@@ -1,9 +1,10 @@
-"""``mgrao serve``'s local workers, with real processes: restarts, backoff, orphans, working directory."""
+"""``mgrao serve`` with real processes: worker restarts, backoff, orphans, working directory, busy port."""
 
 from __future__ import annotations
 
 import os
 import signal
+import socket
 import subprocess
 import time
 from pathlib import Path
@@ -148,3 +149,26 @@ def test_workers_run_the_served_code_not_a_package_in_the_working_directory(serv
     finally:
         log.close()
     assert "decoy" not in service.logs()
+
+
+def test_serve_on_a_busy_port_fails_first_and_starts_no_worker(tmp_path: Path) -> None:
+    database = tmp_path / "busy.db"
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        result = subprocess.run(serve_command(port, 2, f"sqlite:///{database}"), capture_output=True, text=True,
+                                timeout=60, check=False, env=dict(os.environ, MGRAO_POLL_S="0.05"))
+    assert result.returncode != 0
+    assert f"port {port} on 127.0.0.1 is in use" in result.stderr
+    assert "http://" not in result.stderr + result.stdout  # no URL printed for a server that never ran
+    assert "worker" not in result.stderr
+    assert not database.exists()  # failed before migrating, before starting anything
+
+
+def test_serve_on_port_0_prints_the_port_it_listens_on(service: Service) -> None:
+    service.server = service._spawn(serve_command(0, 0, service.db_url))
+    service.wait_for(lambda: "mgrao: http://" in service.logs(), timeout=60, what="the URL")
+    url = next(w for w in service.logs().split() if w.startswith("http://127.0.0.1:"))
+    assert not url.endswith(":0/")
+    wait_healthy(url.rstrip("/"), service.server)

@@ -174,3 +174,19 @@ def test_empty_algorithms_is_an_error_not_the_defaults(runner):
     result = _run(runner, "run", "--system", "single", "--seeds", "1", "--episodes", "3", "--algorithms", "uniform,")
     assert result.exit_code == 2
     assert "algorithms[1]" in result.output
+
+
+def test_serve_on_a_busy_port_says_so_and_starts_nothing(runner, tmp_path):
+    import socket
+
+    database = tmp_path / "never.db"
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        result = runner.invoke(cli, ["serve", "--host", "127.0.0.1", "--port", str(port), "--workers", "2",
+                                     "--database-url", f"sqlite:///{database}"])
+    assert result.exit_code == 1, result.output
+    assert f"port {port} on 127.0.0.1 is in use" in result.output
+    assert "http://" not in result.output
+    assert not database.exists()
