@@ -123,14 +123,21 @@ class WorkerPool:
         self._slots = [_Slot() for _ in range(count)]
         with self._lock:
             for slot in self._slots:
-                self._start(slot)  # from the main thread (see backend/lifeline.py)
+                self._try_start(slot, time.monotonic())  # from the main thread (see backend/lifeline.py)
         self._watcher = threading.Thread(target=self._watch, name="worker-watch", daemon=True)
         self._watcher.start()
 
-    def _start(self, slot: _Slot) -> subprocess.Popen:
-        slot.process = subprocess.Popen(worker_command(), env=self.env)
-        slot.started = time.monotonic()
-        return slot.process
+    def _try_start(self, slot: _Slot, now: float) -> None:
+        try:
+            slot.process = subprocess.Popen(worker_command(), env=self.env)
+        except Exception as error:  # e.g. out of processes or memory: try again later
+            slot.quick_deaths += 1
+            delay = self.backoff.delay(slot.quick_deaths)
+            slot.restart_at = now + delay
+            _say(f"could not start a worker ({error}); trying again in {delay:g} s")
+            return
+        slot.started = now
+        _say(f"worker {slot.process.pid} started")
 
     def _watch(self) -> None:
         while not self._stopping.wait(CHECK_S):
@@ -149,15 +156,7 @@ class WorkerPool:
                 if slot.process is not None and slot.process.poll() is not None:
                     self._buried(slot, now)
                 if slot.process is None and now >= slot.restart_at:
-                    try:
-                        process = self._start(slot)
-                    except Exception as error:  # e.g. out of processes or memory: try again later
-                        slot.quick_deaths += 1
-                        delay = self.backoff.delay(slot.quick_deaths)
-                        slot.restart_at = now + delay
-                        _say(f"could not start a worker ({error}); trying again in {delay:g} s")
-                        continue
-                    _say(f"worker {process.pid} started")
+                    self._try_start(slot, now)
 
     def _buried(self, slot: _Slot, now: float) -> None:
         process = slot.process

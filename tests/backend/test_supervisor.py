@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import os
 import signal
+import site
 import socket
 import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -15,6 +17,8 @@ from backend_helpers import Service, alive, children, ready_workers
 from tests.support.local_service import serve_command, wait_healthy
 
 pytestmark = pytest.mark.slow
+
+ROOT = Path(__file__).resolve().parents[2]
 
 JOB = {"system": "single", "seeds": 1, "episodes": 10}
 
@@ -91,6 +95,27 @@ def test_the_supervisor_keeps_restarting_workers_after_its_stderr_broke(service:
     os.kill(pid, signal.SIGKILL)
     (pid,) = workers_of(service, 1, other_than={pid})
     os.kill(pid, signal.SIGKILL)  # the watcher is still there for a second death
+    workers_of(service, 1, other_than={pid})
+    run_a_job(service)
+
+
+def test_a_worker_that_cannot_be_started_is_retried_while_the_api_serves(service: Service,
+                                                                        tmp_path: Path) -> None:
+    venv = tmp_path / "venv"  # serve runs from an interpreter path that the test can take away
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True)
+    python = venv / "bin" / "python"
+    service.env["PYTHONPATH"] = os.pathsep.join([str(ROOT), *site.getsitepackages()])
+    argv = serve_command(service.port, 1, service.db_url)
+    service.server = service._spawn([str(python), *argv[1:]])
+    wait_healthy(service.base, service.server)
+    (pid,) = workers_of(service, 1)
+    python.rename(python.with_name("python-away"))  # e.g. the virtualenv is being rebuilt
+    os.kill(pid, signal.SIGKILL)
+    service.wait_for(lambda: service.logs().count("could not start a worker") >= 2, timeout=30,
+                     what="two failed starts")
+    assert "trying again in 2 s" in service.logs()
+    assert service.get("/api/health").status_code == 200
+    python.with_name("python-away").rename(python)
     workers_of(service, 1, other_than={pid})
     run_a_job(service)
 
