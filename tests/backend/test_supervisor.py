@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 from backend_helpers import Service, alive, children, ready_workers
 
+from mgrao_cli.supervisor import Backoff
 from tests.support.local_service import serve_command, wait_healthy
 
 pytestmark = pytest.mark.slow
@@ -21,6 +22,11 @@ pytestmark = pytest.mark.slow
 ROOT = Path(__file__).resolve().parents[2]
 
 JOB = {"system": "single", "seeds": 1, "episodes": 10}
+
+
+def test_the_backoff_doubles_per_quick_death_up_to_its_cap() -> None:
+    assert [Backoff().delay(n) for n in range(1, 9)] == [1, 2, 4, 8, 16, 30, 30, 30]
+    assert Backoff(first_s=0.5, cap_s=3).delay(10_000) == 3
 
 
 def run_a_job(service: Service) -> None:

@@ -151,8 +151,10 @@ def read_only_install() -> Iterator[ReadOnlyInstall]:
     deps = [d for d in site.getsitepackages() if os.path.isdir(d)]
     python = _interpreter_for_nobody(deps)
     if python is None:
-        pytest.skip(f"no Python {sys.version_info.major}.{sys.version_info.minor} that user nobody can run "
-                    f"with this environment's packages ({os.path.realpath(sys.executable)} is not readable by it)")
+        pytest.skip(f"user nobody cannot run a Python {sys.version_info.major}.{sys.version_info.minor} that "
+                    f"imports numba from {os.pathsep.join(deps)} (neither {os.path.realpath(sys.executable)} nor "
+                    f"/usr/bin/python{sys.version_info.major}.{sys.version_info.minor}, or those directories are "
+                    "not readable by it)")
     root = Path(tempfile.mkdtemp(prefix="mgrao-readonly-"))
     try:
         root.chmod(0o755)
