@@ -242,6 +242,8 @@ def _reason(error: BaseException) -> str:
 def main(settings: Settings | None = None) -> None:
     """Entry point of a worker process (``mgrao worker``, or started by ``mgrao serve``)."""
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
+    from backend.lifeline import bind_to_supervisor  # started by `mgrao serve`: stop when it dies
+    bind_to_supervisor()
     worker = Worker(settings or Settings())
     worker.install_signal_handlers()
     worker.serve_forever()

@@ -6,6 +6,7 @@ import csv
 import io
 import json
 import math
+import os
 import sys
 import time
 from collections.abc import Iterator
@@ -78,6 +79,28 @@ def _fail(error: MgraoError) -> None:
     raise click.UsageError(str(error)) from error
 
 
+def _check_out(_ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
+    """``--out``: the file's directory must exist and be writable, checked before any simulation."""
+    if value is None:
+        return None
+    directory = os.path.dirname(os.path.abspath(value))
+    if not os.path.isdir(directory):
+        raise click.BadParameter(f"directory {directory!r} does not exist", param=param)
+    if not os.path.exists(value) and not os.access(directory, os.W_OK):
+        raise click.BadParameter(f"directory {directory!r} is not writable", param=param)
+    return value
+
+
+def _algorithm_labels(algorithms: str | None) -> list[str] | None:
+    """The ``--algorithms`` labels; None (the system's defaults) only when the option is absent."""
+    if algorithms is None:
+        return None
+    if not algorithms.strip():
+        raise click.BadParameter("is empty: give comma-separated labels such as uniform,mgrao-max, "
+                                 "or leave the option out for the system's defaults", param_hint="--algorithms")
+    return [a.strip() for a in algorithms.split(",")]
+
+
 @click.command()
 @click.option("--system", required=True, type=click.Choice(list(PRESETS)), help="Preset to start from.")
 @click.option("--algorithms", help="Comma-separated labels, e.g. uniform,mgrao-1:1,mgrao-5:1,mgrao-max "
@@ -86,11 +109,12 @@ def _fail(error: MgraoError) -> None:
 @click.option("--episodes", default=100, show_default=True, type=int, help="Episodes per run.")
 @click.option("--set", "sets", multiple=True, metavar="NAME=VALUE", help="Override a parameter (repeatable).")
 @click.option("--format", "fmt", default="table", show_default=True, type=click.Choice(["table", "json", "csv"]))
-@click.option("--out", type=click.Path(dir_okay=False, writable=True), help="Write to FILE instead of stdout.")
+@click.option("--out", type=click.Path(dir_okay=False, writable=True), callback=_check_out,
+              help="Write to FILE instead of stdout.")
 def run(system: str, algorithms: str | None, seeds: int, episodes: int, sets: tuple[str, ...],
         fmt: str, out: str | None) -> None:
     """Simulate one system with several algorithms and seeds; print the summary or every episode."""
-    labels = [a.strip() for a in algorithms.split(",")] if algorithms else None
+    labels = _algorithm_labels(algorithms)
     try:
         spec = make_spec(system, labels, seeds, episodes, _parse_sets(sets))
     except ConfigError as error:
@@ -139,7 +163,8 @@ def run(system: str, algorithms: str | None, seeds: int, episodes: int, sets: tu
 @click.option("--set", "sets", multiple=True, metavar="NAME=VALUE",
               help="Override a parameter in every system, e.g. temperature=1 (repeatable).")
 @click.option("--format", "fmt", default="table", show_default=True, type=click.Choice(["table", "json"]))
-@click.option("--out", type=click.Path(dir_okay=False, writable=True), help="Write to FILE instead of stdout.")
+@click.option("--out", type=click.Path(dir_okay=False, writable=True), callback=_check_out,
+              help="Write to FILE instead of stdout.")
 def reproduce(seeds: int, episodes: int, reading: str, sets: tuple[str, ...], fmt: str, out: str | None) -> None:
     """Run the paper's four systems and print its tables with ours beside them."""
     overrides = READINGS[reading] | _parse_sets(sets)

@@ -3,68 +3,40 @@
 from __future__ import annotations
 
 import contextlib
-import os
+import errno
 import signal
-import subprocess
-import sys
-import threading
+import socket
 from collections.abc import Iterator
 from types import FrameType
 
 import click
 
-WORKER_STOP_TIMEOUT_S = 30.0
-WORKER_CHECK_S = 2.0
+from mgrao_cli.supervisor import WorkerPool
+
+LISTEN_BACKLOG = 2048  # uvicorn's default
 
 
-def _worker_env(database_url: str, workers: int) -> dict[str, str]:
-    env = dict(os.environ)
-    env["MGRAO_DATABASE_URL"] = database_url
-    # numba uses every core per process: share the cores between the local workers.
-    env["NUMBA_NUM_THREADS"] = str(max(1, (os.cpu_count() or 1) // max(1, workers)))
-    return env
+def listen(host: str, port: int) -> socket.socket:
+    """A listening TCP socket on ``host:port``, as uvicorn would bind it.
 
+    ``serve`` binds before anything else (migrations, workers) and hands the socket to uvicorn, so a
+    busy port fails at once and nothing can take the port between the check and the start.
 
-class _Workers:
-    """N local worker processes, restarted if one dies, stopped with SIGTERM (then SIGKILL)."""
-
-    def __init__(self, count: int, database_url: str) -> None:
-        self.env = _worker_env(database_url, count)
-        self.processes = [self._spawn() for _ in range(count)]
-        self.stopping = threading.Event()
-        self.lock = threading.Lock()
-        self.watcher = threading.Thread(target=self._watch, name="worker-watch", daemon=True)
-        self.watcher.start()
-
-    def _spawn(self) -> subprocess.Popen:
-        return subprocess.Popen([sys.executable, "-m", "backend.worker"], env=self.env)
-
-    def _watch(self) -> None:
-        while not self.stopping.wait(WORKER_CHECK_S):
-            with self.lock:
-                for i, process in enumerate(self.processes):
-                    if process.poll() is not None and not self.stopping.is_set():
-                        click.echo(f"mgrao: worker {process.pid} exited ({process.returncode}); restarting",
-                                   err=True)
-                        self.processes[i] = self._spawn()
-
-    def stop(self) -> None:
-        """Stop every worker (each hands its running job back to the queue)."""
-        self.stopping.set()
-        with self.lock:
-            _stop_processes(self.processes)
-
-
-def _stop_processes(processes: list[subprocess.Popen]) -> None:
-    for process in processes:
-        if process.poll() is None:
-            process.send_signal(signal.SIGTERM)
-    for process in processes:
-        try:
-            process.wait(timeout=WORKER_STOP_TIMEOUT_S)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
+    Raises:
+        click.ClickException: the port is in use, or the address cannot be bound.
+    """
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    sock = socket.socket(family, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        sock.bind((host, port))
+        sock.listen(LISTEN_BACKLOG)
+    except OSError as error:
+        sock.close()
+        if error.errno == errno.EADDRINUSE:
+            raise click.ClickException(f"port {port} on {host} is in use (choose another with --port)") from None
+        raise click.ClickException(f"cannot listen on {host} port {port}: {error.strerror or error}") from None
+    return sock
 
 
 def _server_class() -> type:
@@ -98,6 +70,7 @@ def serve(host: str | None, port: int | None, workers: int | None, database_url:
                  {"host": host, "port": port, "workers": workers, "database_url": database_url}.items()
                  if v is not None}
     settings = Settings(**overrides)
+    sock = listen(settings.host, settings.port)  # first: a busy port fails before anything starts
     _Server = _server_class()  # noqa: N806
     db = Database(settings.database_url)
     db.migrate()  # once, before the workers and the API start
@@ -111,11 +84,13 @@ def serve(host: str | None, port: int | None, workers: int | None, database_url:
 
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
-    pool = _Workers(settings.workers, settings.database_url)
-    click.echo(f"mgrao: http://{settings.host}:{settings.port}/ with {settings.workers} worker(s), "
+    pool = WorkerPool(settings.workers, settings.database_url)
+    port = sock.getsockname()[1]
+    url_host = f"[{settings.host}]" if ":" in settings.host else settings.host
+    click.echo(f"mgrao: http://{url_host}:{port}/ with {settings.workers} worker(s), "
                f"database {settings.database_url}", err=True)
     try:
-        server.run()
+        server.run(sockets=[sock])
     finally:
         pool.stop()
     click.echo("mgrao: stopped", err=True)

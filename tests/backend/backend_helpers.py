@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import time
@@ -30,6 +31,26 @@ def drain(worker: Worker) -> int:
 
 
 # ---- real processes --------------------------------------------------------------------------
+
+
+def children(pid: int) -> list[int]:
+    """Child processes of ``pid`` (spawned from any of its threads), zombies included."""
+    tasks = Path(f"/proc/{pid}/task").iterdir()
+    return sorted(int(c) for task in tasks for c in (task / "children").read_text().split())
+
+
+def alive(pid: int) -> bool:
+    """``pid`` exists and is not a zombie (an orphan's zombie waits for whoever adopted it)."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (OSError, IndexError):
+        return False
+    return state not in ("Z", "X")
+
+
+def ready_workers(logs: str) -> set[int]:
+    """Pids of the workers that logged ``worker HOST:PID ready``."""
+    return {int(pid) for pid in re.findall(r"worker \S+:(\d+) ready", logs)}
 
 
 class Service:

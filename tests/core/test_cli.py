@@ -145,3 +145,48 @@ def test_reproduce_under_a_named_reading_and_set_on_top(runner):
     assert data["systems"]["single"]["uniform"]["final_mean"] == pytest.approx(3.0, abs=1e-12)
     bad = _run(runner, "reproduce", "--reading", "nonsense")
     assert bad.exit_code == 2 and "nonsense" in bad.output
+
+
+@pytest.mark.parametrize("command", [
+    ["run", "--system", "single", "--seeds", "1", "--episodes", "3", "--format", "csv"],
+    ["reproduce", "--seeds", "2", "--episodes", "3"],
+])
+def test_out_into_a_missing_directory_is_a_usage_error_before_any_simulation(runner, tmp_path, command):
+    missing = tmp_path / "missing" / "dir"
+    result = _run(runner, *command, "--out", str(missing / "x.csv"))
+    assert result.exit_code == 2, result.output
+    assert "--out" in result.output and str(missing) in result.output and "does not exist" in result.output
+    assert "simulation" not in result.output  # the table footer / json never got that far
+    assert not missing.exists()
+
+
+def test_out_naming_a_directory_is_refused(runner, tmp_path):
+    result = _run(runner, "run", "--system", "single", "--seeds", "1", "--episodes", "3", "--out", str(tmp_path))
+    assert result.exit_code == 2
+    assert "--out" in result.output
+
+
+def test_empty_algorithms_is_an_error_not_the_defaults(runner):
+    for value in ["", "  "]:
+        result = _run(runner, "run", "--system", "single", "--seeds", "1", "--episodes", "3", "--algorithms", value)
+        assert result.exit_code == 2, result.output
+        assert "--algorithms" in result.output and "is empty" in result.output
+    result = _run(runner, "run", "--system", "single", "--seeds", "1", "--episodes", "3", "--algorithms", "uniform,")
+    assert result.exit_code == 2
+    assert "algorithms[1]" in result.output
+
+
+def test_serve_on_a_busy_port_says_so_and_starts_nothing(runner, tmp_path):
+    import socket
+
+    database = tmp_path / "never.db"
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        result = runner.invoke(cli, ["serve", "--host", "127.0.0.1", "--port", str(port), "--workers", "2",
+                                     "--database-url", f"sqlite:///{database}"])
+    assert result.exit_code == 1, result.output
+    assert f"port {port} on 127.0.0.1 is in use" in result.output
+    assert "http://" not in result.output
+    assert not database.exists()

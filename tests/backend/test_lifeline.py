@@ -1,0 +1,99 @@
+"""backend/lifeline.py with real processes: a parent that starts a child, then dies by SIGKILL."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from backend_helpers import alive
+
+from backend.lifeline import SUPERVISOR_ENV
+from tests.support.local_service import mgrao_command
+
+pytestmark = pytest.mark.slow
+
+PARENT = """
+import os, subprocess, sys, time
+child = subprocess.Popen(sys.argv[1:], env=dict(os.environ, **({%r: str(os.getpid())} if %r else {})))
+print(child.pid, flush=True)
+time.sleep(120)
+"""
+
+STUCK_CHILD = """
+import signal, time
+from backend import lifeline
+lifeline.GRACE_S = 1.0
+signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a worker that cannot stop (stuck in a long compile, say)
+assert lifeline.bind_to_supervisor() is not None
+print("bound", flush=True)
+time.sleep(120)
+"""
+
+
+class Family:
+    """A parent process and the child it started; everything left alive is killed by pid at the end."""
+
+    def __init__(self, child_argv: list[str], *, supervised: bool, env: dict[str, str]) -> None:
+        self.parent = subprocess.Popen([sys.executable, "-c", PARENT % (SUPERVISOR_ENV, supervised), *child_argv],
+                                       env=env, stdout=subprocess.PIPE, text=True)
+        assert self.parent.stdout is not None
+        self.child = int(self.parent.stdout.readline())
+
+    def kill_parent(self) -> float:
+        self.parent.send_signal(signal.SIGKILL)
+        self.parent.wait()
+        return time.monotonic()
+
+    def close(self) -> None:
+        if self.parent.poll() is None:
+            self.parent.kill()
+            self.parent.wait()
+        if alive(self.child):
+            os.kill(self.child, signal.SIGKILL)
+        assert self.parent.stdout is not None
+        self.parent.stdout.close()
+
+
+@pytest.fixture
+def families() -> Iterator[list[Family]]:
+    started: list[Family] = []
+    yield started
+    for family in started:
+        family.close()
+
+
+def wait_gone(pid: int, timeout: float) -> bool:
+    deadline = time.monotonic() + timeout
+    while alive(pid) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    return not alive(pid)
+
+
+def test_a_supervised_process_that_ignores_sigterm_exits_hard_after_the_grace(families: list[Family]) -> None:
+    family = Family([sys.executable, "-c", STUCK_CHILD], supervised=True, env=dict(os.environ))
+    families.append(family)
+    assert family.parent.stdout is not None
+    assert family.parent.stdout.readline().strip() == "bound"
+    killed = family.kill_parent()
+    assert wait_gone(family.child, timeout=10), "the child outlived its supervisor"
+    assert time.monotonic() - killed >= 0.9  # not before the grace: SIGTERM alone did nothing
+
+
+def test_a_worker_started_by_hand_outlives_the_shell_that_started_it(families: list[Family],
+                                                                      tmp_path: Path) -> None:
+    env = dict(os.environ, MGRAO_POLL_S="0.05")
+    env.pop(SUPERVISOR_ENV, None)
+    worker = mgrao_command("worker", "--database-url", f"sqlite:///{tmp_path / 'alone.db'}")
+    family = Family(worker, supervised=False, env=env)
+    families.append(family)
+    family.kill_parent()
+    time.sleep(2.0)  # four times the lifeline's poll interval
+    assert alive(family.child), "a worker without a supervisor stopped when its parent died"
+    os.kill(family.child, signal.SIGTERM)
+    assert wait_gone(family.child, timeout=30)

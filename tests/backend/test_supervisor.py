@@ -1,0 +1,205 @@
+"""``mgrao serve`` with real processes: worker restarts, backoff, orphans, working directory, busy port."""
+
+from __future__ import annotations
+
+import os
+import signal
+import site
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from backend_helpers import Service, alive, children, ready_workers
+
+from mgrao_cli.supervisor import Backoff
+from tests.support.local_service import serve_command, wait_healthy
+
+pytestmark = pytest.mark.slow
+
+ROOT = Path(__file__).resolve().parents[2]
+
+JOB = {"system": "single", "seeds": 1, "episodes": 10}
+
+
+def test_the_backoff_doubles_per_quick_death_up_to_its_cap() -> None:
+    assert [Backoff().delay(n) for n in range(1, 9)] == [1, 2, 4, 8, 16, 30, 30, 30]
+    assert Backoff(first_s=0.5, cap_s=3).delay(10_000) == 3
+
+
+def run_a_job(service: Service) -> None:
+    response = service.post("/api/jobs", json=JOB)
+    assert response.status_code == 202
+    job_id = response.json()["id"]
+    service.wait_for(lambda: service.get(f"/api/jobs/{job_id}").json()["status"] == "succeeded",
+                     timeout=60, what="a job to run")
+
+
+def workers_of(service: Service, count: int, *, other_than: set[int] = frozenset()) -> list[int]:
+    """Wait until serve has ``count`` live workers, none of them in ``other_than``; their pids."""
+    assert service.server is not None
+    server = service.server.pid
+
+    def replaced() -> bool:
+        pids = [p for p in children(server) if alive(p)]
+        return len(pids) == count and not set(pids) & other_than
+
+    service.wait_for(replaced, timeout=60, what=f"{count} worker(s) other than {sorted(other_than)}")
+    return [p for p in children(server) if alive(p)]
+
+
+def test_workers_killed_by_sigkill_sigsegv_and_sigbus_are_logged_and_restarted(service: Service) -> None:
+    service.start_server(workers=2)
+    first = workers_of(service, 2)
+    os.kill(first[0], signal.SIGKILL)
+    os.kill(first[1], signal.SIGSEGV)
+    second = workers_of(service, 2, other_than=set(first))
+    os.kill(second[0], signal.SIGBUS)
+    workers_of(service, 2, other_than={*first, second[0]})
+    logs = service.logs()
+    assert f"worker {first[0]} was killed by SIGKILL" in logs
+    assert f"worker {first[1]} was killed by SIGSEGV" in logs
+    assert f"worker {second[0]} was killed by SIGBUS" in logs
+    assert service.get("/api/health").status_code == 200
+    run_a_job(service)
+
+
+def test_a_worker_that_keeps_dying_is_restarted_after_growing_delays_while_the_api_serves(
+        service: Service) -> None:
+    service.start_server(workers=1)
+    (pid,) = workers_of(service, 1)
+    gaps = []
+    for _ in range(3):
+        os.kill(pid, signal.SIGKILL)
+        killed = time.monotonic()
+        while True:
+            assert service.get("/api/health").status_code == 200  # the API serves during the backoff
+            pids = [p for p in children(service.server.pid) if alive(p) and p != pid]
+            if pids:
+                break
+            assert time.monotonic() - killed < 30, service.logs()
+            time.sleep(0.05)
+        gaps.append(time.monotonic() - killed)
+        (pid,) = pids
+    # delays of 1, 2 and 4 s (plus up to one check interval to notice the death)
+    assert gaps[0] >= 0.9 and gaps[1] >= 1.9 and gaps[2] >= 3.9, gaps
+    assert gaps[2] < 10, gaps
+    assert "restarting it in 4 s" in service.logs()
+    run_a_job(service)
+
+
+def test_the_supervisor_keeps_restarting_workers_after_its_stderr_broke(service: Service) -> None:
+    process = subprocess.Popen(serve_command(service.port, 1, service.db_url), env=service.env,
+                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    service.server = process  # stopped by pid at the end of the test
+    wait_healthy(service.base, process)
+    (pid,) = workers_of(service, 1)
+    assert process.stdout is not None
+    process.stdout.close()  # like `mgrao serve 2>&1 | tee log` after tee died: every write to stderr fails
+    os.kill(pid, signal.SIGKILL)
+    (pid,) = workers_of(service, 1, other_than={pid})
+    os.kill(pid, signal.SIGKILL)  # the watcher is still there for a second death
+    workers_of(service, 1, other_than={pid})
+    run_a_job(service)
+
+
+def test_a_worker_that_cannot_be_started_is_retried_while_the_api_serves(service: Service,
+                                                                        tmp_path: Path) -> None:
+    venv = tmp_path / "venv"  # serve runs from an interpreter path that the test can take away
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True)
+    python = venv / "bin" / "python"
+    service.env["PYTHONPATH"] = os.pathsep.join([str(ROOT), *site.getsitepackages()])
+    argv = serve_command(service.port, 1, service.db_url)
+    service.server = service._spawn([str(python), *argv[1:]])
+    wait_healthy(service.base, service.server)
+    (pid,) = workers_of(service, 1)
+    python.rename(python.with_name("python-away"))  # e.g. the virtualenv is being rebuilt
+    os.kill(pid, signal.SIGKILL)
+    service.wait_for(lambda: service.logs().count("could not start a worker") >= 2, timeout=30,
+                     what="two failed starts")
+    assert "trying again in 2 s" in service.logs()
+    assert service.get("/api/health").status_code == 200
+    python.with_name("python-away").rename(python)
+    workers_of(service, 1, other_than={pid})
+    run_a_job(service)
+
+
+def test_workers_exit_when_serve_is_killed_and_a_restart_starts_exactly_n(service: Service) -> None:
+    service.start_server(workers=2)
+    pids = workers_of(service, 2)
+    service.wait_for(lambda: ready_workers(service.logs()) >= set(pids), what="both workers ready")
+    service.kill_server()
+    deadline = time.monotonic() + 5
+    try:
+        while any(alive(p) for p in pids) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert not [p for p in pids if alive(p)], f"orphaned workers of a killed serve\n{service.logs()}"
+    finally:
+        for pid in pids:  # whatever happened, leave no orphan behind
+            if alive(pid):
+                os.kill(pid, signal.SIGKILL)
+
+    service.start_server(workers=2)
+    again = workers_of(service, 2)
+    service.wait_for(lambda: ready_workers(service.logs()) >= set(again), what="the new workers ready")
+    assert sorted(worker_processes_on(service.db_url)) == sorted(again)
+
+
+def worker_processes_on(database_url: str) -> list[int]:
+    """Every live ``backend.worker`` process on this machine whose database is ``database_url``."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            argv = (entry / "cmdline").read_bytes().split(b"\0")
+            environ = (entry / "environ").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        if b"backend.worker" in argv and f"MGRAO_DATABASE_URL={database_url}".encode() in environ:
+            if alive(int(entry.name)):
+                found.append(int(entry.name))
+    return found
+
+
+def test_workers_run_the_served_code_not_a_package_in_the_working_directory(service: Service,
+                                                                            tmp_path: Path) -> None:
+    decoy = tmp_path / "checkout"
+    for package in ["backend", "mgrao_core"]:
+        (decoy / package).mkdir(parents=True)
+        (decoy / package / "__init__.py").write_text(f"raise ImportError('decoy {package} imported')\n")
+    argv = serve_command(service.port, 2, service.db_url)
+    argv.insert(1, "-P")  # as the `mgrao` script runs: the working directory is not on serve's sys.path
+    log = open(tmp_path / "proc-decoy.log", "wb")  # noqa: SIM115 (closed below)
+    try:
+        service.server = subprocess.Popen(argv, cwd=decoy, env=service.env, stdout=log, stderr=log)
+        wait_healthy(service.base, service.server)
+        run_a_job(service)
+    finally:
+        log.close()
+    assert "decoy" not in service.logs()
+
+
+def test_serve_on_a_busy_port_fails_first_and_starts_no_worker(tmp_path: Path) -> None:
+    database = tmp_path / "busy.db"
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        result = subprocess.run(serve_command(port, 2, f"sqlite:///{database}"), capture_output=True, text=True,
+                                timeout=60, check=False, env=dict(os.environ, MGRAO_POLL_S="0.05"))
+    assert result.returncode != 0
+    assert f"port {port} on 127.0.0.1 is in use" in result.stderr
+    assert "http://" not in result.stderr + result.stdout  # no URL printed for a server that never ran
+    assert "worker" not in result.stderr
+    assert not database.exists()  # failed before migrating, before starting anything
+
+
+def test_serve_on_port_0_prints_the_port_it_listens_on(service: Service) -> None:
+    service.server = service._spawn(serve_command(0, 0, service.db_url))
+    service.wait_for(lambda: "mgrao: http://" in service.logs(), timeout=60, what="the URL")
+    url = next(w for w in service.logs().split() if w.startswith("http://127.0.0.1:"))
+    assert not url.endswith(":0/")
+    wait_healthy(url.rstrip("/"), service.server)

@@ -1,0 +1,214 @@
+"""numba's cache on a read-only install: a writable fallback directory, or no cache, never a failure.
+
+The first tests call :func:`mgrao_core._numba_cache.choose_cache_dir` on real directories (made
+unusable in ways that hold even for root: a file where a directory should be, a directory owned by
+someone else). The last ones install the project non-editably into a temporary directory, make it
+read-only and run simulations as ``nobody`` with a missing home, in fresh interpreters.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import site
+import subprocess
+import sys
+import tempfile
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+from mgrao_core._numba_cache import choose_cache_dir
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture
+def blocked_engine(tmp_path: Path) -> Path:
+    """An engine directory whose ``__pycache__`` cannot be created (a file has its name)."""
+    engine = tmp_path / "site" / "engine"
+    engine.mkdir(parents=True)
+    (engine / "__pycache__").write_text("not a directory")
+    return engine
+
+
+def test_the_users_numba_cache_dir_and_a_writable_package_are_left_alone(tmp_path: Path) -> None:
+    engine = tmp_path / "engine"
+    engine.mkdir()
+    mine = tmp_path / "mine"
+    assert choose_cache_dir({"NUMBA_CACHE_DIR": str(mine)}, str(engine)).path == str(mine)
+    assert not choose_cache_dir({"NUMBA_CACHE_DIR": str(mine)}, str(engine)).set_env
+    choice = choose_cache_dir({"HOME": str(tmp_path / "home")}, str(engine))
+    assert choice.path == str(engine / "__pycache__") and not choice.set_env
+    assert not (tmp_path / "home").exists()
+
+
+def test_a_read_only_package_caches_under_xdg_cache_home_then_home(tmp_path: Path, blocked_engine: Path) -> None:
+    xdg = tmp_path / "xdg"
+    choice = choose_cache_dir({"XDG_CACHE_HOME": str(xdg), "HOME": str(tmp_path / "home")}, str(blocked_engine))
+    assert choice.set_env and choice.path == str(xdg / "mgrao" / "numba")
+    assert (xdg / "mgrao" / "numba").is_dir()
+    choice = choose_cache_dir({"XDG_CACHE_HOME": "relative/ignored", "HOME": str(tmp_path / "home")},
+                              str(blocked_engine))
+    assert choice.path == str(tmp_path / "home" / ".cache" / "mgrao" / "numba")
+
+
+def test_without_a_writable_home_the_cache_is_a_private_directory_under_the_temp_dir(
+        tmp_path: Path, blocked_engine: Path) -> None:
+    home = tmp_path / "home-is-a-file"
+    home.write_text("")
+    temp = tmp_path / "tmp"
+    temp.mkdir()
+    own = temp / f"mgrao-numba-{os.getuid()}"
+    own.mkdir(mode=0o755)
+    own.chmod(0o755)
+    choice = choose_cache_dir({"HOME": str(home)}, str(blocked_engine), temp_dir=str(temp))
+    assert choice.set_env and choice.path == str(own)
+    assert own.stat().st_mode & 0o777 == 0o700  # tightened: other users cannot plant code in it
+
+
+@pytest.mark.skipif(not hasattr(os, "chown") or os.geteuid() != 0, reason="needs root to give a directory away")
+def test_a_temp_dir_owned_by_someone_else_or_a_symlink_is_not_used(tmp_path: Path, blocked_engine: Path) -> None:
+    home = tmp_path / "home-is-a-file"
+    home.write_text("")
+    temp = tmp_path / "tmp"
+    temp.mkdir()
+    squatted = temp / f"mgrao-numba-{os.getuid()}"
+    squatted.mkdir(mode=0o700)
+    os.chown(squatted, 65534, 65534)
+    assert choose_cache_dir({"HOME": str(home)}, str(blocked_engine), temp_dir=str(temp)).path is None
+    squatted.rmdir()
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir(mode=0o700)
+    squatted.symlink_to(elsewhere)
+    assert choose_cache_dir({"HOME": str(home)}, str(blocked_engine), temp_dir=str(temp)).path is None
+
+
+# ---- a real read-only install, run as an unprivileged user ---------------------------------------
+
+UNPRIVILEGED = 65534  # nobody
+
+SIMULATION = """
+import mgrao_core, numba
+from mgrao_core import make_spec, run_experiment
+result = run_experiment(make_spec("single", seeds=2, episodes=5))
+print("MGRAO_CORE", mgrao_core.__file__)
+print("CACHE_DIR", numba.config.CACHE_DIR)
+print("UTILITIES", result.runs[-1].utilities.tolist())
+"""
+
+
+@dataclass
+class ReadOnlyInstall:
+    root: Path
+    site_dir: Path
+    python: str
+    deps: list[str]
+
+    def run(self, temp: Path, **env: str) -> subprocess.CompletedProcess:
+        """The simulation as ``nobody``, HOME missing, TMPDIR ``temp``, in a fresh environment."""
+        environ = {"PATH": "/usr/bin:/bin", "HOME": str(self.root / "no-such-home"), "TMPDIR": str(temp),
+                   "PYTHONPATH": os.pathsep.join([str(self.site_dir), *self.deps]), "NUMBA_DEBUG_CACHE": "1",
+                   "NUMBA_NUM_THREADS": "1", **env}
+        argv = ["runuser", "-u", "nobody", "--", "env", "-i", *(f"{k}={v}" for k, v in environ.items()),
+                self.python, "-c", SIMULATION]
+        return subprocess.run(argv, cwd=temp, capture_output=True, text=True, timeout=300, check=False)
+
+    def private_temp(self, name: str) -> Path:
+        temp = self.root / name
+        temp.mkdir()
+        os.chown(temp, UNPRIVILEGED, -1)
+        return temp
+
+
+def _as_nobody(*argv: str) -> subprocess.CompletedProcess:
+    return subprocess.run(["runuser", "-u", "nobody", "--", *argv], capture_output=True, text=True, check=False)
+
+
+def _interpreter_for_nobody(deps: list[str]) -> str | None:
+    """A Python of this minor version that ``nobody`` can run and that imports numba from ``deps``."""
+    version = f"{sys.version_info.major}.{sys.version_info.minor}"
+    probe = f"import sys, numba; assert sys.version_info[:2] == ({version.replace('.', ', ')})"
+    for candidate in dict.fromkeys([os.path.realpath(sys.executable), f"/usr/bin/python{version}",
+                                    shutil.which(f"python{version}") or ""]):
+        if candidate and os.path.isfile(candidate):
+            if _as_nobody("env", "-i", f"PYTHONPATH={os.pathsep.join(deps)}", candidate, "-c",
+                          probe).returncode == 0:
+                return candidate
+    return None
+
+
+@pytest.fixture(scope="module")
+def read_only_install() -> Iterator[ReadOnlyInstall]:
+    if sys.platform != "linux" or os.geteuid() != 0 or shutil.which("runuser") is None:
+        pytest.skip("needs Linux, root and runuser to run a simulation as an unprivileged user")
+    try:
+        import wheel  # noqa: F401  (setuptools < 70.1 builds wheels with it; pip builds offline here)
+    except ImportError:
+        pytest.skip("needs the wheel package to build the project offline (pip install -e '.[test]')")
+    deps = [d for d in site.getsitepackages() if os.path.isdir(d)]
+    python = _interpreter_for_nobody(deps)
+    if python is None:
+        pytest.skip(f"user nobody cannot run a Python {sys.version_info.major}.{sys.version_info.minor} that "
+                    f"imports numba from {os.pathsep.join(deps)} (neither {os.path.realpath(sys.executable)} nor "
+                    f"/usr/bin/python{sys.version_info.major}.{sys.version_info.minor}, or those directories are "
+                    "not readable by it)")
+    root = Path(tempfile.mkdtemp(prefix="mgrao-readonly-"))
+    try:
+        root.chmod(0o755)
+        source = root / "src"
+        source.mkdir()
+        for name in ["pyproject.toml", "README.md"]:
+            shutil.copy2(ROOT / name, source / name)
+        for package in ["backend", "frontend", "mgrao_cli", "mgrao_core"]:
+            shutil.copytree(ROOT / package, source / package, ignore=shutil.ignore_patterns("__pycache__"))
+        site_dir = root / "site-packages"
+        build = subprocess.run(
+            [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation", "--no-index",
+             "--target", str(site_dir), str(source)], capture_output=True, text=True, timeout=120, check=False)
+        assert build.returncode == 0, build.stdout + build.stderr
+        shutil.rmtree(source)
+        subprocess.run(["chmod", "-R", "a-w", str(site_dir)], check=True)
+        yield ReadOnlyInstall(root, site_dir, python, deps)
+    finally:
+        subprocess.run(["chmod", "-R", "u+w", str(root)], check=False)
+        shutil.rmtree(root, ignore_errors=True)
+
+
+def _utilities(output: str) -> str:
+    return next(line for line in output.splitlines() if line.startswith("UTILITIES"))
+
+
+@pytest.mark.slow
+def test_read_only_install_without_a_home_caches_under_the_temp_dir_and_reuses_it(
+        read_only_install: ReadOnlyInstall) -> None:
+    install = read_only_install
+    temp = install.private_temp("tmp")
+    first = install.run(temp)
+    assert first.returncode == 0, first.stderr[-3000:]
+    assert f"MGRAO_CORE {install.site_dir}" in first.stdout  # the installed copy, not the checkout
+    cache = temp / f"mgrao-numba-{UNPRIVILEGED}"
+    assert f"CACHE_DIR {cache}" in first.stdout
+    assert "data saved to" in first.stdout  # NUMBA_DEBUG_CACHE prints there
+    assert any(cache.rglob("*.nbc")), "nothing was cached"
+    assert not any(install.site_dir.rglob("*.nb[ci]")), "numba wrote into the read-only install"
+
+    second = install.run(temp)
+    assert second.returncode == 0, second.stderr[-3000:]
+    assert "data loaded from" in second.stdout and "data saved to" not in second.stdout
+    assert _utilities(second.stdout) == _utilities(first.stdout)
+
+
+@pytest.mark.slow
+def test_with_no_writable_cache_directory_at_all_the_simulation_runs_uncached(
+        read_only_install: ReadOnlyInstall) -> None:
+    install = read_only_install
+    temp = install.private_temp("tmp-squatted")
+    (temp / f"mgrao-numba-{UNPRIVILEGED}").mkdir(mode=0o700)  # root's: not nobody's to use
+    result = install.run(temp)
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert "no writable cache directory" in result.stderr
+    assert "data saved to" not in result.stdout
+    assert "CACHE_DIR \n" in result.stdout  # numba was left without a cache directory
