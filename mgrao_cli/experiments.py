@@ -19,6 +19,7 @@ from mgrao_core import ConfigError, MgraoError, make_spec, run_experiment
 from mgrao_core.presets import PRESETS
 from mgrao_core.reproduction import DEFAULT_SEEDS, READINGS, reproduction_table
 from mgrao_core.reproduction import reproduce as run_reproduction
+from mgrao_core.spec import MAX_SEED_VALUE
 
 PROGRESS_BAR_WORK = 20_000_000
 """Atomic tasks above which a run draws a progress bar (about a second of simulation)."""
@@ -101,22 +102,34 @@ def _algorithm_labels(algorithms: str | None) -> list[str] | None:
     return [a.strip() for a in algorithms.split(",")]
 
 
+def _seed_range(count: int, first: int) -> int | list[int]:
+    """``count`` seeds from ``first`` (the count itself when ``first`` is 0, so errors name it plainly)."""
+    if first == 0 or count < 1:
+        return count
+    if first + count - 1 > MAX_SEED_VALUE:
+        raise click.BadParameter(f"the last seed {first + count - 1} is over {MAX_SEED_VALUE}",
+                                 param_hint="--first-seed")
+    return list(range(first, first + count))
+
+
 @click.command()
 @click.option("--system", required=True, type=click.Choice(list(PRESETS)), help="Preset to start from.")
 @click.option("--algorithms", help="Comma-separated labels, e.g. uniform,mgrao-1:1,mgrao-5:1,mgrao-max "
               "(default: the paper's for the system).")
-@click.option("--seeds", default=30, show_default=True, type=int, help="Number of seeds (0 .. S-1).")
+@click.option("--seeds", default=30, show_default=True, type=int, help="Number of seeds (F .. F+S-1).")
+@click.option("--first-seed", default=0, show_default=True, type=click.IntRange(0, MAX_SEED_VALUE),
+              help="The first seed F (e.g. 10000 for the calibration seeds).")
 @click.option("--episodes", default=100, show_default=True, type=int, help="Episodes per run.")
 @click.option("--set", "sets", multiple=True, metavar="NAME=VALUE", help="Override a parameter (repeatable).")
 @click.option("--format", "fmt", default="table", show_default=True, type=click.Choice(["table", "json", "csv"]))
 @click.option("--out", type=click.Path(dir_okay=False, writable=True), callback=_check_out,
               help="Write to FILE instead of stdout.")
-def run(system: str, algorithms: str | None, seeds: int, episodes: int, sets: tuple[str, ...],
+def run(system: str, algorithms: str | None, seeds: int, first_seed: int, episodes: int, sets: tuple[str, ...],
         fmt: str, out: str | None) -> None:
     """Simulate one system with several algorithms and seeds; print the summary or every episode."""
     labels = _algorithm_labels(algorithms)
     try:
-        spec = make_spec(system, labels, seeds, episodes, _parse_sets(sets))
+        spec = make_spec(system, labels, _seed_range(seeds, first_seed), episodes, _parse_sets(sets))
     except ConfigError as error:
         _fail(error)
     started = time.perf_counter()
@@ -157,6 +170,8 @@ def run(system: str, algorithms: str | None, seeds: int, episodes: int, sets: tu
 
 @click.command()
 @click.option("--seeds", default=DEFAULT_SEEDS, show_default=True, type=int, help="Seeds per configuration.")
+@click.option("--first-seed", default=0, show_default=True, type=click.IntRange(0, MAX_SEED_VALUE),
+              help="The first seed (0 .. 99 are the held-out seeds; the calibration uses 10000 on).")
 @click.option("--episodes", default=100, show_default=True, type=int, help="Episodes per run (paper: 100).")
 @click.option("--reading", type=click.Choice(list(READINGS)), default="default", show_default=True,
               help="A named environment reading (docs/reproduction.md); --set applies on top.")
@@ -165,7 +180,8 @@ def run(system: str, algorithms: str | None, seeds: int, episodes: int, sets: tu
 @click.option("--format", "fmt", default="table", show_default=True, type=click.Choice(["table", "json"]))
 @click.option("--out", type=click.Path(dir_okay=False, writable=True), callback=_check_out,
               help="Write to FILE instead of stdout.")
-def reproduce(seeds: int, episodes: int, reading: str, sets: tuple[str, ...], fmt: str, out: str | None) -> None:
+def reproduce(seeds: int, first_seed: int, episodes: int, reading: str, sets: tuple[str, ...], fmt: str,
+              out: str | None) -> None:
     """Run the paper's four systems and print its tables with ours beside them."""
     overrides = READINGS[reading] | _parse_sets(sets)
     started = time.perf_counter()
@@ -174,14 +190,15 @@ def reproduce(seeds: int, episodes: int, reading: str, sets: tuple[str, ...], fm
             count = len(PRESETS)
             order = {name: i for i, name in enumerate(PRESETS)}
             results = run_reproduction(
-                seeds, episodes, overrides, on_progress=lambda name, f: update((order[name] + f) / count)
+                _seed_range(seeds, first_seed), episodes, overrides,
+                on_progress=lambda name, f: update((order[name] + f) / count),
             )
     except ConfigError as error:
         _fail(error)
     elapsed = time.perf_counter() - started
     table = reproduction_table(results)
-    table.update({"seeds": seeds, "episodes": episodes, "reading": reading, "overrides": overrides,
-                  "simulation_seconds": elapsed})
+    table.update({"seeds": seeds, "first_seed": first_seed, "episodes": episodes, "reading": reading,
+                  "overrides": overrides, "simulation_seconds": elapsed})
     if fmt == "json":
         _emit(json.dumps(table, indent=2), out)
         return

@@ -135,9 +135,10 @@ class EpisodeStats:
         """Account one run's ``(episodes,)`` utilities."""
         utilities = np.asarray(utilities, dtype=float)
         self.runs += 1
-        delta = utilities - self.mean
-        self.mean += delta / self.runs
-        self._m2 += delta * (utilities - self.mean)
+        with np.errstate(invalid="ignore"):  # a stored inf or NaN makes that episode's figures NaN
+            delta = utilities - self.mean
+            self.mean += delta / self.runs
+            self._m2 += delta * (utilities - self.mean)
 
     def band(self, points: int | None = None) -> dict[str, list[float]]:
         """Mean with a 95% t-band per episode, optionally averaged into ``points`` buckets.

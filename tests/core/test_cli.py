@@ -190,3 +190,14 @@ def test_serve_on_a_busy_port_says_so_and_starts_nothing(runner, tmp_path):
     assert f"port {port} on 127.0.0.1 is in use" in result.output
     assert "http://" not in result.output
     assert not database.exists()
+
+
+def test_first_seed_runs_the_calibration_seeds(runner):
+    result = _run(runner, "run", "--system", "single", "--seeds", "2", "--first-seed", "10000", "--episodes", "3",
+                  "--format", "json")
+    data = json.loads(result.stdout)
+    assert data["spec"]["seeds"] == [10000, 10001]
+    table = _run(runner, "reproduce", "--seeds", "2", "--first-seed", "10000", "--episodes", "3", "--format", "json")
+    assert json.loads(table.stdout)["first_seed"] == 10000
+    too_far = _run(runner, "run", "--system", "single", "--seeds", "3", "--first-seed", str(2**32 - 2))
+    assert too_far.exit_code == 2 and "--first-seed" in too_far.output
