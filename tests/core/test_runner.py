@@ -51,3 +51,22 @@ def test_block_size():
     per_episode = 30 * 7 * 50 * 5
     assert block_episodes(spec) == min(100, BLOCK_ATOMIC_TASKS // per_episode)
     assert block_episodes(make_spec("single", seeds=1, episodes=100)) == 100
+
+
+def test_the_oracle_checks_cancellation_between_its_batches():
+    # one seed of a big oracle: the stop check is polled inside the Monte-Carlo estimate, not only
+    # after every seed's oracle is done (600 seeds at 1000 parents took an hour before the first check)
+    from mgrao_core import Cancelled, run_chunk
+    from mgrao_core.budget import ORACLE_BATCH
+    from mgrao_core.oracle import EXPECTATION_SAMPLES
+
+    spec = make_spec("single", ["oracle"], seeds=3, episodes=5, overrides={"n_parents": 50})
+    calls = []
+
+    def stop_on_third_check() -> bool:
+        calls.append(1)
+        return len(calls) >= 3
+
+    with pytest.raises(Cancelled, match="oracle's values for seed 0"):
+        run_chunk(spec, spec.seeds, should_stop=stop_on_third_check)
+    assert len(calls) == 3 < EXPECTATION_SAMPLES // ORACLE_BATCH
