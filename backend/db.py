@@ -75,6 +75,7 @@ def upgrade(engine: Engine) -> None:
     config = alembic_config()
     with engine.connect() as connection:
         connection.execution_options(**{dialect.WRITE_OPTION: True})
+        dialect.lock_for_migration(connection)
         config.attributes["connection"] = connection
         command.upgrade(config, "head")
         connection.commit()

@@ -160,6 +160,19 @@ def begin_write(session: Session) -> None:
     session.connection(execution_options={WRITE_OPTION: True})
 
 
+MIGRATION_LOCK = 0x6D677261  # "mgra": the advisory lock key of schema migrations on PostgreSQL
+
+
+def lock_for_migration(connection: Any) -> None:
+    """Serialise schema migrations between processes that start together.
+
+    PostgreSQL: a transaction-scoped advisory lock; SQLite: the migration's ``BEGIN IMMEDIATE``
+    (see :func:`begin_write`) already holds the database.
+    """
+    if connection.dialect.name == "postgresql":
+        connection.exec_driver_sql(f"SELECT pg_advisory_xact_lock({MIGRATION_LOCK})")
+
+
 def _name(session: Session) -> str:
     return session.get_bind().dialect.name
 

@@ -29,6 +29,10 @@ def utcnow() -> datetime:
     return datetime.now(UTC).replace(tzinfo=None)
 
 
+ID = BigInteger().with_variant(Integer, "sqlite")
+"""64-bit ids; SQLite's INTEGER PRIMARY KEY is 64-bit and must stay INTEGER to be the rowid."""
+
+
 class Base(DeclarativeBase):
     """Declarative base of the service's tables."""
 
@@ -43,7 +47,7 @@ class Job(Base):
         Index("ix_jobs_name", "name", "id"),
     )
 
-    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    id: Mapped[int] = mapped_column(ID, primary_key=True)
     name: Mapped[str] = mapped_column(String(200), default="")
     tags: Mapped[list[str]] = mapped_column(JSON, default=list)
     notes: Mapped[str] = mapped_column(Text, default="")
@@ -70,7 +74,7 @@ class JobTag(Base):
 
     __tablename__ = "job_tags"
 
-    job_id: Mapped[int] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
+    job_id: Mapped[int] = mapped_column(ID, ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
     tag: Mapped[str] = mapped_column(String(50), primary_key=True, index=True)
 
 
@@ -84,8 +88,8 @@ class Run(Base):
     __tablename__ = "runs"
     __table_args__ = (UniqueConstraint("job_id", "algorithm", "seed", name="uq_runs_job_algorithm_seed"),)
 
-    id: Mapped[int] = mapped_column(Integer, primary_key=True)
-    job_id: Mapped[int] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"))
+    id: Mapped[int] = mapped_column(ID, primary_key=True)
+    job_id: Mapped[int] = mapped_column(ID, ForeignKey("jobs.id", ondelete="CASCADE"))
     algorithm: Mapped[str] = mapped_column(String(32))
     seed: Mapped[int] = mapped_column(BigInteger)
     episodes: Mapped[int] = mapped_column(Integer)

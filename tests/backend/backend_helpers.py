@@ -56,9 +56,9 @@ def ready_workers(logs: str) -> set[int]:
 class Service:
     """`mgrao serve` and `mgrao worker` processes on one database; stops what it starts."""
 
-    def __init__(self, tmp_path: Path) -> None:
+    def __init__(self, tmp_path: Path, db_url: str | None = None) -> None:
         self.tmp_path = tmp_path
-        self.db_url = f"sqlite:///{tmp_path / 'service.db'}"
+        self.db_url = db_url or f"sqlite:///{tmp_path / 'service.db'}"
         self.port = free_port()
         self.base = f"http://127.0.0.1:{self.port}"
         self.server: subprocess.Popen | None = None

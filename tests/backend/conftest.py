@@ -1,4 +1,10 @@
-"""Fixtures: a real SQLite file per test, the app in-process, and real server/worker processes."""
+"""Fixtures: a real database per test (a SQLite file, and a database on a real PostgreSQL server that
+the session starts and stops), the app in-process, and real server/worker processes.
+
+Every test that takes ``db_url`` (directly or through ``settings``, ``client``, ``worker``, ``db`` or
+``service``) runs twice, ``[sqlite]`` and ``[postgresql]``; the PostgreSQL runs skip, saying why,
+only where no PostgreSQL server can be started (see tests/support/postgres.py).
+"""
 
 from __future__ import annotations
 
@@ -16,11 +22,28 @@ from backend.db import Database
 from backend.settings import Settings
 from backend.worker import Worker
 from tests.support.local_service import free_port, serve_command, stop, wait_healthy
+from tests.support.postgres import PostgresServer, why_unavailable
 
 
-@pytest.fixture
-def db_url(tmp_path: Path) -> str:
-    return f"sqlite:///{tmp_path / 'mgrao.db'}"
+@pytest.fixture(scope="session")
+def postgres_server() -> Iterator[PostgresServer]:
+    reason = why_unavailable()
+    if reason is not None:
+        pytest.skip(reason)
+    server = PostgresServer().start()
+    yield server
+    server.stop()
+
+
+@pytest.fixture(params=["sqlite", "postgresql"])
+def db_url(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[str]:
+    if request.param == "sqlite":
+        yield f"sqlite:///{tmp_path / 'mgrao.db'}"
+        return
+    server: PostgresServer = request.getfixturevalue("postgres_server")
+    url = server.create_database()
+    yield url
+    server.drop_database(url)
 
 
 @pytest.fixture
@@ -57,8 +80,8 @@ def db(settings: Settings) -> Iterator[Database]:
 
 
 @pytest.fixture
-def service(tmp_path: Path) -> Iterator[Service]:
-    svc = Service(tmp_path)
+def service(tmp_path: Path, db_url: str) -> Iterator[Service]:
+    svc = Service(tmp_path, db_url)
     yield svc
     svc.stop()
 

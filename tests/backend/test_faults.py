@@ -22,6 +22,14 @@ pytestmark = pytest.mark.slow
 SMALL = {"system": "single", "seeds": 2, "episodes": 10}
 
 
+@pytest.fixture
+def service(tmp_path: Path):
+    """A service on a SQLite file: these faults are done to the file (PostgreSQL's are in test_postgres_faults.py)."""
+    svc = Service(tmp_path)
+    yield svc
+    svc.stop()
+
+
 def _chattr_works(tmp_path: Path) -> bool:
     probe = tmp_path / "chattr-probe"
     probe.write_text("x")

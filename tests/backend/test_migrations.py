@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import sqlalchemy as sa
 from alembic import command
 from sqlalchemy import create_engine, select, text
 
@@ -27,6 +28,21 @@ FIXTURE = Path(__file__).resolve().parents[1] / "fixtures" / "legacy_jobs_0001.j
 LEGACY = json.loads(FIXTURE.read_text())
 
 
+JOBS_0001 = sa.table(
+    "jobs", sa.column("name", sa.String), sa.column("tags", sa.JSON), sa.column("notes", sa.Text),
+    sa.column("system", sa.String), sa.column("config", sa.JSON), sa.column("config_hash", sa.String),
+    sa.column("status", sa.String), sa.column("progress", sa.Float), sa.column("attempts", sa.Integer),
+    sa.column("version", sa.String), sa.column("created_at", sa.DateTime),
+)
+
+
+def _insert_job(connection, config: dict, digest: str, name: str, created: datetime) -> None:
+    """A queued job row exactly as revision 0001's code wrote it."""
+    connection.execute(JOBS_0001.insert().values(
+        name=name, tags=[], notes="", system=config["system"], config=config, config_hash=digest, status="queued",
+        progress=0.0, attempts=0, version="0.1.0", created_at=created))
+
+
 def _database_at_0001(url: str) -> None:
     """A database with revision 0001's schema, holding the legacy jobs, queued, as 0001 stored them."""
     engine = create_engine(url)
@@ -35,13 +51,7 @@ def _database_at_0001(url: str) -> None:
         config.attributes["connection"] = connection
         command.upgrade(config, "0001")
         for job in LEGACY["jobs"]:
-            connection.execute(
-                text("INSERT INTO jobs (name, tags, notes, system, config, config_hash, status, progress, attempts,"
-                     " version, created_at) VALUES ('legacy', '[]', '', :system, :config, :hash, 'queued', 0, 0,"
-                     " '0.1.0', :created)"),
-                {"system": job["config"]["system"], "config": json.dumps(job["config"]), "hash": job["config_hash"],
-                 "created": datetime(2026, 11, 1)},
-            )
+            _insert_job(connection, job["config"], job["config_hash"], "legacy", datetime(2026, 11, 1))
         connection.commit()
     engine.dispose()
 
@@ -107,11 +117,11 @@ def test_downgrade_restores_revision_0001_configurations(tmp_path, settings):
         config.attributes["connection"] = connection
         command.downgrade(config, "0001")
         connection.commit()
-        rows = connection.execute(text("SELECT config, config_hash FROM jobs ORDER BY id")).all()
+        rows = connection.execute(sa.select(JOBS_0001.c.config, JOBS_0001.c.config_hash).order_by(sa.text("id"))).all()
     engine.dispose()
     db.dispose()
     for (config, digest), legacy in zip(rows, LEGACY["jobs"], strict=True):
-        assert json.loads(config) == legacy["config"]
+        assert config == legacy["config"]
         assert digest == legacy["config_hash"]
 
 
@@ -123,11 +133,7 @@ def test_upgrade_leaves_configurations_that_name_a_reading_and_downgrade_keeps_o
     odd_h = make_spec("single", seeds=2, episodes=5, overrides=first).as_dict()
     with engine.begin() as connection:
         for config in (new_reading, odd_h):
-            connection.execute(
-                text("INSERT INTO jobs (name, tags, notes, system, config, config_hash, status, progress, attempts,"
-                     " version, created_at) VALUES ('x', '[]', '', 'single', :config, :hash, 'queued', 0, 0,"
-                     " '0.2.0', :created)"),
-                {"config": json.dumps(config), "hash": config_hash(config), "created": datetime(2026, 11, 2)})
+            _insert_job(connection, config, config_hash(config), "x", datetime(2026, 11, 2))
     db = Database(settings.database_url)
     db.migrate()
     with db.session() as session:
@@ -138,8 +144,25 @@ def test_upgrade_leaves_configurations_that_name_a_reading_and_downgrade_keeps_o
         config.attributes["connection"] = connection
         command.downgrade(config, "0001")
         connection.commit()
-        rows = [json.loads(c) for (c,) in connection.execute(text("SELECT config FROM jobs ORDER BY id"))]
+        rows = [c for (c,) in connection.execute(sa.select(JOBS_0001.c.config).order_by(sa.text("id")))]
     engine.dispose()
     db.dispose()
     assert rows[-2]["params"]["quality_model"] == "exponential"  # not expressible at 0001: kept
     assert "quality_model" not in rows[-1]["params"]  # the first reading, whatever its unused h
+
+
+def test_processes_that_start_together_migrate_a_new_database_once(db_url: str) -> None:
+    # a server and its workers all migrate at start: on a fresh database they must not collide
+    import subprocess
+    import sys
+
+    code = "import sys; from backend.db import Database; d = Database(sys.argv[1]); d.migrate(); d.dispose()"
+    processes = [subprocess.Popen([sys.executable, "-c", code, db_url], stderr=subprocess.PIPE) for _ in range(4)]
+    errors = [p.communicate(timeout=120)[1].decode() for p in processes]
+    assert [p.returncode for p in processes] == [0, 0, 0, 0], errors
+    db = Database(db_url)
+    try:
+        with db.session() as session:
+            assert session.execute(text("SELECT count(*) FROM alembic_version")).scalar() == 1
+    finally:
+        db.dispose()

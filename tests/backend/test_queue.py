@@ -39,6 +39,12 @@ def test_claims_oldest_first_and_only_once(db: Database) -> None:
     assert [c.job_id for c in claims[:3]] == ids and claims[3] is None
 
 
+def _writes(statement: str) -> bool:
+    """A statement that takes a write lock: SQLite's BEGIN IMMEDIATE, an UPDATE, a row lock."""
+    text = statement.upper()
+    return "BEGIN IMMEDIATE" in text or text.lstrip().startswith("UPDATE") or "FOR UPDATE" in text
+
+
 def test_an_idle_poll_takes_no_write_lock(db: Database) -> None:
     statements: list[str] = []
 
@@ -48,11 +54,11 @@ def test_an_idle_poll_takes_no_write_lock(db: Database) -> None:
     event.listen(db.engine, "before_cursor_execute", record)
     try:
         assert queue.claim(db, worker_id="w", stale_after_s=60, max_attempts=3) is None
-        assert not any("BEGIN IMMEDIATE" in s or s.lstrip().upper().startswith("UPDATE") for s in statements)
+        assert not any(_writes(s) for s in statements), statements
         add_job(db)
         statements.clear()
         assert queue.claim(db, worker_id="w", stale_after_s=60, max_attempts=3) is not None
-        assert any("BEGIN IMMEDIATE" in s for s in statements)
+        assert any(_writes(s) for s in statements)
     finally:
         event.remove(db.engine, "before_cursor_execute", record)
 
@@ -181,3 +187,56 @@ def test_migrations_are_idempotent(db: Database) -> None:
     db.migrate()
     db.migrate()
     assert add_job(db) == 1
+
+
+def test_cancel_racing_finish_has_exactly_one_winner(db: Database) -> None:
+    # on PostgreSQL the two really interleave: each is one conditional update, so exactly one wins
+    import threading
+
+    from backend.errors import Conflict
+
+    spec = make_spec("single", ["uniform"], seeds=1, episodes=3)
+    rows_of = {}
+    outcomes = []
+    for _ in range(30):
+        job_id = add_job(db, spec)
+        claim = queue.claim(db, worker_id="w", stale_after_s=60, max_attempts=3)
+        rows_of[job_id] = queue.run_rows(job_id, run_chunk(spec, spec.seeds))
+        assert queue.store_runs(db, claim=claim, rows=rows_of[job_id], progress=1.0)
+        result: dict[str, object] = {}
+        barrier = threading.Barrier(2)
+
+        def finish(claim=claim, result=result, barrier=barrier) -> None:
+            barrier.wait()
+            result["finished"] = queue.finish(db, claim=claim, expected_runs=1)
+
+        def cancel(job_id=job_id, result=result, barrier=barrier) -> None:
+            barrier.wait()
+            try:
+                with db.write() as session:
+                    crud.cancel_job(session, job_id=job_id)
+                result["cancelled"] = True
+            except Conflict:
+                result["cancelled"] = False
+
+        threads = [threading.Thread(target=finish), threading.Thread(target=cancel)]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join()
+        with db.session() as session:
+            status = session.get(Job, job_id).status
+        assert result["finished"] != result["cancelled"], result
+        assert status == ("succeeded" if result["finished"] else "cancelled")
+        outcomes.append(status)
+    assert set(outcomes) <= {"succeeded", "cancelled"}
+
+
+def test_stale_requeue_never_takes_a_job_that_beat_meanwhile(db: Database) -> None:
+    job_id = add_job(db)
+    claim = queue.claim(db, worker_id="a", stale_after_s=5, max_attempts=3)
+    age_heartbeat(db, job_id, 10)
+    assert queue.heartbeat(db, claim=claim) is True  # the worker was only slow: it beats again
+    with db.write() as session:
+        assert queue.requeue_stale(session, stale_after_s=5, max_attempts=3) == []
+    assert queue.heartbeat(db, claim=claim) is True

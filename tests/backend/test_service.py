@@ -6,13 +6,14 @@ import csv
 import io
 import os
 import signal
-import sqlite3
 from pathlib import Path
 
 import numpy as np
 import pytest
 from backend_helpers import JSON, Service
+from sqlalchemy import text
 
+from backend.db import Database
 from mgrao_core import make_spec, run_experiment
 
 pytestmark = pytest.mark.slow
@@ -92,13 +93,16 @@ def test_many_workers_run_each_of_200_jobs_exactly_once(service: Service) -> Non
         return service.get("/api/jobs?status=succeeded&limit=1").json()["count"] == 200
 
     service.wait_for(all_done, timeout=120, what="200 jobs")
-    db_path = service.db_url.removeprefix("sqlite:///")
-    with sqlite3.connect(db_path) as conn:
-        attempts = conn.execute("SELECT attempts, COUNT(*) FROM jobs GROUP BY attempts").fetchall()
-        runs = conn.execute("SELECT job_id, COUNT(*) FROM runs GROUP BY job_id").fetchall()
-        workers = conn.execute("SELECT COUNT(DISTINCT worker_id) FROM jobs").fetchone()[0]
-    assert attempts == [(1, 200)]  # each job claimed once
-    assert sorted(runs) == [(i, 2) for i in ids]
+    db = Database(service.db_url)
+    try:
+        with db.session() as session:
+            attempts = session.execute(text("SELECT attempts, COUNT(*) FROM jobs GROUP BY attempts")).all()
+            runs = session.execute(text("SELECT job_id, COUNT(*) FROM runs GROUP BY job_id")).all()
+            workers = session.execute(text("SELECT COUNT(DISTINCT worker_id) FROM jobs")).scalar()
+    finally:
+        db.dispose()
+    assert [tuple(row) for row in attempts] == [(1, 200)]  # each job claimed once
+    assert sorted(tuple(row) for row in runs) == [(i, 2) for i in ids]
     assert workers >= 2  # the queue really was shared
 
 
