@@ -34,6 +34,8 @@ class Settings(BaseSettings):
         30.0, gt=0, le=3600,
         description="How long a database call waits for another process's write lock before answering 503.",
     )
+    dask_address: str | None = Field(
+        None, description="The Dask scheduler `mgrao dispatcher` sends chunks to, e.g. tcp://scheduler:8786.")
     host: str = "127.0.0.1"
 
     @property

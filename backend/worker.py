@@ -14,73 +14,19 @@ import os
 import signal
 import socket
 import threading
-import time
 from collections.abc import Callable
 from types import FrameType
 from typing import TypeVar
 
-from sqlalchemy.exc import SQLAlchemyError
-
 from backend import queue
 from backend.db import Database
+from backend.dialect import reason
+from backend.heartbeats import Heartbeats
+from backend.retry import Backoff, Stopping, persist
 from backend.settings import Settings
 
 log = logging.getLogger("mgrao.worker")
 T = TypeVar("T")
-
-
-class _Heartbeat(threading.Thread):
-    """Heartbeats and progress writes for one claimed job, on a background thread."""
-
-    def __init__(self, db: Database, claim: queue.Claim, settings: Settings, shutdown: threading.Event) -> None:
-        super().__init__(name=f"heartbeat-{claim.job_id}", daemon=True)
-        self.db, self.claim, self.settings, self.shutdown = db, claim, settings, shutdown
-        self.lost = threading.Event()
-        self.done = threading.Event()
-        self.progress = 0.0
-        self._written = 0.0
-
-    def should_stop(self) -> bool:
-        """The run's stop check: the job was taken from us (cancel) or the worker is stopping."""
-        return self.lost.is_set() or self.shutdown.is_set()
-
-    def on_progress(self, fraction: float) -> None:
-        """The run's progress callback (the thread writes it, throttled)."""
-        self.progress = fraction
-
-    def run(self) -> None:
-        """Beat until the job ends; write progress at most every ``progress_s``."""
-        tick = min(self.settings.heartbeat_s, self.settings.progress_s)
-        last_beat = time.monotonic()
-        while not self.done.wait(tick):
-            now = time.monotonic()
-            changed = self.progress != self._written
-            if not changed and now - last_beat < self.settings.heartbeat_s:
-                continue
-            try:
-                progress = self.progress if changed else None
-                if not queue.heartbeat(self.db, claim=self.claim, progress=progress):
-                    self.lost.set()
-                    return
-                self._written, last_beat = progress if changed else self._written, now
-            except Exception:  # a busy database must not kill the run; the next beat retries
-                log.exception("heartbeat of job %s failed", self.claim.job_id)
-
-
-class _Backoff:
-    """Capped exponential waits between retries of a failing database call."""
-
-    def __init__(self, first: float = 0.25, cap: float = 30.0) -> None:
-        self.first, self.cap, self.delay = first, cap, first
-
-    def next(self) -> float:
-        """The wait before the next retry (doubling up to the cap)."""
-        delay, self.delay = self.delay, min(self.delay * 2, self.cap)
-        return delay
-
-    def reset(self) -> None:
-        """Back to the first wait after a success."""
-        self.delay = self.first
 
 
 class Worker:
@@ -116,21 +62,8 @@ class Worker:
         run_experiment(make_spec("single", seeds=1, episodes=2))
 
     def persist(self, call: Callable[[], T], what: str) -> T:
-        """``call()``, retried on database errors with a capped backoff until it succeeds.
-
-        Raises:
-            WorkerStopping: the worker was told to stop while the database was failing.
-        """
-        backoff = _Backoff()
-        while True:
-            try:
-                return call()
-            except SQLAlchemyError as error:
-                if self.shutdown.is_set():
-                    raise WorkerStopping(f"stopping while {what} failed: {error}") from error
-                delay = backoff.next()
-                log.warning("%s failed (%s); retrying in %.2f s", what, _reason(error), delay)
-                self.shutdown.wait(delay)
+        """``call()``, retried on database errors until it succeeds (see :mod:`backend.retry`)."""
+        return persist(call, what, self.shutdown)
 
     def run_once(self) -> bool:
         """Claim and run one job; False when the queue was empty."""
@@ -142,7 +75,7 @@ class Worker:
             return False
         try:
             self.execute(claim)
-        except WorkerStopping as error:
+        except Stopping as error:
             log.warning("job %s left to its lease: %s", claim.job_id, error)
         return True
 
@@ -152,8 +85,14 @@ class Worker:
 
         log.info("worker %s runs job %s (attempt %s)", self.worker_id, claim.job_id, claim.attempt)
         budget = self.settings.job_memory_bytes
-        beat = _Heartbeat(self.db, claim, self.settings, self.shutdown)
-        beat.start()
+        beats = Heartbeats(self.db, heartbeat_s=self.settings.heartbeat_s, progress_s=self.settings.progress_s,
+                           name=f"heartbeat-{claim.job_id}")
+        beats.add(claim)
+        beats.start()
+
+        def should_stop() -> bool:  # the job was taken from us (cancel) or the worker is stopping
+            return beats.lost(claim.job_id) or self.shutdown.is_set()
+
         try:
             spec = spec_from_dict(claim.config, memory_budget=budget)
             done = self.persist(lambda: self._stored_seeds(claim.job_id, len(spec.algorithms)), "reading stored runs")
@@ -161,9 +100,9 @@ class Worker:
             finished = len(spec.seeds) - len(missing)
             for chunk in plan_chunks(spec, missing, budget=budget):
                 def progress(fraction: float, chunk: tuple[int, ...] = chunk, finished: int = finished) -> None:
-                    beat.on_progress((finished + fraction * len(chunk)) / len(spec.seeds))
+                    beats.set_progress(claim.job_id, (finished + fraction * len(chunk)) / len(spec.seeds))
 
-                runs = run_chunk(spec, chunk, on_progress=progress, should_stop=beat.should_stop)
+                runs = run_chunk(spec, chunk, on_progress=progress, should_stop=should_stop)
                 rows = queue.run_rows(claim.job_id, runs)
                 del runs
                 finished += len(chunk)
@@ -181,20 +120,19 @@ class Worker:
                                 f"finishing job {claim.job_id}"):
                 log.info("job %s was cancelled or taken over before it finished", claim.job_id)
         except Cancelled:
-            if not beat.lost.is_set():
+            if not beats.lost(claim.job_id):
                 self.persist(lambda: queue.release(self.db, claim=claim), f"handing back job {claim.job_id}")
         except NumericalError as error:
             self._fail(claim, str(error), discard_runs=True)
         except MgraoError as error:
             self._fail(claim, str(error))
-        except WorkerStopping:
+        except Stopping:
             raise
         except Exception as error:
             log.exception("job %s failed", claim.job_id)
             self._fail(claim, f"{type(error).__name__}: {error}")
         finally:
-            beat.done.set()
-            beat.join()
+            beats.close()
 
     def _fail(self, claim: queue.Claim, message: str, discard_runs: bool = False) -> None:
         self.persist(lambda: queue.fail(self.db, claim=claim, error=message, discard_runs=discard_runs),
@@ -208,12 +146,12 @@ class Worker:
         """Migrate, warm up, then run jobs until :meth:`stop`; database errors are waited out."""
         try:
             self.persist(self.db.migrate, "migrating the database")
-        except WorkerStopping:
+        except Stopping:
             return
         if warm_up:
             self.warm_up()
         log.info("worker %s ready", self.worker_id)
-        backoff = _Backoff()
+        backoff = Backoff()
         try:
             while not self.shutdown.is_set():
                 try:
@@ -221,22 +159,13 @@ class Worker:
                     backoff.reset()
                 except Exception as error:  # noqa: BLE001 - a worker outlives every failure of one poll
                     delay = backoff.next()
-                    log.warning("polling the queue failed (%s); retrying in %.2f s", _reason(error), delay)
+                    log.warning("polling the queue failed (%s); retrying in %.2f s", reason(error), delay)
                     self.shutdown.wait(delay)
                     continue
                 if not ran:
                     self.shutdown.wait(self.settings.poll_s)
         finally:
             self.db.dispose()
-
-
-class WorkerStopping(Exception):
-    """The worker was told to stop while a database call was still failing."""
-
-
-def _reason(error: BaseException) -> str:
-    text = str(getattr(error, "orig", None) or error).strip().splitlines()
-    return text[0] if text else type(error).__name__
 
 
 def main(settings: Settings | None = None) -> None:

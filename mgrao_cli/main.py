@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from mgrao_cli.experiments import reproduce, run
-from mgrao_cli.service_commands import serve, worker
+from mgrao_cli.service_commands import dispatcher, migrate, serve, worker
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -18,6 +18,8 @@ cli.add_command(run)
 cli.add_command(reproduce)
 cli.add_command(serve)
 cli.add_command(worker)
+cli.add_command(dispatcher)
+cli.add_command(migrate)
 
 
 if __name__ == "__main__":

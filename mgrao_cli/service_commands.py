@@ -104,3 +104,34 @@ def worker(database_url: str | None) -> None:
     from backend.worker import main
 
     main(Settings(database_url=database_url) if database_url else Settings())
+
+
+@click.command()
+@click.option("--dask", "address", default=None, metavar="ADDRESS",
+              help="The Dask scheduler, e.g. tcp://scheduler:8786 (default MGRAO_DASK_ADDRESS).")
+@click.option("--database-url", default=None, help="SQLAlchemy URL (default MGRAO_DATABASE_URL).")
+def dispatcher(address: str | None, database_url: str | None) -> None:
+    """Claim queued jobs and run their chunks on a Dask cluster until Ctrl-C or SIGTERM."""
+    from backend.dispatcher import main
+    from backend.settings import Settings
+
+    settings = Settings(database_url=database_url) if database_url else Settings()
+    if not (address or settings.dask_address):
+        raise click.UsageError("give the Dask scheduler's address with --dask or MGRAO_DASK_ADDRESS")
+    main(settings, address)
+
+
+@click.command()
+@click.option("--database-url", default=None, help="SQLAlchemy URL (default MGRAO_DATABASE_URL).")
+def migrate(database_url: str | None) -> None:
+    """Create or upgrade the database schema, then exit (a deployment's one-shot step)."""
+    from backend.db import Database
+    from backend.settings import Settings
+
+    settings = Settings(database_url=database_url) if database_url else Settings()
+    db = Database(settings.database_url, settings.db_busy_timeout_s)
+    try:
+        db.migrate()
+    finally:
+        db.dispose()
+    click.echo(f"mgrao: {settings.database_url} is at the newest schema", err=True)
