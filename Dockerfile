@@ -1,4 +1,5 @@
-# The service image: API, dashboard and local workers from one `mgrao serve`.
+# The service image: API, dashboard and local workers (`mgrao serve`), and in the cluster profile of
+# docker-compose.yml also the migration, the dispatcher and the Dask scheduler and workers.
 FROM python:3.11-slim
 WORKDIR /app
 COPY pyproject.toml README.md ./
@@ -6,7 +7,7 @@ COPY mgrao_core ./mgrao_core
 COPY mgrao_cli ./mgrao_cli
 COPY backend ./backend
 COPY frontend ./frontend
-RUN pip install --no-cache-dir . && useradd --create-home mgrao && mkdir /data && chown mgrao /data
+RUN pip install --no-cache-dir ".[cluster]" && useradd --create-home mgrao && mkdir /data && chown mgrao /data
 USER mgrao
 ENV MGRAO_DATABASE_URL=sqlite:////data/mgrao.db
 EXPOSE 8000

@@ -18,17 +18,23 @@ from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 import numpy as np
+import orjson
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from backend.crud import get_job, job_dict
 from backend.errors import BadQuery, Conflict
+from backend.memory import trim
 from backend.models import SUCCEEDED, Job, Run
 from mgrao_core import PRESETS, EpisodeStats, final_utilities, summarise
 from mgrao_core.reproduction import PAPER_EPISODES
 
 MAX_RESPONSE_VALUES = 1_000_000
 """Numbers in the curves of one results or compare answer (about 20 MB of JSON)."""
+MAX_CONCURRENT_BUILDS = 2
+"""Results or comparisons computed at once; more requests wait their turn (each build holds one
+answer's arrays, up to :data:`MAX_RESPONSE_VALUES` numbers)."""
+_BUILDS = threading.BoundedSemaphore(MAX_CONCURRENT_BUILDS)
 MAX_WEIGHT_VALUES = 200_000
 """Learned weights shown per configuration (children x groups x types); larger PW are left out."""
 _BAND_ARRAYS = 3  # mean, low, high (the episode index is shared)
@@ -129,7 +135,7 @@ def _configurations(session: Session, job: Job, points: int | None, include_seed
         if include_seeds:
             one = EpisodeStats(episodes)
             one.add(values)
-            band = one.band(used)
+            band = one.band_arrays(used)
             per_seed[algorithm].append({"seed": seed, "episode": band["episode"], "utility": band["mean"]})
     summaries = summarise({a: dict(sorted(finals[a].items(), key=lambda kv: seed_order.get(kv[0], 0)))
                            for a in algorithms if finals[a]})
@@ -140,7 +146,7 @@ def _configurations(session: Session, job: Job, points: int | None, include_seed
         entry: dict[str, Any] = {
             "algorithm": algorithm, "config_hash": job.config_hash, "seeds_done": seeds_done[algorithm],
             "summary": summaries[algorithm].as_dict(),
-            "episodes": stats[algorithm].band(used),
+            "episodes": stats[algorithm].band_arrays(used),
             "weights": _weights(session, job.id, algorithm),
         }
         if include_seeds:
@@ -213,33 +219,30 @@ class _ResultsCache:
 RESULTS_CACHE = _ResultsCache()
 
 
-def _finite(value: Any) -> Any:
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_finite(v) for v in value]
-    return value
-
-
 def dumps(value: Any) -> bytes:
-    """Compact JSON; a value that is not finite (a corrupted or legacy store) becomes ``null``."""
-    try:
-        return json.dumps(value, allow_nan=False, separators=(",", ":")).encode()
-    except ValueError:
-        return json.dumps(_finite(value), allow_nan=False, separators=(",", ":")).encode()
+    """Compact JSON of data holding numpy arrays, without a Python object per number.
+
+    A value that is not finite (a corrupted or legacy store) becomes ``null``.
+    """
+    return orjson.dumps(value, option=orjson.OPT_SERIALIZE_NUMPY)
 
 
-def job_results_json(session: Session, *, job_id: int, points: int | None = None,
-                     include_seeds: bool = False) -> bytes:
-    """``GET /api/jobs/{id}/results`` (docs/api.md "Results") as JSON bytes."""
+def job_results_parts(session: Session, *, job_id: int, points: int | None = None,
+                      include_seeds: bool = False) -> tuple[bytes, bytes]:
+    """``GET /api/jobs/{id}/results`` (docs/api.md "Results") as two pieces of JSON sent in turn.
+
+    The job's head, then its configurations: the cached bytes themselves, not a copy.
+    """
     job = get_job(session, job_id=job_id)
     stored = require_runs(session, job)
     partial = job.status != SUCCEEDED
 
     def build() -> bytes:
-        return dumps(_configurations(session, job, points, include_seeds))
+        with _BUILDS:
+            try:
+                return dumps(_configurations(session, job, points, include_seeds))
+            finally:
+                trim()
 
     if partial:  # still changing (or never complete): not cached
         body = build()
@@ -247,7 +250,14 @@ def job_results_json(session: Session, *, job_id: int, points: int | None = None
         body = RESULTS_CACHE.get_or_build((job.id, job.config_hash, job.finished_at, points, include_seeds), build)
     expected = len(job.config["seeds"]) * len(job.config["algorithms"])
     head = {"job": job_dict(job), "paper": paper_figures(job), "partial": partial or stored < expected}
-    return dumps(head)[:-1] + b"," + body[1:]
+    return dumps(head)[:-1] + b",", body
+
+
+def job_results_json(session: Session, *, job_id: int, points: int | None = None,
+                     include_seeds: bool = False) -> bytes:
+    """``GET /api/jobs/{id}/results`` as one piece of JSON."""
+    head, body = job_results_parts(session, job_id=job_id, points=points, include_seeds=include_seeds)
+    return head + body[1:]
 
 
 def job_results(session: Session, *, job_id: int, points: int | None = None,
@@ -263,11 +273,19 @@ def compare(session: Session, *, job_ids: Sequence[int], points: int | None = No
     seed stored by two jobs of one configuration counts once (the first job's run). Groups are
     folded one at a time, so memory grows with a group's episodes, not with the jobs compared.
     """
+    with _BUILDS:
+        try:
+            return _compare(session, job_ids=job_ids, points=points)
+        finally:
+            trim()
+
+
+def _compare(session: Session, *, job_ids: Sequence[int], points: int | None) -> dict[str, Any]:
     jobs = [get_job(session, job_id=job_id) for job_id in dict.fromkeys(job_ids)]
     succeeded = [job for job in jobs if job.status == SUCCEEDED]
     keys = list(dict.fromkeys((job.config_hash, a) for job in succeeded for a in job.config["algorithms"]))
     finals: dict[tuple[str, str], dict[int, float]] = {}
-    bands: dict[tuple[str, str], dict[str, list[float]]] = {}
+    bands: dict[tuple[str, str], dict[str, np.ndarray]] = {}
     contributors: dict[tuple[str, str], list[Job]] = {}
     for key in keys:
         config, algorithm = key
@@ -286,7 +304,7 @@ def compare(session: Session, *, job_ids: Sequence[int], points: int | None = No
                 finals[key][seed] = float(final_utilities(values)[0])
                 if job not in contributors[key]:
                     contributors[key].append(job)
-        bands[key] = stats.band(choose_points("points", points, episodes, len(keys) * _BAND_ARRAYS))
+        bands[key] = stats.band_arrays(choose_points("points", points, episodes, len(keys) * _BAND_ARRAYS))
     summaries: dict[str, dict] = {}
     for config in dict.fromkeys(h for h, _ in keys):
         summaries[config] = summarise({a: finals[(h, a)] for h, a in keys if h == config and finals[(h, a)]})

@@ -16,6 +16,7 @@ from backend.apidocs import install_api_docs
 from backend.db import Database
 from backend.errors import BadQuery, Conflict, InvalidSpec, NotFound
 from backend.limits import BodyLimit
+from backend.memory import return_large_blocks
 from backend.routes import compare, health, jobs, systems
 from backend.security import AllowedHosts, SameOriginWrites, SecurityHeaders, allowed_hosts
 from backend.settings import Settings
@@ -93,6 +94,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        return_large_blocks()
         db.migrate()
         yield
         db.dispose()
@@ -105,7 +107,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.settings = settings
     app.state.db = db
     _install_error_handlers(app)
-    faults.install(app)
+    faults.install(app)  # first of the middlewares: the innermost
     for module in (jobs, compare, systems, health):
         app.include_router(module.router)
 

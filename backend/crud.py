@@ -144,7 +144,7 @@ def decode_cursor(cursor: str, sort: str) -> tuple[Any, int]:
     try:
         raw = base64.urlsafe_b64decode(cursor + "=" * (-len(cursor) % 4))
         cursor_sort, key, job_id = json.loads(raw)
-        if cursor_sort != sort or not isinstance(job_id, int) or not isinstance(key, str):
+        if cursor_sort != sort or isinstance(job_id, bool) or not isinstance(job_id, int) or not isinstance(key, str):
             raise ValueError
         if sort.lstrip("-") == "created_at":
             key = datetime.fromisoformat(key)

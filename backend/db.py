@@ -50,12 +50,26 @@ class Database:
         Raises:
             DatabaseUnavailable: with the reason.
         """
+        if self.file is not None and not self.file.exists():
+            raise dialect.DatabaseUnavailable(f"the database file {self.file} is missing (moved or deleted)")
         dialect.probe_write(self.engine)
 
-    def migrate(self) -> None:
-        """Create the SQLite file if there is none, then bring the schema to the newest revision."""
+    def migrate(self, *, create_missing: bool = True) -> None:
+        """Bring the schema to the newest revision, creating a missing SQLite file if asked.
+
+        Only what starts a service (``mgrao serve``, ``mgrao migrate``, the app) creates the file.
+        A worker or dispatcher (re)starting while the file is gone must not bring it back empty, or
+        the service would accept jobs into a database nobody keeps.
+
+        Raises:
+            DatabaseUnavailable: the SQLite file does not exist and ``create_missing`` is False.
+        """
         if self.file is not None:
-            dialect.create_sqlite_file(self.file)
+            if create_missing:
+                dialect.create_sqlite_file(self.file)
+            elif not self.file.exists():
+                raise dialect.DatabaseUnavailable(f"the database file {self.file} does not exist "
+                                                  "(create it with `mgrao migrate` or `mgrao serve`)")
         upgrade(self.engine)
 
     def dispose(self) -> None:
@@ -74,6 +88,7 @@ def upgrade(engine: Engine) -> None:
     """Apply every pending migration in one write transaction (safe from several processes)."""
     config = alembic_config()
     with engine.connect() as connection:
+        dialect.relax_foreign_keys(connection)  # before the transaction: table rebuilds must not cascade
         connection.execution_options(**{dialect.WRITE_OPTION: True})
         dialect.lock_for_migration(connection)
         config.attributes["connection"] = connection

@@ -163,6 +163,18 @@ def begin_write(session: Session) -> None:
 MIGRATION_LOCK = 0x6D677261  # "mgra": the advisory lock key of schema migrations on PostgreSQL
 
 
+def relax_foreign_keys(connection: Any) -> None:
+    """SQLite: foreign-key enforcement off on this connection, for schema migrations.
+
+    A migration that rebuilds a table (SQLite cannot alter one in place) drops the old table,
+    which with enforcement on would delete every row that refers to it. It must be switched off
+    before a transaction begins (SQLite ignores it inside one): here on the driver's connection,
+    before SQLAlchemy starts the migration's transaction. Migrations check the keys themselves.
+    """
+    if connection.dialect.name == "sqlite":
+        connection.connection.driver_connection.execute("PRAGMA foreign_keys=OFF")
+
+
 def lock_for_migration(connection: Any) -> None:
     """Serialise schema migrations between processes that start together.
 

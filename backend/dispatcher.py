@@ -37,7 +37,7 @@ from backend import queue
 from backend.dask_tasks import PLUGIN_NAME, WarmUp, simulate_chunk
 from backend.db import Database
 from backend.heartbeats import Heartbeats
-from backend.retry import Backoff, Stopping, persist
+from backend.retry import Backoff, HealthClock, Stopping, persist
 from backend.settings import Settings
 from mgrao_core import ExperimentSpec, MgraoError, NumericalError, plan_chunks, spec_from_dict
 
@@ -82,7 +82,9 @@ class Dispatcher:
         self.shutdown = threading.Event()
         self.client: Client | None = None
         self.jobs: dict[int, _Job] = {}
-        self.beats = Heartbeats(self.db, heartbeat_s=settings.heartbeat_s, progress_s=settings.progress_s)
+        self.health = HealthClock()
+        self.beats = Heartbeats(self.db, heartbeat_s=settings.heartbeat_s, progress_s=settings.progress_s,
+                                health=self.health)
         self._threads = (0, 0.0)
 
     # ---- life cycle ------------------------------------------------------------------------------
@@ -102,7 +104,7 @@ class Dispatcher:
     def serve_forever(self) -> None:
         """Migrate, connect, then dispatch until :meth:`stop`; database and cluster faults are waited out."""
         try:
-            self._persist(self.db.migrate, "migrating the database")
+            self._persist(lambda: self.db.migrate(create_missing=False), "migrating the database")
         except Stopping:
             return
         self.beats.start()
@@ -169,7 +171,7 @@ class Dispatcher:
     # ---- jobs ------------------------------------------------------------------------------------
 
     def _persist(self, call: Any, what: str) -> Any:
-        return persist(call, what, self.shutdown)
+        return persist(call, what, self.shutdown, self.health)
 
     def _in_flight(self) -> int:
         return sum(len(job.running) for job in self.jobs.values())
@@ -188,9 +190,11 @@ class Dispatcher:
             job.running[job.key(chunk)] = chunk
 
     def _claim(self) -> bool:
+        requeue = self.health.steady_for(self.settings.stale_after_s)
         claim = self._persist(lambda: queue.claim(self.db, worker_id=self.dispatcher_id,
                                                   stale_after_s=self.settings.stale_after_s,
-                                                  max_attempts=self.settings.max_attempts), "claiming a job")
+                                                  max_attempts=self.settings.max_attempts, requeue=requeue),
+                              "claiming a job")
         if claim is None:
             return False
         log.info("dispatching job %s (attempt %s)", claim.job_id, claim.attempt)

@@ -12,7 +12,8 @@ import logging
 
 from fastapi import FastAPI, Request
 from fastapi.responses import JSONResponse
-from sqlalchemy.exc import SQLAlchemyError
+from sqlalchemy.exc import DBAPIError, InterfaceError, InternalError, OperationalError
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from backend.dialect import DatabaseUnavailable, reason
 
@@ -38,13 +39,47 @@ def install(app: FastAPI) -> None:
     async def unavailable(request: Request, error: DatabaseUnavailable) -> JSONResponse:
         return database_unavailable(request, str(error))
 
-    @app.exception_handler(SQLAlchemyError)
-    async def database_error(request: Request, error: SQLAlchemyError) -> JSONResponse:
+    @app.exception_handler(OperationalError)
+    @app.exception_handler(InterfaceError)
+    @app.exception_handler(InternalError)
+    async def database_error(request: Request, error: DBAPIError) -> JSONResponse:
+        # what the database reports about itself (unreachable, read-only, locked, missing tables);
+        # a malformed statement or argument is a bug, answered 500 by UnexpectedErrors
         log.warning("%s %s: database error: %s", request.method, request.url.path, reason(error))
         return database_unavailable(request, reason(error))
 
-    @app.exception_handler(Exception)
-    async def unexpected(request: Request, error: Exception) -> JSONResponse:
-        log.exception("%s %s failed", request.method, request.url.path)
-        return JSONResponse({"detail": f"internal error ({type(error).__name__}); see the service log"},
-                            status_code=500)
+    app.add_middleware(UnexpectedErrors)
+
+
+class UnexpectedErrors:
+    """Any other exception: a JSON 500, logged with its traceback (never Starlette's plain text).
+
+    Installed as the innermost middleware, so the answer still passes the outer ones (security
+    headers) and the connection stays usable.
+    """
+
+    def __init__(self, app: ASGIApp) -> None:
+        self.app = app
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        """Pass the request on; answer 500 if it raises before its answer started."""
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        started = False
+
+        async def tracking_send(message: Message) -> None:
+            nonlocal started
+            if message["type"] == "http.response.start":
+                started = True
+            await send(message)
+
+        try:
+            await self.app(scope, receive, tracking_send)
+        except Exception as error:
+            log.exception("%s %s failed", scope.get("method"), scope.get("path"))
+            if started:
+                raise
+            response = JSONResponse({"detail": f"internal error ({type(error).__name__}); see the service log"},
+                                    status_code=500)
+            await response(scope, receive, send)

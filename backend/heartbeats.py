@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from backend import queue
 from backend.db import Database
 from backend.dialect import reason
+from backend.retry import HealthClock
 
 log = logging.getLogger("mgrao.heartbeats")
 
@@ -33,9 +34,11 @@ class _Beat:
 class Heartbeats(threading.Thread):
     """Beats every job :meth:`add`-ed until it is :meth:`remove`-d or :meth:`close` is called."""
 
-    def __init__(self, db: Database, *, heartbeat_s: float, progress_s: float, name: str = "heartbeats") -> None:
+    def __init__(self, db: Database, *, heartbeat_s: float, progress_s: float, name: str = "heartbeats",
+                 health: HealthClock | None = None) -> None:
         super().__init__(name=name, daemon=True)
         self.db, self.heartbeat_s, self.progress_s = db, heartbeat_s, progress_s
+        self.health = health
         self._beats: dict[int, _Beat] = {}
         self._lock = threading.Lock()
         self._closed = threading.Event()
@@ -81,12 +84,17 @@ class Heartbeats(threading.Thread):
     def _beat(self, beat: _Beat) -> None:
         progress = beat.progress if beat.progress != beat.written else None
         try:
-            if not queue.heartbeat(self.db, claim=beat.claim, progress=progress):
-                with self._lock:
-                    beat.lost = True
-                return
+            ours = queue.heartbeat(self.db, claim=beat.claim, progress=progress)
         except Exception as error:  # a busy database must not stop the beats; the next one retries
+            if self.health is not None:
+                self.health.failure()
             log.warning("heartbeat of job %s failed: %s", beat.claim.job_id, reason(error))
+            return
+        if self.health is not None:
+            self.health.success()
+        if not ours:
+            with self._lock:
+                beat.lost = True
             return
         with self._lock:
             beat.last = time.monotonic()

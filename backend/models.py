@@ -45,6 +45,7 @@ class Job(Base):
         Index("ix_jobs_status_created", "status", "created_at", "id"),
         Index("ix_jobs_created", "created_at", "id"),
         Index("ix_jobs_name", "name", "id"),
+        {"sqlite_autoincrement": True},  # a deleted job's id is never reused (migration 0004)
     )
 
     id: Mapped[int] = mapped_column(ID, primary_key=True)

@@ -45,11 +45,12 @@ def _held(claim: Claim) -> tuple:
     return Job.id == claim.job_id, Job.lease == claim.lease, Job.status == RUNNING
 
 
-def has_work(session: Session, *, stale_after_s: float) -> bool:
-    """Whether a job is queued or a running job's heartbeat is stale (a read, no lock)."""
-    return bool(session.scalar(select(exists().where(
-        or_(Job.status == QUEUED, (Job.status == RUNNING) & _stale(session, stale_after_s))
-    ))))
+def has_work(session: Session, *, stale_after_s: float, look_for_stale: bool = True) -> bool:
+    """Whether a job is queued, or (if asked) a running job's heartbeat is stale: a read, no lock."""
+    claimable = Job.status == QUEUED
+    if look_for_stale:
+        claimable = or_(claimable, (Job.status == RUNNING) & _stale(session, stale_after_s))
+    return bool(session.scalar(select(exists().where(claimable))))
 
 
 def requeue_stale(session: Session, *, stale_after_s: float, max_attempts: int) -> list[int]:
@@ -81,13 +82,19 @@ def requeue_stale(session: Session, *, stale_after_s: float, max_attempts: int) 
     return changed
 
 
-def claim(db: Database, *, worker_id: str, stale_after_s: float, max_attempts: int) -> Claim | None:
-    """Atomically take the oldest queued job (re-queuing stale ones first), or None."""
+def claim(db: Database, *, worker_id: str, stale_after_s: float, max_attempts: int,
+          requeue: bool = True) -> Claim | None:
+    """Atomically take the oldest queued job, or None.
+
+    With ``requeue``, stale jobs are re-queued first; a process passes it only once it has seen
+    the database healthy for ``stale_after_s`` (see :class:`backend.retry.HealthClock`).
+    """
     with db.session() as session:
-        if not has_work(session, stale_after_s=stale_after_s):
+        if not has_work(session, stale_after_s=stale_after_s, look_for_stale=requeue):
             return None
     with db.write() as session:
-        requeue_stale(session, stale_after_s=stale_after_s, max_attempts=max_attempts)
+        if requeue:
+            requeue_stale(session, stale_after_s=stale_after_s, max_attempts=max_attempts)
         oldest = dialect.skip_locked(
             session, select(Job.id).where(Job.status == QUEUED).order_by(Job.created_at, Job.id).limit(1)
         ).scalar_subquery()

@@ -5,7 +5,7 @@ from __future__ import annotations
 from functools import lru_cache
 from typing import Annotated
 
-from pydantic import Field, field_validator
+from pydantic import Field, field_validator, model_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
 
 from mgrao_core.budget import MAX_CHUNK_BYTES
@@ -37,6 +37,15 @@ class Settings(BaseSettings):
     dask_address: str | None = Field(
         None, description="The Dask scheduler `mgrao dispatcher` sends chunks to, e.g. tcp://scheduler:8786.")
     host: str = "127.0.0.1"
+
+    @model_validator(mode="after")
+    def _heartbeats_within_the_stale_period(self) -> Settings:
+        if self.stale_after_s < 2 * self.heartbeat_s:
+            raise ValueError(
+                f"MGRAO_STALE_AFTER_S ({self.stale_after_s:g}) must be at least twice MGRAO_HEARTBEAT_S "
+                f"({self.heartbeat_s:g}), or live jobs would be re-queued between two heartbeats"
+            )
+        return self
 
     @property
     def job_memory_bytes(self) -> int:

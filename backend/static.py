@@ -137,8 +137,9 @@ class CompressAssets(GZipMiddleware):
     """
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        """Compress unless the path is under ``/api/``."""
-        if scope["type"] == "http" and scope.get("path", "").startswith("/api/"):
+        """Compress unless the path is under ``/api/`` or the client's Accept-Encoding refuses gzip."""
+        if scope["type"] == "http" and (scope.get("path", "").startswith("/api/")
+                                        or not accepts_gzip(Request(scope))):
             await self.app(scope, receive, send)
             return
         await super().__call__(scope, receive, send)

@@ -22,7 +22,7 @@ from backend import queue
 from backend.db import Database
 from backend.dialect import reason
 from backend.heartbeats import Heartbeats
-from backend.retry import Backoff, Stopping, persist
+from backend.retry import Backoff, HealthClock, Stopping, persist
 from backend.settings import Settings
 
 log = logging.getLogger("mgrao.worker")
@@ -42,6 +42,7 @@ class Worker:
         self.db = Database(settings.database_url, settings.db_busy_timeout_s)
         self.worker_id = worker_id or f"{socket.gethostname()}:{os.getpid()}"
         self.shutdown = threading.Event()
+        self.health = HealthClock()
 
     def stop(self, *_: object) -> None:
         """Ask the worker to stop (the running job is handed back to the queue)."""
@@ -63,14 +64,19 @@ class Worker:
 
     def persist(self, call: Callable[[], T], what: str) -> T:
         """``call()``, retried on database errors until it succeeds (see :mod:`backend.retry`)."""
-        return persist(call, what, self.shutdown)
+        return persist(call, what, self.shutdown, self.health)
 
     def run_once(self) -> bool:
         """Claim and run one job; False when the queue was empty."""
-        claim = queue.claim(
-            self.db, worker_id=self.worker_id, stale_after_s=self.settings.stale_after_s,
-            max_attempts=self.settings.max_attempts,
-        )
+        try:
+            claim = queue.claim(
+                self.db, worker_id=self.worker_id, stale_after_s=self.settings.stale_after_s,
+                max_attempts=self.settings.max_attempts, requeue=self.health.steady_for(self.settings.stale_after_s),
+            )
+        except Exception:
+            self.health.failure()
+            raise
+        self.health.success()
         if claim is None:
             return False
         try:
@@ -86,7 +92,7 @@ class Worker:
         log.info("worker %s runs job %s (attempt %s)", self.worker_id, claim.job_id, claim.attempt)
         budget = self.settings.job_memory_bytes
         beats = Heartbeats(self.db, heartbeat_s=self.settings.heartbeat_s, progress_s=self.settings.progress_s,
-                           name=f"heartbeat-{claim.job_id}")
+                           name=f"heartbeat-{claim.job_id}", health=self.health)
         beats.add(claim)
         beats.start()
 
@@ -145,7 +151,7 @@ class Worker:
     def serve_forever(self, *, warm_up: bool = True) -> None:
         """Migrate, warm up, then run jobs until :meth:`stop`; database errors are waited out."""
         try:
-            self.persist(self.db.migrate, "migrating the database")
+            self.persist(lambda: self.db.migrate(create_missing=False), "migrating the database")
         except Stopping:
             return
         if warm_up:

@@ -69,8 +69,11 @@ def _progress(label: str, show: bool) -> Iterator[Any]:
 
 def _emit(text: str, out: str | None) -> None:
     if out:
-        with open(out, "w", encoding="utf-8") as handle:
-            handle.write(text if text.endswith("\n") else text + "\n")
+        try:
+            with open(out, "w", encoding="utf-8") as handle:
+                handle.write(text if text.endswith("\n") else text + "\n")
+        except OSError as error:
+            raise click.FileError(out, hint=error.strerror or str(error)) from None
         click.echo(f"wrote {out}", err=True)
     else:
         click.echo(text.rstrip("\n"))

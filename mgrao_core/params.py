@@ -272,15 +272,17 @@ def _coerce(param: Parameter, value: Any) -> Any:
             raise ConfigError(param.name, f"must be a whole number (got {value})")
         value = int(value)
     else:
-        value = float(value)
+        try:
+            value = float(value) + 0.0  # + 0.0: -0.0 is 0.0
+        except OverflowError:  # an integer of hundreds of digits
+            raise ConfigError(param.name, "must be a finite number (got a number too large)") from None
         if not math.isfinite(value):
             raise ConfigError(param.name, "must be a finite number")
     low_ok = value > param.minimum if param.exclusive_minimum else value >= param.minimum
     if not low_ok or value > param.maximum:
         low = "(" if param.exclusive_minimum else "["
-        raise ConfigError(
-            param.name, f"must be in {low}{param.minimum:g}, {param.maximum:g}] (got {value:g})"
-        )
+        shown = f"{value:g}" if abs(value) < 1e15 else "a number too large"
+        raise ConfigError(param.name, f"must be in {low}{param.minimum:g}, {param.maximum:g}] (got {shown})")
     return value
 
 

@@ -147,6 +147,10 @@ class EpisodeStats:
             ``{"episode": [...], "mean": [...], "low": [...], "high": [...]}``; ``episode`` is the
             bucket's first episode (0-based). With one run the band collapses onto the mean.
         """
+        return {key: values.tolist() for key, values in self.band_arrays(points).items()}
+
+    def band_arrays(self, points: int | None = None) -> dict[str, np.ndarray]:
+        """:meth:`band` as numpy arrays (for serialising without a Python object per value)."""
         if points is not None and points < 1:
             raise ConfigError("points", f"must be at least 1 (got {points})")
         episodes = self.mean.shape[0]
@@ -161,12 +165,7 @@ class EpisodeStats:
             starts = edges[:-1]
             mean = np.add.reduceat(mean, starts) / np.diff(edges)
             half = np.add.reduceat(half, starts) / np.diff(edges)
-        return {
-            "episode": starts.tolist(),
-            "mean": mean.tolist(),
-            "low": (mean - half).tolist(),
-            "high": (mean + half).tolist(),
-        }
+        return {"episode": starts, "mean": mean, "low": mean - half, "high": mean + half}
 
 
 def episode_band(utilities: np.ndarray, points: int | None = None) -> dict[str, list[float]]:

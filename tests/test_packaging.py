@@ -40,3 +40,27 @@ def test_compose_file_is_valid():
         capture_output=True, text=True, cwd=ROOT,
     )
     assert result.returncode == 0, result.stderr
+
+
+@pytest.mark.skipif(shutil.which("docker-compose") is None, reason="docker-compose is not installed")
+def test_the_cluster_profile_has_every_service_with_its_health_check_and_one_image():
+    import yaml
+
+    result = subprocess.run(["docker-compose", "-f", str(ROOT / "docker-compose.yml"), "--profile", "cluster",
+                             "config"], capture_output=True, text=True, cwd=ROOT, check=True)
+    services = yaml.safe_load(result.stdout)["services"]
+    assert {"postgres", "migrate", "api", "dispatcher", "dask-scheduler", "dask-worker", "mgrao"} <= set(services)
+    assert "pg_isready" in " ".join(services["postgres"]["healthcheck"]["test"])
+    assert "/api/health" in " ".join(services["api"]["healthcheck"]["test"])
+    assert "8787/health" in " ".join(services["dask-scheduler"]["healthcheck"]["test"])
+    assert services["migrate"]["command"] == ["mgrao", "migrate"] and services["migrate"]["restart"] == "no"
+    assert services["api"]["command"][-2:] == ["--workers", "0"]
+    assert services["api"]["depends_on"]["migrate"]["condition"] == "service_completed_successfully"
+    assert services["dispatcher"]["command"] == ["mgrao", "dispatcher"]
+    assert services["dispatcher"]["environment"]["MGRAO_DASK_ADDRESS"] == "tcp://dask-scheduler:8786"
+    assert services["dask-worker"]["scale"] >= 2 and services["dask-worker"]["restart"] == "unless-stopped"
+    images = {services[name]["image"] for name in ("api", "dispatcher", "dask-scheduler", "dask-worker", "migrate")}
+    assert images == {services["mgrao"]["image"]}  # one image: versions match across the cluster
+    assert services["api"]["environment"]["MGRAO_DATABASE_URL"].startswith("postgresql+psycopg://")
+    published = [p for s in services.values() for p in s.get("ports", [])]
+    assert all(str(p.get("host_ip", p) if isinstance(p, dict) else p).startswith("127.0.0.1") for p in published)

@@ -65,13 +65,13 @@ def list_jobs(
     return JSONResponse({"data": [crud.job_dict(job) for job in jobs], "next_cursor": next_cursor, "count": total})
 
 
-@router.get("/{job_id}", response_model=JobOut)
+@router.get("/{job_id:int}", response_model=JobOut)
 def read_job(job_id: JobId, session: SessionDep) -> dict:
     """One job."""
     return crud.job_dict(crud.get_job(session, job_id=job_id))
 
 
-@router.patch("/{job_id}", response_model=JobOut, dependencies=[Authorized])
+@router.patch("/{job_id:int}", response_model=JobOut, dependencies=[Authorized])
 def patch_job(job_id: JobId, body: JobPatch, db: DatabaseDep) -> dict:
     """Change a job's name, tags or notes."""
     with db.write() as session:
@@ -80,7 +80,7 @@ def patch_job(job_id: JobId, body: JobPatch, db: DatabaseDep) -> dict:
         return crud.job_dict(job)
 
 
-@router.post("/{job_id}/cancel", response_model=JobOut, dependencies=[Authorized])
+@router.post("/{job_id:int}/cancel", response_model=JobOut, dependencies=[Authorized])
 def cancel_job(job_id: JobId, db: DatabaseDep) -> dict:
     """Cancel a queued or running job (409 otherwise)."""
     with db.write() as session:
@@ -89,7 +89,7 @@ def cancel_job(job_id: JobId, db: DatabaseDep) -> dict:
         return crud.job_dict(job)
 
 
-@router.delete("/{job_id}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[Authorized])
+@router.delete("/{job_id:int}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[Authorized])
 def delete_job(job_id: JobId, db: DatabaseDep) -> Response:
     """Delete a job that is not running, with its results (409 if running)."""
     with db.write() as session:
@@ -97,14 +97,29 @@ def delete_job(job_id: JobId, db: DatabaseDep) -> Response:
     return Response(status_code=status.HTTP_204_NO_CONTENT)
 
 
-@router.get("/{job_id}/results")
+@router.get("/{job_id:int}/results")
 def job_results(job_id: JobId, session: SessionDep, points: Points = None, include_seeds: bool = False) -> Response:
     """Per configuration: summary, episode band, mean final weights (and each seed's curve)."""
-    body = analysis.job_results_json(session, job_id=job_id, points=points, include_seeds=include_seeds)
-    return Response(body, media_type="application/json")
+    head, body = analysis.job_results_parts(session, job_id=job_id, points=points, include_seeds=include_seeds)
+    return StreamingResponse(_slices(head, body), media_type="application/json",
+                             headers={"Content-Length": str(len(head) + len(body) - 1)})
 
 
-@router.get("/{job_id}/episodes")
+SLICE_BYTES = 1024**2
+
+
+def _slices(head: bytes, body: bytes) -> Iterator[bytes | memoryview]:
+    """The head, then the body without its opening brace, a megabyte at a time.
+
+    Views of the (cached) bytes: no answer is copied whole, and a slow reader holds back one slice.
+    """
+    yield head
+    view = memoryview(body)
+    for start in range(1, len(body), SLICE_BYTES):
+        yield view[start : start + SLICE_BYTES]
+
+
+@router.get("/{job_id:int}/episodes")
 def job_episodes(job_id: JobId, db: DatabaseDep, format: Literal["csv", "json"] = "csv") -> StreamingResponse:
     """Every stored episode utility of the job, streamed as CSV or JSON (partial while it runs)."""
     with db.session() as session:

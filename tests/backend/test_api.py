@@ -324,3 +324,47 @@ def test_new_environment_parameters_are_accepted_and_stored_resolved(client: Tes
     assert params["half_saturation"] == 0.2 and params["absent_tasks"] == "excluded"
     schema = {p["name"]: p for p in client.get("/api/systems").json()["parameters"]}
     assert schema["load_sharing"]["kind"] == "bool" and schema["quality_model"]["default"] == "hyperbolic"
+
+
+def test_a_number_of_hundreds_of_digits_is_422_not_500(client: TestClient) -> None:
+    body = '{"system": "single", "seeds": 2, "episodes": 3, "params": {"learning_rate": 1' + "0" * 400 + "}}"
+    response = client.post("/api/jobs", content=body, headers={"Content-Type": "application/json"})
+    assert response.status_code == 422, response.text
+    assert response.json()["detail"][0]["field"] == "learning_rate"
+
+
+def test_an_unexpected_error_is_a_json_500_with_the_security_headers(settings) -> None:
+    from backend.app import create_app
+
+    app = create_app(settings)
+
+    def boom() -> None:
+        raise RuntimeError("a bug")
+
+    app.add_api_route("/api/test-only-boom", boom)
+    app.router.routes.insert(0, app.router.routes.pop())  # before the dashboard's mount at "/"
+
+    with TestClient(app, base_url="http://127.0.0.1", raise_server_exceptions=False) as local:
+        response = local.get("/api/test-only-boom")
+        assert response.status_code == 500
+        assert response.json() == {"detail": "internal error (RuntimeError); see the service log"}
+        assert "default-src" in response.headers["content-security-policy"]
+        assert response.headers["x-content-type-options"] == "nosniff"
+        assert local.get("/api/health").status_code == 200  # the service goes on
+
+
+def test_a_deleted_jobs_id_is_never_given_to_a_new_job(client: TestClient) -> None:
+    first = submit(client)["id"]
+    newest = submit(client)["id"]
+    assert client.delete(f"/api/jobs/{newest}", headers={"Content-Type": "application/json"}).status_code == 204
+    again = submit(client)["id"]
+    assert again > newest > first
+
+
+def test_a_stale_period_shorter_than_two_heartbeats_is_refused_naming_both() -> None:
+    from pydantic import ValidationError
+
+    from backend.settings import Settings
+
+    with pytest.raises(ValidationError, match="MGRAO_STALE_AFTER_S .5. must be at least twice MGRAO_HEARTBEAT_S .5."):
+        Settings(stale_after_s=5, heartbeat_s=5)

@@ -9,14 +9,16 @@ where the file system has no such flag the tests that need it skip, saying so.
 
 from __future__ import annotations
 
+import os
 import shutil
+import signal
 import sqlite3
 import subprocess
 import time
 from pathlib import Path
 
 import pytest
-from backend_helpers import JSON, Service
+from backend_helpers import JSON, Service, children
 
 pytestmark = pytest.mark.slow
 SMALL = {"system": "single", "seeds": 2, "episodes": 10}
@@ -123,7 +125,7 @@ def test_deleted_database_directory(tmp_path: Path) -> None:
         _wait_succeeded(service, service.post("/api/jobs", json=SMALL).json()["id"])
         shutil.rmtree(directory)
         health = service.get("/api/health")
-        assert health.status_code == 503 and "unable to open" in health.json()["database"], health.text
+        assert health.status_code == 503 and "is missing (moved or deleted)" in health.json()["database"], health.text
         acknowledged, codes = _submit(service, 13)
         assert acknowledged == 0 and set(codes) == {503}
         time.sleep(2)
@@ -140,7 +142,7 @@ def test_moved_database_file(service: Service) -> None:
     moved = db_file.with_name("moved.db")
     db_file.rename(moved)
     health = service.get("/api/health")
-    assert health.status_code == 503, health.text
+    assert health.status_code == 503 and "is missing (moved or deleted)" in health.json()["database"], health.text
     acknowledged, codes = _submit(service, 5)
     assert acknowledged == 0 and set(codes) == {503}
     moved.rename(db_file)
@@ -190,3 +192,25 @@ def test_a_worker_started_on_a_read_only_database_waits_and_then_works(service: 
     immutable(db_file, False)
     _wait_succeeded(service, job)
     assert _alive(lone, service.server)
+
+
+def test_a_restarted_worker_does_not_bring_back_a_missing_database(service: Service) -> None:
+    _fast_faults(service)
+    service.start_server(workers=1)
+    db_file = Path(service.db_url.removeprefix("sqlite:///"))
+    _wait_succeeded(service, service.post("/api/jobs", json=SMALL).json()["id"])
+    moved = db_file.with_name("moved.db")
+    db_file.rename(moved)
+    for pid in children(service.server.pid):  # the supervisor restarts the worker it loses
+        os.kill(pid, signal.SIGKILL)
+    service.wait_for(lambda: len(children(service.server.pid)) >= 1 and not db_file.exists(), what="restart")
+    time.sleep(3)  # the new worker tries to migrate meanwhile
+    assert not db_file.exists()  # nothing recreated it empty
+    assert service.get("/api/health").status_code == 503
+    acknowledged, codes = _submit(service, 5)
+    assert acknowledged == 0 and set(codes) == {503}
+    moved.rename(db_file)
+    service.wait_for(lambda: service.get("/api/health").status_code == 200, what="health after moving back")
+    later = service.post("/api/jobs", json=SMALL).json()["id"]
+    _wait_succeeded(service, later)  # the restarted worker found the file and works
+    assert _stored_jobs(db_file) == 2

@@ -17,6 +17,7 @@ import sqlalchemy as sa
 from alembic import command
 from sqlalchemy import create_engine, select, text
 
+from backend import crud
 from backend.crud import config_hash
 from backend.db import Database, alembic_config
 from backend.models import Job, Run
@@ -164,5 +165,40 @@ def test_processes_that_start_together_migrate_a_new_database_once(db_url: str) 
     try:
         with db.session() as session:
             assert session.execute(text("SELECT count(*) FROM alembic_version")).scalar() == 1
+    finally:
+        db.dispose()
+
+
+def test_rebuilding_jobs_for_ids_keeps_every_run_and_tag_and_their_cascades(settings, db_url: str) -> None:
+    engine = create_engine(db_url)
+    config = alembic_config()
+    with engine.connect() as connection:
+        config.attributes["connection"] = connection
+        command.upgrade(config, "0003")
+        connection.commit()
+    with engine.begin() as connection:
+        for i in range(3):
+            _insert_job(connection, LEGACY["jobs"][0]["config"], LEGACY["jobs"][0]["config_hash"], f"j{i}",
+                        datetime(2026, 11, 3))
+        connection.execute(text("INSERT INTO job_tags (job_id, tag) VALUES (1, 'a'), (2, 'b'), (3, 'c')"))
+        for job_id in (1, 2, 3):
+            connection.execute(text(
+                "INSERT INTO runs (job_id, algorithm, seed, episodes, utilities, combined_weights, group_weights,"
+                " group_shape) VALUES (:j, 'uniform', 0, 1, :u, :u, :u, '[1, 0, 20]')"), {"j": job_id, "u": b"x" * 8})
+    engine.dispose()
+    db = Database(db_url)
+    db.migrate()
+    try:
+        with db.session() as session:
+            assert session.execute(text("SELECT count(*) FROM runs")).scalar() == 3
+            assert session.execute(text("SELECT count(*) FROM job_tags")).scalar() == 3
+        with db.write() as session:
+            crud.delete_job(session, job_id=3)
+        with db.session() as session:  # the cascade still reaches the runs and tags
+            assert session.execute(text("SELECT count(*) FROM runs")).scalar() == 2
+            assert session.execute(text("SELECT count(*) FROM job_tags")).scalar() == 2
+        with db.write() as session:
+            new = crud.create_job(session, spec=make_spec("single", seeds=1, episodes=2)).id
+        assert new == 4  # not 3
     finally:
         db.dispose()

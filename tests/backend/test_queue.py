@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from datetime import timedelta
 
 import numpy as np
@@ -152,7 +153,11 @@ def test_a_retried_job_computes_only_the_missing_seeds_and_equals_an_unsplit_run
     age_heartbeat(db, job_id, 3600)  # the worker died: its lease lapses
     worker = Worker(settings, worker_id="next")
     try:
-        assert worker.run_once()
+        # a worker re-queues others' stale jobs once it has seen the database healthy for stale_after_s
+        deadline = time.monotonic() + 30
+        while not worker.run_once():
+            assert time.monotonic() < deadline, "the stale job was never taken over"
+            time.sleep(0.05)
     finally:
         worker.db.dispose()
     whole = {(r.algorithm, r.seed): r for r in run_experiment(spec).runs}
@@ -240,3 +245,29 @@ def test_stale_requeue_never_takes_a_job_that_beat_meanwhile(db: Database) -> No
     with db.write() as session:
         assert queue.requeue_stale(session, stale_after_s=5, max_attempts=3) == []
     assert queue.heartbeat(db, claim=claim) is True
+
+
+def test_after_an_outage_no_one_judges_heartbeats_stale_until_the_database_was_healthy_for_the_period(
+        db: Database, settings: Settings) -> None:
+    # during an outage every heartbeat stops, a live worker's too: right after it, a heartbeat older than
+    # stale_after_s proves nothing, and re-queuing would cost the job an attempt while its worker lives
+    job_id = add_job(db)
+    holder = queue.claim(db, worker_id="holder", stale_after_s=settings.stale_after_s, max_attempts=3)
+    age_heartbeat(db, job_id, 10 * settings.stale_after_s)  # no beat got through during the outage
+    other = Worker(settings, worker_id="other")
+    try:
+        other.health.failure()  # it saw the outage too
+        assert other.run_once() is False  # not yet entitled to judge: the job stays with its worker
+        assert queue.heartbeat(db, claim=holder) is True  # the live holder beats again
+        time.sleep(settings.stale_after_s + 0.1)
+        assert queue.heartbeat(db, claim=holder) is True
+        assert other.run_once() is False  # healthy for the period now, and the heartbeat is fresh
+        with db.session() as session:
+            job = session.get(Job, job_id)
+            assert (job.status, job.lease, job.attempts) == ("running", holder.lease, 1)
+        age_heartbeat(db, job_id, 10 * settings.stale_after_s)  # now the holder really is gone
+        assert other.run_once() is True  # taken over (and run to the end)
+        with db.session() as session:
+            assert session.get(Job, job_id).attempts == 2
+    finally:
+        other.db.dispose()

@@ -127,3 +127,8 @@ def test_real_server_head_and_gzip(live_server: str) -> None:
         assert response.headers["content-encoding"] == "gzip" and gzip.decompress(body) == raw
         assert response.headers["cache-control"] == "public, max-age=31536000, immutable"
         assert http.get("/js/app.js").headers["cache-control"] == "no-cache"
+
+
+def test_gzip_refused_with_q_zero_is_not_sent(client) -> None:
+    response = client.get("/js/app.js", headers={"Accept-Encoding": "gzip;q=0"})
+    assert response.status_code == 200 and "content-encoding" not in response.headers

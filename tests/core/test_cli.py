@@ -201,3 +201,14 @@ def test_first_seed_runs_the_calibration_seeds(runner):
     assert json.loads(table.stdout)["first_seed"] == 10000
     too_far = _run(runner, "run", "--system", "single", "--seeds", "3", "--first-seed", str(2**32 - 2))
     assert too_far.exit_code == 2 and "--first-seed" in too_far.output
+
+
+def test_out_to_a_device_that_refuses_writes_is_a_clean_error(runner):
+    import pathlib
+
+    if not pathlib.Path("/dev/full").exists():
+        pytest.skip("no /dev/full here")
+    result = runner.invoke(cli, ["run", "--system", "single", "--seeds", "1", "--episodes", "2", "--out", "/dev/full"])
+    assert result.exit_code != 0
+    assert "/dev/full" in result.output and "Traceback" not in result.output
+    assert not isinstance(result.exception, OSError)

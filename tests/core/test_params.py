@@ -172,3 +172,25 @@ def test_every_float_has_finite_documented_bounds():
             assert p.minimum is not None and math.isfinite(p.minimum), p.name
             assert p.maximum is not None and math.isfinite(p.maximum), p.name
             assert p.minimum >= 0, p.name
+
+
+@pytest.mark.parametrize("name", [p.name for p in PARAMETERS if p.kind == "float"])
+def test_a_number_of_hundreds_of_digits_is_refused_naming_the_field(name):
+    with pytest.raises(ConfigError) as info:
+        make_params({name: 10**400})
+    assert info.value.field == name and "finite" in info.value.message
+
+
+def test_negative_zero_is_zero():
+    params = make_params({"resource_sd": -0.0, "value_noise": "-0.0"})
+    assert math.copysign(1.0, params.resource_sd) == 1.0
+    assert math.copysign(1.0, params.value_noise) == 1.0
+    from mgrao_core import make_spec, run_experiment
+
+    run_experiment(make_spec("single", seeds=1, episodes=2, overrides={"resource_sd": -0.0}))  # numpy refused -0.0
+
+
+def test_a_huge_integer_for_an_int_parameter_names_the_limit():
+    with pytest.raises(ConfigError) as info:
+        make_params({"n_parents": 10**400})
+    assert "[1, 1000]" in info.value.message and "too large" in info.value.message
