@@ -13,8 +13,7 @@ from __future__ import annotations
 import json
 import math
 import threading
-from collections import OrderedDict
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from typing import Any
 
 import numpy as np
@@ -22,6 +21,7 @@ import orjson
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
+from backend.cache import AnswerCache
 from backend.crud import get_job, job_dict
 from backend.errors import BadQuery, Conflict
 from backend.memory import trim
@@ -155,68 +155,7 @@ def _configurations(session: Session, job: Job, points: int | None, include_seed
     return {"points": used, "configurations": configurations}
 
 
-class _ResultsCache:
-    """Serialized results of succeeded jobs (immutable once stored), least recently used out.
-
-    Each entry is built once, however many requests ask for it at the same time: the first builds,
-    the others wait for it. An entry larger than the cap is served but not kept. Entries are keyed
-    by the job's id, configuration hash and finish time, so a deleted job's id reused by a new job
-    never hits an old entry.
-    """
-
-    def __init__(self, max_bytes: int = 64 * 1024**2) -> None:
-        self.max_bytes = max_bytes
-        self._entries: OrderedDict[tuple, bytes] = OrderedDict()
-        self._size = 0
-        self._building: dict[tuple, threading.Event] = {}
-        self._lock = threading.Lock()
-        self.builds = 0
-
-    def get_or_build(self, key: tuple, build: Callable[[], bytes]) -> bytes:
-        """The cached bytes of ``key``, built by one caller when missing."""
-        while True:
-            with self._lock:
-                if key in self._entries:
-                    self._entries.move_to_end(key)
-                    return self._entries[key]
-                pending = self._building.get(key)
-                if pending is None:
-                    pending = self._building[key] = threading.Event()
-                    break
-            pending.wait()  # another request builds it; then look again (it may not have been kept)
-            with self._lock:
-                if key in self._entries:
-                    self._entries.move_to_end(key)
-                    return self._entries[key]
-                if key not in self._building:
-                    return self._build_uncached(key, build)
-        try:
-            value = build()
-            with self._lock:
-                self.builds += 1
-                if len(value) <= self.max_bytes:
-                    self._entries[key] = value
-                    self._size += len(value)
-                    while self._size > self.max_bytes:
-                        _, evicted = self._entries.popitem(last=False)
-                        self._size -= len(evicted)
-            return value
-        finally:
-            with self._lock:
-                self._building.pop(key).set()
-
-    def _build_uncached(self, key: tuple, build: Callable[[], bytes]) -> bytes:
-        with self._lock:
-            self.builds += 1
-        return build()
-
-    @property
-    def size(self) -> int:
-        """Bytes held."""
-        return self._size
-
-
-RESULTS_CACHE = _ResultsCache()
+RESULTS_CACHE = AnswerCache()
 
 
 def dumps(value: Any) -> bytes:

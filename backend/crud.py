@@ -48,6 +48,7 @@ def job_dict(job: Job) -> dict[str, Any]:
         "status": job.status, "progress": job.progress, "attempts": job.attempts, "error": job.error,
         "created_at": iso(job.created_at), "started_at": iso(job.started_at),
         "finished_at": iso(job.finished_at), "duration_s": duration, "version": job.version,
+        "study_id": job.study_id, "trial_id": job.trial_id,
     }
 
 
@@ -58,13 +59,15 @@ def _set_tags(session: Session, job: Job, tags: Sequence[str]) -> None:
 
 
 def create_job(
-    session: Session, *, spec: ExperimentSpec, name: str = "", tags: Sequence[str] = (), notes: str = ""
+    session: Session, *, spec: ExperimentSpec, name: str = "", tags: Sequence[str] = (), notes: str = "",
+    study_id: int | None = None, trial_id: int | None = None,
 ) -> Job:
-    """Add a queued job for a validated spec (the caller commits)."""
+    """Add a queued job for a validated spec (the caller commits); a study's trial names its study and trial."""
     config = spec.as_dict()
     job = Job(
         name=name, notes=notes, system=spec.system, config=config, config_hash=config_hash(config),
         status=QUEUED, progress=0.0, attempts=0, version=mgrao_core.__version__, created_at=utcnow(),
+        study_id=study_id, trial_id=trial_id,
     )
     _set_tags(session, job, tags)
     session.add(job)

@@ -33,7 +33,7 @@ from typing import Any
 
 from distributed import Client, Future, KilledWorker, wait
 
-from backend import queue
+from backend import queue, studies
 from backend.dask_tasks import PLUGIN_NAME, WarmUp, simulate_chunk
 from backend.db import Database
 from backend.heartbeats import Heartbeats
@@ -276,11 +276,13 @@ class Dispatcher:
                                  f"finishing job {job.claim.job_id}")
         log.info("job %s %s", job.claim.job_id, "succeeded" if finished else "was cancelled or taken over")
         self._drop(job)
+        studies.advance_after(self.db, job.claim.job_id)
 
     def _fail(self, claim: queue.Claim, message: str, discard_runs: bool = False) -> None:
         log.warning("job %s failed: %s", claim.job_id, message)
         self._persist(lambda: queue.fail(self.db, claim=claim, error=message, discard_runs=discard_runs),
                       f"failing job {claim.job_id}")
+        studies.advance_after(self.db, claim.job_id)
 
     def _drop(self, job: _Job) -> None:
         """Forget a job: cancel what it has in flight, stop its heartbeats."""

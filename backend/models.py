@@ -66,6 +66,10 @@ class Job(Base):
     created_at: Mapped[datetime] = mapped_column(DateTime, default=utcnow)
     started_at: Mapped[datetime | None] = mapped_column(DateTime, nullable=True)
     finished_at: Mapped[datetime | None] = mapped_column(DateTime, nullable=True)
+    study_id: Mapped[int | None] = mapped_column(ID, ForeignKey("studies.id", ondelete="CASCADE"), nullable=True,
+                                                 index=True)
+    trial_id: Mapped[int | None] = mapped_column(ID, ForeignKey("trials.id", ondelete="SET NULL"), nullable=True,
+                                                 index=True)
 
     tag_rows: Mapped[list[JobTag]] = relationship(cascade="all, delete-orphan", passive_deletes=True)
 
@@ -98,3 +102,55 @@ class Run(Base):
     combined_weights: Mapped[bytes] = mapped_column(LargeBinary)
     group_weights: Mapped[bytes] = mapped_column(LargeBinary)
     group_shape: Mapped[list[int]] = mapped_column(JSON)
+
+
+STUDY_RUNNING, STUDY_FINISHED = "running", "finished"
+STUDY_STATUSES = (STUDY_RUNNING, STUDY_FINISHED, CANCELLED)
+
+
+class Study(Base):
+    """A search over parameters: its validated definition (:class:`mgrao_core.search.StudyPlan`) and state.
+
+    ``revision`` grows with every change of the study or its trials (answers are cached by it).
+    """
+
+    __tablename__ = "studies"
+    __table_args__ = (Index("ix_studies_created", "created_at", "id"), {"sqlite_autoincrement": True})
+
+    id: Mapped[int] = mapped_column(ID, primary_key=True)
+    name: Mapped[str] = mapped_column(String(200), default="")
+    method: Mapped[str] = mapped_column(String(16))
+    definition: Mapped[dict[str, Any]] = mapped_column(JSON)
+    status: Mapped[str] = mapped_column(String(16), default=STUDY_RUNNING, index=True)
+    planned: Mapped[int] = mapped_column(Integer)
+    best_trial: Mapped[int | None] = mapped_column(Integer, nullable=True)
+    best_value: Mapped[float | None] = mapped_column(Float, nullable=True)
+    revision: Mapped[int] = mapped_column(Integer, default=0)
+    version: Mapped[str] = mapped_column(String(32))
+    created_at: Mapped[datetime] = mapped_column(DateTime, default=utcnow)
+    finished_at: Mapped[datetime | None] = mapped_column(DateTime, nullable=True)
+
+
+class Trial(Base):
+    """One point of a study: its parameters, its jobs (one per system, ``Job.trial_id``) and its objective.
+
+    ``number`` is the trial's place in the study (a grid's cell); unique per study, so a cell is made
+    once however many processes advance the study.
+    """
+
+    __tablename__ = "trials"
+    __table_args__ = (UniqueConstraint("study_id", "number", name="uq_trials_study_number"),
+                      Index("ix_trials_study_status", "study_id", "status"))
+
+    id: Mapped[int] = mapped_column(ID, primary_key=True)
+    study_id: Mapped[int] = mapped_column(ID, ForeignKey("studies.id", ondelete="CASCADE"))
+    number: Mapped[int] = mapped_column(Integer)
+    params: Mapped[dict[str, Any]] = mapped_column(JSON)
+    status: Mapped[str] = mapped_column(String(16), default=QUEUED)
+    value: Mapped[float | None] = mapped_column(Float, nullable=True)
+    low: Mapped[float | None] = mapped_column(Float, nullable=True)
+    high: Mapped[float | None] = mapped_column(Float, nullable=True)
+    error: Mapped[str | None] = mapped_column(Text, nullable=True)
+    runs: Mapped[int] = mapped_column(Integer, default=0)
+    created_at: Mapped[datetime] = mapped_column(DateTime, default=utcnow)
+    finished_at: Mapped[datetime | None] = mapped_column(DateTime, nullable=True)

@@ -75,6 +75,8 @@ class JobOut(BaseModel):
     finished_at: str | None
     duration_s: float | None
     version: str
+    study_id: int | None = None
+    trial_id: int | None = None
 
 
 class JobPage(BaseModel):

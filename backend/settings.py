@@ -34,6 +34,9 @@ class Settings(BaseSettings):
         30.0, gt=0, le=3600,
         description="How long a database call waits for another process's write lock before answering 503.",
     )
+    study_poll_s: float = Field(2.0, gt=0, le=3600,
+                                description="How often the API advances running studies (their trials also "
+                                            "advance them as they end).")
     dask_address: str | None = Field(
         None, description="The Dask scheduler `mgrao dispatcher` sends chunks to, e.g. tcp://scheduler:8786.")
     host: str = "127.0.0.1"

@@ -18,7 +18,7 @@ from collections.abc import Callable
 from types import FrameType
 from typing import TypeVar
 
-from backend import queue
+from backend import queue, studies
 from backend.db import Database
 from backend.dialect import reason
 from backend.heartbeats import Heartbeats
@@ -139,6 +139,7 @@ class Worker:
             self._fail(claim, f"{type(error).__name__}: {error}")
         finally:
             beats.close()
+        studies.advance_after(self.db, claim.job_id)
 
     def _fail(self, claim: queue.Claim, message: str, discard_runs: bool = False) -> None:
         self.persist(lambda: queue.fail(self.db, claim=claim, error=message, discard_runs=discard_runs),

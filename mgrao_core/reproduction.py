@@ -12,6 +12,7 @@ from mgrao_core.presets import PRESETS
 from mgrao_core.results import ExperimentResult
 from mgrao_core.runner import run_experiment
 from mgrao_core.spec import make_spec
+from mgrao_core.stats import ConfigSummary
 
 PAPER_EPISODES = 100
 DEFAULT_SEEDS = 100
@@ -77,21 +78,24 @@ def reproduce(
     return results
 
 
+def figures_of(system: str, summary: Mapping[str, ConfigSummary]) -> list[PaperFigure]:
+    """The paper's figures of ``system`` beside ours, from the summaries of its configurations."""
+    figures = []
+    for label, paper in PRESETS[system].paper_pct_from_uniform.items():
+        row = summary.get(label)
+        if row is None or row.pct_from_uniform is None:
+            continue
+        low, high = row.pct_ci95 if row.pct_ci95 else (float("nan"), float("nan"))
+        figures.append(PaperFigure(
+            system=system, algorithm=label, ours=row.pct_from_uniform, ci95=(low, high), paper=paper,
+            deviation=row.pct_from_uniform - paper, outside=not low <= paper <= high,
+        ))
+    return figures
+
+
 def paper_figures(results: Mapping[str, ExperimentResult]) -> list[PaperFigure]:
     """Every figure of the paper's tables for the systems in ``results``, ours beside it."""
-    figures = []
-    for name, result in results.items():
-        summary = result.summary()
-        for label, paper in PRESETS[name].paper_pct_from_uniform.items():
-            row = summary.get(label)
-            if row is None or row.pct_from_uniform is None:
-                continue
-            low, high = row.pct_ci95 if row.pct_ci95 else (float("nan"), float("nan"))
-            figures.append(PaperFigure(
-                system=name, algorithm=label, ours=row.pct_from_uniform, ci95=(low, high), paper=paper,
-                deviation=row.pct_from_uniform - paper, outside=not low <= paper <= high,
-            ))
-    return figures
+    return [figure for name, result in results.items() for figure in figures_of(name, result.summary())]
 
 
 def worst_deviation(results: Mapping[str, ExperimentResult]) -> float:

@@ -9,10 +9,12 @@ from typing import Annotated, Literal
 
 from fastapi import APIRouter, Path, Query, Response, status
 from fastapi.responses import JSONResponse, StreamingResponse
+from sqlalchemy import select
 
-from backend import analysis, crud
+from backend import analysis, crud, studies
 from backend.deps import Authorized, DatabaseDep, SessionDep, SettingsDep
 from backend.errors import BadQuery, InvalidSpec
+from backend.models import Job
 from backend.schemas import MAX_JOB_ID, JobCreate, JobOut, JobPage, JobPatch, Sort, Status
 from mgrao_core import MAX_EPISODES, ConfigError, make_spec
 
@@ -86,14 +88,20 @@ def cancel_job(job_id: JobId, db: DatabaseDep) -> dict:
     with db.write() as session:
         job = crud.cancel_job(session, job_id=job_id)
         session.flush()
-        return crud.job_dict(job)
+        answer = crud.job_dict(job)
+    if answer["study_id"] is not None:
+        studies.advance_study_quietly(db, answer["study_id"])  # its trial is cancelled and the study moves on
+    return answer
 
 
 @router.delete("/{job_id:int}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[Authorized])
 def delete_job(job_id: JobId, db: DatabaseDep) -> Response:
     """Delete a job that is not running, with its results (409 if running)."""
     with db.write() as session:
+        study_id = session.scalar(select(Job.study_id).where(Job.id == job_id))
         crud.delete_job(session, job_id=job_id)
+    if study_id is not None:
+        studies.advance_study_quietly(db, study_id)  # its trial fails and the study moves on
     return Response(status_code=status.HTTP_204_NO_CONTENT)
 
 

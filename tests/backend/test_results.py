@@ -12,6 +12,7 @@ from fastapi.testclient import TestClient
 from sqlalchemy import update
 
 from backend import analysis, crud, queue
+from backend.cache import AnswerCache
 from backend.db import Database
 from backend.models import Job, Run
 from backend.worker import Worker
@@ -73,7 +74,7 @@ def test_points_beyond_the_response_limit_are_refused_naming_it(client: TestClie
 
 
 def test_concurrent_requests_build_a_cached_entry_once() -> None:
-    cache = analysis._ResultsCache(max_bytes=1000)
+    cache = AnswerCache(max_bytes=1000)
     started = threading.Event()
 
     def slow_build() -> bytes:
@@ -93,7 +94,7 @@ def test_concurrent_requests_build_a_cached_entry_once() -> None:
 
 
 def test_the_cache_never_keeps_an_entry_larger_than_its_cap_and_stays_within_it() -> None:
-    cache = analysis._ResultsCache(max_bytes=1000)
+    cache = AnswerCache(max_bytes=1000)
     assert cache.get_or_build(("big",), lambda: b"y" * 1001) == b"y" * 1001
     assert cache.size == 0
     assert cache.get_or_build(("big",), lambda: b"y" * 1001) == b"y" * 1001

@@ -1,0 +1,161 @@
+"""``/api/studies``: submit, list, read, plot, cancel, re-run failed trials, delete."""
+
+from __future__ import annotations
+
+import base64
+import json
+from datetime import datetime
+from typing import Annotated, Any, Literal
+
+from fastapi import APIRouter, Body, Path, Query, Response, status
+from sqlalchemy import func, or_, select
+from sqlalchemy.orm import Session
+
+from backend import analysis, studies
+from backend.cache import AnswerCache
+from backend.deps import Authorized, DatabaseDep, SessionDep
+from backend.errors import BadQuery, InvalidSpec
+from backend.models import Study
+from backend.schemas import MAX_JOB_ID
+from backend.study_plots import study_plots
+from mgrao_core import ConfigError
+from mgrao_core.search import make_plan
+
+router = APIRouter(prefix="/api/studies", tags=["studies"])
+
+StudyId = Annotated[int, Path(ge=1, le=MAX_JOB_ID)]
+StudySort = Literal["-created_at", "created_at", "name", "-name", "status", "-status"]
+ANSWERS = AnswerCache(max_bytes=64 * 1024**2)
+_COLUMNS = {"created_at": Study.created_at, "name": Study.name, "status": Study.status}
+
+
+def _json(data: Any, code: int = 200) -> Response:
+    return Response(analysis.dumps(data), media_type="application/json", status_code=code)
+
+
+@router.post("", status_code=status.HTTP_202_ACCEPTED, dependencies=[Authorized])
+def submit_study(db: DatabaseDep, body: Annotated[dict[str, Any], Body()]) -> Response:
+    """Validate a study (docs/studies.md), store it and queue its first trials."""
+    try:
+        plan = make_plan(body)
+    except ConfigError as error:
+        raise InvalidSpec(_location(error.field), error.field, str(error)) from None
+    study_id = studies.create_study(db, plan=plan)
+    with db.session() as session:
+        detail = studies.study_detail(session, study_id)
+    response = _json(detail, status.HTTP_202_ACCEPTED)
+    response.headers["Location"] = f"/api/studies/{study_id}"
+    return response
+
+
+def _location(field: str) -> list[str | int]:
+    """``space.learning_rate.values[2]`` as a validation error's ``loc``: body, space, learning_rate, values, 2."""
+    loc: list[str | int] = ["body"]
+    for part in field.split("."):
+        name, *indices = part.replace("]", "").split("[")
+        loc.append(name)
+        loc.extend(int(i) for i in indices if i.isdigit())
+    return loc
+
+
+def _cursor(sort: str, key: Any, study_id: int) -> str:
+    if isinstance(key, datetime):
+        key = key.isoformat()
+    return base64.urlsafe_b64encode(json.dumps([sort, key, study_id]).encode()).decode().rstrip("=")
+
+
+def _after(cursor: str, sort: str) -> tuple[Any, int]:
+    try:
+        cursor_sort, key, study_id = json.loads(base64.urlsafe_b64decode(cursor + "=" * (-len(cursor) % 4)))
+        if cursor_sort != sort or isinstance(study_id, bool) or not isinstance(study_id, int) \
+                or not isinstance(key, str) or not 1 <= study_id <= MAX_JOB_ID:
+            raise ValueError
+        return (datetime.fromisoformat(key) if sort.lstrip("-") == "created_at" else key), study_id
+    except (ValueError, TypeError, UnicodeDecodeError):
+        raise BadQuery("cursor", "is not a cursor of this listing (use next_cursor as given, same sort)") from None
+
+
+@router.get("")
+def list_studies(
+    session: SessionDep,
+    status_: Annotated[Literal["running", "finished", "cancelled"] | None, Query(alias="status")] = None,
+    method: Literal["grid", "random", "tpe"] | None = None,
+    q: Annotated[str | None, Query(max_length=200, description="Text in the name.")] = None,
+    sort: StudySort = "-created_at",
+    limit: Annotated[int, Query(ge=1, le=200)] = 50,
+    cursor: Annotated[str | None, Query(max_length=500)] = None,
+) -> Response:
+    """Studies matching the filters, one page at a time (keyset pagination), with trials per status."""
+    column = _COLUMNS[sort.lstrip("-")]
+    clauses = []
+    if status_:
+        clauses.append(Study.status == status_)
+    if method:
+        clauses.append(Study.method == method)
+    if q:
+        clauses.append(func.lower(Study.name).contains(q.lower(), autoescape=True))
+    total = session.scalar(select(func.count()).select_from(Study).where(*clauses)) or 0
+    statement = select(Study).where(*clauses)
+    descending = sort.startswith("-")
+    if cursor:
+        key, after = _after(cursor, sort)
+        if descending:
+            statement = statement.where(or_(column < key, (column == key) & (Study.id < after)))
+        else:
+            statement = statement.where(or_(column > key, (column == key) & (Study.id > after)))
+    order = (column.desc(), Study.id.desc()) if descending else (column.asc(), Study.id.asc())
+    rows = list(session.scalars(statement.order_by(*order).limit(limit + 1)))
+    next_cursor = None
+    if len(rows) > limit:
+        rows = rows[:limit]
+        next_cursor = _cursor(sort, getattr(rows[-1], column.key), rows[-1].id)
+    counts = studies.trial_counts(session, [s.id for s in rows])
+    return _json({"data": [studies.study_dict(s, counts[s.id]) for s in rows], "next_cursor": next_cursor,
+                  "count": total})
+
+
+def _version(session: Session, study_id: int) -> tuple:
+    """What a study's cached answers are keyed by: its database, id, creation and revision."""
+    study = studies.get_study(session, study_id)
+    return str(session.get_bind().url), study_id, study.created_at, study.revision
+
+
+@router.get("/{study_id:int}")
+def read_study(study_id: StudyId, session: SessionDep) -> Response:
+    """The study, its definition, and every trial with its parameters, objective (95% CI), status and jobs."""
+    body = ANSWERS.get_or_build(("detail", *_version(session, study_id)),
+                                lambda: analysis.dumps(studies.study_detail(session, study_id)))
+    return Response(body, media_type="application/json")
+
+
+@router.get("/{study_id:int}/plots")
+def plot_study(study_id: StudyId, session: SessionDep,
+               x: Annotated[str | None, Query(max_length=64)] = None,
+               y: Annotated[str | None, Query(max_length=64)] = None) -> Response:
+    """Best so far, importance, slices, a heatmap of two dimensions and parallel coordinates, aggregated."""
+    body = ANSWERS.get_or_build(("plots", *_version(session, study_id), x, y),
+                                lambda: analysis.dumps(study_plots(session, study_id, x, y)))
+    return Response(body, media_type="application/json")
+
+
+@router.post("/{study_id:int}/cancel", dependencies=[Authorized])
+def cancel_study(study_id: StudyId, db: DatabaseDep) -> Response:
+    """Cancel a running study with its queued and running trials (409 otherwise)."""
+    studies.cancel_study(db, study_id=study_id)
+    with db.session() as session:
+        return _json(studies.study_detail(session, study_id))
+
+
+@router.post("/{study_id:int}/rerun-failed", dependencies=[Authorized])
+def rerun_failed(study_id: StudyId, db: DatabaseDep) -> Response:
+    """Run the failed and cancelled trials again (same parameters, same numbers; no cell twice)."""
+    count = studies.rerun_failed(db, study_id=study_id)
+    with db.session() as session:
+        return _json(studies.study_detail(session, study_id) | {"rerun": count})
+
+
+@router.delete("/{study_id:int}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[Authorized])
+def delete_study(study_id: StudyId, db: DatabaseDep) -> Response:
+    """Delete a study with its trials and their jobs (409 while one of its jobs runs)."""
+    studies.delete_study(db, study_id=study_id)
+    return Response(status_code=status.HTTP_204_NO_CONTENT)

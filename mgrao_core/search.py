@@ -1,0 +1,515 @@
+"""Studies: a base experiment, a search space over the schema's parameters, a method and an objective.
+
+A study is many experiments that differ in a few parameters. This module validates a study's
+definition against the parameter schema and the experiment limits, and says what each trial
+runs: a grid's cells in order, or points drawn at random or by Optuna's TPE sampler (driven by
+ask/tell on an in-memory Optuna study rebuilt from the finished trials, so that Optuna keeps no
+tables of its own). It holds no state and does no I/O; the service stores the trials and runs
+each as ordinary jobs (:mod:`backend.studies`).
+
+Dimensions: any numeric, boolean or choice parameter of :data:`mgrao_core.params.PARAMETERS`, and
+``groups``, the x of an extra configuration ``mgrao-x:1``. A dimension is ``{"values": [...]}``, or a
+range ``{"low", "high"}`` with ``"steps"`` (grid) and optionally ``"log": true`` (geometric steps, or
+log-uniform draws for random and TPE).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from mgrao_core.algorithms import divisors
+from mgrao_core.errors import ConfigError
+from mgrao_core.params import PARAMETERS_BY_NAME
+from mgrao_core.presets import PRESETS
+from mgrao_core.spec import MAX_EPISODES, MAX_SEEDS, ExperimentSpec, make_spec
+from mgrao_core.stats import ConfigSummary
+
+METHODS = ("grid", "random", "tpe")
+METRICS = ("final_mean", "pct_from_uniform", "pct_of_max", "paper_deviation")
+DIRECTIONS = ("maximize", "minimize")
+GROUPS = "groups"
+GROUP_LABEL = "mgrao-x:1"
+"""The objective's name for the configuration a ``groups`` dimension adds."""
+MAX_TRIALS = 10_000
+MAX_IN_FLIGHT = 100
+MAX_DIMENSIONS = 8
+MAX_VALUES = 1_000
+MAX_STEPS = 1_000
+TPE_HISTORY = 1_000
+"""TPE is told the latest this many finished trials (its cost per suggestion grows with them)."""
+
+
+@dataclass(frozen=True)
+class Dimension:
+    """One dimension of a search space.
+
+    Attributes:
+        name: a parameter name, or ``"groups"``.
+        kind: ``"int"``, ``"float"``, ``"bool"`` or ``"choice"``.
+        values: explicit values (a grid's points, or the choices drawn from), or empty.
+        low: a range's lower end.
+        high: a range's upper end.
+        steps: a range's points on a grid.
+        log: geometric steps, or log-uniform draws.
+    """
+
+    name: str
+    kind: str
+    values: tuple = ()
+    low: float | None = None
+    high: float | None = None
+    steps: int | None = None
+    log: bool = False
+
+    def grid(self) -> tuple:
+        """The dimension's points on a grid."""
+        if self.values:
+            return self.values
+        assert self.low is not None and self.high is not None and self.steps is not None
+        points = (np.geomspace(self.low, self.high, self.steps) if self.log
+                  else np.linspace(self.low, self.high, self.steps))
+        if self.kind == "int":
+            return tuple(dict.fromkeys(int(round(v)) for v in points))
+        return tuple(float(f"{v:.12g}") for v in points)
+
+    def as_dict(self) -> dict[str, Any]:
+        """The dimension as given back (for storage and the API)."""
+        if self.values:
+            return {"values": list(self.values)}
+        out: dict[str, Any] = {"low": self.low, "high": self.high, "log": self.log}
+        if self.steps is not None:
+            out["steps"] = self.steps
+        return out
+
+
+@dataclass(frozen=True)
+class Objective:
+    """What a trial is judged by.
+
+    Attributes:
+        metric: one of :data:`METRICS`.
+        direction: ``"maximize"`` or ``"minimize"``.
+        configuration: the algorithm label the metric is read from (``mgrao-x:1`` for the swept
+            group count); unused by ``paper_deviation``.
+        system: which system's configuration, when the base has several.
+    """
+
+    metric: str
+    direction: str
+    configuration: str | None = None
+    system: str | None = None
+
+
+@dataclass(frozen=True)
+class StudyPlan:
+    """A validated study (build it with :func:`make_plan`)."""
+
+    name: str
+    method: str
+    systems: tuple[str, ...]
+    algorithms: tuple[str, ...] | None
+    seeds: tuple[int, ...]
+    episodes: int
+    params: dict[str, Any]
+    dimensions: tuple[Dimension, ...]
+    objective: Objective
+    max_trials: int
+    max_in_flight: int
+    seed: int = 0
+    _cells: int = field(default=0, compare=False)
+
+    @property
+    def planned_trials(self) -> int:
+        """How many trials the study runs: every cell of a grid, else ``max_trials``."""
+        return self.grid_size if self.method == "grid" else self.max_trials
+
+    @property
+    def grid_size(self) -> int:
+        """The number of grid cells (the product of the dimensions' points)."""
+        return math.prod(len(d.grid()) for d in self.dimensions)
+
+    def cell(self, index: int) -> dict[str, Any]:
+        """The parameters of grid cell ``index`` (row-major over the dimensions, in order)."""
+        axes = [d.grid() for d in self.dimensions]
+        point = {}
+        for dimension, axis, stride in zip(self.dimensions, axes, _strides([len(a) for a in axes]), strict=True):
+            point[dimension.name] = axis[(index // stride) % len(axis)]
+        return point
+
+    def suggest(self, first: int, count: int, finished: Sequence[tuple[Mapping[str, Any], float]] = (),
+                running: Sequence[Mapping[str, Any]] = ()) -> list[dict[str, Any]]:
+        """The parameters of trials ``first`` .. ``first + count - 1``.
+
+        A grid's cells in order; random draws that depend only on the study's seed and the trial
+        number; or TPE's suggestions given the ``finished`` trials' ``(params, objective)`` (the
+        latest :data:`TPE_HISTORY` of them, in trial order) and the ``running`` trials' parameters
+        (told to TPE as running, so that a batch does not pile onto one point: Optuna's constant
+        liar). The same arguments give the same suggestions.
+        """
+        if self.method == "grid":
+            return [self.cell(number) for number in range(first, first + count)]
+        if self.method == "random":
+            return [{d.name: _draw(d, np.random.default_rng([self.seed, number])) for d in self.dimensions}
+                    for number in range(first, first + count)]
+        return _tpe(self, first, count, finished[-TPE_HISTORY:], running)
+
+    def specs(self, params: Mapping[str, Any]) -> list[ExperimentSpec]:
+        """The experiments (one per system) a trial with these parameters runs."""
+        return [self._spec(system, params) for system in self.systems]
+
+    def _spec(self, system: str, params: Mapping[str, Any], field_prefix: str = "") -> ExperimentSpec:
+        overrides = dict(self.params) | {k: v for k, v in params.items() if k != GROUPS}
+        algorithms = list(self.algorithms or PRESETS[system].algorithms)
+        if GROUPS in params:
+            label = f"mgrao-{int(params[GROUPS])}:1"
+            if label not in algorithms:
+                algorithms.append(label)
+        return make_spec(system, algorithms, list(self.seeds), self.episodes, overrides)
+
+    def configuration_label(self, params: Mapping[str, Any]) -> str | None:
+        """The algorithm label the objective reads for a trial with these parameters."""
+        if self.objective.configuration == GROUP_LABEL:
+            return f"mgrao-{int(params[GROUPS])}:1"
+        return self.objective.configuration
+
+    def as_dict(self) -> dict[str, Any]:
+        """The definition as stored and shown (round-trips through :func:`make_plan`)."""
+        base: dict[str, Any] = {
+            "system": list(self.systems) if len(self.systems) > 1 else self.systems[0],
+            "seeds": list(self.seeds), "episodes": self.episodes, "params": dict(self.params),
+        }
+        if self.algorithms is not None:
+            base["algorithms"] = list(self.algorithms)
+        objective = {"metric": self.objective.metric, "direction": self.objective.direction}
+        if self.objective.configuration is not None:
+            objective["configuration"] = self.objective.configuration
+        if self.objective.system is not None:
+            objective["system"] = self.objective.system
+        return {"name": self.name, "method": self.method, "base": base,
+                "space": {d.name: d.as_dict() for d in self.dimensions}, "objective": objective,
+                "max_trials": self.max_trials, "max_in_flight": self.max_in_flight, "seed": self.seed}
+
+
+def _strides(lengths: list[int]) -> list[int]:
+    strides, stride = [], 1
+    for length in reversed(lengths):
+        strides.append(stride)
+        stride *= length
+    return list(reversed(strides))
+
+
+def _draw(dimension: Dimension, rng: np.random.Generator) -> Any:
+    if dimension.values:
+        return dimension.values[int(rng.integers(len(dimension.values)))]
+    assert dimension.low is not None and dimension.high is not None
+    if dimension.log:
+        value = math.exp(rng.uniform(math.log(dimension.low), math.log(dimension.high)))
+    else:
+        value = rng.uniform(dimension.low, dimension.high)
+    if dimension.kind == "int":
+        return int(min(dimension.high, max(dimension.low, round(value))))
+    return float(min(dimension.high, max(dimension.low, value)))
+
+
+def _distributions(plan: StudyPlan) -> dict[str, Any]:
+    from optuna.distributions import CategoricalDistribution, FloatDistribution, IntDistribution
+
+    out = {}
+    for d in plan.dimensions:
+        if d.values:
+            out[d.name] = CategoricalDistribution(list(d.values))
+        elif d.kind == "int":
+            out[d.name] = IntDistribution(int(d.low), int(d.high), log=d.log)
+        else:
+            out[d.name] = FloatDistribution(d.low, d.high, log=d.log)
+    return out
+
+
+def _tpe(plan: StudyPlan, first: int, count: int, finished: Sequence[tuple[Mapping[str, Any], float]],
+         running: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    import optuna
+    from optuna.trial import TrialState, create_trial
+
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    distributions = _distributions(plan)
+    sampler = optuna.samplers.TPESampler(seed=(plan.seed * 1_000_003 + first) % 2**32, constant_liar=True)
+    study = optuna.create_study(direction=plan.objective.direction, sampler=sampler)  # in memory, ours alone
+    for params, value in finished:
+        if value is not None and math.isfinite(value):
+            study.add_trial(create_trial(params={k: params[k] for k in distributions},
+                                         distributions=distributions, value=value))
+    for params in running:
+        study.add_trial(create_trial(params={k: params[k] for k in distributions}, distributions=distributions,
+                                     state=TrialState.RUNNING))
+    return [dict(study.ask(distributions).params) for _ in range(count)]  # each left running: the next avoids it
+
+
+# ---- objectives ------------------------------------------------------------------------------
+
+
+def evaluate(plan: StudyPlan, params: Mapping[str, Any],
+             summaries: Mapping[str, Mapping[str, ConfigSummary]]) -> tuple[float | None, tuple[float, float] | None]:
+    """A trial's objective and its 95% interval over seeds, from each system's summaries.
+
+    ``final_mean``, ``pct_from_uniform`` and ``pct_of_max`` are the configuration's own figures
+    (``pct_of_max`` has no interval). ``paper_deviation`` is the largest ``|ours - paper|`` over the
+    paper's figures of the trial's systems, with the interval of that figure's ``|deviation|``.
+    None when the figure cannot be computed (e.g. a uniform utility of zero).
+    """
+    from mgrao_core.reproduction import figures_of
+
+    objective = plan.objective
+    if objective.metric == "paper_deviation":
+        figures = [f for system in plan.systems for f in figures_of(system, summaries[system])]
+        if not figures:
+            return None, None
+        worst = max(figures, key=lambda f: abs(f.deviation))
+        low, high = worst.ci95[0] - worst.paper, worst.ci95[1] - worst.paper
+        if not (math.isfinite(low) and math.isfinite(high)):
+            return abs(worst.deviation), None
+        interval = (0.0 if low <= 0 <= high else min(abs(low), abs(high)), max(abs(low), abs(high)))
+        return abs(worst.deviation), interval
+    row = summaries[objective.system or plan.systems[0]].get(plan.configuration_label(params))
+    if row is None:
+        return None, None
+    if objective.metric == "final_mean":
+        return row.final_mean, _finite_pair(row.ci95)
+    if objective.metric == "pct_from_uniform":
+        return row.pct_from_uniform, _finite_pair(row.pct_ci95)
+    return row.pct_of_max, None
+
+
+def _finite_pair(pair: tuple[float, float] | None) -> tuple[float, float] | None:
+    if pair is None or not all(v is not None and math.isfinite(v) for v in pair):
+        return None
+    return float(pair[0]), float(pair[1])
+
+
+# ---- validation -------------------------------------------------------------------------------
+
+
+def _number(field: str, value: Any, *, integer: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise ConfigError(field, f"must be a finite number (got {value!r})")
+    if integer and not float(value).is_integer():
+        raise ConfigError(field, f"must be a whole number (got {value!r})")
+    return value
+
+
+def _count(field: str, value: Any, low: int, high: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+        raise ConfigError(field, f"must be a whole number in [{low}, {high}] (got {value!r})")
+    return value
+
+
+def _dimension(name: str, spec: Any, method: str, n_parents: Sequence[int]) -> Dimension:
+    field = f"space.{name}"
+    if not isinstance(spec, Mapping):
+        raise ConfigError(field, 'must be {"values": [...]} or {"low": ..., "high": ...}')
+    unknown = set(spec) - {"values", "low", "high", "steps", "log"}
+    if unknown:
+        raise ConfigError(field, f"unknown key {sorted(unknown)[0]!r} (use values, or low, high, steps, log)")
+    if name == GROUPS:
+        kind = "int"
+        param = None
+    else:
+        param = PARAMETERS_BY_NAME.get(name)
+        if param is None:
+            raise ConfigError(field, "unknown parameter (any parameter of the schema, or groups)")
+        kind = param.kind
+    if "values" in spec:
+        if set(spec) - {"values"}:
+            raise ConfigError(field, "give either values or a range (low, high), not both")
+        values = spec["values"]
+        if not isinstance(values, list) or not 1 <= len(values) <= MAX_VALUES:
+            raise ConfigError(f"{field}.values", f"must list between 1 and {MAX_VALUES} values")
+        checked = tuple(dict.fromkeys(_value(name, kind, param, v, n_parents, f"{field}.values[{i}]")
+                                      for i, v in enumerate(values)))
+        return Dimension(name, kind, values=checked)
+    if kind in ("choice", "bool"):
+        raise ConfigError(field, f"{name} takes values, not a range")
+    if "low" not in spec or "high" not in spec:
+        raise ConfigError(field, "a range needs low and high")
+    integer = kind == "int"
+    low = _number(f"{field}.low", spec["low"], integer=integer)
+    high = _number(f"{field}.high", spec["high"], integer=integer)
+    if not low < high:
+        raise ConfigError(field, f"low must be below high (got {low:g} and {high:g})")
+    _value(name, kind, param, low, n_parents, f"{field}.low")
+    _value(name, kind, param, high, n_parents, f"{field}.high")
+    log = spec.get("log", False)
+    if not isinstance(log, bool):
+        raise ConfigError(f"{field}.log", "must be true or false")
+    if log and low <= 0:
+        raise ConfigError(f"{field}.low", f"must be above 0 for a log range (got {low:g})")
+    steps = spec.get("steps")
+    if method == "grid":
+        if steps is None:
+            raise ConfigError(f"{field}.steps", "a grid needs steps for a range (or give values)")
+        steps = _count(f"{field}.steps", steps, 2, MAX_STEPS)
+    elif steps is not None:
+        raise ConfigError(f"{field}.steps", f"{method} draws from the range: steps are for a grid")
+    if name == GROUPS:
+        raise ConfigError(field, "groups takes values (divisors of n_parents), not a range")
+    dimension = Dimension(name, kind, low=low if not integer else int(low), high=high if not integer else int(high),
+                          steps=steps, log=log)
+    if method == "grid":
+        for i, v in enumerate(dimension.grid()):
+            _value(name, kind, param, v, n_parents, f"{field}[{i}]")
+    return dimension
+
+
+def _value(name: str, kind: str, param: Any, value: Any, n_parents: Sequence[int], field: str) -> Any:
+    if name == GROUPS:
+        x = _count(field, value, 1, 1_000_000)
+        for parents in n_parents:
+            if parents % x:
+                raise ConfigError(field, f"{x} does not divide n_parents = {parents} "
+                                         f"(valid: {', '.join(map(str, divisors(parents)))})")
+        return x
+    from mgrao_core.params import _coerce  # the schema's own checks and limits, naming the field
+
+    try:
+        return _coerce(param, value)
+    except ConfigError as error:
+        raise ConfigError(field, error.message) from None
+
+
+def make_plan(data: Mapping[str, Any]) -> StudyPlan:
+    """Validate a study definition (the JSON shape of docs/studies.md).
+
+    Raises:
+        ConfigError: naming the field (``space.learning_rate.low``, ``objective.configuration``, ...)
+            and the limit. Every trial's experiment is validated too, so a study that is accepted
+            runs (``base.*`` or ``space.*`` errors).
+    """
+    if not isinstance(data, Mapping):
+        raise ConfigError("study", "must be an object")
+    unknown = set(data) - {"name", "method", "base", "space", "objective", "max_trials", "max_in_flight", "seed"}
+    if unknown:
+        raise ConfigError(sorted(unknown)[0], "unknown field")
+    name = data.get("name", "")
+    if not isinstance(name, str) or len(name) > 200:
+        raise ConfigError("name", "must be text of at most 200 characters")
+    method = data.get("method", "grid")
+    if method not in METHODS:
+        raise ConfigError("method", f"must be one of {', '.join(METHODS)} (got {method!r})")
+    base = data.get("base")
+    if not isinstance(base, Mapping):
+        raise ConfigError("base", "must be an object: system, algorithms, seeds, episodes, params")
+    unknown = set(base) - {"system", "algorithms", "seeds", "episodes", "params"}
+    if unknown:
+        raise ConfigError(f"base.{sorted(unknown)[0]}", "unknown field")
+    systems = base.get("system", "single")
+    systems = tuple(systems) if isinstance(systems, list) else (systems,)
+    if not systems or len(set(systems)) != len(systems) or not all(s in PRESETS for s in systems):
+        raise ConfigError("base.system", f"must be one of {', '.join(PRESETS)} or a list of distinct ones")
+    algorithms = base.get("algorithms")
+    seeds = base.get("seeds", 10)
+    episodes = _count("base.episodes", base.get("episodes", 100), 1, MAX_EPISODES)
+    params = base.get("params", {}) or {}
+    if not isinstance(params, Mapping):
+        raise ConfigError("base.params", "must be an object of parameter values")
+    for system in systems:  # the base itself must be a valid experiment
+        try:
+            make_spec(system, algorithms, seeds, episodes, params)
+        except ConfigError as error:
+            where = "base.params" if error.field in PARAMETERS_BY_NAME or error.field in params else "base"
+            raise ConfigError(f"{where}.{error.field}", error.message) from None
+    seed_list = tuple(make_spec(systems[0], algorithms, seeds, 1, params).seeds)
+    if len(seed_list) > MAX_SEEDS:
+        raise ConfigError("base.seeds", f"at most {MAX_SEEDS}")
+    n_parents = [make_spec(s, algorithms, 1, 1, params).params.n_parents for s in systems]
+    space = data.get("space")
+    if not isinstance(space, Mapping) or not space:
+        raise ConfigError("space", "must name at least one parameter to vary")
+    if len(space) > MAX_DIMENSIONS:
+        raise ConfigError("space", f"at most {MAX_DIMENSIONS} dimensions (got {len(space)})")
+    dimensions = tuple(_dimension(k, v, method, n_parents) for k, v in space.items())
+    objective = _objective(data.get("objective"), systems, dimensions, algorithms)
+    max_trials = _count("max_trials", data.get("max_trials", 100), 1, MAX_TRIALS)
+    max_in_flight = _count("max_in_flight", data.get("max_in_flight", 4), 1, MAX_IN_FLIGHT)
+    seed = _count("seed", data.get("seed", 0), 0, 2**32 - 1)
+    plan = StudyPlan(name, method, systems, tuple(algorithms) if algorithms is not None else None, seed_list,
+                     episodes, dict(params), dimensions, objective, max_trials, max_in_flight, seed)
+    if method == "grid":
+        size = math.prod(len(d.grid()) for d in dimensions)
+        if size > MAX_TRIALS:
+            raise ConfigError("space", f"the grid has {size:,} cells, over the limit of {MAX_TRIALS:,} trials")
+        if size > max_trials:
+            raise ConfigError("max_trials", f"the grid has {size:,} cells: max_trials must be at least that "
+                                            f"(got {max_trials:,})")
+        for index in _corners(plan):  # every cell is validated when its trial is made; the corners now
+            _check_trial(plan, plan.cell(index))
+    else:
+        for params in _range_corners(plan):
+            _check_trial(plan, params)
+    return plan
+
+
+def _objective(data: Any, systems: tuple[str, ...], dimensions: tuple[Dimension, ...],
+               algorithms: Sequence[str] | None) -> Objective:
+    if not isinstance(data, Mapping):
+        raise ConfigError("objective", "must be an object: configuration, metric, direction")
+    unknown = set(data) - {"configuration", "metric", "direction", "system"}
+    if unknown:
+        raise ConfigError(f"objective.{sorted(unknown)[0]}", "unknown field")
+    metric = data.get("metric")
+    if metric not in METRICS:
+        raise ConfigError("objective.metric", f"must be one of {', '.join(METRICS)} (got {metric!r})")
+    direction = data.get("direction", "minimize" if metric == "paper_deviation" else "maximize")
+    if direction not in DIRECTIONS:
+        raise ConfigError("objective.direction", f"must be maximize or minimize (got {direction!r})")
+    system = data.get("system")
+    if metric == "paper_deviation":
+        missing = [s for s in systems if not PRESETS[s].paper_pct_from_uniform]
+        if missing:
+            raise ConfigError("base.system", f"{missing[0]} has no figures in the paper")
+        return Objective(metric, direction, None, None)
+    configuration = data.get("configuration")
+    if not isinstance(configuration, str):
+        raise ConfigError("objective.configuration", "must name one of the study's configurations")
+    if len(systems) > 1 and system not in systems:
+        raise ConfigError("objective.system", f"the base runs {', '.join(systems)}: name the one to read")
+    if system is not None and system not in systems:
+        raise ConfigError("objective.system", f"must be one of the base's systems ({', '.join(systems)})")
+    target = system or systems[0]
+    labels = list(algorithms or PRESETS[target].algorithms)
+    if configuration == GROUP_LABEL:
+        if not any(d.name == GROUPS for d in dimensions):
+            raise ConfigError("objective.configuration", f"{GROUP_LABEL} needs a groups dimension in the space")
+    elif configuration not in labels:
+        raise ConfigError("objective.configuration",
+                          f"{configuration!r} is not among the study's configurations ({', '.join(labels)})")
+    if metric in ("pct_from_uniform", "pct_of_max") and "uniform" not in labels:
+        raise ConfigError("objective.metric", f"{metric} needs uniform among the configurations")
+    if metric == "pct_of_max" and "mgrao-max" not in labels:
+        raise ConfigError("objective.metric", "pct_of_max needs mgrao-max among the configurations")
+    return Objective(metric, direction, configuration, system)
+
+
+def _corners(plan: StudyPlan) -> list[int]:
+    sizes = [len(d.grid()) for d in plan.dimensions]
+    strides = _strides(sizes)
+    return sorted({sum(c * s for c, s in zip(choice, strides, strict=True))
+                   for choice in itertools.product(*[(0, n - 1) for n in sizes])})[:256]
+
+
+def _range_corners(plan: StudyPlan) -> list[dict[str, Any]]:
+    ends = [(d.values[0], d.values[-1]) if d.values else (d.low, d.high) for d in plan.dimensions]
+    names = [d.name for d in plan.dimensions]
+    return [dict(zip(names, choice, strict=True)) for choice in itertools.product(*ends)][:256]
+
+
+def _check_trial(plan: StudyPlan, params: Mapping[str, Any]) -> None:
+    for system in plan.systems:
+        try:
+            plan._spec(system, params)
+        except ConfigError as error:
+            raise ConfigError("space", f"the trial {dict(params)} is not a valid experiment: {error}") from None
