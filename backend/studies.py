@@ -363,23 +363,27 @@ def trial_counts(session: Session, study_ids: Sequence[int]) -> dict[int, dict[s
     return counts
 
 
-def study_detail(session: Session, study_id: int) -> dict[str, Any]:
-    """``GET /api/studies/{id}``: the study, its definition and every trial with its jobs."""
+def study_detail(session: Session, study_id: int, *, trials: bool = True) -> dict[str, Any]:
+    """``GET /api/studies/{id}``: the study, its definition and (unless ``trials`` is false) every trial."""
     study = get_study(session, study_id)
+    if not trials:
+        counts = trial_counts(session, [study_id])[study_id]
+        return {"study": study_dict(study, counts), "definition": study.definition}
     jobs: dict[int, list[int]] = defaultdict(list)
     for trial_id, job_id in session.execute(select(Job.trial_id, Job.id).where(Job.study_id == study_id,
-                                                                              Job.trial_id.is_not(None))):
+                                                                              Job.trial_id.is_not(None))
+                                            .order_by(Job.id)):
         jobs[trial_id].append(job_id)
     rows = session.execute(select(Trial.id, Trial.number, Trial.params, Trial.status, Trial.value, Trial.low,
                                   Trial.high, Trial.error, Trial.runs).where(Trial.study_id == study_id)
                            .order_by(Trial.number)).all()
-    trials = [{"number": r.number, "params": r.params, "status": r.status, "value": r.value,
+    listed = [{"number": r.number, "params": r.params, "status": r.status, "value": r.value,
                "ci95": [r.low, r.high] if r.low is not None else None, "error": r.error, "runs": r.runs,
                "job_ids": jobs.get(r.id, [])} for r in rows]
     counts: dict[str, int] = defaultdict(int)
-    for trial in trials:
+    for trial in listed:
         counts[trial["status"]] += 1
-    return {"study": study_dict(study, dict(counts)), "definition": study.definition, "trials": trials}
+    return {"study": study_dict(study, dict(counts)), "definition": study.definition, "trials": listed}
 
 
 class StudyDriver(threading.Thread):

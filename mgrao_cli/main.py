@@ -6,6 +6,7 @@ import click
 
 from mgrao_cli.experiments import reproduce, run
 from mgrao_cli.service_commands import dispatcher, migrate, serve, worker
+from mgrao_cli.studies import study
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -20,6 +21,7 @@ cli.add_command(serve)
 cli.add_command(worker)
 cli.add_command(dispatcher)
 cli.add_command(migrate)
+cli.add_command(study)
 
 
 if __name__ == "__main__":

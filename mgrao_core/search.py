@@ -27,7 +27,7 @@ from mgrao_core.algorithms import divisors
 from mgrao_core.errors import ConfigError
 from mgrao_core.params import PARAMETERS_BY_NAME
 from mgrao_core.presets import PRESETS
-from mgrao_core.spec import MAX_EPISODES, MAX_SEEDS, ExperimentSpec, make_spec
+from mgrao_core.spec import MAX_EPISODES, MAX_SEED_VALUE, MAX_SEEDS, ExperimentSpec, make_spec
 from mgrao_core.stats import ConfigSummary
 
 METHODS = ("grid", "random", "tpe")
@@ -76,7 +76,7 @@ class Dimension:
                   else np.linspace(self.low, self.high, self.steps))
         if self.kind == "int":
             return tuple(dict.fromkeys(int(round(v)) for v in points))
-        return tuple(float(f"{v:.12g}") for v in points)
+        return tuple(float(f"{v:.6g}") for v in points)  # as shown: 6 significant digits
 
     def as_dict(self) -> dict[str, Any]:
         """The dimension as given back (for storage and the API)."""
@@ -403,7 +403,7 @@ def make_plan(data: Mapping[str, Any]) -> StudyPlan:
     base = data.get("base")
     if not isinstance(base, Mapping):
         raise ConfigError("base", "must be an object: system, algorithms, seeds, episodes, params")
-    unknown = set(base) - {"system", "algorithms", "seeds", "episodes", "params"}
+    unknown = set(base) - {"system", "algorithms", "seeds", "first_seed", "episodes", "params"}
     if unknown:
         raise ConfigError(f"base.{sorted(unknown)[0]}", "unknown field")
     systems = base.get("system", "single")
@@ -412,6 +412,12 @@ def make_plan(data: Mapping[str, Any]) -> StudyPlan:
         raise ConfigError("base.system", f"must be one of {', '.join(PRESETS)} or a list of distinct ones")
     algorithms = base.get("algorithms")
     seeds = base.get("seeds", 10)
+    if "first_seed" in base:  # seeds F, F+1, ... (e.g. 10000 on: the calibration seeds)
+        first = _count("base.first_seed", base["first_seed"], 0, MAX_SEED_VALUE)
+        count = _count("base.seeds", seeds, 1, MAX_SEEDS)
+        if first + count - 1 > MAX_SEED_VALUE:
+            raise ConfigError("base.first_seed", f"the last seed would pass {MAX_SEED_VALUE}")
+        seeds = list(range(first, first + count))
     episodes = _count("base.episodes", base.get("episodes", 100), 1, MAX_EPISODES)
     params = base.get("params", {}) or {}
     if not isinstance(params, Mapping):

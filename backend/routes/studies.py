@@ -121,10 +121,12 @@ def _version(session: Session, study_id: int) -> tuple:
 
 
 @router.get("/{study_id:int}")
-def read_study(study_id: StudyId, session: SessionDep) -> Response:
+def read_study(study_id: StudyId, session: SessionDep,
+               trials: Annotated[bool, Query(description="false: the study and its definition only (for polling).")]
+               = True) -> Response:
     """The study, its definition, and every trial with its parameters, objective (95% CI), status and jobs."""
-    body = ANSWERS.get_or_build(("detail", *_version(session, study_id)),
-                                lambda: analysis.dumps(studies.study_detail(session, study_id)))
+    body = ANSWERS.get_or_build(("detail", *_version(session, study_id), trials),
+                                lambda: analysis.dumps(studies.study_detail(session, study_id, trials=trials)))
     return Response(body, media_type="application/json")
 
 

@@ -5,14 +5,14 @@ from __future__ import annotations
 from fastapi import APIRouter
 
 from backend.deps import SettingsDep
-from mgrao_core import MAX_ALGORITHMS, MAX_EPISODES, MAX_SEEDS, MAX_WORK, PARAMETERS, PRESETS
+from mgrao_core import MAX_ALGORITHMS, MAX_EPISODES, MAX_SEEDS, MAX_WORK, PARAMETERS, PRESETS, search
 
 router = APIRouter(prefix="/api", tags=["systems"])
 
 
 @router.get("/systems")
 def systems(settings: SettingsDep) -> dict:
-    """What can be submitted: systems, parameters, algorithm labels and limits."""
+    """What can be submitted: systems, parameters, algorithm labels, limits and the studies' limits."""
     return {
         "systems": [
             {"name": p.name, "description": p.description, "params": p.params.as_dict(),
@@ -23,4 +23,8 @@ def systems(settings: SettingsDep) -> dict:
         "algorithms": {"fixed": ["uniform", "mgrao-1:1", "mgrao-max", "oracle"], "pattern": "mgrao-<x>:1"},
         "limits": {"max_seeds": MAX_SEEDS, "max_episodes": MAX_EPISODES, "max_algorithms": MAX_ALGORITHMS,
                    "max_work": MAX_WORK, "max_body_bytes": settings.max_body_bytes},
+        "studies": {"methods": list(search.METHODS), "metrics": list(search.METRICS),
+                    "max_trials": search.MAX_TRIALS, "max_in_flight": search.MAX_IN_FLIGHT,
+                    "max_dimensions": search.MAX_DIMENSIONS, "max_steps": search.MAX_STEPS,
+                    "max_values": search.MAX_VALUES},
     }

@@ -104,4 +104,11 @@ export const api = {
   results: (id, query, opts) => request('GET', `/jobs/${id}/results`, { query, ...opts }),
   compare: (ids, points, opts) => request('GET', '/compare', { query: { jobs: ids.join(','), points }, ...opts }),
   episodesUrl: (id, format) => url(`/jobs/${id}/episodes`, { format }),
+  listStudies: (query, opts) => request('GET', '/studies', { query, ...opts }),
+  getStudy: (id, opts) => request('GET', `/studies/${id}`, opts),
+  studyPlots: (id, query, opts) => request('GET', `/studies/${id}/plots`, { query, ...opts }),
+  createStudy: (body) => request('POST', '/studies', { body }),
+  cancelStudy: (id) => request('POST', `/studies/${id}/cancel`),
+  rerunFailed: (id) => request('POST', `/studies/${id}/rerun-failed`),
+  deleteStudy: (id) => request('DELETE', `/studies/${id}`),
 };

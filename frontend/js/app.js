@@ -1,4 +1,4 @@
-// Hash router: #/runs, #/new, #/jobs/<id>, #/compare?jobs=1,2&smooth=5. Each view module exports
+// Hash router: #/runs, #/new, #/jobs/<id>, #/compare?jobs=1,2&smooth=5, #/studies, #/studies/new, #/studies/<id>. Each view module exports
 // mount(container, params, ctx) and may return a cleanup function (stop polling, purge plots).
 
 import { api, getToken, setToken } from './api.js';
@@ -7,6 +7,9 @@ import * as runs from './runs.js';
 import * as newjob from './newjob.js';
 import * as job from './job.js';
 import * as compare from './compare.js';
+import * as studies from './studies.js';
+import * as study from './study.js';
+import * as newstudy from './newstudy.js';
 
 const main = document.getElementById('main');
 const banner = document.getElementById('banner');
@@ -18,6 +21,9 @@ const routes = [
   { re: /^\/new$/, view: newjob, nav: 'new', title: 'New experiment' },
   { re: /^\/jobs\/(\d+)$/, view: job, nav: 'runs', title: 'Job' },
   { re: /^\/compare$/, view: compare, nav: 'compare', title: 'Compare' },
+  { re: /^\/studies$/, view: studies, nav: 'studies', title: 'Studies' },
+  { re: /^\/studies\/new$/, view: newstudy, nav: 'studies', title: 'New study' },
+  { re: /^\/studies\/(\d+)$/, view: study, nav: 'studies', title: 'Study' },
 ];
 
 /** Context handed to views. */
@@ -61,7 +67,7 @@ async function render() {
   document.title = `${route.title} · MG-RAO`;
   const m = route.re.exec(path);
   const routeParams = { ...params };
-  if (route.view === job) routeParams.id = Number(m[1]);
+  if (route.view === job || route.view === study) routeParams.id = Number(m[1]);
   try {
     const c = await route.view.mount(main, routeParams, { ...ctx, generation: gen });
     if (gen === generation) cleanup = c;

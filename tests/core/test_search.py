@@ -185,3 +185,19 @@ def test_the_base_seeds_may_be_a_list_of_calibration_seeds():
     assert spec.seeds == (10000, 10001, 10002)
     assert spec == make_spec("single", None, [10000, 10001, 10002], 20,
                              {"learning_rate": 0.05, "trace_decay": 0.5})
+    counted = make_plan(_study(base={"system": "single", "seeds": 3, "first_seed": 10000, "episodes": 20}))
+    assert counted.seeds == (10000, 10001, 10002)
+    assert make_plan(counted.as_dict()) == counted
+    field, _ = _field(_study(base={"system": "single", "seeds": [1, 2], "first_seed": 10000}))
+    assert field == "base.seeds"
+
+
+@pytest.mark.parametrize(("name", "trials"), [("paper-calibration", 25), ("single-sensitivity", 36)])
+def test_the_example_studies_are_valid(name, trials):
+    import json
+    from pathlib import Path
+
+    study = json.loads((Path(__file__).resolve().parents[2] / "studies" / f"{name}.json").read_text())
+    plan = make_plan(study)
+    assert plan.planned_trials == trials
+    assert make_plan(plan.as_dict()) == plan

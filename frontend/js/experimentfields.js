@@ -1,0 +1,189 @@
+// The fields of one experiment (system preset, configurations, seeds, episodes, every parameter),
+// built from GET /api/systems, shared by the new-experiment and new-study forms. The server
+// validates; its 422 messages are shown beside the inputs named by each error's field path.
+
+import { h, nextId } from './ui.js';
+import { parseRatios, fieldErrors, changedParams, sortAlgorithms } from './stats.js';
+
+/** sessionStorage key of the experiment the new-experiment form hands to the new-study form. */
+export const STUDY_DRAFT = 'mgrao-study-draft';
+
+export function rangeText(p) {
+  if (p.kind === 'choice') return `one of ${p.choices.join(', ')}`;
+  if (p.kind === 'bool') return 'on or off';
+  const lo = p.minimum === null || p.minimum === undefined ? '−∞' : p.minimum;
+  const hi = p.maximum === null || p.maximum === undefined ? '∞' : p.maximum;
+  return `range ${p.exclusive_minimum ? '(' : '['}${lo}, ${hi}]`;
+}
+
+/**
+ * The experiment's inputs. `decorate(p, block)` may add controls to each parameter's block (the
+ * new-study form adds "sweep"). Returns the parts, `read()` → {system, algorithms, seeds,
+ * episodes, params} or {invalidRatios}, and error display helpers keyed by field path.
+ */
+export function experimentFields(schema, params, { decorate = null, seeds = 3 } = {}) {
+  const knownParams = new Set(schema.parameters.map((p) => p.name));
+  const fixed = schema.algorithms.fixed;
+  const errorEls = new Map(); // field path -> {input, error}
+  const presetListeners = [];
+
+  const fieldBlock = (path, labelText, control, helpText) => {
+    const id = control.id || nextId('in');
+    control.id = id;
+    control.dataset.field = path;
+    const errId = `${id}-err`;
+    const helpId = `${id}-help`;
+    const error = h('span', { id: errId, class: 'field-error', 'aria-live': 'polite' });
+    control.setAttribute('aria-describedby', helpText ? `${helpId} ${errId}` : errId);
+    errorEls.set(path, { input: control, error });
+    return h('div', { class: 'field', dataset: { for: path } },
+      h('label', { for: id }, labelText), control,
+      helpText ? h('small', { id: helpId, class: 'help' }, helpText) : null, error);
+  };
+
+  // --- preset -----------------------------------------------------------------------------
+  const systemSel = h('select', { name: 'system' }, schema.systems.map((s) =>
+    h('option', { value: s.name, selected: s.name === (params.system || 'single') }, s.name)));
+  const systemDesc = h('p', { class: 'help', id: nextId('sysdesc') });
+
+  // --- algorithms ---------------------------------------------------------------------------
+  const algoBoxes = fixed.map((a) => h('input', { type: 'checkbox', name: 'algorithms', value: a, id: nextId('algo') }));
+  const ratioIn = h('input', { type: 'text', name: 'ratios', placeholder: 'e.g. 2, 5, 10', id: nextId('ratios') });
+  const algoErr = h('span', { class: 'field-error', id: nextId('algoerr'), 'aria-live': 'polite' });
+  errorEls.set('algorithms', { input: algoBoxes[0], error: algoErr });
+  const algoFieldset = h('fieldset', { class: 'algos', dataset: { for: 'algorithms' }, 'aria-describedby': algoErr.id },
+    h('legend', {}, 'Configurations'),
+    h('div', { class: 'checks' }, algoBoxes.map((cb) => h('label', { class: 'check', for: cb.id }, cb, ' ', cb.value))),
+    h('div', { class: 'field' },
+      h('label', { for: ratioIn.id }, `More ${schema.algorithms.pattern} ratios`), ratioIn,
+      h('small', { class: 'help', id: `${ratioIn.id}-help` }, 'Comma separated x values; each adds a configuration mgrao-x:1.')),
+    algoErr);
+  ratioIn.setAttribute('aria-describedby', `${ratioIn.id}-help ${algoErr.id}`);
+
+  const seedsIn = h('input', { type: 'number', name: 'seeds', min: 1, max: schema.limits.max_seeds, step: 1, value: seeds, inputmode: 'numeric' });
+  const episodesIn = h('input', { type: 'number', name: 'episodes', min: 1, max: schema.limits.max_episodes, step: 1, value: 100, inputmode: 'numeric' });
+
+  // --- advanced parameters ------------------------------------------------------------------
+  const paramInputs = new Map();
+  const groups = {};
+  for (const p of schema.parameters) (groups[p.group] ||= []).push(p);
+  const advanced = h('details', { class: 'advanced' }, h('summary', {}, 'Advanced: every parameter'),
+    h('p', { class: 'help' }, 'Prefilled with the chosen preset’s values. Only values you change are sent as overrides.'),
+    Object.entries(groups).map(([group, ps]) => h('fieldset', { class: 'param-group' }, h('legend', {}, group),
+      ps.map((p) => {
+        let input;
+        if (p.kind === 'choice') {
+          input = h('select', { name: p.name }, p.choices.map((c) => h('option', { value: c }, c)));
+        } else if (p.kind === 'bool') {
+          input = h('input', { type: 'checkbox', name: p.name });
+        } else {
+          input = h('input', { type: 'number', name: p.name, step: p.kind === 'int' ? 1 : 'any',
+            min: p.minimum ?? undefined, max: p.maximum ?? undefined, placeholder: p.nullable ? 'auto' : undefined });
+        }
+        paramInputs.set(p.name, { p, input });
+        const def = p.default === null ? 'auto' : p.kind === 'bool' ? (p.default ? 'on' : 'off') : p.default;
+        const block = fieldBlock(`params.${p.name}`, p.name, input, `${p.help} Default ${def}; ${rangeText(p)}${p.nullable ? '; empty = auto' : ''}.`);
+        if (decorate) decorate(p, block, input);
+        return block;
+      }))));
+
+  function preset() {
+    return schema.systems.find((s) => s.name === systemSel.value) || schema.systems[0];
+  }
+
+  function applyPreset() {
+    const s = preset();
+    systemDesc.textContent = s.description;
+    for (const cb of algoBoxes) cb.checked = s.algorithms.includes(cb.value);
+    ratioIn.value = s.algorithms.filter((a) => !fixed.includes(a)).map((a) => a.replace(/^mgrao-/, '').replace(/:1$/, '')).join(', ');
+    for (const { p, input } of paramInputs.values()) {
+      const v = s.params[p.name];
+      if (p.kind === 'bool') input.checked = Boolean(v);
+      else input.value = v === null || v === undefined ? '' : String(v);
+    }
+    for (const listener of presetListeners) listener(s);
+  }
+  systemSel.addEventListener('change', applyPreset);
+
+  function readParams() {
+    const values = {};
+    for (const { p, input } of paramInputs.values()) {
+      if (p.kind === 'bool') { values[p.name] = input.checked; continue; }
+      const raw = input.value.trim();
+      if (p.kind === 'choice') values[p.name] = raw;
+      else if (raw === '') values[p.name] = p.nullable ? null : raw; // '' goes to the server, which explains
+      else values[p.name] = Number(raw);
+    }
+    return changedParams(values, preset().params);
+  }
+
+  /** Fill the inputs from an experiment as read() gives it (the preset first, then its changes). */
+  function load(experiment) {
+    if (!experiment || !schema.systems.some((s) => s.name === experiment.system)) return;
+    systemSel.value = experiment.system;
+    applyPreset();
+    if (Array.isArray(experiment.algorithms)) {
+      for (const cb of algoBoxes) cb.checked = experiment.algorithms.includes(cb.value);
+      ratioIn.value = experiment.algorithms.filter((a) => !fixed.includes(a))
+        .map((a) => a.replace(/^mgrao-/, '').replace(/:1$/, '')).join(', ');
+    }
+    if (experiment.seeds !== undefined) seedsIn.value = String(experiment.seeds);
+    if (experiment.episodes !== undefined) episodesIn.value = String(experiment.episodes);
+    for (const [name, value] of Object.entries(experiment.params || {})) {
+      const entry = paramInputs.get(name);
+      if (!entry) continue;
+      if (entry.p.kind === 'bool') entry.input.checked = Boolean(value);
+      else entry.input.value = value === null ? '' : String(value);
+    }
+  }
+
+  /** The experiment as the API takes it; {invalidRatios} when the ratio field cannot be read. */
+  function read() {
+    const ratios = parseRatios(ratioIn.value);
+    if (ratios.invalid.length) return { invalidRatios: ratios.invalid };
+    return {
+      system: systemSel.value,
+      algorithms: sortAlgorithms([...algoBoxes.filter((cb) => cb.checked).map((cb) => cb.value), ...ratios.algorithms]),
+      seeds: seedsIn.value === '' ? seedsIn.value : Number(seedsIn.value),
+      episodes: episodesIn.value === '' ? episodesIn.value : Number(episodesIn.value),
+      params: readParams(),
+    };
+  }
+
+  function clearErrors(summary) {
+    summary.replaceChildren();
+    for (const { input, error } of errorEls.values()) {
+      error.textContent = '';
+      input.removeAttribute('aria-invalid');
+      input.closest('.field, fieldset')?.classList.remove('invalid');
+    }
+  }
+
+  /** Put each 422 message beside its input (`keyOf` maps the API's field path to ours). */
+  function showErrors(err, summary, what, keyOf = (key) => key) {
+    const byField = fieldErrors(err.detail, knownParams);
+    const unplaced = [];
+    let first = null;
+    for (const [apiPath, msg] of Object.entries(byField)) {
+      const path = keyOf(apiPath);
+      const target = errorEls.get(path);
+      if (!target) { unplaced.push(msg); continue; }
+      target.error.textContent = target.error.textContent ? `${target.error.textContent}; ${msg}` : msg;
+      target.input.setAttribute('aria-invalid', 'true');
+      target.input.closest('.field, fieldset')?.classList.add('invalid');
+      if (path.startsWith('params.') || path.startsWith('space.')) advanced.open = true;
+      first ||= target.input;
+    }
+    const msgs = Object.keys(byField).length ? unplaced : [err.message];
+    summary.replaceChildren(h('div', { class: 'notice error', role: 'alert' },
+      h('p', {}, Object.keys(byField).length ? `The server rejected the ${what}; see the marked fields.` : `The ${what} could not be started.`),
+      msgs.length ? h('ul', {}, msgs.map((m) => h('li', {}, m))) : null));
+    if (first) first.focus();
+  }
+
+  return {
+    fieldBlock, errorEls, systemSel, systemDesc, algoFieldset, algoBoxes, ratioIn, seedsIn, episodesIn, advanced,
+    paramInputs, preset, applyPreset, read, load, clearErrors, showErrors,
+    onPreset: (listener) => presetListeners.push(listener),
+  };
+}

@@ -1,0 +1,279 @@
+// Pure helpers of the study views: sorting and paging trials, prefilled sweep ranges, the study's
+// JSON from the form's rows, and the Plotly traces of the server's aggregated plots.
+// No DOM access here, so that node's test runner can import this module directly.
+
+import { isFiniteNumber } from './stats.js';
+
+// ---- trials -----------------------------------------------------------------------------
+
+/** The value a trials-table column sorts by: 'number', 'value', 'status' or 'param:<name>'. */
+function sortValue(trial, key) {
+  if (key.startsWith('param:')) return trial.params ? trial.params[key.slice(6)] : undefined;
+  return trial[key];
+}
+
+/**
+ * Trials sorted by `key` ('number', 'value', 'status' or 'param:<name>'), ascending or not;
+ * missing values (a failed trial's objective) last either way, ties by trial number.
+ */
+export function sortTrials(trials, key, ascending = true) {
+  const sign = ascending ? 1 : -1;
+  return trials.slice().sort((a, b) => {
+    const x = sortValue(a, key);
+    const y = sortValue(b, key);
+    const xm = x === null || x === undefined || (typeof x === 'number' && !Number.isFinite(x));
+    const ym = y === null || y === undefined || (typeof y === 'number' && !Number.isFinite(y));
+    if (xm !== ym) return xm ? 1 : -1;
+    if (!xm && x !== y) {
+      if (typeof x === 'number' && typeof y === 'number') return sign * (x - y);
+      return sign * String(x).localeCompare(String(y));
+    }
+    return a.number - b.number;
+  });
+}
+
+/** Rows `page * size` .. of `items`, with the page count (page clamped into range). */
+export function pageOf(items, page, size) {
+  const pages = Math.max(1, Math.ceil(items.length / size));
+  const p = Math.min(Math.max(0, Math.floor(page) || 0), pages - 1);
+  return { rows: items.slice(p * size, (p + 1) * size), page: p, pages };
+}
+
+/** A parameter value as shown: floats to 4 significant digits, the rest as text. */
+export function fmtParam(v) {
+  if (typeof v === 'number' && !Number.isInteger(v)) return String(Number(v.toPrecision(4)));
+  if (typeof v === 'boolean') return v ? 'on' : 'off';
+  return v === null || v === undefined ? '–' : String(v);
+}
+
+/** The ended trials (succeeded, failed, cancelled) out of the per-status counts. */
+export function endedTrials(counts) {
+  return ['succeeded', 'failed', 'cancelled'].reduce((n, s) => n + ((counts || {})[s] || 0), 0);
+}
+
+// ---- the new-study form ------------------------------------------------------------------
+
+const LOG_SCALE = /rate|temperature|epsilon|probability|noise/;
+
+/** Divisors of n in increasing order (the valid x of mgrao-x:1). */
+export function divisors(n) {
+  const out = [];
+  for (let d = 1; d <= n; d++) if (n % d === 0) out.push(d);
+  return out;
+}
+
+/**
+ * A sweep's first range for parameter `p` (a schema entry) around the preset's value `v`: half to
+ * twice the value within the schema's limits, 3 steps; log-scaled for rates, temperatures and
+ * probabilities. Choices and switches sweep all their values.
+ */
+export function defaultSweep(p, v) {
+  if (p.kind === 'choice') return { values: p.choices.slice() };
+  if (p.kind === 'bool') return { values: [false, true] };
+  const min = isFiniteNumber(p.minimum) ? p.minimum : -Infinity;
+  const max = isFiniteNumber(p.maximum) ? p.maximum : Infinity;
+  const clamp = (x) => Math.min(max, Math.max(min, x));
+  const centre = isFiniteNumber(v) ? v : isFiniteNumber(p.default) ? p.default : (isFiniteNumber(min) ? min : 1);
+  let low = clamp(centre > 0 ? centre / 2 : centre - 1);
+  let high = clamp(centre > 0 ? centre * 2 : centre + 1);
+  if (p.kind === 'int') {
+    low = Math.ceil(low);
+    high = Math.floor(high);
+    if (low >= high) high = Math.min(max, low + 2);
+    if (low >= high) low = Math.max(min, high - 2);
+  } else {
+    low = Number(low.toPrecision(4));
+    high = Number(high.toPrecision(4));
+  }
+  if (low === 0 && p.exclusive_minimum) low = Number((high / 10).toPrecision(4));
+  const log = LOG_SCALE.test(p.name) && low > 0;
+  return { low, high, steps: 3, log };
+}
+
+/** How many points a grid dimension has (values, or steps of a range); 0 when unreadable. */
+export function gridPoints(dimension) {
+  if (Array.isArray(dimension.values)) return dimension.values.length;
+  return Number.isInteger(dimension.steps) ? dimension.steps : 0;
+}
+
+/** Parse a comma-separated list of values for parameter kind `kind`; {values, invalid}. */
+export function parseValues(text, kind) {
+  const values = [];
+  const invalid = [];
+  for (const raw of String(text || '').split(',').map((t) => t.trim()).filter(Boolean)) {
+    if (kind === 'choice') values.push(raw);
+    else if (kind === 'bool') {
+      if (/^(on|true|1)$/i.test(raw)) values.push(true);
+      else if (/^(off|false|0)$/i.test(raw)) values.push(false);
+      else invalid.push(raw);
+    } else {
+      const n = Number(raw);
+      if (raw === '' || !Number.isFinite(n) || (kind === 'int' && !Number.isInteger(n))) invalid.push(raw);
+      else values.push(n);
+    }
+  }
+  return { values, invalid };
+}
+
+/**
+ * The study's JSON from the form: the base experiment (js/experimentfields.js read()), the
+ * sweep rows {name, mode: 'range'|'values', low, high, steps, log, values} and the settings.
+ * A swept parameter is left out of the base's params (the space sets it).
+ */
+export function studyBody(base, rows, settings) {
+  const params = { ...(base.params || {}) };
+  const space = {};
+  for (const row of rows) {
+    delete params[row.name];
+    if (row.mode === 'values') space[row.name] = { values: row.values };
+    else {
+      space[row.name] = { low: row.low, high: row.high, log: !!row.log };
+      if (settings.method === 'grid') space[row.name].steps = row.steps;
+    }
+  }
+  const objective = { metric: settings.metric, direction: settings.direction };
+  if (settings.metric !== 'paper_deviation') objective.configuration = settings.configuration;
+  const body = {
+    name: settings.name, method: settings.method,
+    base: { system: base.system, algorithms: base.algorithms, seeds: base.seeds, episodes: base.episodes, params },
+    space, objective, max_trials: settings.max_trials, max_in_flight: settings.max_in_flight,
+  };
+  if (settings.seed !== undefined && settings.seed !== '') body.seed = settings.seed;
+  return body;
+}
+
+/** Map an API error path (space.learning_rate.low, base.params.x, base.seeds) to the form's field keys. */
+export function studyFieldKey(path) {
+  const space = /^space\.([A-Za-z_]\w*)/.exec(path);
+  if (space) return `space.${space[1]}`;
+  if (path.startsWith('base.params.')) return `params.${path.slice(12)}`;
+  if (path.startsWith('base.')) return path.slice(5).replace(/\[\d+\]$/, '');
+  if (path.startsWith('objective.')) return path;
+  return path;
+}
+
+// ---- plots -------------------------------------------------------------------------------
+
+const BLUE = '#0072B2';
+const ORANGE = '#D55E00';
+const GREY = 'rgba(90, 100, 115, 0.55)';
+
+/** Best so far (a step line) over every trial's objective (dots). */
+export function historyTraces(history, objectiveName) {
+  return [
+    { type: 'scatter', mode: 'markers', x: history.trial, y: history.value, name: objectiveName,
+      marker: { size: 5, color: GREY }, meta: { kind: 'trial' },
+      hovertemplate: 'trial %{x}: %{y:.4g}<extra></extra>' },
+    { type: 'scatter', mode: 'lines', x: history.trial, y: history.best, name: 'best so far',
+      line: { shape: 'hv', width: 2.5, color: BLUE }, meta: { kind: 'best' },
+      hovertemplate: 'best after trial %{x}: %{y:.4g}<extra></extra>' },
+  ];
+}
+
+/** Horizontal bars of each dimension's share of the explained variance, largest on top. */
+export function importanceTrace(importance) {
+  const names = Object.keys(importance).sort((a, b) => importance[a].eta_squared - importance[b].eta_squared);
+  return {
+    type: 'bar', orientation: 'h', y: names, x: names.map((n) => importance[n].eta_squared),
+    marker: { color: BLUE }, meta: { kind: 'importance' },
+    customdata: names.map((n) => importance[n].share),
+    hovertemplate: '%{y}: η² %{x:.3f} (%{customdata:.0%} of the sum)<extra></extra>',
+  };
+}
+
+/** A slice: each trial (its 95% CI as an error bar) and the mean per value or bin with its CI. */
+export function sliceTraces(slice, name) {
+  const errors = (ys, lows, highs) => ({
+    type: 'data', symmetric: false, thickness: 1, width: 0, color: GREY,
+    array: ys.map((y, i) => (isFiniteNumber(highs[i]) && isFiniteNumber(y) ? Math.max(0, highs[i] - y) : 0)),
+    arrayminus: ys.map((y, i) => (isFiniteNumber(lows[i]) && isFiniteNumber(y) ? Math.max(0, y - lows[i]) : 0)),
+  });
+  const bins = slice.bins;
+  return [
+    { type: 'scatter', mode: 'markers', x: slice.x.map((v) => (typeof v === 'boolean' ? String(v) : v)), y: slice.value,
+      name: 'trials', marker: { size: 6, color: GREY }, error_y: errors(slice.value, slice.low, slice.high),
+      customdata: slice.number, meta: { kind: 'slice-trials', dimension: name },
+      hovertemplate: `trial %{customdata}: ${name} %{x}, %{y:.4g}<extra></extra>` },
+    { type: 'scatter', mode: 'lines+markers', x: bins.x.map((v) => (typeof v === 'boolean' ? String(v) : v)), y: bins.mean,
+      name: 'mean', line: { color: ORANGE, width: 2 }, marker: { size: 7, color: ORANGE },
+      error_y: { ...errors(bins.mean, bins.low, bins.high), color: ORANGE, thickness: 1.5, width: 4 },
+      customdata: bins.count, meta: { kind: 'slice-mean', dimension: name },
+      hovertemplate: `${name} %{x}: mean %{y:.4g} over %{customdata} trials<extra></extra>` },
+  ];
+}
+
+/** The mean objective over two dimensions; empty cells stay blank. */
+export function studyHeatmapTrace(heatmap, reversed = false) {
+  const label = (v) => (typeof v === 'number' ? fmtParam(v) : String(v));
+  return {
+    type: 'heatmap', z: heatmap.mean, x: heatmap.x_values.map(label), y: heatmap.y_values.map(label),
+    customdata: heatmap.count, colorscale: 'Viridis', reversescale: reversed, hoverongaps: false,
+    colorbar: { title: { text: 'mean objective' } }, meta: { kind: 'study-heatmap' },
+    hovertemplate: `${heatmap.x} %{x}, ${heatmap.y} %{y}: %{z:.4g} (%{customdata} trials)<extra></extra>`,
+  };
+}
+
+const VIRIDIS = ['#440154', '#46327e', '#365c8d', '#277f8e', '#1fa187', '#4ac16d', '#a0da39', '#fde725'];
+
+/**
+ * Parallel coordinates drawn as SVG lines (no WebGL, which Plotly's parcoords needs): one axis per
+ * dimension and a last one for the objective, each scaled to [0, 1] (log dimensions on a log
+ * scale, choices as evenly spaced ticks); the trials in 8 colour bands of the objective (the best
+ * band brightest), each band one trace with gaps between trials. Returns {traces, layout}.
+ */
+export function parallelPlot(parallel, dimensions, objectiveName, { minimize = false, logs = {} } = {}) {
+  const axes = dimensions.map((name) => ({ name, values: parallel.params[name], log: !!logs[name] }));
+  axes.push({ name: 'objective', values: parallel.value, log: false });
+  const scaled = axes.map((axis) => {
+    const numeric = axis.values.every((v) => typeof v === 'number');
+    if (!numeric) {
+      const labels = [...new Set(axis.values.map(String))].sort();
+      const at = (l) => (labels.length > 1 ? labels.indexOf(l) / (labels.length - 1) : 0.5);
+      return { y: axis.values.map((v) => at(String(v))), ticks: labels.map((l) => [at(l), l]) };
+    }
+    const f = axis.log ? (v) => Math.log10(v) : (v) => v;
+    const finite = axis.values.filter((v) => isFiniteNumber(v) && (!axis.log || v > 0)).map(f);
+    const lo = finite.length ? Math.min(...finite) : 0;
+    const hi = finite.length ? Math.max(...finite) : 1;
+    const at = (v) => (hi > lo ? (f(v) - lo) / (hi - lo) : 0.5);
+    const inv = (t) => (axis.log ? 10 ** (lo + t * (hi - lo)) : lo + t * (hi - lo));
+    return { y: axis.values.map((v) => (isFiniteNumber(v) ? at(v) : null)), ticks: [[0, fmtParam(inv(0))], [1, fmtParam(inv(1))]] };
+  });
+  const objective = parallel.value;
+  const finite = objective.filter(isFiniteNumber);
+  const lo = finite.length ? Math.min(...finite) : 0;
+  const hi = finite.length ? Math.max(...finite) : 1;
+  const band = (v) => {
+    const t = hi > lo ? (v - lo) / (hi - lo) : 1;
+    const k = Math.min(VIRIDIS.length - 1, Math.floor((minimize ? 1 - t : t) * VIRIDIS.length));
+    return k;
+  };
+  const bands = VIRIDIS.map(() => ({ x: [], y: [], n: 0, lo: Infinity, hi: -Infinity }));
+  objective.forEach((v, i) => {
+    if (!isFiniteNumber(v)) return;
+    const b = bands[band(v)];
+    for (let a = 0; a < axes.length; a++) { b.x.push(a); b.y.push(scaled[a].y[i]); }
+    b.x.push(null); b.y.push(null);
+    b.n += 1; b.lo = Math.min(b.lo, v); b.hi = Math.max(b.hi, v);
+  });
+  const traces = bands.map((b, k) => ({
+    type: 'scatter', mode: 'lines', x: b.x, y: b.y, connectgaps: false, hoverinfo: 'skip',
+    line: { width: 1.2, color: VIRIDIS[k] }, opacity: 0.75, meta: { kind: 'parallel', band: k, trials: b.n },
+    name: b.n ? `${fmtParam(b.lo)} … ${fmtParam(b.hi)}` : '', showlegend: b.n > 0,
+  })).filter((t) => t.meta.trials > 0);
+  const shapes = axes.map((_, a) => ({ type: 'line', x0: a, x1: a, y0: 0, y1: 1, line: { color: '#1d2430', width: 1 } }));
+  const annotations = [];
+  axes.forEach((axis, a) => {
+    annotations.push({ x: a, y: 1.08, text: `<b>${axis.name}</b>`, showarrow: false, xanchor: 'center' });
+    for (const [t, label] of scaled[a].ticks) {
+      annotations.push({ x: a, y: t, text: label, showarrow: false, xanchor: 'left', xshift: 4, font: { size: 11, color: '#5a6473' } });
+    }
+  });
+  const layout = {
+    xaxis: { visible: false, range: [-0.2, axes.length - 0.6] }, yaxis: { visible: false, range: [-0.05, 1.12] },
+    shapes, annotations, hovermode: false,
+    legend: { title: { text: `${objectiveName}:` }, orientation: 'h', x: 0, y: -0.04, yanchor: 'top', font: { size: 11 } },
+    margin: { l: 16, r: 16, t: 16, b: 80 },
+  };
+  return { traces: traces.reverse(), layout };
+}
