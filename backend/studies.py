@@ -162,6 +162,10 @@ def advance(db: Database, study_id: int) -> None:
             result = session.execute(update(Trial).where(Trial.id == trial_id, Trial.status.in_((QUEUED, RUNNING)),
                                                          Trial.status != outcome["status"]).values(**values))
             changed |= result.rowcount == 1
+            if result.rowcount == 1 and outcome["status"] in (FAILED, CANCELLED):
+                # a trial over several systems that lost one job: its other jobs have nothing to add
+                session.execute(update(Job).where(Job.trial_id == trial_id, Job.status.in_((QUEUED, RUNNING)))
+                                .values(status=CANCELLED, lease=None, finished_at=utcnow()))
         changed |= _fill(session, study, plan, made, suggestions)
         open_trials = session.scalar(select(func.count()).select_from(Trial).where(
             Trial.study_id == study_id, Trial.status.in_(OPEN))) or 0
@@ -237,7 +241,10 @@ def _submit(session: Session, study: Study, plan: StudyPlan, trial: Trial) -> No
     except ConfigError as error:
         trial.status, trial.error, trial.finished_at = FAILED, f"not a valid experiment: {error}", utcnow()
         return
+    done = set(session.scalars(select(Job.system).where(Job.trial_id == trial.id, Job.status == SUCCEEDED)))
     for spec in specs:
+        if spec.system in done:  # re-run after a failure elsewhere: the system that succeeded stands
+            continue
         crud.create_job(session, spec=spec, name=f"{study.name or 'study'} #{trial.number}",
                         tags=[f"study-{study.id}"], study_id=study.id, trial_id=trial.id)
     trial.status, trial.error = QUEUED, None

@@ -17,7 +17,6 @@ const POLL_MS = 2000;
 
 export async function mount(root, params, ctx) {
   const id = params.id;
-  loadPlotly();
   let stopped = false;
   let timer = null;
   let detail = null;
@@ -281,6 +280,11 @@ export async function mount(root, params, ctx) {
   renderHead();
   renderTable();
   layoutPlots();
+  // the table is usable now; plotly.js (a second or more of main thread on slow machines) loads after
+  // the browser has painted it
+  await new Promise((resolve) => requestAnimationFrame(() => setTimeout(resolve, 0)));
+  tableBox.dataset.ready = String(Date.now());
+  loadPlotly();
   await loadPlots();
   if (study().status === 'running') timer = setTimeout(poll, POLL_MS);
   return () => { stopped = true; clearTimeout(timer); for (const c of charts) purge(c); };

@@ -272,7 +272,8 @@ export function parallelPlot(parallel, dimensions, objectiveName, { minimize = f
   const layout = {
     xaxis: { visible: false, range: [-0.2, axes.length - 0.6] }, yaxis: { visible: false, range: [-0.05, 1.12] },
     shapes, annotations, hovermode: false,
-    legend: { title: { text: `${objectiveName}:` }, orientation: 'h', x: 0, y: -0.04, yanchor: 'top', font: { size: 11 } },
+    legend: { title: { text: `${objectiveName}:`, side: 'top' }, orientation: 'h', x: 0, y: -0.04, yanchor: 'top',
+      font: { size: 11 }, entrywidthmode: 'fraction', entrywidth: 0.24 },
     margin: { l: 16, r: 16, t: 16, b: 80 },
   };
   return { traces: traces.reverse(), layout };

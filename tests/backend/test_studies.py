@@ -332,3 +332,40 @@ def test_the_objective_of_a_trial_equals_a_lone_job_of_its_cell(client: TestClie
     mine, theirs = episodes(trial["job_ids"][0]), episodes(lone)
     assert len(mine) == 1 + 2 * 2 * 15
     assert mine == theirs  # bit for bit: a trial is an ordinary job
+
+
+def test_a_trial_over_two_systems_that_loses_one_job_reruns_only_that_system(client: TestClient, worker: Worker,
+                                                                            db: Database) -> None:
+    study = grid(base={"system": ["single", "multi"], "seeds": 2, "episodes": 10},
+                 space={"half_saturation": {"values": [0.15, 0.25]}}, objective={"metric": "paper_deviation"},
+                 max_in_flight=1)
+    study_id = submit(client, study)
+    single_job, multi_job = detail(client, study_id)["trials"][0]["job_ids"]
+    assert worker.run_once()  # trial 0's single job ran
+    client.post(f"/api/jobs/{multi_job}/cancel", headers=JSON)
+    first = detail(client, study_id)["trials"][0]
+    assert first["status"] == "cancelled"
+    done = run_study(client, worker, study_id)
+    assert [t["status"] for t in done["trials"]] == ["cancelled", "succeeded"]
+
+    assert client.post(f"/api/studies/{study_id}/rerun-failed", headers=JSON).json()["rerun"] == 1
+    done = run_study(client, worker, study_id)
+    trial = done["trials"][0]
+    assert trial["status"] == "succeeded"
+    assert trial["job_ids"][0] == single_job and len(trial["job_ids"]) == 2  # single stood; multi ran anew
+    with db.session() as session:
+        new_multi = session.get(Job, trial["job_ids"][1])
+        assert (new_multi.system, new_multi.status) == ("multi", "succeeded")
+
+
+def test_a_trial_whose_other_system_failed_cancels_its_queued_sibling(client: TestClient, worker: Worker,
+                                                                      db: Database) -> None:
+    study = grid(base={"system": ["single", "multi"], "seeds": 2, "episodes": 10},
+                 space={"half_saturation": {"values": [0.15]}}, objective={"metric": "paper_deviation"})
+    study_id = submit(client, study)
+    single_job, multi_job = detail(client, study_id)["trials"][0]["job_ids"]
+    client.post(f"/api/jobs/{single_job}/cancel", headers=JSON)
+    with db.session() as session:
+        assert session.get(Job, multi_job).status == "cancelled"
+    assert detail(client, study_id)["study"]["status"] == "finished"
+    assert not worker.run_once()
