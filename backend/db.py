@@ -90,7 +90,10 @@ def upgrade(engine: Engine) -> None:
     with engine.connect() as connection:
         dialect.relax_foreign_keys(connection)  # before the transaction: table rebuilds must not cascade
         connection.execution_options(**{dialect.WRITE_OPTION: True})
-        dialect.lock_for_migration(connection)
-        config.attributes["connection"] = connection
-        command.upgrade(config, "head")
-        connection.commit()
+        # Our transaction, begun before Alembic looks: Alembic then runs every step inside it. Left to
+        # itself on SQLite (no transactional DDL) it would commit step by step, and two processes
+        # starting on a new database could both read the same version and both apply the next step.
+        with connection.begin():  # SQLite: BEGIN IMMEDIATE, the database's write lock, held to the end
+            dialect.lock_for_migration(connection)
+            config.attributes["connection"] = connection
+            command.upgrade(config, "head")

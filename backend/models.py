@@ -70,6 +70,8 @@ class Job(Base):
                                                  index=True)
     trial_id: Mapped[int | None] = mapped_column(ID, ForeignKey("trials.id", ondelete="SET NULL"), nullable=True,
                                                  index=True)
+    requeue_reason: Mapped[str | None] = mapped_column(Text, nullable=True)
+    """Why the job was last put back in the queue (a lost worker, a database outage), or None."""
 
     tag_rows: Mapped[list[JobTag]] = relationship(cascade="all, delete-orphan", passive_deletes=True)
 
@@ -102,6 +104,25 @@ class Run(Base):
     combined_weights: Mapped[bytes] = mapped_column(LargeBinary)
     group_weights: Mapped[bytes] = mapped_column(LargeBinary)
     group_shape: Mapped[list[int]] = mapped_column(JSON)
+
+
+class JobSummary(Base):
+    """One configuration's summary of a finished job (``mgrao_core.ConfigSummary``), for sorting and columns."""
+
+    __tablename__ = "job_summaries"
+    __table_args__ = (Index("ix_job_summaries_final", "algorithm", "final_mean", "job_id"),
+                      Index("ix_job_summaries_pct", "algorithm", "pct_from_uniform", "job_id"))
+
+    job_id: Mapped[int] = mapped_column(ID, ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
+    algorithm: Mapped[str] = mapped_column(String(32), primary_key=True)
+    n_runs: Mapped[int] = mapped_column(Integer)
+    final_mean: Mapped[float | None] = mapped_column(Float, nullable=True)
+    final_low: Mapped[float | None] = mapped_column(Float, nullable=True)
+    final_high: Mapped[float | None] = mapped_column(Float, nullable=True)
+    pct_from_uniform: Mapped[float | None] = mapped_column(Float, nullable=True)
+    pct_low: Mapped[float | None] = mapped_column(Float, nullable=True)
+    pct_high: Mapped[float | None] = mapped_column(Float, nullable=True)
+    pct_of_max: Mapped[float | None] = mapped_column(Float, nullable=True)
 
 
 STUDY_RUNNING, STUDY_FINISHED = "running", "finished"
