@@ -13,6 +13,8 @@ at the end):
 
 Run:  python benchmarks/bench_studies.py [--small 200] [--trials 10000] [--repeat 200]
 (about 15 minutes on 2 cores with the defaults). Needs /usr/bin/chromium and playwright's package.
+``--reuse FILE`` measures the reads and the view again on the SQLite file of an earlier run (kept
+in /tmp/mgrao-bench-studies-*/studies.db), without running trials.
 """
 
 from __future__ import annotations
@@ -100,11 +102,13 @@ def timed_gets(client: httpx.Client, path: str, repeat: int, params: dict | None
     return first, times
 
 
-def view_seconds(base: str, study_id: int, repeat: int) -> tuple[list[float], list[float], list[float]]:
-    """Per page load: seconds to the trials table painted, to a sort answered, to every plot drawn."""
+def view_seconds(base: str, study_id: int, repeat: int) -> dict[str, list[float]]:
+    """Per page load, seconds: to the trials table painted; to the answer of a sort clicked right
+    then (it waits for whatever holds the main thread, e.g. plotly.js being evaluated); to every
+    plot drawn; and a sort of every trial by a parameter once the page is idle."""
     from playwright.sync_api import sync_playwright
 
-    table, sort, plots = [], [], []
+    out: dict[str, list[float]] = {"table": [], "first_click": [], "plots": [], "idle_sort": []}
     with sync_playwright() as p:
         browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
         for _ in range(repeat):
@@ -113,16 +117,51 @@ def view_seconds(base: str, study_id: int, repeat: int) -> tuple[list[float], li
             page.goto(f"{base}/#/studies/{study_id}")
             page.wait_for_function("() => document.querySelector('section[aria-labelledby=h-trials]')?.dataset.ready",
                                    timeout=60_000)
-            table.append(time.perf_counter() - t)
-            t_sort = time.perf_counter()
+            out["table"].append(time.perf_counter() - t)
+            t_click = time.perf_counter()
             page.locator("button.sort[data-key=value]").click()  # best first: sorts every trial
             page.wait_for_selector("th[aria-sort=descending] button.sort[data-key=value]", timeout=60_000)
-            sort.append(time.perf_counter() - t_sort)
+            out["first_click"].append(time.perf_counter() - t_click)
             page.wait_for_function("() => document.querySelector('.study-plots')?.dataset.rendered", timeout=60_000)
-            plots.append(time.perf_counter() - t)
+            out["plots"].append(time.perf_counter() - t)
+            t_sort = time.perf_counter()
+            page.locator("button.sort[data-key='param:learning_rate']").click()
+            page.wait_for_selector("th[aria-sort=ascending] button.sort[data-key='param:learning_rate']",
+                                   timeout=60_000)
+            out["idle_sort"].append(time.perf_counter() - t_sort)
             page.close()
         browser.close()
-    return table, sort, plots
+    return out
+
+
+def measure_reads(client: httpx.Client, base: str, study_id: int, args: argparse.Namespace) -> None:
+    """GET latencies of a finished study and its view in Chromium, printed."""
+    for path in (f"/api/studies/{study_id}", f"/api/studies/{study_id}/plots"):
+        first, times = timed_gets(client, path, args.repeat)
+        size = len(client.get(path).content)
+        print(f"   GET {path}: first {first * 1000:.0f} ms, then p50 {statistics.median(times) * 1000:.1f} ms, "
+              f"p99 {percentile(times, 99) * 1000:.1f} ms over {args.repeat} ({size / 1e6:.2f} MB)", flush=True)
+    # the study view while another client keeps polling, as a second open tab would
+    stop_poll = threading.Event()
+
+    def poll() -> None:
+        with httpx.Client(base_url=base, timeout=60) as other:
+            while not stop_poll.is_set():
+                other.get(f"/api/studies/{study_id}", params={"trials": "false"})
+                time.sleep(2)
+
+    poller = threading.Thread(target=poll, daemon=True)
+    poller.start()
+    views = view_seconds(base, study_id, args.views)
+    stop_poll.set()
+
+    def fig(key: str, scale: float = 1, unit: str = "s") -> str:
+        values = [v * scale for v in views[key]]
+        return f"{statistics.median(values):.2f} {unit} (max {max(values):.2f})"
+
+    print(f"   study view in headless Chromium, median over {args.views} loads: trials table painted "
+          f"{fig('table')}; a sort clicked right then answered in {fig('first_click')}; every plot drawn "
+          f"{fig('plots')}; a sort of every trial once idle {fig('idle_sort', 1000, 'ms')}", flush=True)
 
 
 def main() -> None:
@@ -131,6 +170,8 @@ def main() -> None:
     parser.add_argument("--trials", type=int, default=10_000, help="trials of the large random study")
     parser.add_argument("--repeat", type=int, default=200, help="GET requests per endpoint")
     parser.add_argument("--views", type=int, default=5, help="page loads of the study view")
+    parser.add_argument("--reuse", type=Path, default=None,
+                        help="an earlier run's studies.db: measure its largest study's reads and view only")
     args = parser.parse_args()
 
     work = Path(tempfile.mkdtemp(prefix="mgrao-bench-studies-"))
@@ -138,11 +179,17 @@ def main() -> None:
     base = f"http://127.0.0.1:{port}"
     env = {k: v for k, v in os.environ.items() if not k.startswith("MGRAO_")} | ENV
     log = open(work / "serve.log", "wb")  # noqa: SIM115
-    server = subprocess.Popen(serve_command(port, 2, f"sqlite:///{work / 'studies.db'}"), env=env, stdout=log,
+    database = args.reuse.resolve() if args.reuse else work / "studies.db"
+    server = subprocess.Popen(serve_command(port, 2, f"sqlite:///{database}"), env=env, stdout=log,
                               stderr=subprocess.STDOUT)
     try:
         wait_healthy(base, server, timeout=120)
         with httpx.Client(base_url=base, timeout=120, headers={"Content-Type": "application/json"}) as client:
+            if args.reuse:
+                studies = client.get("/api/studies", params={"limit": 200}).json()["data"]
+                study_id = max(studies, key=lambda s: s["planned"])["id"]
+                measure_reads(client, base, study_id, args)
+                return
             study_rate, job_rate, n = throughput(client, args.small)
             print(f"1. {n} small trials: {study_rate:.1f} trials/s through a study; the same {n} experiments as "
                   f"lone jobs: {job_rate:.1f} jobs/s; overhead per trial {1 / study_rate - 1 / job_rate:+.3f} s "
@@ -163,31 +210,7 @@ def main() -> None:
                   f"({args.trials / run_s:.1f} trials/s); the light poll while it ran: p50 "
                   f"{statistics.median(polls) * 1000:.0f} ms, p99 {percentile(polls, 99) * 1000:.0f} ms "
                   f"over {len(polls)}", flush=True)
-            for path in (f"/api/studies/{study_id}", f"/api/studies/{study_id}/plots"):
-                first, times = timed_gets(client, path, args.repeat)
-                size = len(client.get(path).content)
-                print(f"   GET {path}: first {first * 1000:.0f} ms, then p50 {statistics.median(times) * 1000:.1f} ms, "
-                      f"p99 {percentile(times, 99) * 1000:.1f} ms over {args.repeat} ({size / 1e6:.2f} MB)", flush=True)
-            gz = httpx.get(f"{base}/api/studies/{study_id}", headers={"Accept-Encoding": "gzip"})
-            print(f"   (gzip on the wire: {len(gz.content) / 1e6:.2f} MB decoded; "
-                  f"content-encoding {gz.headers.get('content-encoding')})")
-            # the study view while another client keeps polling, as a second open tab would
-            stop_poll = threading.Event()
-
-            def poll() -> None:
-                with httpx.Client(base_url=base, timeout=60) as other:
-                    while not stop_poll.is_set():
-                        other.get(f"/api/studies/{study_id}", params={"trials": "false"})
-                        time.sleep(2)
-
-            poller = threading.Thread(target=poll, daemon=True)
-            poller.start()
-            table, sort, plots = view_seconds(base, study_id, args.views)
-            stop_poll.set()
-            print(f"   study view in headless Chromium over {len(table)} loads (median, max): trials table painted "
-                  f"{statistics.median(table):.2f} s, {max(table):.2f} s; a sort of every trial "
-                  f"{statistics.median(sort) * 1000:.0f} ms, {max(sort) * 1000:.0f} ms; every plot drawn "
-                  f"{statistics.median(plots):.2f} s, {max(plots):.2f} s", flush=True)
+            measure_reads(client, base, study_id, args)
     finally:
         stop(server, timeout=30)
         log.close()
