@@ -46,6 +46,7 @@ def job_dict(job: Job) -> dict[str, Any]:
         "system": job.system, "algorithms": config["algorithms"], "seeds": config["seeds"],
         "episodes": config["episodes"], "params": config["params"], "config_hash": job.config_hash,
         "status": job.status, "progress": job.progress, "attempts": job.attempts, "error": job.error,
+        "requeue_reason": job.requeue_reason,
         "created_at": iso(job.created_at), "started_at": iso(job.started_at),
         "finished_at": iso(job.finished_at), "duration_s": duration, "version": job.version,
         "study_id": job.study_id, "trial_id": job.trial_id,

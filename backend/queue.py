@@ -72,7 +72,7 @@ def requeue_stale(session: Session, *, stale_after_s: float, max_attempts: int) 
                 "error": f"{reason}; gave up after {attempts} attempts",
             }
         else:
-            values = {"status": QUEUED, "lease": None, "worker_id": None, "error": f"re-queued: {reason}"}
+            values = {"status": QUEUED, "lease": None, "worker_id": None, "requeue_reason": reason}
         result = session.execute(
             update(Job).where(Job.id == job_id, Job.lease == lease, Job.status == RUNNING,
                               _stale(session, stale_after_s)).values(**values)

@@ -70,6 +70,8 @@ class JobOut(BaseModel):
     progress: float
     attempts: int
     error: str | None
+    requeue_reason: str | None = None
+    """Why the job was last put back in the queue (its worker stopped sending heartbeats), or null."""
     created_at: str
     started_at: str | None
     finished_at: str | None

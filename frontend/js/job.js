@@ -2,9 +2,11 @@
 // with bands, seeds on demand, smoothing, paper-style table, weight heatmap and bars, downloads.
 
 import { api } from './api.js';
-import { h, statusCell, jobMeta, notice, editJobDialog, confirmDialog, nextId } from './ui.js';
+import { h, statusCell, jobMeta, notice, editJobDialog, confirmDialog, cancelConsequence, keepLabel, nextId } from './ui.js';
 import { draw, purge, loadPlotly, meanBandTraces, seedTraces, utilityLayout, heatmapTrace, colour } from './charts.js';
 import { fmtNumber, fmtPct, fmtCI, pctProgress, algorithmRank } from './stats.js';
+import { fmtParam } from './studydata.js';
+import { configRows, differenceSummary, summaryCsv, configJson } from './jobconfig.js';
 
 const POINTS = 600;
 const SMOOTH_CHOICES = [1, 3, 5, 10, 25, 50];
@@ -22,8 +24,9 @@ export async function mount(root, params, ctx) {
   const statusBox = h('div', { class: 'job-status', 'aria-live': 'polite' });
   const headActions = h('div', { class: 'toolbar' });
   const metaBox = h('dl', { class: 'meta' });
+  const configBox = h('section', { 'aria-labelledby': 'h-config', class: 'config' });
   const body = h('div');
-  root.append(h('div', { class: 'view-head' }, title, headActions), statusBox, metaBox, body);
+  root.append(h('div', { class: 'view-head' }, title, headActions), statusBox, metaBox, configBox, body);
 
   let job;
   try {
@@ -48,7 +51,7 @@ export async function mount(root, params, ctx) {
       } }, 'Edit name, tags, notes'),
       (job.status === 'queued' || job.status === 'running')
         ? h('button', { type: 'button', class: 'danger', onclick: async () => {
-          if (!(await confirmDialog('Cancel job?', `Cancel job ${job.id}?`, 'Cancel job', true))) return;
+          if (!(await confirmDialog('Cancel job?', `Cancel job ${job.id}? ${cancelConsequence(job)}`, 'Cancel job', true, keepLabel(job)))) return;
           try { job = await api.cancelJob(job.id); update(); } catch (e) { statusBox.append(notice('error', e.message)); }
         } }, 'Cancel job')
         : null,
@@ -57,27 +60,114 @@ export async function mount(root, params, ctx) {
     ].filter(Boolean));
   }
 
+  /** The full resolved configuration, the values that differ from the preset highlighted. */
+  async function renderConfig() {
+    let schema;
+    try { schema = await api.systems(); } catch (e) { return; }
+    if (stopped) return;
+    const rows = configRows(job, schema);
+    const groups = [];
+    for (const r of rows) {
+      if (!groups.length || groups[groups.length - 1].title !== r.group) groups.push({ title: r.group, rows: [] });
+      groups[groups.length - 1].rows.push(r);
+    }
+    const differ = rows.some((r) => r.differs);
+    configBox.replaceChildren(
+      h('h2', { id: 'h-config' }, 'Configuration'),
+      h('p', { class: 'help', id: 'config-summary' }, differenceSummary(job, rows),
+        differ ? ' Highlighted: not the preset’s value (the preset’s is beside it).' : ''),
+      h('details', { open: differ ? true : null, id: 'config-details' },
+        h('summary', {}, `All ${rows.length} parameters, algorithms ${job.algorithms.join(', ')}, ` +
+          `${job.seeds.length} seeds, ${job.episodes} episodes`),
+        h('div', { class: 'config-groups' }, groups.map((g) => h('div', { class: 'table-wrap' },
+          h('table', { class: 'config-table' },
+            h('caption', {}, g.title),
+            h('tbody', {}, g.rows.map((r) => h('tr', { class: r.differs ? 'differs' : null, 'data-param': r.name },
+              h('th', { scope: 'row', title: r.help }, r.name),
+              h('td', { class: 'num' }, fmtParam(r.value)),
+              h('td', { class: 'num preset help' }, r.differs ? `preset ${fmtParam(r.preset)}` : '')))))))),
+        h('p', { class: 'help' }, `Seeds: ${job.seeds.join(', ')}. Configuration hash ${job.config_hash}.`)));
+  }
+
+  function download(name, type, text) {
+    const url = URL.createObjectURL(new Blob([text], { type }));
+    const a = h('a', { href: url, download: name });
+    document.body.append(a);
+    a.click();
+    a.remove();
+    setTimeout(() => URL.revokeObjectURL(url), 1000);
+  }
+
   function renderStatus() {
     const pct = pctProgress(job.progress);
     if (job.status === 'queued' || job.status === 'running') {
+      const waiting = pct > 0 ? `Waiting for a worker… (${pct}% already stored)` : 'Waiting for a worker…';
       statusBox.replaceChildren(h('div', { class: 'progress-block' },
         h('span', { class: `badge status-${job.status}` },
           job.status === 'running' ? h('span', { class: 'spinner', 'aria-hidden': 'true' }) : null, job.status),
         h('progress', { class: 'big', max: 100, value: pct, 'aria-label': 'Job progress', id: 'job-progress' }),
-        h('span', { class: 'pct', role: 'status' }, job.status === 'queued' ? 'Waiting for a worker…' : `Running: ${pct}% done`)));
+        h('span', { class: 'pct', role: 'status' }, job.status === 'queued' ? waiting : `Running: ${pct}% done`)),
+      ...[requeueNote()].filter(Boolean));
     } else if (job.status === 'failed') {
       statusBox.replaceChildren(notice('error', 'This job failed.', h('pre', { class: 'error-text' }, job.error || 'No reason was recorded.')));
     } else if (job.status === 'cancelled') {
-      statusBox.replaceChildren(notice('warn', 'This job was cancelled; it has no results.'));
+      statusBox.replaceChildren(notice('warn', 'This job was cancelled. The runs it completed before are kept and shown below.'),
+        ...[requeueNote()].filter(Boolean));
     } else {
-      statusBox.replaceChildren(statusCell(job));
+      statusBox.replaceChildren(statusCell(job), ...[requeueNote()].filter(Boolean));
     }
+  }
+
+  /** Why a job went back to the queue, and what it kept: its attempt count and stored progress. */
+  function requeueNote() {
+    if (!job.requeue_reason) return null;
+    const when = job.status === 'queued' ? `Re-queued after attempt ${job.attempts}` : `Attempt ${job.attempts}, re-queued before`;
+    const kept = job.status === 'queued' || job.status === 'running'
+      ? ' The runs stored before are kept: the job resumes from them.' : '';
+    return h('p', { class: 'requeue help', id: 'requeue-note' }, `${when}: ${job.requeue_reason}.${kept}`);
   }
 
   async function update() {
     renderHead();
     renderStatus();
+    if (!configBox.firstChild) renderConfig();
+    results = null;
+    seedResults = null;
+    storedSignature = '';
     if (job.status === 'succeeded') await showResults();
+    else await showStored();
+  }
+
+  // ---- live curves: while a job runs (or after it stopped early) its stored chunks are drawn ----
+  let storedSignature = ''; // seeds stored per configuration when last drawn
+  let liveAt = 0;
+  const LIVE_INTERVAL_MS = 3000;
+
+  /** Draw what is stored of an unfinished job; redraw only when a chunk of seeds was added. */
+  async function showStored() {
+    if (job.status === 'queued' && !(job.progress > 0)) { body.replaceChildren(); return; }
+    liveAt = Date.now();
+    let r;
+    try {
+      r = await api.results(id, { points: POINTS, include_seeds: showSeeds ? 'true' : undefined });
+    } catch (e) {
+      if (stopped) return;
+      if (e.status === 409) {
+        body.replaceChildren(h('p', { class: 'help', id: 'no-runs-yet' }, job.status === 'running'
+          ? 'No seed is complete yet: the curves appear as soon as the first chunk of seeds is stored.'
+          : 'It stored no runs.'));
+      } else {
+        body.replaceChildren(notice('error', `Cannot load the stored results: ${e.message}`));
+      }
+      return;
+    }
+    if (stopped) return;
+    const signature = r.configurations.map((c) => `${c.algorithm}:${c.seeds_done}`).join(',');
+    if (signature === storedSignature) return;
+    storedSignature = signature;
+    r.configurations.sort((a, b) => algorithmRank(a.algorithm) - algorithmRank(b.algorithm));
+    if (showSeeds) { seedResults = r; results = null; } else { results = r; seedResults = null; }
+    await showResults();
   }
 
   async function poll() {
@@ -88,7 +178,10 @@ export async function mount(root, params, ctx) {
       const changed = next.status !== job.status;
       job = next;
       if (changed) await update();
-      else renderStatus();
+      else {
+        renderStatus();
+        if (job.status === 'running' && Date.now() - liveAt >= LIVE_INTERVAL_MS) await showStored();
+      }
     } catch (e) {
       if (e.status === 404) { stopped = true; statusBox.replaceChildren(notice('error', 'This job was deleted.')); return; }
     }
@@ -149,6 +242,7 @@ export async function mount(root, params, ctx) {
     });
 
     body.replaceChildren(
+      ...[partialNote(r)].filter(Boolean),
       h('section', { 'aria-labelledby': 'h-util' },
         h('h2', { id: 'h-util' }, 'System utility per episode'),
         h('div', { class: 'controls' },
@@ -161,8 +255,30 @@ export async function mount(root, params, ctx) {
         h('p', { class: 'downloads' },
           h('a', { class: 'button secondary', href: api.episodesUrl(id, 'csv'), download: `job-${id}-episodes.csv` }, 'Episodes as CSV'),
           ' ',
-          h('a', { class: 'button secondary', href: api.episodesUrl(id, 'json'), download: `job-${id}-episodes.json` }, 'Episodes as JSON'))));
+          h('a', { class: 'button secondary', href: api.episodesUrl(id, 'json'), download: `job-${id}-episodes.json` }, 'Episodes as JSON'),
+          ' ',
+          h('button', { type: 'button', class: 'secondary', id: 'download-summary',
+            onclick: () => download(`job-${id}-summary.csv`, 'text/csv', summaryCsv(job, r.configurations)) },
+          'Final utility and parameters as CSV'),
+          ' ',
+          h('button', { type: 'button', class: 'secondary', id: 'download-config',
+            onclick: () => download(`job-${id}-config.json`, 'application/json', configJson(job)) },
+          'Configuration as JSON')),
+        h('p', { class: 'help' }, 'The episodes are every stored utility (job_id, algorithm, seed, episode, utility); ' +
+          'the CSV of final utilities carries every resolved parameter as a column.')));
     await redraw();
+  }
+
+  /** For results of an unfinished job: how many seeds each configuration has stored. */
+  function partialNote(r) {
+    if (!r.partial) return null;
+    const total = job.seeds.length;
+    const done = r.configurations.map((c) => `${c.algorithm} ${c.seeds_done} of ${total}`).join(', ');
+    const what = job.status === 'running' || job.status === 'queued'
+      ? 'Partial results, filling in as chunks of seeds are stored'
+      : `Partial results: the job ${job.status} before it completed`;
+    return h('p', { class: 'notice warn partial-note', id: 'partial-note', role: 'status' },
+      `${what}. Seeds stored: ${done}. Means and intervals are over the stored seeds only.`);
   }
 
   function summaryTable(r) {

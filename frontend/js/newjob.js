@@ -91,7 +91,7 @@ export async function mount(root, params, ctx) {
     const n = schema.systems.length;
     const ok = await confirmDialog('Reproduce the paper?',
       `This queues ${n} jobs (${schema.systems.map((s) => s.name).join(', ')}), each with its paper configurations, ` +
-      `${PAPER_SEEDS} seeds and ${PAPER_EPISODES} episodes, tagged “paper”.`, 'Queue the jobs');
+      `${PAPER_SEEDS} seeds and ${PAPER_EPISODES} episodes, tagged “paper”.`, 'Queue the jobs', false, 'Not now');
     if (!ok) return;
     paperBtn.disabled = true;
     const made = [];

@@ -1,7 +1,7 @@
 // Runs view: filterable, sortable, cursor-paginated table of jobs with compare/edit/cancel/delete.
 
 import { api } from './api.js';
-import { h, statusCell, confirmDialog, editJobDialog, notice, debounce, nextId } from './ui.js';
+import { h, statusCell, confirmDialog, cancelConsequence, keepLabel, editJobDialog, notice, debounce, nextId } from './ui.js';
 import { fmtDate, fmtDuration, seedCount, sortAlgorithms } from './stats.js';
 
 const STATUSES = ['queued', 'running', 'succeeded', 'failed', 'cancelled'];
@@ -106,13 +106,13 @@ export async function mount(root, params, ctx) {
       } }, 'Edit'),
       (job.status === 'queued' || job.status === 'running')
         ? h('button', { type: 'button', class: 'small secondary', 'aria-label': `Cancel job ${job.id}`, onclick: async () => {
-          if (!(await confirmDialog('Cancel job?', `Cancel job ${job.id} “${job.name || ''}”? Its partial results are discarded.`, 'Cancel job', true))) return;
+          if (!(await confirmDialog('Cancel job?', `Cancel job ${job.id} “${job.name || ''}”? ${cancelConsequence(job)}`, 'Cancel job', true, keepLabel(job)))) return;
           try { replaceRow(await api.cancelJob(job.id)); live.textContent = `Job ${job.id} cancelled.`; } catch (e) { showError(e); }
         } }, 'Cancel')
         : null,
       job.status !== 'running'
         ? h('button', { type: 'button', class: 'small danger', 'aria-label': `Delete job ${job.id}`, onclick: async () => {
-          if (!(await confirmDialog('Delete job?', `Delete job ${job.id} “${job.name || ''}” and all its results? This cannot be undone.`, 'Delete', true))) return;
+          if (!(await confirmDialog('Delete job?', `Delete job ${job.id} “${job.name || ''}” and all its results? This cannot be undone.`, 'Delete', true, 'Keep the job'))) return;
           try {
             await api.deleteJob(job.id);
             const r = rows.get(job.id);

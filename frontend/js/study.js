@@ -74,7 +74,7 @@ export async function mount(root, params, ctx) {
     if (s.status === 'running') {
       const b = h('button', { type: 'button', class: 'danger' }, 'Cancel study');
       b.addEventListener('click', async () => {
-        if (!(await confirmDialog('Cancel the study?', `Cancel study ${s.id} with its queued and running trials?`, 'Cancel study', true))) return;
+        if (!(await confirmDialog('Cancel the study?', `Cancel study ${s.id} with its queued and running trials?`, 'Cancel study', true, 'Keep it running'))) return;
         act(b, () => api.cancelStudy(s.id));
       });
       buttons.push(b);
@@ -87,7 +87,7 @@ export async function mount(root, params, ctx) {
     if (s.status !== 'running') {
       const b = h('button', { type: 'button', class: 'danger' }, 'Delete');
       b.addEventListener('click', async () => {
-        if (!(await confirmDialog('Delete the study?', `Delete study ${s.id} with its ${s.planned} trials' jobs and results?`, 'Delete', true))) return;
+        if (!(await confirmDialog('Delete the study?', `Delete study ${s.id} with its ${s.planned} trials' jobs and results?`, 'Delete', true, 'Keep the study'))) return;
         try { await api.deleteStudy(s.id); ctx.navigate('/studies'); } catch (e) { messages.replaceChildren(notice('error', e.message)); }
       });
       buttons.push(b);

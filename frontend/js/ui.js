@@ -70,14 +70,25 @@ function dialogShell(titleText) {
   return dlg;
 }
 
-/** Modal confirmation; resolves true when confirmed. */
-export function confirmDialog(title, message, confirmLabel = 'Confirm', danger = false) {
+/** What cancelling a job does to its results, in one sentence for the confirmation. */
+export function cancelConsequence(job) {
+  if (job.status === 'queued' && !(job.progress > 0)) return 'It has not started: nothing is lost.';
+  return 'The runs it has completed are kept (its results will be partial); the rest is not computed.';
+}
+
+/** The label of the button that does not cancel a job. */
+export function keepLabel(job) {
+  return job.status === 'queued' ? 'Keep it queued' : 'Keep it running';
+}
+
+/** Modal confirmation; resolves true when confirmed. The other button says what not confirming means. */
+export function confirmDialog(title, message, confirmLabel = 'Confirm', danger = false, backLabel = 'Back') {
   return new Promise((resolve) => {
     const dlg = dialogShell(title);
     const form = h('form', { method: 'dialog' },
       h('p', {}, message),
       h('div', { class: 'actions' },
-        h('button', { type: 'submit', value: 'cancel', class: 'secondary' }, 'Keep'),
+        h('button', { type: 'submit', value: 'cancel', class: 'secondary' }, backLabel),
         h('button', { type: 'submit', value: 'ok', class: danger ? 'danger' : 'primary' }, confirmLabel)));
     dlg.append(form);
     dlg.addEventListener('close', () => resolve(dlg.returnValue === 'ok'));

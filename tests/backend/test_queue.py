@@ -73,6 +73,10 @@ def test_stale_job_is_requeued_then_failed_after_max_attempts(db: Database) -> N
     second = queue.claim(db, worker_id="b", stale_after_s=5, max_attempts=2)
     assert second is not None and second.job_id == job_id and second.attempt == 2
     assert second.lease != first.lease
+    with db.session() as session:  # the reason stays on the job (the error does not: it has none)
+        job = session.get(Job, job_id)
+        assert job.requeue_reason == "worker a stopped sending heartbeats (none for over 5 s)"
+        assert job.error is None
     # the first worker lost its lease: no heartbeat, no runs, no finish, no fail, no release
     rows = queue.run_rows(job_id, run_chunk(SPEC, SPEC.seeds[:1]))
     assert queue.heartbeat(db, claim=first) is False

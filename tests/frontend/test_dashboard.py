@@ -245,9 +245,9 @@ def test_runs_view_edit_filter_delete(page, server, screenshots, two_jobs):
     page.get_by_role("button", name="Clear filters").click()
     page.locator(f'tr[data-id="{victim["id"]}"]').wait_for()
 
-    # Delete with confirmation: "Keep" does nothing, "Delete" removes the row and the job.
+    # Delete with confirmation: "Keep the job" does nothing, "Delete" removes the row and the job.
     page.get_by_role("button", name=f"Delete job {victim['id']}").click()
-    page.get_by_role("dialog").get_by_role("button", name="Keep").click()
+    page.get_by_role("dialog").get_by_role("button", name="Keep the job").click()
     assert page.locator(f'tr[data-id="{victim["id"]}"]').count() == 1
     page.get_by_role("button", name=f"Delete job {victim['id']}").click()
     page.get_by_role("dialog").get_by_role("button", name="Delete").click()

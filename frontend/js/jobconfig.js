@@ -1,0 +1,85 @@
+// A job's full resolved configuration against its system's preset, and the summary CSV that carries
+// it. Pure functions (no DOM), so that node's test runner checks them.
+
+import { fmtParam } from './studydata.js';
+
+const GROUP_TITLES = {
+  system: 'System',
+  values: 'Values',
+  quality: 'Quality (environment)',
+  allocation: 'Allocation (environment)',
+  volatility: 'Volatility (environment)',
+  mgrao: 'MG-RAO (algorithm)',
+};
+
+/** Two parameter values are the same (floats compared to 1e-12 relative, as the server resolves them). */
+export function sameValue(a, b) {
+  if (a === b) return true;
+  if (typeof a === 'number' && typeof b === 'number' && Number.isFinite(a) && Number.isFinite(b)) {
+    return Math.abs(a - b) <= 1e-12 * Math.max(1, Math.abs(b));
+  }
+  return false;
+}
+
+/**
+ * The configuration as rows in the schema's order, grouped: one per parameter with the job's
+ * value, the preset's and whether they differ. A parameter the schema does not know (a job stored
+ * by another version) is listed last, under "Other".
+ */
+export function configRows(job, schema) {
+  const preset = (schema.systems.find((s) => s.name === job.system) || { params: {} }).params;
+  const params = job.params || {};
+  const known = new Set();
+  const rows = schema.parameters.filter((p) => p.name in params).map((p) => {
+    known.add(p.name);
+    return {
+      group: GROUP_TITLES[p.group] || p.group, name: p.name, help: p.help,
+      value: params[p.name], preset: preset[p.name], differs: !sameValue(params[p.name], preset[p.name]),
+    };
+  });
+  for (const name of Object.keys(params).sort()) {
+    if (!known.has(name)) rows.push({ group: 'Other', name, help: '', value: params[name], preset: preset[name], differs: !sameValue(params[name], preset[name]) });
+  }
+  return rows;
+}
+
+/** "3 of 27 parameters differ from the single preset: learning_rate 0.05, ..." (or that none does). */
+export function differenceSummary(job, rows) {
+  const differ = rows.filter((r) => r.differs);
+  if (!differ.length) return `Every parameter is the ${job.system} preset's.`;
+  return `${differ.length} of ${rows.length} parameters differ from the ${job.system} preset: ` +
+    differ.map((r) => `${r.name} ${fmtParam(r.value)}`).join(', ') + '.';
+}
+
+function csvCell(v) {
+  const text = v === null || v === undefined ? '' : String(v);
+  return /[",\n\r]/.test(text) ? `"${text.replace(/"/g, '""')}"` : text;
+}
+
+/**
+ * The final-utility table as CSV, one row per configuration, with the job's identity and every
+ * resolved parameter as columns, so that a row read alone says what was run.
+ */
+export function summaryCsv(job, configurations) {
+  const names = Object.keys(job.params || {}).sort();
+  const head = ['job_id', 'system', 'config_hash', 'algorithm', 'seeds_stored', 'seeds', 'episodes', 'final_mean',
+    'ci95_low', 'ci95_high', 'pct_from_uniform', 'pct_ci95_low', 'pct_ci95_high', 'pct_of_max', ...names];
+  const lines = [head.join(',')];
+  for (const c of configurations) {
+    const s = c.summary || {};
+    const ci = s.ci95 || [null, null];
+    const pci = s.pct_ci95 || [null, null];
+    const row = [job.id, job.system, job.config_hash, c.algorithm, c.seeds_done ?? s.n_runs, job.seeds.length, job.episodes,
+      s.final_mean, ci[0], ci[1], s.pct_from_uniform, pci[0], pci[1], s.pct_of_max, ...names.map((n) => job.params[n])];
+    lines.push(row.map(csvCell).join(','));
+  }
+  return `${lines.join('\n')}\n`;
+}
+
+/** The job's configuration as one JSON document: what re-running it needs, and where it came from. */
+export function configJson(job) {
+  return JSON.stringify({
+    id: job.id, name: job.name, system: job.system, algorithms: job.algorithms, seeds: job.seeds,
+    episodes: job.episodes, params: job.params, config_hash: job.config_hash, version: job.version,
+  }, null, 2);
+}

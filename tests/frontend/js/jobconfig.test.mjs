@@ -1,0 +1,61 @@
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import { sameValue, configRows, differenceSummary, summaryCsv, configJson } from '../../../frontend/js/jobconfig.js';
+
+const schema = {
+  systems: [{ name: 'single', params: { n_types: 20, learning_rate: 0.1, quality_model: 'hyperbolic' } }],
+  parameters: [
+    { name: 'n_types', group: 'system', help: 'types' },
+    { name: 'quality_model', group: 'quality', help: 'q' },
+    { name: 'learning_rate', group: 'mgrao', help: 'alpha' },
+  ],
+};
+const job = {
+  id: 7, name: 'x', system: 'single', algorithms: ['uniform', 'mgrao-max'], seeds: [0, 1], episodes: 100,
+  params: { n_types: 20, learning_rate: 0.05, quality_model: 'hyperbolic', legacy_knob: 3 },
+  config_hash: 'abc', version: '0.1.0',
+};
+
+test('sameValue: floats to 1e-12 relative, everything else exactly', () => {
+  assert.ok(sameValue(0.1, 0.1 + 1e-14));
+  assert.ok(!sameValue(0.1, 0.1001));
+  assert.ok(sameValue('a', 'a'));
+  assert.ok(!sameValue(true, 1));
+  assert.ok(!sameValue(null, 0));
+});
+
+test('configRows: schema order, groups named, differences against the preset, unknown parameters last', () => {
+  const rows = configRows(job, schema);
+  assert.deepEqual(rows.map((r) => r.name), ['n_types', 'quality_model', 'learning_rate', 'legacy_knob']);
+  assert.deepEqual(rows.map((r) => r.differs), [false, false, true, true]);
+  assert.equal(rows[2].group, 'MG-RAO (algorithm)');
+  assert.equal(rows[2].preset, 0.1);
+  assert.equal(rows[3].group, 'Other');
+});
+
+test('differenceSummary names what differs, or says nothing does', () => {
+  const rows = configRows(job, schema);
+  assert.equal(differenceSummary(job, rows),
+    '2 of 4 parameters differ from the single preset: learning_rate 0.05, legacy_knob 3.');
+  const plain = { ...job, params: { n_types: 20, learning_rate: 0.1, quality_model: 'hyperbolic' } };
+  assert.equal(differenceSummary(plain, configRows(plain, schema)), "Every parameter is the single preset's.");
+});
+
+test('summaryCsv: one row per configuration with every parameter as a column, quoted where needed', () => {
+  const configs = [
+    { algorithm: 'uniform', seeds_done: 2, summary: { final_mean: 1.5, ci95: [1.4, 1.6], pct_from_uniform: 0, pct_ci95: null, pct_of_max: 0 } },
+    { algorithm: 'mgrao-max', seeds_done: 1, summary: { final_mean: 2, ci95: [null, null], pct_from_uniform: 33.3, pct_ci95: [10, 50], pct_of_max: 100 } },
+  ];
+  const lines = summaryCsv({ ...job, params: { ...job.params, quality_model: 'a,"b"' } }, configs).trim().split('\n');
+  assert.equal(lines.length, 3);
+  assert.equal(lines[0], 'job_id,system,config_hash,algorithm,seeds_stored,seeds,episodes,final_mean,ci95_low,ci95_high,' +
+    'pct_from_uniform,pct_ci95_low,pct_ci95_high,pct_of_max,learning_rate,legacy_knob,n_types,quality_model');
+  assert.equal(lines[1], '7,single,abc,uniform,2,2,100,1.5,1.4,1.6,0,,,0,0.05,3,20,"a,""b"""');
+  assert.equal(lines[2], '7,single,abc,mgrao-max,1,2,100,2,,,33.3,10,50,100,0.05,3,20,"a,""b"""');
+});
+
+test('configJson holds what re-running the job needs', () => {
+  const parsed = JSON.parse(configJson(job));
+  assert.deepEqual(Object.keys(parsed), ['id', 'name', 'system', 'algorithms', 'seeds', 'episodes', 'params', 'config_hash', 'version']);
+  assert.equal(parsed.params.learning_rate, 0.05);
+});

@@ -1,0 +1,141 @@
+"""The job view as a researcher reads it: the configuration against its preset, curves that fill in
+while the job runs, and a job whose worker was killed saying so (attempts and the re-queue reason).
+
+Real `mgrao serve` with real workers, real SQLite files, headless Chromium; the killed worker is
+SIGKILLed by process id.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import sqlite3
+import subprocess
+import time
+import urllib.request
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from tests.frontend.conftest import ROOT
+from tests.support.local_service import free_port, serve_command, stop, wait_healthy
+
+
+def post_job(base: str, body: dict) -> dict:
+    request = urllib.request.Request(f"{base}/api/jobs", data=json.dumps(body).encode(), method="POST",
+                                     headers={"Content-Type": "application/json"})
+    with urllib.request.urlopen(request, timeout=10) as response:
+        return json.loads(response.read())
+
+
+def get_job(base: str, job_id: int) -> dict:
+    with urllib.request.urlopen(f"{base}/api/jobs/{job_id}", timeout=10) as response:
+        return json.loads(response.read())
+
+
+def wait_for(predicate, timeout: float, what: str, step: float = 0.2):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(step)
+    raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+
+
+def test_job_shows_its_configuration_against_the_preset(page, server, screenshots):
+    job = post_job(server, {"system": "single", "algorithms": ["uniform", "mgrao-max"], "seeds": 3, "episodes": 30,
+                            "params": {"learning_rate": 0.05, "quality_model": "exponential"}, "name": "config view"})
+    page.goto(f"/#/jobs/{job['id']}")
+    summary = page.locator("#config-summary")
+    summary.wait_for()
+    assert "2 of" in summary.inner_text() and "learning_rate 0.05" in summary.inner_text()
+    assert "quality_model exponential" in summary.inner_text()
+    differs = page.locator("tr.differs")
+    assert sorted(differs.evaluate_all("rows => rows.map(r => r.dataset.param)")) == ["learning_rate", "quality_model"]
+    assert "preset 0.1" in page.locator("tr[data-param=learning_rate]").inner_text()
+    assert page.locator("tr[data-param=trace_decay]:not(.differs)").count() == 1  # the rest is listed, plain
+    page.locator("#utility-chart .main-svg").first.wait_for(timeout=60000)
+    page.locator("#config-details").scroll_into_view_if_needed()
+    page.screenshot(path=str(screenshots / "job-config.png"), full_page=True)
+
+    with page.expect_download() as download_info:
+        page.click("#download-summary")
+    lines = Path(download_info.value.path()).read_text().splitlines()
+    head = lines[0].split(",")
+    assert len(lines) == 3 and "learning_rate" in head and "quality_model" in head
+    first = dict(zip(head, lines[1].split(","), strict=True))
+    assert first["algorithm"] == "uniform" and first["learning_rate"] == "0.05"
+    assert first["quality_model"] == "exponential" and first["seeds_stored"] == "3"
+    with page.expect_download() as download_info:
+        page.click("#download-config")
+    config = json.loads(Path(download_info.value.path()).read_text())
+    assert config["params"]["learning_rate"] == 0.05 and config["system"] == "single"
+
+
+@pytest.fixture
+def restless_server(tmp_path: Path) -> Iterator[tuple[str, Path]]:
+    """`mgrao serve` with one worker and a 4 s staleness: a killed worker's job is re-queued soon."""
+    port = free_port()
+    database = tmp_path / "restless.db"
+    env = {**os.environ, "MGRAO_DATABASE_URL": f"sqlite:///{database}", "MGRAO_STALE_AFTER_S": "4",
+           "MGRAO_HEARTBEAT_S": "0.5", "MGRAO_PROGRESS_S": "0.5"}
+    env.pop("MGRAO_API_TOKEN", None)
+    with open(tmp_path / "serve.log", "wb") as log:
+        proc = subprocess.Popen(serve_command(port, workers=1), env=env, cwd=ROOT, stdout=log,
+                                stderr=subprocess.STDOUT)
+    base = f"http://127.0.0.1:{port}"
+    try:
+        wait_healthy(base, proc)
+        yield base, database
+    finally:
+        stop(proc, timeout=15)
+
+
+def worker_pid(database: Path, job_id: int) -> int | None:
+    with sqlite3.connect(database, timeout=10) as connection:
+        row = connection.execute("SELECT worker_id FROM jobs WHERE id = ? AND status = 'running'", (job_id,)).fetchone()
+    return int(row[0].rsplit(":", 1)[1]) if row and row[0] else None
+
+
+def stored_runs(database: Path, job_id: int) -> int:
+    with sqlite3.connect(database, timeout=10) as connection:
+        return connection.execute("SELECT count(*) FROM runs WHERE job_id = ?", (job_id,)).fetchone()[0]
+
+
+def test_curves_fill_in_and_a_requeued_job_says_why(browser, restless_server, screenshots):
+    base, database = restless_server
+    # one seed per chunk (30M atomic tasks a seed; a chunk holds at most 50M), a few seconds each
+    job = post_job(base, {"system": "large", "algorithms": ["uniform", "mgrao-1:1"], "seeds": 5, "episodes": 3000,
+                          "params": {"n_parents": 1000}, "name": "live curves"})
+    context = browser.new_context(viewport={"width": 1280, "height": 800}, base_url=base)
+    page = context.new_page()
+    page.set_default_timeout(60000)
+    try:
+        page.goto(f"/#/jobs/{job['id']}")
+        note = page.locator("#partial-note")
+        note.wait_for(timeout=120000)  # the first chunk stored: its curves are drawn while the job runs
+        assert "filling in" in note.inner_text() and "uniform 1 of 5" in note.inner_text()
+        page.locator("#utility-chart .main-svg").first.wait_for()
+        assert get_job(base, job["id"])["status"] == "running"
+        page.screenshot(path=str(screenshots / "job-live.png"), full_page=True)
+
+        pid = wait_for(lambda: worker_pid(database, job["id"]), 30, "the job's worker")
+        kept = stored_runs(database, job["id"])
+        os.kill(pid, signal.SIGKILL)
+        requeue = page.locator("#requeue-note")
+        requeue.wait_for(timeout=120000)
+        assert "stopped sending heartbeats" in requeue.inner_text()
+        wait_for(lambda: get_job(base, job["id"])["status"] == "succeeded", 300, "the job to succeed", step=1)
+        page.locator("#partial-note").wait_for(state="detached", timeout=30000)
+        page.locator("#utility-chart .main-svg").first.wait_for()
+        final = get_job(base, job["id"])
+        assert final["attempts"] == 2 and "stopped sending heartbeats" in final["requeue_reason"]
+        assert "Attempt 2" in page.locator("#requeue-note").inner_text()
+        page.screenshot(path=str(screenshots / "job-requeued.png"), full_page=True)
+        # every run stored exactly once; what the killed attempt stored was kept, not recomputed
+        assert stored_runs(database, job["id"]) == 10 and kept >= 2
+    finally:
+        context.close()
