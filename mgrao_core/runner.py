@@ -40,6 +40,7 @@ def _build_lanes(spec: ExperimentSpec, worlds: Sequence[World], oracle: Sequence
     for lane in np.flatnonzero(kind == engine.KIND_ORACLE):
         fixed[lane] = oracle[int(seed_index[lane])]
     estimates_shape = (n_lanes, p.n_parents, routing_choices(p), p.n_children)
+    rows, slot, n_rows = engine.initial_rows(groups, p.n_children, max_groups)
     return engine.Lanes(
         seed_index=seed_index.astype(np.int64),
         kind=kind,
@@ -51,6 +52,9 @@ def _build_lanes(spec: ExperimentSpec, worlds: Sequence[World], oracle: Sequence
         cs=np.ones(shape + (max_groups,)),
         G=np.zeros(shape + (max_groups,)),
         k_since_rebase=np.zeros(shape, dtype=np.int64),
+        rows=rows,
+        slot=slot,
+        n_rows=n_rows,
         counts=np.zeros(shape + (max_groups,)),
         weights=fixed.copy(),
         estimates=np.full(estimates_shape, p.initial_estimate),
