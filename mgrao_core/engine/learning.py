@@ -103,7 +103,7 @@ def learning_of(params: SystemParams) -> Learning:
 
 
 def initial_rows(groups: np.ndarray, n_children: int, max_groups: int,
-                 min_bounded_groups: int = MIN_BOUNDED_GROUPS) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                 min_bounded_groups: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The active rows of every lane's children before the first episode.
 
     Returns ``rows (lanes, children, max_groups)`` (the active rows of a child come first),
