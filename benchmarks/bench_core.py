@@ -1,6 +1,9 @@
 """Core benchmark: the paper reproduction's wall time, and how cost grows with size.
 
-Run: ``python benchmarks/bench_core.py`` (add ``--quick`` for a shorter sweep).
+Run: ``python benchmarks/bench_core.py`` (add ``--quick`` for a shorter sweep). With
+``--baseline DIR`` (a checkout of an earlier version, e.g. ``git worktree add /tmp/before 499d458``)
+every point is measured there too, in the same run, and printed beside the current figure with
+the ratio; a point the earlier version refuses (a limit it did not have) prints ``-``.
 
 Every point runs in a fresh subprocess (after a warm-up call that loads the compiled kernel), so
 its peak memory (max RSS) is its own. Throughput counts atomic tasks simulated per second:
@@ -13,6 +16,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import subprocess
 import sys
 import textwrap
@@ -46,10 +50,43 @@ _POINT = textwrap.dedent(
 )
 
 
-def measure(**args) -> dict:
-    """Run one point in a fresh interpreter; returns wall seconds, atomic tasks and peak MiB."""
-    out = subprocess.run([sys.executable, "-c", _POINT, json.dumps(args)], capture_output=True, text=True, check=True)
+BASELINE: str | None = None
+"""A checkout of an earlier version to measure beside this one (``--baseline``)."""
+
+
+def _run_point(args: dict, root: str | None) -> dict | None:
+    env = dict(os.environ)
+    if root is not None:
+        env["PYTHONPATH"] = root
+    out = subprocess.run(
+        [sys.executable, "-c", _POINT, json.dumps(args)], capture_output=True, text=True, env=env, cwd=root
+    )
+    if out.returncode != 0:
+        if root is None:
+            raise RuntimeError(out.stderr)
+        return None
     return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def measure(**args) -> dict:
+    """Run one point in a fresh interpreter; returns wall seconds, atomic tasks and peak MiB.
+
+    With a baseline, ``before`` holds the same point measured on it (None if it refused the point).
+    """
+    point = _run_point(args, None)
+    if BASELINE is not None:
+        point["before"] = _run_point(args, BASELINE)
+    return point
+
+
+def beside(point: dict, key: str = "wall") -> str:
+    """The baseline's figure and the ratio now / before, or nothing without a baseline."""
+    if BASELINE is None:
+        return ""
+    before = point.get("before")
+    if before is None:
+        return f" {'-':>9} {'-':>7}"
+    return f" {before[key]:>9.3f} {point[key] / before[key]:>7.2f}"
 
 
 def slope(xs: list[float], ys: list[float]) -> float:
@@ -63,20 +100,35 @@ def slope(xs: list[float], ys: list[float]) -> float:
 def sweep(title: str, name: str, values: list[int], build, explain: str) -> None:
     """Measure one axis, print a row per point and the fitted exponent of wall time."""
     print(f"\n{title}")
-    print(f"{name:>10} {'wall s':>9} {'tasks/s':>12} {'peak MiB':>9}")
-    walls = []
+    extra = f" {'before s':>9} {'ratio':>7} {'before MiB':>10}" if BASELINE else ""
+    print(f"{name:>10} {'wall s':>9} {'tasks/s':>12} {'peak MiB':>9}{extra}")
+    walls, befores = [], []
     for value in values:
         point = measure(**build(value))
         walls.append(point["wall"])
-        print(f"{value:>10} {point['wall']:>9.3f} {point['work'] / point['wall']:>12.3g} {point['peak_mib']:>9.0f}")
-    print(f"  exponent of wall time: {slope(values, walls):.2f} ({explain})")
+        before = point.get("before")
+        befores.append(before["wall"] if before else None)
+        mib = f" {before['peak_mib']:>10.0f}" if before else (f" {'-':>10}" if BASELINE else "")
+        print(
+            f"{value:>10} {point['wall']:>9.3f} {point['work'] / point['wall']:>12.3g} {point['peak_mib']:>9.0f}"
+            f"{beside(point)}{mib}"
+        )
+    line = f"  exponent of wall time: {slope(values, walls):.2f}"
+    measured = [(v, b) for v, b in zip(values, befores, strict=True) if b is not None]
+    if BASELINE and len(measured) >= 2:
+        line += f" (before: {slope([v for v, _ in measured], [b for _, b in measured]):.2f})"
+    print(f"{line} ({explain})")
 
 
 def main() -> None:
     """Print the reproduction figures and the scaling sweeps."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="smaller sweeps")
-    quick = parser.parse_args().quick
+    parser.add_argument("--baseline", metavar="DIR", help="a checkout of an earlier version to measure beside")
+    options = parser.parse_args()
+    quick = options.quick
+    global BASELINE
+    BASELINE = os.path.abspath(options.baseline) if options.baseline else None
 
     for seeds, target in ((100, "target: under 2 s"), (30, "")):
         print(f"Paper reproduction: 4 systems, the paper's algorithms, {seeds} seeds x 100 episodes, default reading")
@@ -87,6 +139,12 @@ def main() -> None:
             f"  wall median {walls[2]:.3f} s (min {walls[0]:.3f}, max {walls[-1]:.3f}) {target}; "
             f"{best['work']:,} atomic tasks, {best['work'] / walls[2]:.3g} tasks/s, peak {best['peak_mib']:.0f} MiB"
         )
+        before = sorted(p["before"]["wall"] for p in points if p.get("before"))
+        if before:
+            print(
+                f"  before: wall median {before[len(before) // 2]:.3f} s; "
+                f"ratio of medians {walls[2] / before[len(before) // 2]:.2f} (target: at most 1.05)"
+            )
     ref = measure(what="reference", system="single", seeds=2, episodes=100)
     per_task = ref["wall"] / ref["work"]
     print(
@@ -118,14 +176,21 @@ def main() -> None:
         "parents",
         parents,
         lambda p: custom(p, ["mgrao-max"], 4, 100),
-        "expected 2: P*5 values per episode, each renormalising all P rows with a positive trace",
+        "P*5 values per episode, each renormalising the active rows (before: every row with a trace)",
+    )
+    sweep(
+        "Many parents, mgrao-max, 4 seeds x 100 episodes",
+        "parents",
+        [300, 1000] + ([] if quick else [3000]),
+        lambda p: custom(p, ["mgrao-max"], 4, 100),
+        "target: at most 1.15, and under 0.5 s at 1,000 parents: an update visits only the active rows",
     )
     sweep(
         f"Groups at {top} parents, mgrao-x:1, 4 seeds x 100 episodes",
         "groups",
         [1, 10, 100] + ([] if quick else [1000]),
         lambda m: custom(top, [f"mgrao-{m}:1"], 4, 100),
-        "expected up to 1: O(groups) per value on top of O(1) per task",
+        "expected at most 1: O(active rows) per value on top of O(1) per task",
     )
     sweep(
         "Episodes, single system, uniform + 1:1 + max, 4 seeds",

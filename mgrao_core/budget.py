@@ -6,8 +6,8 @@ not the experiment. :func:`chunk_cost` counts every array a chunk allocates whil
 :mod:`mgrao_core.runner` and :mod:`mgrao_core.oracle` allocate them, and the copies a caller makes
 to store the chunk's runs (one serialised copy of every run, as the service's workers do):
 
-* ``state``: each lane's learner (PW and trace in lazy form, counts, weights), the parents'
-  estimates of children, presence and value profiles;
+* ``state``: each lane's learner (PW and trace in lazy form, its active rows, counts, weights),
+  the parents' estimates of children, presence and value profiles;
 * ``worlds``: what each seed drew once, and its stacked copies for the kernel;
 * ``draws``: one block of per-episode randomness per seed, the per-seed arrays and their stacked
   copies (:data:`mgrao_core.runner.BLOCK_ATOMIC_TASKS` bounds a block);
@@ -80,7 +80,7 @@ def chunk_cost(spec: ExperimentSpec, n_seeds: int) -> ChunkCost:
     groups = max([a.n_groups for a in algorithms] + [1])
     choices = routing_choices(p)
     state = _F * lanes * (
-        children * (2 * groups * types + 4 * groups + 2 * types + 1)
+        children * (2 * groups * types + 6 * groups + 2 * types + 2)
         + 2 * parents * choices * children
         + parents * per_composite
         + 3

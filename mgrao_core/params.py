@@ -61,7 +61,7 @@ PARAMETERS: tuple[Parameter, ...] = (
         "types_per_composite", "int", 5,
         "Distinct atomic types in each composite type (at most n_types).", "system", 1, 200,
     ),
-    Parameter("n_parents", "int", 10, "Number of parent agents.", "system", 1, 1000),
+    Parameter("n_parents", "int", 10, "Number of parent agents.", "system", 1, 3000),
     Parameter("n_children", "int", 1, "Number of child agents.", "system", 1, 100),
     Parameter(
         "resource_mean", "float", 0.5,

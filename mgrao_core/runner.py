@@ -25,7 +25,8 @@ ProgressCallback = Callable[[float], None]
 StopCheck = Callable[[], bool]
 
 
-def _build_lanes(spec: ExperimentSpec, worlds: Sequence[World], oracle: Sequence[np.ndarray]) -> engine.Lanes:
+def _build_lanes(spec: ExperimentSpec, worlds: Sequence[World], oracle: Sequence[np.ndarray],
+                 learning: engine.Learning) -> engine.Lanes:
     p = spec.params
     algorithms = spec.parsed_algorithms
     n_lanes = len(algorithms) * len(worlds)
@@ -40,6 +41,7 @@ def _build_lanes(spec: ExperimentSpec, worlds: Sequence[World], oracle: Sequence
     for lane in np.flatnonzero(kind == engine.KIND_ORACLE):
         fixed[lane] = oracle[int(seed_index[lane])]
     estimates_shape = (n_lanes, p.n_parents, routing_choices(p), p.n_children)
+    rows, slot, n_rows = engine.initial_rows(groups, p.n_children, max_groups, learning.min_bounded_groups)
     return engine.Lanes(
         seed_index=seed_index.astype(np.int64),
         kind=kind,
@@ -51,6 +53,9 @@ def _build_lanes(spec: ExperimentSpec, worlds: Sequence[World], oracle: Sequence
         cs=np.ones(shape + (max_groups,)),
         G=np.zeros(shape + (max_groups,)),
         k_since_rebase=np.zeros(shape, dtype=np.int64),
+        rows=rows,
+        slot=slot,
+        n_rows=n_rows,
         counts=np.zeros(shape + (max_groups,)),
         weights=fixed.copy(),
         estimates=np.full(estimates_shape, p.initial_estimate),
@@ -111,13 +116,13 @@ def run_chunk(
     if "oracle" in spec.algorithms:
         for world, seed in zip(worlds, seeds, strict=True):
             oracle.append(oracle_weights(p, world, seed, should_stop=should_stop))
-    lanes = _build_lanes(spec, worlds, oracle)
+    learning = engine.learning_of(p)
+    lanes = _build_lanes(spec, worlds, oracle, learning)
     world = engine.Worlds(
         parent_types=np.ascontiguousarray(np.stack([w.parent_types for w in worlds]).astype(np.int64)),
         resources=np.ascontiguousarray(np.stack([w.resources for w in worlds])),
     )
     environment = engine.environment_of(p)
-    learning = engine.learning_of(p)
     streams = [EpisodeStreams(p, seed) for seed in seeds]
     utilities = np.zeros((len(lanes.kind), spec.episodes))
     block = episodes_per_block or block_episodes(spec, len(seeds))

@@ -19,8 +19,9 @@ MAX_ALGORITHMS = 20
 MAX_WORK = 2_000_000_000
 """Atomic tasks per experiment: seeds x algorithms x episodes x parents x types per composite."""
 MAX_GROUP_UPDATES = 40_000_000_000
-"""Row updates of algorithm 1 per experiment: each returned value renormalises every parent-group
-row of its child, so an MG-RAO run costs atomic tasks x groups (about 3 ns each here)."""
+"""Row updates of algorithm 1 per experiment, counted at their worst: each returned value
+renormalises every active parent-group row of its child, and at slow trace decays every row stays
+active, so an MG-RAO run costs up to atomic tasks x groups (about 3 ns each here)."""
 
 
 @dataclass(frozen=True)

@@ -2,7 +2,7 @@
 
 * :mod:`~mgrao_core.engine.environment`: what parents and children do with tasks (absent parents,
   proportional values, choosing a child, quality of an atomic task, estimates of children);
-* :mod:`~mgrao_core.engine.learning`: algorithm 1 (applied lazily, O(groups) per value) and
+* :mod:`~mgrao_core.engine.learning`: algorithm 1 (applied lazily, O(active rows) per value) and
   algorithm 2;
 * :mod:`~mgrao_core.engine.kernel`: the lanes, the world and the draws as the kernel reads them,
   and the loop over episodes that strings the paper's five processing steps together.
@@ -14,7 +14,14 @@ import mgrao_core._numba_cache  # noqa: F401, I001  (first: picks a writable num
 from mgrao_core.engine.cache import bind_to_sources
 from mgrao_core.engine.environment import Environment, environment_of
 from mgrao_core.engine.kernel import KIND_MGRAO, KIND_ORACLE, KIND_UNIFORM, Draws, Lanes, Worlds, finish, run_block
-from mgrao_core.engine.learning import TRACE_SCALE_LIMIT, Learning, learning_of, rebase_interval
+from mgrao_core.engine.learning import (
+    MIN_BOUNDED_GROUPS,
+    TRACE_SCALE_LIMIT,
+    Learning,
+    initial_rows,
+    learning_of,
+    rebase_interval,
+)
 
 bind_to_sources([run_block, finish])
 
@@ -22,6 +29,7 @@ __all__ = [
     "KIND_MGRAO",
     "KIND_ORACLE",
     "KIND_UNIFORM",
+    "MIN_BOUNDED_GROUPS",
     "TRACE_SCALE_LIMIT",
     "Draws",
     "Environment",
@@ -30,6 +38,7 @@ __all__ = [
     "Worlds",
     "environment_of",
     "finish",
+    "initial_rows",
     "learning_of",
     "rebase_interval",
     "run_block",

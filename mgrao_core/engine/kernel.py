@@ -48,6 +48,8 @@ class Lanes(NamedTuple):
         fixed_weights: ``(lanes, children, n_types)`` the weights of uniform and oracle lanes.
         Y, F, H, cs, G, k_since_rebase: each child's lazy PW and trace (see
             :mod:`mgrao_core.engine.learning`), ``(lanes, children, groups[, n_types])``.
+        rows, slot, n_rows: each child's active rows (the first ``n_rows`` of ``rows``), a row's
+            place among them (-1: inactive), ``(lanes, children[, groups])``.
         counts: ``(lanes, children, groups)`` parent agent sample counts.
         weights: ``(lanes, children, n_types)`` each child's allocation in this episode.
         estimates, tries: ``(lanes, parents, choices, children)`` each parent's running mean of
@@ -66,6 +68,9 @@ class Lanes(NamedTuple):
     cs: np.ndarray
     G: np.ndarray
     k_since_rebase: np.ndarray
+    rows: np.ndarray
+    slot: np.ndarray
+    n_rows: np.ndarray
     counts: np.ndarray
     weights: np.ndarray
     estimates: np.ndarray
@@ -98,33 +103,37 @@ class Draws(NamedTuple):
 
 
 @njit(cache=True)
-def fix_allocation(Y, F, H, cs, G, k_since_rebase, counts, m, learning, weights, scratch):
+def fix_allocation(Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, m, bounded, learning, weights,
+                   scratch):
     """A learning child fixes its resource weights for the episode.
 
-    Its PW is materialised, then algorithm 2 writes ``weights``. Returns the updates since the
-    rebase (now 0).
+    Its PW is materialised, then algorithm 2 writes ``weights``. Returns the number of active rows
+    (the updates since the rebase are now 0).
     """
-    n = Y.shape[1]
-    rebase(Y, F, H, cs, G, m, n, learning.gamma_pow[k_since_rebase])
-    combined_weights(Y, counts, m, n, learning.temperature, weights, scratch)
-    return 0
+    n_rows = rebase(Y, F, H, cs, G, rows, slot, n_rows, learning.gamma_pow[k_since_rebase], learning.trace_tail,
+                    bounded)
+    combined_weights(Y, counts, m, Y.shape[1], learning.temperature, weights, scratch)
+    return n_rows
 
 
 @njit(cache=True, inline="always")
-def learn(Y, F, H, cs, G, k_since_rebase, counts, m, group, task_type, value, learning, rebase_due):
-    """A learning child receives an atomic task's absolute value from a parent of ``group``.
+def learn(Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, c, bounded, group, task_type, value,
+          learning):
+    """Child ``c`` receives an atomic task's absolute value from a parent of ``group``.
 
-    The sample count, then algorithm 1 (rebasing first when due). Returns the updates since the
-    rebase and whether the next one is due early.
+    The sample count, then algorithm 1 (rebasing first when due). The arrays are the lane's, first
+    index the child (so that no per-child view is made for every task).
     """
-    counts[group] += 1.0
-    if rebase_due or k_since_rebase == learning.gamma_pow.shape[0] - 1:
-        rebase(Y, F, H, cs, G, m, Y.shape[1], learning.gamma_pow[k_since_rebase])
-        k_since_rebase = 0
-    k_since_rebase += 1
-    due = pw_update(Y, F, H, cs, G, m, k_since_rebase, group, task_type, learning.learning_rate * value,
-                    learning.gamma_pow, learning.gamma_inv_pow)
-    return k_since_rebase, due
+    counts[c, group] += 1.0
+    k = k_since_rebase[c]
+    if rebase_due[c] or k == learning.gamma_pow.shape[0] - 1:
+        n_rows[c] = rebase(Y[c], F[c], H[c], cs[c], G[c], rows[c], slot[c], n_rows[c], learning.gamma_pow[k],
+                           learning.trace_tail, bounded)
+        k = 0
+    k += 1
+    k_since_rebase[c] = k
+    rebase_due[c] = pw_update(Y, F, H, cs, G, rows, slot, n_rows, c, k, group, task_type,
+                              learning.learning_rate * value, learning.gamma_pow, learning.gamma_inv_pow, bounded)
 
 
 @njit(cache=True, parallel=True)
@@ -142,7 +151,9 @@ def run_block(lanes, worlds, draws, env, learning, utilities):
         m = lanes.groups[lane]
         learning_lane = lanes.kind[lane] == KIND_MGRAO
         active = lanes.active[lane]
+        bounded = m > learning.min_bounded_groups
         Y, F, H, cs, G = lanes.Y[lane], lanes.F[lane], lanes.H[lane], lanes.cs[lane], lanes.G[lane]
+        rows, slot, n_rows = lanes.rows[lane], lanes.slot[lane], lanes.n_rows[lane]
         k_since_rebase, counts, weights = lanes.k_since_rebase[lane], lanes.counts[lane], lanes.weights[lane]
         child_of = np.zeros((n_parents, types_per_composite), dtype=np.int64)
         ctv = np.zeros((n_parents, types_per_composite))
@@ -156,8 +167,9 @@ def run_block(lanes, worlds, draws, env, learning, utilities):
             parents_leave_and_join(active, lanes.profiles[lane], draws.volatility[s, e], draws.new_profiles[s, e], env)
             for c in range(n_children):
                 if learning_lane:
-                    k_since_rebase[c] = fix_allocation(Y[c], F[c], H[c], cs[c], G[c], k_since_rebase[c], counts[c],
-                                                       m, learning, weights[c], scratch)
+                    n_rows[c] = fix_allocation(Y[c], F[c], H[c], cs[c], G[c], rows[c], slot[c], n_rows[c],
+                                               k_since_rebase[c], counts[c], m, bounded, learning, weights[c], scratch)
+                    k_since_rebase[c] = 0
                     rebase_due[c] = False
                 else:
                     weights[c, :] = lanes.fixed_weights[lane, c, :]
@@ -197,10 +209,8 @@ def run_block(lanes, worlds, draws, env, learning, utilities):
                     group = (p * m) // n_parents
                     for k in range(types_per_composite):
                         c = child_of[p, k]
-                        k_since_rebase[c], rebase_due[c] = learn(
-                            Y[c], F[c], H[c], cs[c], G[c], k_since_rebase[c], counts[c], m, group,
-                            worlds.parent_types[s, p, k], values[p, k], learning, rebase_due[c],
-                        )
+                        learn(Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, c, bounded,
+                              group, worlds.parent_types[s, p, k], values[p, k], learning)
 
 
 @njit(cache=True)
@@ -212,7 +222,9 @@ def finish(lanes, learning):
         m = lanes.groups[lane]
         scratch = np.zeros(m)
         for c in range(lanes.Y.shape[1]):
-            lanes.k_since_rebase[lane, c] = fix_allocation(
+            lanes.n_rows[lane, c] = fix_allocation(
                 lanes.Y[lane, c], lanes.F[lane, c], lanes.H[lane, c], lanes.cs[lane, c], lanes.G[lane, c],
-                lanes.k_since_rebase[lane, c], lanes.counts[lane, c], m, learning, lanes.weights[lane, c], scratch,
+                lanes.rows[lane, c], lanes.slot[lane, c], lanes.n_rows[lane, c], lanes.k_since_rebase[lane, c],
+                lanes.counts[lane, c], m, m > learning.min_bounded_groups, learning, lanes.weights[lane, c], scratch,
             )
+            lanes.k_since_rebase[lane, c] = 0

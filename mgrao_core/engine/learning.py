@@ -1,8 +1,8 @@
 """MG-RAO's learning, compiled: algorithm 1 (update) applied lazily and algorithm 2 (weighting).
 
 Cost per returned value. Algorithm 1 adds ``alpha * atv * E`` to the whole ``PW`` matrix and
-sum-normalises every row. Done densely that is O(m * n) per value. Here it is O(m): for every
-row ``i`` we keep ``PW[i, j] = cs[i] * (Y[i, j] + F[i, j] * H[i])`` and ``E[i, j] = gamma**k *
+sum-normalises every row. Done densely that is O(m * n) per value. Here it is O(active rows): for
+every row ``i`` we keep ``PW[i, j] = cs[i] * (Y[i, j] + F[i, j] * H[i])`` and ``E[i, j] = gamma**k *
 F[i, j]``, where ``k`` counts the child's updates since the last *rebase*:
 
 * the trace update touches one entry of ``F`` (replace with ``gamma**-k``; every other entry
@@ -11,9 +11,23 @@ F[i, j]``, where ``k`` counts the child's updates since the last *rebase*:
 * each row sum becomes ``1 + a * gamma**k * G[i]`` with ``G[i] = sum_j F[i, j]``, so
   the row normalisation is ``cs[i] /= 1 + a * gamma**k * G[i]``.
 
-A rebase materialises ``PW`` and ``E`` (O(m * n)) at the start of every episode, where the
-combined weights need the whole matrix anyway, and whenever ``gamma**-k`` or ``1 / cs`` grow
+A rebase materialises ``PW`` and ``E`` (O(active rows * n)) at the start of every episode, where
+the combined weights need the whole matrix anyway, and whenever ``gamma**-k`` or ``1 / cs`` grow
 large enough to cost precision (see :data:`TRACE_SCALE_LIMIT`).
+
+Active rows. A row whose trace is still positive is renormalised by every returned value, and a
+trace never returns to zero by itself, so with a group per parent every value would touch every
+row. But a row's trace shrinks by ``gamma`` per update: once everything it can still add to the
+row, over all later updates, is below half a unit in the last place of every weight it would add
+to (:func:`trace_is_negligible`), the rebase drops it (the row keeps its weights) and the row
+leaves the child's *active rows*, which are the only ones an update visits. A returned value from
+its group makes it active again. ``H``, ``cs`` and ``G`` are stored by place among the active rows
+(``H[s]`` belongs to row ``rows[s]``), so that the update runs over contiguous memory.
+
+Children with at most :data:`MIN_BOUNDED_GROUPS` groups keep every row active and perform exactly
+the operations above. A child with more keeps the reciprocal scale in ``cs`` (``PW = (Y + F * H) /
+cs``; ``H += a * gamma**k * cs``; ``cs *= 1 + a * gamma**k * G``): multiplications instead of
+divisions, the same rounding up to the last bit. docs/model.md ("The engine") gives the argument.
 """
 
 from __future__ import annotations
@@ -26,14 +40,24 @@ from numba import njit
 
 from mgrao_core.params import SystemParams
 
-_SCALE_LIMIT = 1e-150  # rebase before any cs[i] falls below this
+_SCALE_LIMIT = 1e-150  # rebase before any cs[i] falls below this (a reciprocal scale rises above 1 / it)
 
 TRACE_SCALE_LIMIT = 64.0
 """Largest ``gamma**-k`` between rebases. ``Y + F * H`` cancels terms of size up to about
 ``gamma**-k * k * alpha * atv`` times an entry of PW, so this bound keeps the lazy form within
 about 1e-13 of the dense update (checked against :mod:`mgrao_core.reference`); with gamma = 0.9
-it means a rebase every 39 updates, which costs O(m * n / 39) per update, below the O(m) of the
-update itself for n_types up to 39."""
+it means a rebase every 39 updates, which costs O(rows * n / 39) per update, below the O(rows) of
+the update itself for n_types up to 39."""
+
+NEGLIGIBLE = 2.0**-55
+"""A dropped trace may change a weight by at most this fraction of it (and the row's sum by this
+fraction of 1): less than half a unit in the last place (a weight ``w`` has ``ulp(w) / 2 > w *
+2**-54``), so adding it would not change the row in float64."""
+
+MIN_BOUNDED_GROUPS = 64
+"""Children with at most this many parent groups keep every row active. Below it, dropping
+negligible traces saves little, and the engine then performs exactly the floating-point operations
+of the unbounded lazy update (so results stored by earlier versions re-run bit for bit)."""
 
 
 class Learning(NamedTuple):
@@ -44,12 +68,17 @@ class Learning(NamedTuple):
         temperature: the softmax temperature of algorithm 2 in use.
         gamma_pow: ``trace_decay ** k`` for ``k = 0 .. rebase interval``.
         gamma_inv_pow: ``trace_decay ** -k``, likewise.
+        trace_tail: ``alpha * gamma / (1 - gamma)``: the most a trace entry of 1 still adds to its
+            weight over all later updates (see :func:`trace_is_negligible`).
+        min_bounded_groups: :data:`MIN_BOUNDED_GROUPS`.
     """
 
     learning_rate: float
     temperature: float
     gamma_pow: np.ndarray
     gamma_inv_pow: np.ndarray
+    trace_tail: float
+    min_bounded_groups: int
 
 
 def rebase_interval(trace_decay: float) -> int:
@@ -57,29 +86,94 @@ def rebase_interval(trace_decay: float) -> int:
     return int(max(1, min(100_000, math.floor(math.log(TRACE_SCALE_LIMIT) / -math.log(trace_decay)))))
 
 
+def trace_tail(learning_rate: float, trace_decay: float) -> float:
+    """``alpha * gamma / (1 - gamma)``: what a trace entry of 1 adds to its weight over all later updates.
+
+    At the ``u``-th update after it, the entry is ``gamma**u`` and adds ``alpha * atv * gamma**u``
+    with ``atv <= 1`` (a composite quality times a proportional value, both at most 1).
+    """
+    return learning_rate * trace_decay / (1.0 - trace_decay)
+
+
 def learning_of(params: SystemParams) -> Learning:
     """The kernel's view of a validated parameter set."""
     gamma_pow = params.trace_decay ** np.arange(rebase_interval(params.trace_decay) + 1, dtype=float)
-    return Learning(params.learning_rate, params.effective_temperature, gamma_pow, 1.0 / gamma_pow)
+    return Learning(params.learning_rate, params.effective_temperature, gamma_pow, 1.0 / gamma_pow,
+                    trace_tail(params.learning_rate, params.trace_decay), MIN_BOUNDED_GROUPS)
+
+
+def initial_rows(groups: np.ndarray, n_children: int, max_groups: int,
+                 min_bounded_groups: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The active rows of every lane's children before the first episode.
+
+    Returns ``rows (lanes, children, max_groups)`` (the active rows of a child come first),
+    ``slot`` (a row's place in ``rows``, -1 if inactive) and ``n_rows (lanes, children)``. With
+    at most ``min_bounded_groups`` groups every row is active and stays so; with more, none is
+    yet: a row becomes active with the first value of its group.
+    """
+    n_lanes = groups.shape[0]
+    rows = np.tile(np.arange(max_groups, dtype=np.int64), (n_lanes, n_children, 1))
+    slot = rows.copy()  # H, cs and G of a row are at its slot: where the row is, while all are active
+    n_rows = np.repeat(groups.astype(np.int64)[:, None], n_children, axis=1)
+    for lane in np.flatnonzero(groups > min_bounded_groups):
+        slot[lane] = -1
+        n_rows[lane] = 0
+    return rows, slot, n_rows
+
+
+@njit(cache=True, inline="always")
+def trace_is_negligible(weights, trace, trace_sum, tail):
+    """Whether a row's trace can no longer change the row in float64.
+
+    Just after a rebase the trace is ``trace`` (summing to ``trace_sum``). Over all later updates
+    it adds at most ``tail * trace[j]`` to ``weights[j]`` and ``tail * trace_sum`` to the row's
+    sum; both must stay below :data:`NEGLIGIBLE` of what they are added to.
+    """
+    if not trace_sum * tail <= NEGLIGIBLE:
+        return False
+    for j in range(trace.shape[0]):
+        if trace[j] > 0.0 and not trace[j] * tail <= NEGLIGIBLE * weights[j]:
+            return False
+    return True
 
 
 @njit(cache=True)
-def rebase(Y, F, H, cs, G, m, n, gamma_k):
-    """Materialise PW into Y and E into F for rows ``< m``; reset H, cs and G."""
-    for i in range(m):
+def rebase(Y, F, H, cs, G, rows, slot, n_rows, gamma_k, tail, bounded):
+    """Materialise PW into Y and E into F for the active rows; reset H, cs and G.
+
+    ``H``, ``cs`` and ``G`` of the active row ``rows[s]`` are at ``s``. With ``bounded`` (the
+    child's scales are reciprocal; the row sum normalises them away), a row whose trace became
+    negligible drops it (``F`` of the row becomes 0, so ``Y`` is its PW) and leaves the active
+    rows. Returns the number of active rows.
+    """
+    n = Y.shape[1]
+    s = n_rows
+    while s > 0:
+        s -= 1
+        i = rows[s]
         total = 0.0
-        for j in range(n):
-            value = cs[i] * (Y[i, j] + F[i, j] * H[i])
+        trace_sum = 0.0
+        for j in range(n):  # two running sums side by side: each is a chain of dependent additions
+            value = Y[i, j] + F[i, j] * H[s]
+            if not bounded:
+                value *= cs[s]
             Y[i, j] = value
             total += value
-        trace_sum = 0.0
-        for j in range(n):
-            Y[i, j] /= total
             F[i, j] *= gamma_k
             trace_sum += F[i, j]
-        H[i] = 0.0
-        cs[i] = 1.0
-        G[i] = trace_sum
+        for j in range(n):
+            Y[i, j] /= total
+        H[s] = 0.0
+        cs[s] = 1.0
+        G[s] = trace_sum
+        if bounded and trace_is_negligible(Y[i], F[i], trace_sum, tail):
+            F[i, :] = 0.0
+            n_rows -= 1
+            rows[s] = rows[n_rows]  # rebased already (H 0, cs 1): only its trace sum moves
+            G[s] = G[n_rows]
+            slot[rows[s]] = s
+            slot[i] = -1
+    return n_rows
 
 
 @njit(cache=True)
@@ -107,11 +201,13 @@ def combined_weights(PW, counts, m, n, temperature, out, scratch):
         count_part = counts[i] / count_total if count_total > 0.0 else 1.0 / m
         scratch[i] = kl_part + count_part
         blend_total += scratch[i]
+    for i in range(m):
+        scratch[i] /= blend_total  # sumnorm(B)
     top = -np.inf
     for j in range(n):
         v = 0.0
         for i in range(m):
-            v += scratch[i] / blend_total * PW[i, j]
+            v += scratch[i] * PW[i, j]
         v /= temperature
         out[j] = v
         if v > top:
@@ -129,25 +225,41 @@ def combined_weights(PW, counts, m, n, temperature, out, scratch):
 
 
 @njit(cache=True, inline="always")
-def pw_update(Y, F, H, cs, G, m, k, group, task_type, step, gamma_pow, gamma_inv_pow):
-    """Algorithm 1 for one returned value, lazily.
+def pw_update(Y, F, H, cs, G, rows, slot, n_rows, c, k, group, task_type, step, gamma_pow, gamma_inv_pow,
+              bounded):
+    """Algorithm 1 for one returned value, lazily, for child ``c`` (the first index of every array).
 
-    The eligibility trace update at ``(group, task_type)``, then ``PW += step * E`` with every row
-    sum-normalised (``step = alpha * atv``).
+    The eligibility trace update at ``(group, task_type)`` (the row becomes active if it was not),
+    then ``PW += step * E`` with every active row sum-normalised (``step = alpha * atv``); an
+    inactive row has no trace, so the update would leave it as it is. ``H``, ``cs`` and ``G`` of
+    the active row ``rows[c, s]`` are at ``[c, s]``; with ``bounded`` the scales are reciprocal.
 
     Returns True if a row's scale came so close to underflow that a rebase is due.
     """
+    g = slot[c, group]
+    if g < 0:
+        g = n_rows[c]
+        n_rows[c] += 1
+        rows[c, g] = group
+        slot[c, group] = g
+        H[c, g] = 0.0
+        cs[c, g] = 1.0
+        G[c, g] = 0.0
     f_new = gamma_inv_pow[k]
-    f_old = F[group, task_type]
-    Y[group, task_type] += (f_old - f_new) * H[group]
-    F[group, task_type] = f_new
-    G[group] += f_new - f_old
+    f_old = F[c, group, task_type]
+    Y[c, group, task_type] += (f_old - f_new) * H[c, g]
+    F[c, group, task_type] = f_new
+    G[c, g] += f_new - f_old
     scale = step * gamma_pow[k]
-    due = False
-    for i in range(m):
-        if G[i] > 0.0:
-            H[i] += scale / cs[i]
-            cs[i] /= 1.0 + scale * G[i]
-            if cs[i] < _SCALE_LIMIT:
-                due = True
-    return due
+    extreme = 0
+    if bounded:  # reciprocal scales: multiplications only
+        for s in range(n_rows[c]):
+            H[c, s] += scale * cs[c, s]
+            cs[c, s] *= 1.0 + scale * G[c, s]
+            extreme += cs[c, s] > 1.0 / _SCALE_LIMIT
+    else:
+        for s in range(n_rows[c]):  # branch-free, so that it vectorises: a row without trace keeps H and cs
+            H[c, s] += scale / cs[c, s] if G[c, s] > 0.0 else 0.0
+            cs[c, s] /= 1.0 + scale * G[c, s]
+            extreme += cs[c, s] < _SCALE_LIMIT
+    return extreme > 0

@@ -135,7 +135,7 @@ def test_bad_parameter_message_beside_its_field(page, server, screenshots):
     field = page.locator('.field[data-for="params.n_parents"]')
     error = field.locator(".field-error")
     error.wait_for(state="visible")
-    assert "must be in [1, 1000]" in error.inner_text()
+    assert "must be in [1, 3000]" in error.inner_text()
     assert "5000" in error.inner_text()
     assert n_parents.get_attribute("aria-invalid") == "true"
     assert "#/new" in page.url  # nothing was created
