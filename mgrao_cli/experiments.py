@@ -15,7 +15,8 @@ from typing import Any
 
 import click
 
-from mgrao_core import ConfigError, MgraoError, make_spec, run_experiment
+import mgrao_core
+from mgrao_core import ConfigError, MgraoError, make_spec
 from mgrao_core.presets import PRESETS
 from mgrao_core.reproduction import DEFAULT_SEEDS, READINGS, reproduction_table
 from mgrao_core.reproduction import reproduce as run_reproduction
@@ -137,7 +138,7 @@ def run(system: str, algorithms: str | None, seeds: int, first_seed: int, episod
         _fail(error)
     started = time.perf_counter()
     with _progress(f"{system}", spec.work >= PROGRESS_BAR_WORK) as update:
-        result = run_experiment(spec, on_progress=update)
+        result = mgrao_core.run_experiment(spec, on_progress=update)  # loads the compiled engine
     elapsed = time.perf_counter() - started
     summary = result.summary()
     if fmt == "json":

@@ -13,7 +13,6 @@ from mgrao_core.errors import Cancelled, ConfigError, MgraoError, NumericalError
 from mgrao_core.params import PARAMETERS, Parameter, SystemParams, make_params
 from mgrao_core.presets import PRESETS, Preset, get_preset
 from mgrao_core.results import ExperimentResult, Run
-from mgrao_core.runner import run_chunk, run_experiment
 from mgrao_core.spec import (
     MAX_ALGORITHMS,
     MAX_EPISODES,
@@ -27,6 +26,18 @@ from mgrao_core.spec import (
 from mgrao_core.stats import FINAL_EPISODES, ConfigSummary, EpisodeStats, episode_band, final_utilities, summarise
 
 __version__ = "0.1.0"
+
+_COMPILED = {"run_chunk", "run_experiment"}
+"""Names that need the compiled engine: imported on first use, so that importing the package (the
+schema, presets and limits, as ``mgrao --help`` and the web layer's validation need) loads no numba."""
+
+
+def __getattr__(name: str):
+    if name in _COMPILED:
+        from mgrao_core import runner
+
+        return getattr(runner, name)
+    raise AttributeError(f"module 'mgrao_core' has no attribute {name!r}")
 
 __all__ = [
     "FINAL_EPISODES",

@@ -10,7 +10,6 @@ import numpy as np
 
 from mgrao_core.presets import PRESETS
 from mgrao_core.results import ExperimentResult
-from mgrao_core.runner import run_experiment
 from mgrao_core.spec import make_spec
 from mgrao_core.stats import ConfigSummary
 
@@ -70,11 +69,13 @@ def reproduce(
         systems: which presets.
         on_progress: called with the system's name and its fraction done.
     """
+    from mgrao_core import runner  # the compiled engine, loaded when a reproduction runs
+
     results = {}
     for name in systems:
         spec = make_spec(name, seeds=seeds, episodes=episodes, overrides=overrides)
         callback = None if on_progress is None else (lambda f, name=name: on_progress(name, f))
-        results[name] = run_experiment(spec, on_progress=callback)
+        results[name] = runner.run_experiment(spec, on_progress=callback)
     return results
 
 

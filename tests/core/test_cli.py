@@ -3,6 +3,8 @@
 import csv
 import io
 import json
+import subprocess
+import sys
 
 import pytest
 from click.testing import CliRunner
@@ -212,3 +214,17 @@ def test_out_to_a_device_that_refuses_writes_is_a_clean_error(runner):
     assert result.exit_code != 0
     assert "/dev/full" in result.output and "Traceback" not in result.output
     assert not isinstance(result.exception, OSError)
+
+
+def test_help_and_the_web_layers_imports_load_no_numba():
+    # `mgrao --help` (and validating a request) needs the schema, not the compiled engine
+    for code in ("import mgrao_cli.main", "import mgrao_core; mgrao_core.make_spec('single')"):
+        out = subprocess.run([sys.executable, "-c", f"{code}; import sys; print('numba' in sys.modules)"],
+                             capture_output=True, text=True, check=True)
+        assert out.stdout.strip() == "False", code
+    help_text = subprocess.run([sys.executable, "-m", "mgrao_cli", "--help"], capture_output=True, text=True,
+                               check=True)
+    assert "reproduce" in help_text.stdout
+    out = subprocess.run([sys.executable, "-c", "import mgrao_core; print(mgrao_core.run_experiment.__module__)"],
+                         capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "mgrao_core.runner"  # the engine still comes with the package, on first use
