@@ -2,18 +2,18 @@
 
 from __future__ import annotations
 
-import base64
 import hashlib
 import json
 from collections.abc import Sequence
 from datetime import datetime
 from typing import Any
 
-from sqlalchemy import ColumnElement, and_, delete, func, or_, select, update
+from sqlalchemy import ColumnElement, delete, func, or_, select, update
 from sqlalchemy.orm import Session
 
 import mgrao_core
-from backend.errors import BadQuery, Conflict, NotFound
+from backend.errors import Conflict, NotFound
+from backend.job_order import parse_sort
 from backend.models import CANCELLED, QUEUED, RUNNING, Job, JobTag, utcnow
 from mgrao_core import ExperimentSpec
 
@@ -132,31 +132,6 @@ def count_by_status(session: Session) -> dict[str, int]:
 
 # ---- listing ---------------------------------------------------------------------------------
 
-_SORT_COLUMNS = {"created_at": Job.created_at, "name": Job.name, "status": Job.status}
-
-
-def encode_cursor(sort: str, key: Any, job_id: int) -> str:
-    """An opaque cursor after the row ``(key, job_id)`` of ordering ``sort``."""
-    if isinstance(key, datetime):
-        key = key.isoformat()
-    raw = json.dumps([sort, key, job_id], separators=(",", ":")).encode()
-    return base64.urlsafe_b64encode(raw).decode().rstrip("=")
-
-
-def decode_cursor(cursor: str, sort: str) -> tuple[Any, int]:
-    """The ``(key, id)`` a cursor points after, or :class:`BadQuery`."""
-    try:
-        raw = base64.urlsafe_b64decode(cursor + "=" * (-len(cursor) % 4))
-        cursor_sort, key, job_id = json.loads(raw)
-        if cursor_sort != sort or isinstance(job_id, bool) or not isinstance(job_id, int) or not isinstance(key, str):
-            raise ValueError
-        if sort.lstrip("-") == "created_at":
-            key = datetime.fromisoformat(key)
-    except (ValueError, TypeError, UnicodeDecodeError):
-        raise BadQuery("cursor", "is not a cursor of this listing (use next_cursor as given, same sort)") from None
-    return key, job_id
-
-
 def _escape_like(text: str) -> str:
     return text.replace("\\", "\\\\").replace("%", "\\%").replace("_", "\\_")
 
@@ -185,24 +160,19 @@ def list_jobs(
     session: Session, *, status: str | None = None, system: str | None = None, tag: str | None = None,
     q: str | None = None, sort: str = "-created_at", limit: int = 50, cursor: str | None = None,
 ) -> tuple[list[Job], str | None, int]:
-    """One page of jobs, the cursor of the next page (None at the end) and the total matching."""
-    descending = sort.startswith("-")
-    column = _SORT_COLUMNS[sort.lstrip("-")]
+    """One page of jobs, the cursor of the next page (None at the end) and the total matching.
+
+    ``sort`` as :func:`backend.job_order.parse_sort` reads it (BadQuery naming ``sort`` or ``cursor``).
+    """
+    order = parse_sort(sort)
     clauses = _filters(status=status, system=system, tag=tag, q=q)
     total = session.scalar(select(func.count()).select_from(Job).where(*clauses)) or 0
-    statement = select(Job).where(*clauses)
-    if cursor:
-        key, after = decode_cursor(cursor, sort)
-        if descending:
-            statement = statement.where(or_(column < key, and_(column == key, Job.id < after)))
-        else:
-            statement = statement.where(or_(column > key, and_(column == key, Job.id > after)))
-    order = (column.desc(), Job.id.desc()) if descending else (column.asc(), Job.id.asc())
-    jobs = list(session.scalars(statement.order_by(*order).limit(limit + 1)))
+    statement = order.apply(select(Job, order.value).where(*clauses), cursor)
+    rows = session.execute(statement.limit(limit + 1)).all()
     next_cursor = None
-    if len(jobs) > limit:
-        jobs = jobs[:limit]
-        last = jobs[-1]
-        next_cursor = encode_cursor(sort, getattr(last, column.key), last.id)
-    return jobs, next_cursor, total
+    if len(rows) > limit:
+        rows = rows[:limit]
+        last, key = rows[-1]
+        next_cursor = order.encode(key, last.id)
+    return [job for job, _key in rows], next_cursor, total
 

@@ -21,7 +21,7 @@ import numpy as np
 from sqlalchemy import delete, exists, func, or_, select, update
 from sqlalchemy.orm import Session
 
-from backend import dialect
+from backend import dialect, summaries
 from backend.db import Database
 from backend.models import FAILED, QUEUED, RUNNING, SUCCEEDED, Job, Run, utcnow
 from mgrao_core import Run as SimulatedRun
@@ -159,7 +159,7 @@ def stored_seeds(session: Session, *, job_id: int, algorithms: int) -> set[int]:
 
 
 def finish(db: Database, *, claim: Claim, expected_runs: int) -> bool:
-    """Mark the job succeeded once every run is stored; False when the job is not ours.
+    """Mark the job succeeded once every run is stored, with its summaries; False when the job is not ours.
 
     Raises:
         RuntimeError: the job is ours but runs are missing (a bug: nothing is changed).
@@ -174,6 +174,7 @@ def finish(db: Database, *, claim: Claim, expected_runs: int) -> bool:
             return False
         if stored != expected_runs:  # leaving the transaction on the exception rolls the update back
             raise RuntimeError(f"job {claim.job_id} has {stored} of {expected_runs} runs stored")
+        summaries.store(session, claim.job_id)  # the runs table's result columns, in the same transaction
         return True
 
 

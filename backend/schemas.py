@@ -79,6 +79,9 @@ class JobOut(BaseModel):
     version: str
     study_id: int | None = None
     trial_id: int | None = None
+    summaries: dict[str, dict[str, Any]] = {}
+    """Per configuration, once the job succeeded (``GET /api/jobs`` and ``GET /api/jobs/{id}``): n_runs,
+    final_mean, ci95, pct_from_uniform, pct_ci95, pct_of_max."""
 
 
 class JobPage(BaseModel):

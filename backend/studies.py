@@ -22,12 +22,12 @@ from collections import defaultdict
 from collections.abc import Sequence
 from typing import Any
 
-import numpy as np
 from sqlalchemy import delete, func, select, update
 from sqlalchemy.orm import Session
 
 import mgrao_core
 from backend import crud
+from backend import summaries as job_results
 from backend.db import Database
 from backend.errors import Conflict, NotFound
 from backend.models import (
@@ -39,12 +39,11 @@ from backend.models import (
     STUDY_RUNNING,
     SUCCEEDED,
     Job,
-    Run,
     Study,
     Trial,
     utcnow,
 )
-from mgrao_core import ConfigError, final_utilities, summarise
+from mgrao_core import ConfigError
 from mgrao_core.search import StudyPlan, evaluate, make_plan
 
 log = logging.getLogger("mgrao.studies")
@@ -82,16 +81,6 @@ def create_study(db: Database, *, plan: StudyPlan) -> int:
 # ---- advancing -------------------------------------------------------------------------------
 
 
-def job_summaries(session: Session, job_id: int) -> dict[str, Any]:
-    """The per-configuration summaries of a job's stored runs (final utilities only)."""
-    finals: dict[str, dict[int, float]] = defaultdict(dict)
-    statement = select(Run.algorithm, Run.seed, Run.utilities).where(Run.job_id == job_id).execution_options(
-        yield_per=32)
-    for algorithm, seed, blob in session.execute(statement):
-        finals[algorithm][seed] = float(final_utilities(np.frombuffer(blob, dtype="<f8"))[0])
-    return summarise(dict(finals))
-
-
 def _outcomes(session: Session, study: Study, plan: StudyPlan) -> dict[int, dict[str, Any]]:
     """What became of the open trials' jobs: status, and the objective of those that succeeded."""
     trials = session.execute(select(Trial.id, Trial.params).where(Trial.study_id == study.id,
@@ -109,7 +98,7 @@ def _outcomes(session: Session, study: Study, plan: StudyPlan) -> dict[int, dict
             outcomes[trial.id] = {"status": FAILED, "error": "its jobs were deleted"}
             continue
         if statuses == {SUCCEEDED}:
-            summaries = {j.system: job_summaries(session, j.id) for j in jobs[trial.id]}
+            summaries = {j.system: job_results.compute(session, j.id) for j in jobs[trial.id]}
             value, interval = evaluate(plan, trial.params, summaries)
             runs = sum(s.n_runs for summary in summaries.values() for s in summary.values())
             outcomes[trial.id] = {"status": SUCCEEDED, "value": _finite(value),

@@ -11,24 +11,18 @@ from fastapi import APIRouter, Path, Query, Response, status
 from fastapi.responses import JSONResponse, StreamingResponse
 from sqlalchemy import select
 
-from backend import analysis, crud, studies
+from backend import analysis, crud, studies, summaries
 from backend.deps import Authorized, DatabaseDep, SessionDep, SettingsDep
-from backend.errors import BadQuery, InvalidSpec
+from backend.errors import InvalidSpec
+from backend.job_order import SORT_HELP
 from backend.models import Job
-from backend.schemas import MAX_JOB_ID, JobCreate, JobOut, JobPage, JobPatch, Sort, Status
+from backend.schemas import MAX_JOB_ID, JobCreate, JobOut, JobPage, JobPatch, Status
 from mgrao_core import MAX_EPISODES, ConfigError, make_spec
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 
 JobId = Annotated[int, Path(ge=1, le=MAX_JOB_ID, description="A job's id.")]
 Points = Annotated[int | None, Query(ge=1, le=MAX_EPISODES, description="Downsample to at most this many points.")]
-
-
-def check_cursor(cursor: str, sort: Sort) -> None:
-    """:class:`BadQuery` naming ``cursor`` unless it decodes for ``sort`` to a job id in [1, MAX_JOB_ID]."""
-    _key, after = crud.decode_cursor(cursor, sort)
-    if not 1 <= after <= MAX_JOB_ID:
-        raise BadQuery("cursor", f"its job id must be in [1, {MAX_JOB_ID}] (got {after})")
 
 
 @router.post("", status_code=status.HTTP_202_ACCEPTED, response_model=JobOut, dependencies=[Authorized])
@@ -54,23 +48,24 @@ def list_jobs(
     system: Annotated[str | None, Query(max_length=32)] = None,
     tag: Annotated[str | None, Query(max_length=50)] = None,
     q: Annotated[str | None, Query(max_length=200, description="Text in name, notes or tags.")] = None,
-    sort: Sort = "-created_at",
+    sort: Annotated[str, Query(max_length=80, description=SORT_HELP)] = "-created_at",
     limit: Annotated[int, Query(ge=1, le=200)] = 50,
     cursor: Annotated[str | None, Query(max_length=500)] = None,
 ) -> JSONResponse:
-    """Jobs matching the filters, one page at a time (keyset pagination)."""
-    if cursor:
-        check_cursor(cursor, sort)
+    """Jobs matching the filters, one page at a time (keyset pagination), each with its stored summaries."""
     jobs, next_cursor, total = crud.list_jobs(
         session, status=status, system=system, tag=tag, q=q, sort=sort, limit=limit, cursor=cursor
     )
-    return JSONResponse({"data": [crud.job_dict(job) for job in jobs], "next_cursor": next_cursor, "count": total})
+    stored = summaries.of_jobs(session, [job.id for job in jobs])
+    data = [crud.job_dict(job) | {"summaries": stored.get(job.id, {})} for job in jobs]
+    return JSONResponse({"data": data, "next_cursor": next_cursor, "count": total})
 
 
 @router.get("/{job_id:int}", response_model=JobOut)
 def read_job(job_id: JobId, session: SessionDep) -> dict:
-    """One job."""
-    return crud.job_dict(crud.get_job(session, job_id=job_id))
+    """One job, with its stored summaries once it succeeded."""
+    job = crud.job_dict(crud.get_job(session, job_id=job_id))
+    return job | {"summaries": summaries.of_jobs(session, [job_id]).get(job_id, {})}
 
 
 @router.patch("/{job_id:int}", response_model=JobOut, dependencies=[Authorized])

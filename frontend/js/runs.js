@@ -3,6 +3,7 @@
 import { api } from './api.js';
 import { h, statusCell, confirmDialog, cancelConsequence, keepLabel, editJobDialog, notice, debounce, nextId } from './ui.js';
 import { fmtDate, fmtDuration, seedCount, sortAlgorithms } from './stats.js';
+import { columnsFromQuery, sortKey, nextSort, sortState, cellText, cellInterval } from './runcolumns.js';
 
 const STATUSES = ['queued', 'running', 'succeeded', 'failed', 'cancelled'];
 const SORTS = [
@@ -10,13 +11,19 @@ const SORTS = [
   ['-name', 'Name Z–A'], ['status', 'Status A–Z'], ['-status', 'Status Z–A'],
 ];
 const PAGE = 50;
+const CONFIGURATIONS = ['mgrao-max', 'mgrao-1:1', 'uniform', 'oracle'];
+const FIXED_SORTS = { Name: 'name', Status: 'status', Created: 'created_at' };
 
 export async function mount(root, params, ctx) {
   const t0 = performance.now();
   const filters = {
     status: params.status || '', system: params.system || '', tag: params.tag || '',
-    q: params.q || '', sort: params.sort || '-created_at',
+    q: params.q || '', sort: params.sort || '-created_at', result: params.result || '', cols: params.cols || '',
   };
+  let schema = null;
+  try { schema = await api.systems(); } catch { /* the banner reports an unreachable server */ }
+  const knownParams = new Set(schema ? schema.parameters.map((p) => p.name) : []);
+  let columns = columnsFromQuery(filters.result, filters.cols, knownParams);
   const selected = new Set();
   const rows = new Map(); // id -> {job, tr}
   let cursor = null;
@@ -38,8 +45,26 @@ export async function mount(root, params, ctx) {
   const systemSel = h('select', { name: 'system' }, h('option', { value: '' }, 'Any'));
   const tagIn = h('input', { type: 'text', name: 'tag', value: filters.tag, placeholder: 'e.g. paper' });
   const qIn = h('input', { type: 'search', name: 'q', value: filters.q, placeholder: 'name, notes, tags' });
-  const sortSel = h('select', { name: 'sort' },
-    SORTS.map(([v, l]) => h('option', { value: v, selected: v === filters.sort }, l)));
+  const sortSel = h('select', { name: 'sort' });
+  function fillSorts() {
+    const options = SORTS.map(([v, l]) => h('option', { value: v, selected: v === filters.sort }, l));
+    if (!SORTS.some(([v]) => v === filters.sort)) {
+      const key = filters.sort.replace(/^-/, '');
+      const col = columns.find((c) => sortKey(c) === key);
+      const what = col ? (col.kind === 'result' ? `${col.title} of ${col.configuration}` : col.name) : key;
+      options.push(h('option', { value: filters.sort, selected: true }, `${what}, ${filters.sort.startsWith('-') ? 'highest' : 'lowest'} first`));
+    }
+    sortSel.replaceChildren(...options);
+  }
+  fillSorts();
+  const resultSel = h('select', { name: 'result' }, h('option', { value: '' }, 'none'),
+    [...new Set([...CONFIGURATIONS, ...(filters.result ? [filters.result] : [])])]
+      .map((c) => h('option', { value: c, selected: c === filters.result }, c)));
+  const paramBoxes = schema ? schema.parameters.map((p) => h('label', { class: 'check', title: p.help },
+    h('input', { type: 'checkbox', value: p.name, checked: columns.some((c) => c.kind === 'param' && c.name === p.name),
+      onchange: () => { readFilters(); renderHead(); load(true); } }), ` ${p.name}`)) : [];
+  const columnsBox = h('details', { class: 'columns-picker' }, h('summary', {}, 'Parameter columns'),
+    h('div', { class: 'param-boxes' }, paramBoxes));
 
   const compareBtn = h('button', { type: 'button', class: 'primary', disabled: true, onclick: () => {
     ctx.navigate('/compare', { jobs: [...selected].sort((a, b) => a - b).join(',') });
@@ -51,16 +76,36 @@ export async function mount(root, params, ctx) {
   } }, 'Clear selection');
 
   const filterForm = h('form', { class: 'filters', role: 'search', 'aria-label': 'Filter jobs', onsubmit: (e) => { e.preventDefault(); reload(); } },
-    field('Status', statusSel), field('System', systemSel), field('Tag', tagIn), field('Search', qIn), field('Sort', sortSel));
+    field('Status', statusSel), field('System', systemSel), field('Tag', tagIn), field('Search', qIn), field('Sort', sortSel),
+    field('Result columns of', resultSel), columnsBox);
 
   const tbody = h('tbody');
-  const table = h('table', { class: 'runs' },
-    h('caption', { class: 'visually-hidden' }, 'Jobs'),
-    h('thead', {}, h('tr', {},
+  const thead = h('thead');
+  const table = h('table', { class: 'runs' }, h('caption', { class: 'visually-hidden' }, 'Jobs'), thead, tbody);
+
+  /** A header that sorts the listing on the server when clicked (again: the other direction). */
+  function sortableHeader(title, key, firstDescending, help) {
+    return h('th', { scope: 'col', 'aria-sort': sortState(filters.sort, key), title: help || null },
+      h('button', { type: 'button', class: 'sort-header', 'data-sort': key, onclick: () => {
+        filters.sort = nextSort(filters.sort, key, firstDescending);
+        fillSorts();
+        readFilters();
+        renderHead();
+        load(true);
+      } }, title, h('span', { class: 'sort-mark', 'aria-hidden': 'true' },
+        { ascending: ' ▲', descending: ' ▼', none: '' }[sortState(filters.sort, key)])));
+  }
+
+  function renderHead() {
+    const head = (c) => (FIXED_SORTS[c] ? sortableHeader(c, FIXED_SORTS[c], c === 'Created') : h('th', { scope: 'col' }, c));
+    thead.replaceChildren(h('tr', {},
       h('th', { scope: 'col' }, h('span', { class: 'visually-hidden' }, 'Select')),
-      ['Id', 'Name', 'Status', 'System', 'Configurations', 'Seeds', 'Episodes', 'Tags', 'Created', 'Duration', 'Actions']
-        .map((c) => h('th', { scope: 'col' }, c)))),
-    tbody);
+      ['Id', 'Name', 'Status', 'System', 'Configurations', 'Seeds', 'Episodes'].map(head),
+      columns.map((c) => sortableHeader(c.kind === 'result' ? `${c.title} (${c.configuration})` : c.name, sortKey(c),
+        c.kind === 'result', c.help)),
+      ['Tags', 'Created', 'Duration', 'Actions'].map(head)));
+  }
+  renderHead();
   const moreBtn = h('button', { type: 'button', class: 'secondary', hidden: true, onclick: () => load(false) }, 'Load more');
   const tableWrap = h('div', { class: 'table-wrap' }, table);
   const emptyBox = h('div');
@@ -80,13 +125,22 @@ export async function mount(root, params, ctx) {
     filters.tag = tagIn.value.trim();
     filters.q = qIn.value.trim();
     filters.sort = sortSel.value;
+    filters.result = resultSel.value;
+    filters.cols = paramBoxes.map((l) => l.querySelector('input')).filter((cb) => cb.checked).map((cb) => cb.value).join(',');
+    const before = columns.map(sortKey).join();
+    columns = columnsFromQuery(filters.result, filters.cols, knownParams);
+    const sortKeyNow = filters.sort.replace(/^-/, '');
+    const builtIn = SORTS.some(([v]) => v === filters.sort);
+    if (!builtIn && !columns.some((c) => sortKey(c) === sortKeyNow)) { filters.sort = '-created_at'; fillSorts(); }
+    if (before !== columns.map(sortKey).join()) renderHead();
     ctx.setQuery({ ...filters, sort: filters.sort === '-created_at' ? '' : filters.sort });
   }
   const reload = () => { readFilters(); load(true); };
   const reloadSoon = debounce(reload, 300);
   statusSel.addEventListener('change', reload);
   systemSel.addEventListener('change', reload);
-  sortSel.addEventListener('change', reload);
+  sortSel.addEventListener('change', () => { reload(); renderHead(); });
+  resultSel.addEventListener('change', reload);
   tagIn.addEventListener('input', reloadSoon);
   qIn.addEventListener('input', reloadSoon);
 
@@ -134,6 +188,8 @@ export async function mount(root, params, ctx) {
       h('td', { class: 'algos' }, sortAlgorithms(job.algorithms || []).join(', ')),
       h('td', { class: 'num' }, seedCount(job)),
       h('td', { class: 'num' }, job.episodes),
+      columns.map((c) => h('td', { class: `num extra ${c.kind}`, title: cellInterval(job, c) || null, 'data-column': sortKey(c) },
+        cellText(job, c))),
       h('td', {}, (job.tags || []).map((t) => h('button', { type: 'button', class: 'tag', 'aria-label': `Filter by tag ${t}`,
         onclick: () => { tagIn.value = t; reload(); } }, t))),
       h('td', { class: 'nowrap' }, h('time', { datetime: job.created_at || '' }, fmtDate(job.created_at))),

@@ -209,3 +209,34 @@ def test_rebuilding_jobs_for_ids_keeps_every_run_and_tag_and_their_cascades(sett
         assert new == 4  # not 3
     finally:
         db.dispose()
+
+
+def test_jobs_that_succeeded_before_summaries_were_stored_get_them_from_their_runs(settings, db_url, client, worker):
+    from backend import summaries
+    from backend.models import JobSummary
+
+    for rate in (0.1, 0.3):
+        body = {"system": "single", "algorithms": ["uniform", "mgrao-max"], "seeds": 3, "episodes": 12,
+                "params": {"learning_rate": rate}}
+        assert client.post("/api/jobs", json=body).status_code == 202
+    assert drain(worker) == 2
+    db = Database(db_url)
+    try:
+        with db.session() as session:
+            written = {(r.job_id, r.algorithm): r.final_mean for r in session.scalars(select(JobSummary))}
+        assert len(written) == 4
+        engine = create_engine(db_url)
+        config = alembic_config()
+        with engine.connect() as connection:  # back to 0006: succeeded jobs, no summaries
+            config.attributes["connection"] = connection
+            command.downgrade(config, "0006")
+            connection.commit()
+            assert connection.execute(text("SELECT count(*) FROM job_summaries")).scalar() == 0
+        engine.dispose()
+        db.migrate()
+        with db.session() as session:
+            backfilled = {(r.job_id, r.algorithm): r.final_mean for r in session.scalars(select(JobSummary))}
+            assert backfilled == written
+            assert summaries.compute(session, 1)["mgrao-max"].final_mean == written[(1, "mgrao-max")]
+    finally:
+        db.dispose()

@@ -1,0 +1,67 @@
+// The runs table's optional columns: a configuration's results and any parameter, and the server
+// sort each header click asks for. Pure functions (no DOM), checked by node's test runner.
+
+import { fmtParam } from './studydata.js';
+
+export const RESULT_COLUMNS = [
+  { field: 'final_mean', title: 'Final mean', help: 'Mean system utility of the last 10 episodes, over seeds (95% interval on hover).' },
+  { field: 'pct_from_uniform', title: '% from uniform', help: 'Gain over uniform, paired seed by seed (95% interval on hover).' },
+  { field: 'pct_of_max', title: '% of max', help: 'Share of mgrao-max’s gain over uniform that this configuration reaches.' },
+];
+
+/** The sort key of a column: `final_mean:mgrao-max`, `param.learning_rate`, or a plain column. */
+export function sortKey(column) {
+  if (column.kind === 'result') return `${column.field}:${column.configuration}`;
+  if (column.kind === 'param') return `param.${column.name}`;
+  return column.key;
+}
+
+/** What a click on a header sorts by: the other direction if it already sorts by it, else its first one. */
+export function nextSort(current, key, firstDescending) {
+  if (current === key) return `-${key}`;
+  if (current === `-${key}`) return key;
+  return firstDescending ? `-${key}` : key;
+}
+
+/** `ascending`, `descending` or `none`: how a column's header says it sorts (aria-sort). */
+export function sortState(current, key) {
+  if (current === key) return 'ascending';
+  if (current === `-${key}`) return 'descending';
+  return 'none';
+}
+
+/** The optional columns chosen, as cells' text: a result (with its interval) or a parameter. */
+export function cellText(job, column) {
+  if (column.kind === 'param') {
+    const params = job.params || {};
+    return column.name in params ? fmtParam(params[column.name]) : '–';
+  }
+  const s = (job.summaries || {})[column.configuration];
+  const v = s ? s[column.field] : null;
+  if (v === null || v === undefined || !Number.isFinite(v)) return '–';
+  if (column.field === 'final_mean') return v.toFixed(3);
+  return `${v >= 0 && column.field === 'pct_from_uniform' ? '+' : ''}${v.toFixed(1)}%`;
+}
+
+/** The 95% interval behind a result cell, for its tooltip, or ''. */
+export function cellInterval(job, column) {
+  if (column.kind !== 'result' || column.field === 'pct_of_max') return '';
+  const s = (job.summaries || {})[column.configuration];
+  const ci = s ? (column.field === 'final_mean' ? s.ci95 : s.pct_ci95) : null;
+  if (!ci || ci[0] === null || ci[1] === null) return '';
+  const digits = column.field === 'final_mean' ? 3 : 1;
+  const unit = column.field === 'final_mean' ? '' : '%';
+  return `95% CI [${ci[0].toFixed(digits)}${unit}, ${ci[1].toFixed(digits)}${unit}] over ${s.n_runs} seeds`;
+}
+
+/** The optional columns from the view's query: `result=mgrao-max` and `cols=learning_rate,trace_decay`. */
+export function columnsFromQuery(result, cols, knownParams) {
+  const out = [];
+  if (result) for (const r of RESULT_COLUMNS) out.push({ kind: 'result', configuration: result, ...r });
+  for (const name of (cols || '').split(',').map((s) => s.trim()).filter(Boolean)) {
+    if (knownParams.has(name) && !out.some((c) => c.kind === 'param' && c.name === name)) {
+      out.push({ kind: 'param', name, title: name });
+    }
+  }
+  return out;
+}

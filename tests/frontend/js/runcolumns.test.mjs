@@ -1,0 +1,42 @@
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import { sortKey, nextSort, sortState, cellText, cellInterval, columnsFromQuery } from '../../../frontend/js/runcolumns.js';
+
+const known = new Set(['learning_rate', 'load_sharing']);
+
+test('columnsFromQuery: three result columns for a configuration, then known parameters once each', () => {
+  const cols = columnsFromQuery('mgrao-max', 'learning_rate, nope,learning_rate,load_sharing', known);
+  assert.deepEqual(cols.map(sortKey), ['final_mean:mgrao-max', 'pct_from_uniform:mgrao-max', 'pct_of_max:mgrao-max',
+    'param.learning_rate', 'param.load_sharing']);
+  assert.deepEqual(columnsFromQuery('', '', known), []);
+});
+
+test('nextSort toggles the direction of the current key, else starts with the column default', () => {
+  assert.equal(nextSort('-created_at', 'param.learning_rate', false), 'param.learning_rate');
+  assert.equal(nextSort('param.learning_rate', 'param.learning_rate', false), '-param.learning_rate');
+  assert.equal(nextSort('-param.learning_rate', 'param.learning_rate', false), 'param.learning_rate');
+  assert.equal(nextSort('name', 'final_mean:mgrao-max', true), '-final_mean:mgrao-max');
+  assert.equal(sortState('-final_mean:mgrao-max', 'final_mean:mgrao-max'), 'descending');
+  assert.equal(sortState('final_mean:mgrao-max', 'final_mean:mgrao-max'), 'ascending');
+  assert.equal(sortState('name', 'final_mean:mgrao-max'), 'none');
+});
+
+test('cells: results with their interval, parameters as shown, dashes where a job has no value', () => {
+  const [mean, pct, ofMax, rate, sharing] = columnsFromQuery('mgrao-max', 'learning_rate,load_sharing', known);
+  const job = {
+    params: { learning_rate: 0.05, load_sharing: false },
+    summaries: { 'mgrao-max': { n_runs: 3, final_mean: 1.23456, ci95: [1.1, 1.4], pct_from_uniform: 12.345, pct_ci95: [2, 20.5], pct_of_max: 100 } },
+  };
+  assert.equal(cellText(job, mean), '1.235');
+  assert.equal(cellText(job, pct), '+12.3%');
+  assert.equal(cellText(job, ofMax), '100.0%');
+  assert.equal(cellText(job, rate), '0.05');
+  assert.equal(cellText(job, sharing), 'off');
+  assert.equal(cellInterval(job, mean), '95% CI [1.100, 1.400] over 3 seeds');
+  assert.equal(cellInterval(job, pct), '95% CI [2.0%, 20.5%] over 3 seeds');
+  assert.equal(cellInterval(job, ofMax), '');
+  const queued = { params: {}, summaries: {} };
+  assert.equal(cellText(queued, mean), '–');
+  assert.equal(cellText(queued, rate), '–');
+  assert.equal(cellInterval(queued, mean), '');
+});
