@@ -1,7 +1,7 @@
 // Plotly helpers. Plotly itself is loaded by a classic <script> in index.html (window.Plotly).
 // Every trace carries `meta` {kind: 'mean'|'band'|'seed'|'bar', config} so tests and code can find it.
 
-import { bandPolygon, smoothSeries, movingAverage } from './stats.js';
+import { bandPolygon, smoothSeries, centredAverage } from './stats.js';
 
 // Okabe-Ito, colour-blind safe, readable on white and in print.
 export const PALETTE = ['#0072B2', '#D55E00', '#009E73', '#CC79A7', '#E69F00', '#56B4E9', '#000000', '#F0E442'];
@@ -83,9 +83,10 @@ export function purge(el) {
 }
 
 /** One band trace (95% CI, filled, no legend) and one mean line trace for a configuration. */
-export function meanBandTraces(name, series, color, smooth = 1, legendgroup = name) {
+export function meanBandTraces(name, series, color, smooth = 1, legendgroup = name, dash = 'solid') {
   const s = smoothSeries(series, smooth);
   const band = bandPolygon(s.episode, s.low, s.high);
+  const interval = s.low.map((low, i) => [low, s.high[i]]);
   return [
     {
       type: 'scatter', mode: 'lines', x: band.x, y: band.y, fill: 'toself',
@@ -94,9 +95,10 @@ export function meanBandTraces(name, series, color, smooth = 1, legendgroup = na
       meta: { kind: 'band', config: name },
     },
     {
-      type: 'scatter', mode: 'lines', x: s.episode, y: s.mean, name, legendgroup,
-      line: { width: 2, color }, meta: { kind: 'mean', config: name },
-      hovertemplate: '%{y:.4f}<extra>' + name.replace(/</g, '&lt;') + '</extra>',
+      type: 'scatter', mode: 'lines', x: s.episode, y: s.mean, name, legendgroup, customdata: interval,
+      line: { width: 2, color, dash }, meta: { kind: 'mean', config: name },
+      hovertemplate: '%{y:.4f} (95% CI %{customdata[0]:.4f} to %{customdata[1]:.4f})<extra>' +
+        name.replace(/</g, '&lt;') + '</extra>',
     },
   ];
 }
@@ -104,7 +106,7 @@ export function meanBandTraces(name, series, color, smooth = 1, legendgroup = na
 /** Thin lines for individual seeds of a configuration. */
 export function seedTraces(name, seeds, color, smooth = 1, legendgroup = name) {
   return (seeds || []).map((s) => ({
-    type: 'scatter', mode: 'lines', x: s.episode, y: movingAverage(s.utility, smooth),
+    type: 'scatter', mode: 'lines', x: s.episode, y: centredAverage(s.episode, s.utility, smooth),
     name: `${name} seed ${s.seed}`, legendgroup, showlegend: false, hoverinfo: 'skip',
     line: { width: 0.8, color: rgba(color, 0.45) }, meta: { kind: 'seed', config: name, seed: s.seed },
   }));

@@ -4,11 +4,12 @@
 
 import { api } from './api.js';
 import { h, notice, nextId } from './ui.js';
-import { draw, purge, loadPlotly, meanBandTraces, utilityLayout, pctBarTrace, colour } from './charts.js';
-import { parseIds, groupKey, groupLabels, pctErrorBars, fmtNumber, fmtPct, fmtCI, algorithmRank, seedCount } from './stats.js';
+import { draw, purge, loadPlotly, meanBandTraces, utilityLayout, pctBarTrace } from './charts.js';
+import { parseIds, groupKey, pctErrorBars, fmtNumber, fmtPct, fmtCI, algorithmRank, seedCount, smoothingNote, episodesPerPoint } from './stats.js';
+import { configurations, groupLabels, diffTable, facets, lineStyles } from './comparegroups.js';
 
 const POINTS = 500;
-const SMOOTH_CHOICES = [1, 3, 5, 10, 25, 50];
+const SMOOTH_CHOICES = [1, 5, 11, 25, 51, 101]; // episodes, centred
 
 export async function mount(root, params, ctx) {
   const t0 = performance.now();
@@ -72,17 +73,20 @@ export async function mount(root, params, ctx) {
     body.replaceChildren(notice('empty', 'These jobs have no results to compare (only succeeded jobs have results).'));
     return () => { stopped = true; };
   }
-  const labels = groupLabels(groups);
+  const configs = configurations(data.jobs);
+  const labels = groupLabels(groups, configs);
+  const styles = lineStyles(groups);
+  const systems = facets(groups);
   const keys = groups.map(groupKey);
   const shown = new Set(state.groups ? keys.filter((k) => state.groups.includes(k)) : keys);
 
   const smoothId = nextId('smooth');
   const smoothSel = h('select', { id: smoothId }, SMOOTH_CHOICES.map((n) =>
-    h('option', { value: n, selected: n === state.smooth }, n === 1 ? 'none' : `${n} points`)));
+    h('option', { value: n, selected: n === state.smooth }, n === 1 ? 'none' : `${n} episodes`)));
   const groupBoxes = h('fieldset', { class: 'groups' }, h('legend', {}, 'Shown configurations'),
     groups.map((g, i) => {
       const id = nextId('grp');
-      return h('label', { class: 'check swatch', for: id, style: `--c: ${colour(i)}` },
+      return h('label', { class: `check swatch dash-${styles[i].dash}`, for: id, style: `--c: ${styles[i].color}` },
         h('input', { type: 'checkbox', id, value: keys[i], checked: shown.has(keys[i]), onchange: (e) => {
           if (e.target.checked) shown.add(keys[i]); else shown.delete(keys[i]);
           redraw();
@@ -100,18 +104,34 @@ export async function mount(root, params, ctx) {
   }
   smoothSel.addEventListener('change', () => { state.smooth = Number(smoothSel.value); redraw(); });
 
-  const chart = h('div', { class: 'chart', id: 'compare-chart', role: 'img', 'aria-label': 'System utility per episode per pooled configuration' });
+  // One chart per system (their utilities differ by an order of magnitude); the first keeps the id.
+  const charts = systems.map((system, k) => h('div', {
+    class: 'chart', id: k === 0 ? 'compare-chart' : `compare-chart-${k + 1}`, 'data-system': system, role: 'img',
+    'aria-label': `System utility per episode per pooled configuration, ${system} system`,
+  }));
   const bars = h('div', { class: 'chart bars', id: 'compare-bars', role: 'img', 'aria-label': 'Percent from uniform per configuration with 95% confidence intervals' });
-  plots.push(chart, bars);
+  plots.push(...charts, bars);
+  const smoothNote = h('p', { class: 'help', id: 'smoothing-note' });
+  const diff = diffTable(groups.map((g) => g.config_hash), configs);
+  const diffSection = diff.rows.length ? h('section', { 'aria-labelledby': 'h-diff' },
+    h('h2', { id: 'h-diff' }, 'What differs between the configurations'),
+    h('div', { class: 'table-wrap' }, h('table', { class: 'summary diff', id: 'param-diff' },
+      h('thead', {}, h('tr', {}, h('th', { scope: 'col' }, 'Parameter'),
+        diff.hashes.map((hash) => h('th', { scope: 'col', title: hash }, `${configs[hash].system} ${hash.slice(0, 6)}`)))),
+      h('tbody', {}, diff.rows.map((r) => h('tr', {}, h('th', { scope: 'row' }, r.name),
+        r.values.map((v) => h('td', { class: 'num' }, v)))))))) : null;
   const jobsLine = h('p', { class: 'help' }, 'Jobs: ', data.jobs.map((j, i) => [i ? ', ' : '',
     h('a', { href: `#/jobs/${j.id}` }, `#${j.id} ${j.name || ''}`), ` (${j.status})`]));
   const tableBody = h('tbody');
 
   body.replaceChildren(
     jobsLine,
-    h('div', { class: 'controls' }, h('label', { for: smoothId }, 'Smoothing (moving average)'), smoothSel),
+    h('div', { class: 'controls' }, h('label', { for: smoothId }, 'Smoothing (centred mean)'), smoothSel),
     groupBoxes,
-    h('section', { 'aria-labelledby': 'h-cu' }, h('h2', { id: 'h-cu' }, 'System utility per episode'), chart),
+    ...(diffSection ? [diffSection] : []),
+    h('section', { 'aria-labelledby': 'h-cu' }, h('h2', { id: 'h-cu' }, 'System utility per episode'),
+      systems.length > 1 ? h('p', { class: 'help' }, 'One chart per system: their utilities lie on different scales.') : null,
+      h('div', { class: systems.length > 1 ? 'grid2 facets' : '' }, charts), smoothNote),
     h('div', { class: 'grid2 wide' },
       h('section', { 'aria-labelledby': 'h-cb' }, h('h2', { id: 'h-cb' }, '% from uniform (95% CI)'), bars),
       h('section', { 'aria-labelledby': 'h-ct' }, h('h2', { id: 'h-ct' }, 'Pooled final utility'),
@@ -127,17 +147,19 @@ export async function mount(root, params, ctx) {
       points: state.points !== POINTS ? state.points : '',
       groups: shown.size === keys.length ? '' : (shown.size ? keys.filter((k) => shown.has(k)).join(',') : 'none'),
     });
-    const traces = [];
+    const traces = systems.map(() => []);
     const barIdx = [];
     groups.forEach((g, i) => {
       if (!shown.has(keys[i])) return;
-      traces.push(...meanBandTraces(labels[i], g.episodes, colour(i), state.smooth));
+      traces[systems.indexOf(g.system)].push(...meanBandTraces(labels[i], g.episodes, styles[i].color, state.smooth,
+        labels[i], styles[i].dash));
       if (g.summary && g.summary.pct_from_uniform !== null && g.summary.pct_from_uniform !== undefined) barIdx.push(i);
     });
+    smoothNote.textContent = smoothingNote(state.smooth, episodesPerPoint((groups[0].episodes || {}).episode));
     tableBody.replaceChildren(...groups.map((g, i) => {
       const s = g.summary || {};
       return h('tr', { class: shown.has(keys[i]) ? '' : 'muted' },
-        h('th', { scope: 'row' }, h('span', { class: 'dot', style: `background: ${colour(i)}`, 'aria-hidden': 'true' }), labels[i]),
+        h('th', { scope: 'row' }, h('span', { class: 'dot', style: `background: ${styles[i].color}`, 'aria-hidden': 'true' }), labels[i]),
         h('td', {}, (g.job_ids || []).join(', ')),
         h('td', { class: 'num' }, s.n_runs ?? '–'),
         h('td', { class: 'num' }, fmtNumber(s.final_mean)),
@@ -146,11 +168,12 @@ export async function mount(root, params, ctx) {
         h('td', { class: 'num ci' }, fmtCI(s.pct_ci95, 1, true)),
         h('td', { class: 'num' }, fmtPct(s.pct_of_max, 1, false)));
     }));
-    const p1 = draw(chart, traces, utilityLayout());
-    const p2 = draw(bars, [pctBarTrace(barIdx.map((i) => labels[i]), pctErrorBars(barIdx.map((i) => groups[i].summary)), barIdx.map((i) => colour(i)))],
+    const p1 = Promise.all(charts.map((c, k) => draw(c, traces[k], utilityLayout(systems.length > 1 ? systems[k] : ''))));
+    const p2 = draw(bars, [pctBarTrace(barIdx.map((i) => labels[i]), pctErrorBars(barIdx.map((i) => groups[i].summary)), barIdx.map((i) => styles[i].color))],
       { yaxis: { title: { text: '% from uniform' }, zeroline: true }, xaxis: { automargin: true }, hovermode: 'closest', showlegend: false });
     await Promise.all([p1, p2]);
-    chart.dataset.rendered = String(Date.now());
+    const stamp = String(Date.now());
+    for (const c of charts) c.dataset.rendered = stamp;
   }
 
   await redraw();

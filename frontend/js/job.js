@@ -4,12 +4,13 @@
 import { api } from './api.js';
 import { h, statusCell, jobMeta, notice, editJobDialog, confirmDialog, cancelConsequence, keepLabel, nextId } from './ui.js';
 import { draw, purge, loadPlotly, meanBandTraces, seedTraces, utilityLayout, heatmapTrace, colour } from './charts.js';
-import { fmtNumber, fmtPct, fmtCI, pctProgress, algorithmRank } from './stats.js';
+import { fmtNumber, fmtPct, fmtCI, pctProgress, algorithmRank, smoothingNote, episodesPerPoint } from './stats.js';
+import { algorithmColour } from './colours.js';
 import { fmtParam } from './studydata.js';
 import { configRows, differenceSummary, summaryCsv, configJson } from './jobconfig.js';
 
 const POINTS = 600;
-const SMOOTH_CHOICES = [1, 3, 5, 10, 25, 50];
+const SMOOTH_CHOICES = [1, 5, 11, 25, 51, 101]; // episodes, centred
 
 export async function mount(root, params, ctx) {
   const id = params.id;
@@ -218,20 +219,22 @@ export async function mount(root, params, ctx) {
     const seedsCb = h('input', { type: 'checkbox', id: seedsId, checked: showSeeds });
     const chart = h('div', { class: 'chart', id: 'utility-chart', role: 'img', 'aria-label': 'System utility per episode, mean over seeds with 95% band, per configuration' });
     const chartStatus = h('span', { 'aria-live': 'polite', class: 'help' });
+    const smoothNote = h('p', { class: 'help', id: 'smoothing-note' });
     plots.push(chart);
 
     const redraw = async () => {
       const data = showSeeds ? await fetchResults(true) : await fetchResults(false);
       if (stopped) return;
       const traces = [];
-      data.configurations.forEach((c, i) => {
-        const col = colour(i);
+      data.configurations.forEach((c) => {
+        const col = algorithmColour(c.algorithm);
         if (showSeeds) traces.push(...seedTraces(c.algorithm, c.seeds, col, smooth));
         traces.push(...meanBandTraces(c.algorithm, c.episodes, col, smooth));
       });
       await draw(chart, traces, utilityLayout());
       chart.dataset.rendered = String(Date.now());
       chartStatus.textContent = '';
+      smoothNote.textContent = smoothingNote(smooth, episodesPerPoint((data.configurations[0] || {}).episodes?.episode));
       ctx.setQuery({ smooth: smooth > 1 ? smooth : '', seeds: showSeeds ? '1' : '' });
     };
     smoothSel.addEventListener('change', () => { smooth = Number(smoothSel.value); redraw(); });
@@ -246,9 +249,9 @@ export async function mount(root, params, ctx) {
       h('section', { 'aria-labelledby': 'h-util' },
         h('h2', { id: 'h-util' }, 'System utility per episode'),
         h('div', { class: 'controls' },
-          h('label', { for: smoothId }, 'Smoothing (moving average)'), smoothSel,
+          h('label', { for: smoothId }, 'Smoothing (centred mean)'), smoothSel,
           h('label', { class: 'check', for: seedsId }, seedsCb, ' Show individual seeds'), chartStatus),
-        chart),
+        chart, smoothNote),
       summaryTable(r),
       weightsSection(r),
       h('section', { 'aria-labelledby': 'h-dl' }, h('h2', { id: 'h-dl' }, 'Download'),

@@ -2,28 +2,51 @@
 // No DOM access here, so that node's test runner can import this module directly.
 
 /**
- * Trailing moving average over `window` points. Non-finite values (null, NaN) are skipped;
- * an output point is null when its window holds no finite value. window <= 1 returns a copy.
+ * Centred moving average over episodes: each point becomes the mean of the finite values whose
+ * episode lies within (window - 1) / 2 episodes of its own, on both sides, so the smoothed curve
+ * neither lags nor steps. `x` are the points' episodes (ascending; a downsampled series has one point
+ * per several episodes, and the window stays in episodes); near the ends the window is cut short.
  */
-export function movingAverage(values, window) {
+export function centredAverage(x, values, window) {
   const w = Math.max(1, Math.floor(Number(window) || 1));
-  const out = new Array(values.length);
+  const n = values.length;
+  const out = new Array(n);
   if (w === 1) {
-    for (let i = 0; i < values.length; i++) out[i] = isFiniteNumber(values[i]) ? values[i] : null;
+    for (let i = 0; i < n; i++) out[i] = isFiniteNumber(values[i]) ? values[i] : null;
     return out;
   }
+  const half = (w - 1) / 2;
+  let lo = 0;
+  let hi = 0; // the window is [lo, hi)
   let sum = 0;
   let count = 0;
-  for (let i = 0; i < values.length; i++) {
-    const v = values[i];
-    if (isFiniteNumber(v)) { sum += v; count += 1; }
-    if (i >= w) {
-      const old = values[i - w];
-      if (isFiniteNumber(old)) { sum -= old; count -= 1; }
+  for (let i = 0; i < n; i++) {
+    while (hi < n && x[hi] <= x[i] + half) {
+      if (isFiniteNumber(values[hi])) { sum += values[hi]; count += 1; }
+      hi += 1;
+    }
+    while (x[lo] < x[i] - half) {
+      if (isFiniteNumber(values[lo])) { sum -= values[lo]; count -= 1; }
+      lo += 1;
     }
     out[i] = count > 0 ? sum / count : null;
   }
   return out;
+}
+
+/** Episodes one plotted point stands for (1 unless the server downsampled the series). */
+export function episodesPerPoint(episodes) {
+  if (!episodes || episodes.length < 2) return 1;
+  return Math.max(1, Math.round((episodes[episodes.length - 1] - episodes[0]) / (episodes.length - 1)));
+}
+
+/** One line saying what the chart's smoothing is, in episodes, whatever the downsampling. */
+export function smoothingNote(window, perPoint) {
+  const w = Math.max(1, Math.floor(Number(window) || 1));
+  const points = perPoint > 1 ? ` Each plotted point is already the mean of ${perPoint} consecutive episodes.` : '';
+  if (w === 1) return `Lines: mean over seeds; bands: its 95% interval. Not smoothed.${points}`;
+  return `Lines: mean over seeds; bands: its 95% interval. Smoothed with a centred mean over ${w} episodes ` +
+    `(${(w - 1) / 2} before and after each; the band likewise).${points}`;
 }
 
 export function isFiniteNumber(v) {
@@ -35,9 +58,9 @@ export function smoothSeries(series, window) {
   if (!series) return series;
   return {
     episode: series.episode.slice(),
-    mean: movingAverage(series.mean, window),
-    low: movingAverage(series.low, window),
-    high: movingAverage(series.high, window),
+    mean: centredAverage(series.episode, series.mean, window),
+    low: centredAverage(series.episode, series.low, window),
+    high: centredAverage(series.episode, series.high, window),
   };
 }
 
@@ -225,17 +248,6 @@ export function pctErrorBars(summaries) {
 /** Stable key of a compare group: first 8 characters of the config hash and the algorithm. */
 export function groupKey(group) {
   return `${String(group.config_hash || '').slice(0, 8)}:${group.algorithm}`;
-}
-
-/**
- * Human labels for compare groups: "single · mgrao-max", with a short hash appended only when
- * two groups would otherwise share a label (same system and algorithm, different configuration).
- */
-export function groupLabels(groups) {
-  const base = groups.map((g) => `${g.system} · ${g.algorithm}`);
-  const counts = {};
-  for (const b of base) counts[b] = (counts[b] || 0) + 1;
-  return groups.map((g, i) => (counts[base[i]] > 1 ? `${base[i]} (${String(g.config_hash || '').slice(0, 6)})` : base[i]));
 }
 
 /** Number of seeds of a job (its `seeds` list, or a count). */

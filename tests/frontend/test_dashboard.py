@@ -91,7 +91,7 @@ def test_submit_job_progress_chart_table_csv(page, server, screenshots):
 
     # Smoothing keeps one line and one band per configuration; seeds on demand add 3 per configuration.
     stamp = page.eval_on_selector("#utility-chart", "el => el.dataset.rendered")
-    page.get_by_label("Smoothing (moving average)").select_option("5")
+    page.get_by_label("Smoothing (centred mean)").select_option("5")
     stamp = wait_rendered(page, "#utility-chart", stamp)
     assert len([t for t in traces(page, "#utility-chart") if t["kind"] == "mean"]) == len(algorithms)
     assert "smooth=5" in page.url
@@ -181,7 +181,7 @@ def test_compare_two_jobs_and_reload(page, server, screenshots, two_jobs):
     page.screenshot(path=str(screenshots / "compare.png"), full_page=True)
 
     # Change the view: smoothing 5 and hide one group; the URL carries both.
-    page.get_by_label("Smoothing (moving average)").select_option("5")
+    page.get_by_label("Smoothing (centred mean)").select_option("5")
     stamp = wait_rendered(page, "#compare-chart", stamp)
     page.get_by_label("single · uniform").uncheck()
     wait_rendered(page, "#compare-chart", stamp)
@@ -193,7 +193,7 @@ def test_compare_two_jobs_and_reload(page, server, screenshots, two_jobs):
     other = page.context.new_page()
     other.goto(url)
     wait_rendered(other, "#compare-chart")
-    assert other.get_by_label("Smoothing (moving average)").input_value() == "5"
+    assert other.get_by_label("Smoothing (centred mean)").input_value() == "5"
     assert not other.get_by_label("single · uniform").is_checked()
     kept = [t["config"] for t in traces(other, "#compare-chart") if t["kind"] == "mean"]
     assert kept == ["single · mgrao-1:1", "single · mgrao-max"]

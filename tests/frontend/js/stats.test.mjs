@@ -1,41 +1,54 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import {
-  movingAverage, smoothSeries, bandPolygon, sortAlgorithms, parseRatios, parseTags, parseIds,
+  centredAverage, episodesPerPoint, smoothingNote, smoothSeries, bandPolygon, sortAlgorithms, parseRatios, parseTags, parseIds,
   parseHash, buildHash, fieldErrors, fmtNumber, fmtPct, fmtCI, fmtDuration, fmtDate, pctProgress,
-  pctErrorBars, groupKey, groupLabels, seedCount, changedParams,
+  pctErrorBars, groupKey, seedCount, changedParams,
 } from '../../../frontend/js/stats.js';
 
-test('movingAverage: window 1 copies, trailing window averages, shorter at the start', () => {
-  assert.deepEqual(movingAverage([1, 2, 3], 1), [1, 2, 3]);
-  assert.deepEqual(movingAverage([1, 2, 3, 4, 5], 2), [1, 1.5, 2.5, 3.5, 4.5]);
-  assert.deepEqual(movingAverage([3, 3, 3, 9], 3), [3, 3, 3, 5]);
-  assert.deepEqual(movingAverage([], 5), []);
+test('centredAverage: window 1 copies; a centred window in episodes, cut short at the ends', () => {
+  const x = [0, 1, 2, 3, 4];
+  assert.deepEqual(centredAverage(x, [1, 2, 3], 1), [1, 2, 3]);
+  assert.deepEqual(centredAverage(x, [1, 2, 3, 4, 5], 3), [1.5, 2, 3, 4, 4.5]);
+  assert.deepEqual(centredAverage(x, [0, 0, 9, 0, 0], 3), [0, 3, 3, 3, 0]);  // no lag: the peak stays centred
+  assert.deepEqual(centredAverage([], [], 5), []);
 });
 
-test('movingAverage: skips nulls/NaN and handles bad windows', () => {
-  assert.deepEqual(movingAverage([1, null, 3], 2), [1, 1, 3]);
-  assert.deepEqual(movingAverage([null, null], 2), [null, null]);
-  assert.deepEqual(movingAverage([1, NaN, 5], 3), [1, 1, 3]);
-  assert.deepEqual(movingAverage([1, 2], 0), [1, 2]);
-  assert.deepEqual(movingAverage([1, 2], 'x'), [1, 2]);
-  assert.deepEqual(movingAverage([2, 4], 2.7), [2, 3]);
+test('centredAverage: the window is in episodes whatever the spacing of the points', () => {
+  // points 10 episodes apart: an 11-episode window holds one point on each side
+  const x = [0, 10, 20, 30];
+  assert.deepEqual(centredAverage(x, [0, 3, 6, 9], 21), [1.5, 3, 6, 7.5]);
+  assert.deepEqual(centredAverage(x, [0, 3, 6, 9], 5), [0, 3, 6, 9]);  // narrower than a point: unchanged
 });
 
-test('movingAverage: window longer than the series is the running mean', () => {
-  assert.deepEqual(movingAverage([2, 4, 6], 10), [2, 3, 4]);
+test('centredAverage: skips nulls/NaN and handles bad windows', () => {
+  const x = [0, 1, 2];
+  assert.deepEqual(centredAverage(x, [1, null, 3], 3), [1, 2, 3]);
+  assert.deepEqual(centredAverage([0, 1], [null, null], 3), [null, null]);
+  assert.deepEqual(centredAverage(x, [1, NaN, 5], 3), [1, 3, 5]);
+  assert.deepEqual(centredAverage([0, 1], [1, 2], 0), [1, 2]);
+  assert.deepEqual(centredAverage([0, 1], [1, 2], 'x'), [1, 2]);
 });
 
-test('movingAverage: large input stays exact enough and fast', () => {
+test('centredAverage: large input stays exact enough', () => {
   const xs = Array.from({ length: 100000 }, (_, i) => i % 7);
-  const out = movingAverage(xs, 7);
+  const out = centredAverage(xs.map((_, i) => i), xs, 7);
   assert.equal(out.length, xs.length);
-  assert.ok(Math.abs(out[99999] - 3) < 1e-9);
+  assert.ok(Math.abs(out[50000] - 3) < 1e-9);
+});
+
+test('episodesPerPoint and smoothingNote say what a line is, in episodes', () => {
+  assert.equal(episodesPerPoint([0, 1, 2]), 1);
+  assert.equal(episodesPerPoint([0, 17, 34, 51]), 17);
+  assert.equal(episodesPerPoint([5]), 1);
+  assert.match(smoothingNote(1, 1), /Not smoothed\.$/);
+  assert.match(smoothingNote(11, 1), /centred mean over 11 episodes \(5 before and after each/);
+  assert.match(smoothingNote(11, 17), /already the mean of 17 consecutive episodes/);
 });
 
 test('smoothSeries smooths mean and band, keeps episodes', () => {
-  const s = smoothSeries({ episode: [0, 1, 2], mean: [1, 3, 5], low: [0, 2, 4], high: [2, 4, 6] }, 2);
-  assert.deepEqual(s, { episode: [0, 1, 2], mean: [1, 2, 4], low: [0, 1, 3], high: [2, 3, 5] });
+  const s = smoothSeries({ episode: [0, 1, 2], mean: [1, 3, 5], low: [0, 2, 4], high: [2, 4, 6] }, 3);
+  assert.deepEqual(s, { episode: [0, 1, 2], mean: [2, 3, 4], low: [1, 2, 3], high: [3, 4, 5] });
 });
 
 test('bandPolygon goes forward along high and back along low', () => {
@@ -125,14 +138,8 @@ test('pctErrorBars turns CIs into asymmetric error bars', () => {
   assert.deepEqual(bars.plus.slice(1), [0, 0]);
 });
 
-test('group keys and labels disambiguate equal system/algorithm pairs', () => {
-  const groups = [
-    { config_hash: 'aaaaaaaaaaaa', algorithm: 'mgrao-max', system: 'single' },
-    { config_hash: 'bbbbbbbbbbbb', algorithm: 'mgrao-max', system: 'single' },
-    { config_hash: 'aaaaaaaaaaaa', algorithm: 'uniform', system: 'single' },
-  ];
-  assert.equal(groupKey(groups[0]), 'aaaaaaaa:mgrao-max');
-  assert.deepEqual(groupLabels(groups), ['single · mgrao-max (aaaaaa)', 'single · mgrao-max (bbbbbb)', 'single · uniform']);
+test('group keys', () => {
+  assert.equal(groupKey({ config_hash: 'aaaaaaaaaaaa', algorithm: 'mgrao-max', system: 'single' }), 'aaaaaaaa:mgrao-max');
 });
 
 test('seedCount and changedParams', () => {

@@ -1,0 +1,61 @@
+"""Compare as a researcher reads it: one chart per system, configurations labelled by what differs
+between them (with a table of the differences), one colour per algorithm everywhere, a smoothing
+that says what it is."""
+
+from __future__ import annotations
+
+import time
+
+from tests.frontend.test_job_view import get_job, post_job
+
+
+def wait_succeeded(server: str, jobs: list[dict]) -> None:
+    deadline = time.monotonic() + 180
+    while any(get_job(server, j["id"])["status"] != "succeeded" for j in jobs):
+        assert time.monotonic() < deadline, "jobs did not finish"
+        time.sleep(0.3)
+
+
+def mean_traces(page, selector: str) -> list[dict]:
+    return page.eval_on_selector(selector, """el => el.data.filter(t => t.meta && t.meta.kind === 'mean')
+        .map(t => ({config: t.meta.config, color: t.line.color, dash: t.line.dash}))""")
+
+
+def test_compare_facets_by_system_and_labels_by_difference(browser, server, screenshots):
+    base = {"algorithms": ["uniform", "mgrao-max"], "seeds": 3, "episodes": 60, "tags": ["facets"]}
+    jobs = [post_job(server, base | {"system": "single", "name": "single default"}),
+            post_job(server, base | {"system": "single", "params": {"learning_rate": 0.09}, "name": "single lr"}),
+            post_job(server, base | {"system": "large", "name": "large default"})]
+    wait_succeeded(server, jobs)
+    context = browser.new_context(viewport={"width": 1280, "height": 800}, base_url=server)
+    page = context.new_page()
+    page.set_default_timeout(60000)
+    try:
+        page.goto(f"/#/compare?jobs={','.join(str(j['id']) for j in jobs)}&smooth=11")
+        page.locator("#compare-chart[data-rendered]").wait_for()
+        page.locator("#compare-chart-2[data-rendered]").wait_for()
+        systems = {page.get_attribute(f"#{i}", "data-system"): f"#{i}" for i in ("compare-chart", "compare-chart-2")}
+        assert set(systems) == {"single", "large"}  # one chart per system
+        single = mean_traces(page, systems["single"])
+        large = mean_traces(page, systems["large"])
+        assert {t["config"] for t in large} == {"large · uniform", "large · mgrao-max"}
+        assert {t["config"] for t in single} == {
+            "single · uniform · learning_rate 0.1", "single · mgrao-max · learning_rate 0.1",
+            "single · uniform · learning_rate 0.09", "single · mgrao-max · learning_rate 0.09"}
+        colour = {t["config"]: t["color"] for t in single + large}
+        assert colour["large · mgrao-max"] == colour["single · mgrao-max · learning_rate 0.09"]
+        assert colour["large · uniform"] != colour["large · mgrao-max"]
+        dashes = {t["config"]: t["dash"] for t in single}
+        assert dashes["single · mgrao-max · learning_rate 0.1"] != dashes["single · mgrao-max · learning_rate 0.09"]
+        diff = page.locator("#param-diff")
+        rows = diff.locator("tbody tr th").all_inner_texts()
+        assert rows[0] == "system" and {"learning_rate", "n_parents"} <= set(rows)  # large differs in size too
+        assert "0.09" in diff.inner_text()
+        note = page.inner_text("#smoothing-note")
+        assert "centred mean over 11 episodes" in note
+        # the band's interval is in the mean line's hover
+        hover = page.eval_on_selector("#compare-chart", "el => el.data.find(t => t.meta.kind === 'mean').hovertemplate")
+        assert "95% CI" in hover
+        page.screenshot(path=str(screenshots / "compare-facets.png"), full_page=True)
+    finally:
+        context.close()
