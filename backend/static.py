@@ -33,6 +33,11 @@ PLOTLY_ALIAS = "/vendor/plotly.min.js"
 HTML_PLACEHOLDER = f'href="{PLOTLY_ALIAS}"'
 
 
+REPRODUCTION_DOC = Path(__file__).resolve().parents[1] / "docs" / "reproduction.md"
+"""How the paper's tables are reproduced and why some figures differ (present in a source checkout)."""
+REPRODUCTION_DOC_URL = "/project-docs/reproduction.md"
+
+
 def frontend_dir() -> Path | None:
     """The directory of the ``frontend`` package (the dashboard's files), if installed."""
     try:
@@ -170,6 +175,13 @@ def install_static(app: FastAPI) -> None:
 
     for name, media_type in DOCS_ASSETS.items():
         _serve_vendor_file(app, docs_asset_url(name), VendorFile(docs_assets_dir() / name, media_type))
+
+    if REPRODUCTION_DOC.is_file():  # a source checkout: the paper view links to how its figures are made
+
+        @app.api_route(REPRODUCTION_DOC_URL, methods=["GET", "HEAD"], include_in_schema=False)
+        def reproduction_doc() -> Response:
+            return FileResponse(REPRODUCTION_DOC, media_type="text/plain; charset=utf-8",
+                                headers={"cache-control": REVALIDATE})
 
     static = frontend_dir()
     if static is None:

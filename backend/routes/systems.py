@@ -16,7 +16,8 @@ def systems(settings: SettingsDep) -> dict:
     return {
         "systems": [
             {"name": p.name, "description": p.description, "params": p.params.as_dict(),
-             "algorithms": list(p.algorithms), "paper": dict(p.paper_pct_from_uniform)}
+             "algorithms": list(p.algorithms), "paper": dict(p.paper_pct_from_uniform),
+             "paper_pct_of_max": dict(p.paper_pct_of_max)}
             for p in PRESETS.values()
         ],
         "parameters": [p.as_dict() for p in PARAMETERS],

@@ -10,6 +10,7 @@ import * as compare from './compare.js';
 import * as studies from './studies.js';
 import * as study from './study.js';
 import * as newstudy from './newstudy.js';
+import * as paper from './paper.js';
 
 const main = document.getElementById('main');
 const banner = document.getElementById('banner');
@@ -24,6 +25,7 @@ const routes = [
   { re: /^\/studies$/, view: studies, nav: 'studies', title: 'Studies' },
   { re: /^\/studies\/new$/, view: newstudy, nav: 'studies', title: 'New study' },
   { re: /^\/studies\/(\d+)$/, view: study, nav: 'studies', title: 'Study' },
+  { re: /^\/paper$/, view: paper, nav: 'paper', title: 'Ours against the paper' },
 ];
 
 /** Context handed to views. */
