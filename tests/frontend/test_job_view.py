@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import sqlite3
 import subprocess
@@ -117,7 +118,8 @@ def test_curves_fill_in_and_a_requeued_job_says_why(browser, restless_server, sc
         page.goto(f"/#/jobs/{job['id']}")
         note = page.locator("#partial-note")
         note.wait_for(timeout=120000)  # the first chunk stored: its curves are drawn while the job runs
-        assert "filling in" in note.inner_text() and "uniform 1 of 5" in note.inner_text()
+        assert "filling in" in note.inner_text()
+        assert re.search(r"uniform [1-5] of 5", note.inner_text())  # the chunks stored so far
         page.locator("#utility-chart .main-svg").first.wait_for()
         assert get_job(base, job["id"])["status"] == "running"
         page.screenshot(path=str(screenshots / "job-live.png"), full_page=True)
