@@ -75,6 +75,8 @@ export async function request(method, path, { query, body, signal } = {}) {
     throw e;
   }
   announce(true);
+  // A change was accepted (submitted, cancelled, deleted...): the header's counts refresh at once.
+  if (method !== 'GET' && response.ok && typeof window !== 'undefined') window.dispatchEvent(new CustomEvent('jobs-changed'));
   if (response.status === 204) return null;
   const text = await response.text();
   let data = null;

@@ -140,3 +140,9 @@ if (!location.hash) history.replaceState(null, '', '#/runs');
 render();
 checkHealth();
 setInterval(checkHealth, 10000);
+// After an action, or when a view sees a job change state, the counts follow within 0.3 s.
+let healthSoon = null;
+window.addEventListener('jobs-changed', () => {
+  clearTimeout(healthSoon);
+  healthSoon = setTimeout(checkHealth, 300);
+});

@@ -5,7 +5,7 @@
 import { api } from './api.js';
 import { h, notice, nextId } from './ui.js';
 import { draw, purge, loadPlotly, meanBandTraces, utilityLayout, pctBarTrace } from './charts.js';
-import { parseIds, groupKey, pctErrorBars, fmtNumber, fmtPct, fmtCI, algorithmRank, seedCount, smoothingNote, episodesPerPoint } from './stats.js';
+import { parseIds, badIds, DEFINITIONS, groupKey, pctErrorBars, fmtNumber, fmtPct, fmtCI, algorithmRank, seedCount, smoothingNote, episodesPerPoint } from './stats.js';
 import { configurations, groupLabels, diffTable, facets, lineStyles } from './comparegroups.js';
 
 const POINTS = 500;
@@ -52,6 +52,12 @@ export async function mount(root, params, ctx) {
     picker.append(h('details', { open: state.jobs.length === 0 }, h('summary', {}, 'Recent succeeded jobs'), list));
   }).catch(() => {});
 
+  const wrong = badIds(params.jobs);
+  if (wrong.length) {
+    body.append(notice('error', `jobs=${params.jobs}: ${wrong.map((w) => `“${w}”`).join(', ')} ${wrong.length > 1 ? 'are not job ids' : 'is not a job id'}. ` +
+      'Give job ids as whole numbers separated by commas, e.g. 3, 5, 8.'));
+    return () => { stopped = true; controller.abort(); };
+  }
   if (!state.jobs.length) {
     body.append(notice('empty', 'Pick two or more succeeded jobs to compare them. You can also select jobs on the Runs page.'));
     return () => { stopped = true; controller.abort(); };
@@ -112,6 +118,7 @@ export async function mount(root, params, ctx) {
   const bars = h('div', { class: 'chart bars', id: 'compare-bars', role: 'img', 'aria-label': 'Percent from uniform per configuration with 95% confidence intervals' });
   plots.push(...charts, bars);
   const smoothNote = h('p', { class: 'help', id: 'smoothing-note' });
+  const noneShown = h('div', { id: 'none-shown' });
   const diff = diffTable(groups.map((g) => g.config_hash), configs);
   const diffSection = diff.rows.length ? h('section', { 'aria-labelledby': 'h-diff' },
     h('h2', { id: 'h-diff' }, 'What differs between the configurations'),
@@ -129,6 +136,7 @@ export async function mount(root, params, ctx) {
     h('div', { class: 'controls' }, h('label', { for: smoothId }, 'Smoothing (centred mean)'), smoothSel),
     groupBoxes,
     ...(diffSection ? [diffSection] : []),
+    noneShown,
     h('section', { 'aria-labelledby': 'h-cu' }, h('h2', { id: 'h-cu' }, 'System utility per episode'),
       systems.length > 1 ? h('p', { class: 'help' }, 'One chart per system: their utilities lie on different scales.') : null,
       h('div', { class: systems.length > 1 ? 'grid2 facets' : '' }, charts), smoothNote),
@@ -138,7 +146,7 @@ export async function mount(root, params, ctx) {
         h('div', { class: 'table-wrap' }, h('table', { class: 'summary' },
           h('thead', {}, h('tr', {}, ['Configuration', 'Jobs', 'Runs', 'Final mean', '95% CI', '% from uniform', '95% CI', '% of max']
             .map((c) => h('th', { scope: 'col' }, c)))),
-          tableBody)))));
+          tableBody)), h('p', { class: 'help definitions' }, DEFINITIONS))));
 
   async function redraw() {
     ctx.setQuery({
@@ -155,6 +163,8 @@ export async function mount(root, params, ctx) {
         labels[i], styles[i].dash));
       if (g.summary && g.summary.pct_from_uniform !== null && g.summary.pct_from_uniform !== undefined) barIdx.push(i);
     });
+    noneShown.replaceChildren(...(shown.size ? [] : [notice('empty',
+      'No configuration is ticked: tick one or more under “Shown configurations” to draw it.')]));
     smoothNote.textContent = smoothingNote(state.smooth, episodesPerPoint((groups[0].episodes || {}).episode));
     tableBody.replaceChildren(...groups.map((g, i) => {
       const s = g.summary || {};

@@ -4,6 +4,7 @@
 
 import { h, nextId } from './ui.js';
 import { parseRatios, fieldErrors, changedParams, sortAlgorithms } from './stats.js';
+import { divisors, fmtParam } from './studydata.js';
 
 /** sessionStorage key of the experiment the new-experiment form hands to the new-study form. */
 export const STUDY_DRAFT = 'mgrao-study-draft';
@@ -49,6 +50,7 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3 } 
   // --- algorithms ---------------------------------------------------------------------------
   const algoBoxes = fixed.map((a) => h('input', { type: 'checkbox', name: 'algorithms', value: a, id: nextId('algo') }));
   const ratioIn = h('input', { type: 'text', name: 'ratios', placeholder: 'e.g. 2, 5, 10', id: nextId('ratios') });
+  const ratioHelp = h('small', { class: 'help ratio-help', id: nextId('ratiohelp'), 'aria-live': 'polite' });
   const algoErr = h('span', { class: 'field-error', id: nextId('algoerr'), 'aria-live': 'polite' });
   errorEls.set('algorithms', { input: algoBoxes[0], error: algoErr });
   const algoFieldset = h('fieldset', { class: 'algos', dataset: { for: 'algorithms' }, 'aria-describedby': algoErr.id },
@@ -56,9 +58,10 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3 } 
     h('div', { class: 'checks' }, algoBoxes.map((cb) => h('label', { class: 'check', for: cb.id }, cb, ' ', cb.value))),
     h('div', { class: 'field' },
       h('label', { for: ratioIn.id }, `More ${schema.algorithms.pattern} ratios`), ratioIn,
-      h('small', { class: 'help', id: `${ratioIn.id}-help` }, 'Comma separated x values; each adds a configuration mgrao-x:1.')),
+      h('small', { class: 'help', id: `${ratioIn.id}-help` }, 'Comma separated x values; each adds a configuration mgrao-x:1.'),
+      ratioHelp),
     algoErr);
-  ratioIn.setAttribute('aria-describedby', `${ratioIn.id}-help ${algoErr.id}`);
+  ratioIn.setAttribute('aria-describedby', `${ratioIn.id}-help ${ratioHelp.id} ${algoErr.id}`);
 
   const seedsIn = h('input', { type: 'number', name: 'seeds', min: 1, max: schema.limits.max_seeds, step: 1, value: seeds, inputmode: 'numeric' });
   const episodesIn = h('input', { type: 'number', name: 'episodes', min: 1, max: schema.limits.max_episodes, step: 1, value: 100, inputmode: 'numeric' });
@@ -91,21 +94,83 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3 } 
     return schema.systems.find((s) => s.name === systemSel.value) || schema.systems[0];
   }
 
+  // --- the valid group counts beside the ratio field, as n_parents changes ------------------
+  function parentsNow() {
+    const entry = paramInputs.get('n_parents');
+    const n = entry ? Number(entry.input.value) : NaN;
+    return Number.isInteger(n) && n >= 1 ? n : preset().params.n_parents;
+  }
+  function refreshRatioHelp() {
+    const n = parentsNow();
+    const valid = divisors(n);
+    const bad = parseRatios(ratioIn.value).algorithms.map((a) => Number(a.replace(/^mgrao-/, '').replace(/:1$/, '')))
+      .filter((x) => !valid.includes(x));
+    ratioHelp.textContent = `Valid x for n_parents = ${n}: ${valid.join(', ')}.` +
+      (bad.length ? ` ${bad.join(', ')} ${bad.length > 1 ? 'do' : 'does'} not divide ${n}.` : '');
+    ratioHelp.classList.toggle('warn', bad.length > 0);
+  }
+  ratioIn.addEventListener('input', refreshRatioHelp);
+  paramInputs.get('n_parents')?.input.addEventListener('input', refreshRatioHelp);
+
+  // --- letters in a number field: say the range at once (the browser reads them as empty) ---
+  const numberRanges = [[seedsIn, `a whole number from 1 to ${schema.limits.max_seeds}`],
+    [episodesIn, `a whole number from 1 to ${schema.limits.max_episodes}`],
+    ...[...paramInputs.values()].filter(({ p }) => p.kind === 'int' || p.kind === 'float')
+      .map(({ p, input }) => [input, `a number, ${rangeText(p)}`])];
+  for (const [input, range] of numberRanges) {
+    input.addEventListener('input', () => {
+      const target = [...errorEls.values()].find((e) => e.input === input);
+      if (!target) return;
+      if (input.validity.badInput) {
+        target.error.textContent = `Not a number: must be ${range}.`;
+        target.error.dataset.local = '1';
+        input.setAttribute('aria-invalid', 'true');
+      } else if (target.error.dataset.local) {
+        target.error.textContent = '';
+        delete target.error.dataset.local;
+        input.removeAttribute('aria-invalid');
+      }
+    });
+  }
+
+  // --- changing the preset keeps the parameters the user changed, and says so ----------------
+  let shownPreset = null;
+  const keptNote = h('p', { class: 'help kept-edits', id: nextId('kept'), 'aria-live': 'polite' });
+  function edits() {
+    return shownPreset ? changedParams(rawParams(), shownPreset.params) : {};
+  }
+  systemSel.addEventListener('change', () => {
+    const mine = edits();
+    applyPreset();
+    const now = preset().params;
+    const kept = Object.entries(mine).filter(([name, v]) => paramInputs.has(name) && name in changedParams({ [name]: v }, now));
+    for (const [name, value] of kept) setParam(name, value);
+    refreshRatioHelp();
+    if (!kept.length) { keptNote.replaceChildren(); return; }
+    keptNote.replaceChildren(`Kept your changes on the ${preset().name} preset: ${kept.map(([n, v]) => `${n} ${fmtParam(v)}`).join(', ')}. `,
+      h('button', { type: 'button', class: 'small secondary', onclick: () => { applyPreset(); refreshRatioHelp(); keptNote.replaceChildren(); } },
+        'Use the preset’s values'));
+  });
+
+  function setParam(name, value) {
+    const entry = paramInputs.get(name);
+    if (entry.p.kind === 'bool') entry.input.checked = Boolean(value);
+    else entry.input.value = value === null || value === undefined ? '' : String(value);
+  }
+
   function applyPreset() {
     const s = preset();
+    shownPreset = s;
     systemDesc.textContent = s.description;
     for (const cb of algoBoxes) cb.checked = s.algorithms.includes(cb.value);
     ratioIn.value = s.algorithms.filter((a) => !fixed.includes(a)).map((a) => a.replace(/^mgrao-/, '').replace(/:1$/, '')).join(', ');
-    for (const { p, input } of paramInputs.values()) {
-      const v = s.params[p.name];
-      if (p.kind === 'bool') input.checked = Boolean(v);
-      else input.value = v === null || v === undefined ? '' : String(v);
-    }
+    for (const { p } of paramInputs.values()) setParam(p.name, s.params[p.name]);
+    refreshRatioHelp();
     for (const listener of presetListeners) listener(s);
   }
-  systemSel.addEventListener('change', applyPreset);
 
-  function readParams() {
+  /** Every parameter input's value as the API takes it. */
+  function rawParams() {
     const values = {};
     for (const { p, input } of paramInputs.values()) {
       if (p.kind === 'bool') { values[p.name] = input.checked; continue; }
@@ -114,7 +179,11 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3 } 
       else if (raw === '') values[p.name] = p.nullable ? null : raw; // '' goes to the server, which explains
       else values[p.name] = Number(raw);
     }
-    return changedParams(values, preset().params);
+    return values;
+  }
+
+  function readParams() {
+    return changedParams(rawParams(), preset().params);
   }
 
   /** Fill the inputs from an experiment as read() gives it (the preset first, then its changes). */
@@ -183,7 +252,7 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3 } 
 
   return {
     fieldBlock, errorEls, systemSel, systemDesc, algoFieldset, algoBoxes, ratioIn, seedsIn, episodesIn, advanced,
-    paramInputs, preset, applyPreset, read, load, clearErrors, showErrors,
+    paramInputs, preset, applyPreset, read, load, clearErrors, showErrors, keptNote,
     onPreset: (listener) => presetListeners.push(listener),
   };
 }

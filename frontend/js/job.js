@@ -4,7 +4,7 @@
 import { api } from './api.js';
 import { h, statusCell, jobMeta, notice, editJobDialog, confirmDialog, cancelConsequence, keepLabel, nextId } from './ui.js';
 import { draw, purge, loadPlotly, meanBandTraces, seedTraces, utilityLayout, heatmapTrace, colour } from './charts.js';
-import { fmtNumber, fmtPct, fmtCI, pctProgress, algorithmRank, smoothingNote, episodesPerPoint } from './stats.js';
+import { fmtNumber, fmtPct, fmtCI, pctProgress, algorithmRank, smoothingNote, episodesPerPoint, DEFINITIONS } from './stats.js';
 import { algorithmColour } from './colours.js';
 import { fmtParam } from './studydata.js';
 import { configRows, differenceSummary, summaryCsv, configJson } from './jobconfig.js';
@@ -178,6 +178,7 @@ export async function mount(root, params, ctx) {
       if (stopped) return;
       const changed = next.status !== job.status;
       job = next;
+      if (changed) window.dispatchEvent(new CustomEvent('jobs-changed'));
       if (changed) await update();
       else {
         renderStatus();
@@ -306,7 +307,8 @@ export async function mount(root, params, ctx) {
             h('td', { class: 'num ci' }, fmtCI(s.pct_ci95, 1, true)),
             h('td', { class: 'num' }, fmtPct(s.pct_of_max, 1, false)),
             paper ? h('td', { class: 'num paper' }, pv === undefined || pv === null ? '–' : fmtPct(pv)) : null);
-        })))));
+        })))),
+      h('p', { class: 'help definitions' }, DEFINITIONS));
   }
 
   function weightsSection(r) {

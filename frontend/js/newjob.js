@@ -47,7 +47,7 @@ export async function mount(root, params, ctx) {
     summary,
     h('div', { class: 'grid2' },
       h('div', {},
-        fields.fieldBlock('system', 'System preset', fields.systemSel, null), fields.systemDesc,
+        fields.fieldBlock('system', 'System preset', fields.systemSel, null), fields.systemDesc, fields.keptNote,
         fields.algoFieldset,
         h('div', { class: 'row' },
           fields.fieldBlock('seeds', 'Seeds (number of runs)', fields.seedsIn, `1 to ${schema.limits.max_seeds}`),

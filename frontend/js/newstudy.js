@@ -206,7 +206,7 @@ export async function mount(root, params, ctx) {
     h('div', { class: 'grid2' },
       h('div', {},
         h('h2', {}, 'Base experiment'),
-        block('system', 'System preset', fields.systemSel, null), fields.systemDesc,
+        block('system', 'System preset', fields.systemSel, null), fields.systemDesc, fields.keptNote,
         alsoBox,
         fields.algoFieldset,
         h('div', { class: 'row' },

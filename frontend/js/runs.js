@@ -266,6 +266,7 @@ export async function mount(root, params, ctx) {
           const job = await api.getJob(id);
           const r = rows.get(id);
           if (r && !stopped && (job.status !== r.job.status || job.progress !== r.job.progress)) {
+            if (job.status !== r.job.status) window.dispatchEvent(new CustomEvent('jobs-changed'));
             const focused = r.tr.contains(document.activeElement);
             if (!focused) replaceRow(job);
             else r.job = job;

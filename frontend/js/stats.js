@@ -119,6 +119,16 @@ export function parseTags(text) {
 }
 
 /** Positive integer ids from "1, 2,3" (or an array), unique, in the given order. */
+/** The parts of a job-id list that are not job ids (`abc` in `1,abc`), to say so. */
+export function badIds(value) {
+  return String(value || '').split(/[\s,]+/).filter(Boolean).filter((p) => !/^[1-9]\d*$/.test(p.trim()));
+}
+
+/** One-line definitions of the summary columns, shown under every table that has them. */
+export const DEFINITIONS = 'Final mean: system utility averaged over the last 10 episodes, then over seeds (95% t-interval). ' +
+  '% from uniform: gain over uniform, paired seed by seed (same worlds). ' +
+  '% of max: this configuration’s gain over uniform as a share of mgrao-max’s.';
+
 export function parseIds(value) {
   const parts = Array.isArray(value) ? value : String(value || '').split(/[\s,]+/);
   const ids = [];

@@ -1,0 +1,69 @@
+"""The small things a new researcher trips over (issue: "the dashboard as a researcher reads it", 8):
+a preset change keeps the parameters they changed, the valid group counts beside the ratio field,
+letters in a number field, compare with nothing to show, header counts right after an action, and
+the summary columns defined where they are shown."""
+
+from __future__ import annotations
+
+import time
+
+from tests.frontend.test_compare_view import wait_succeeded
+from tests.frontend.test_job_view import post_job
+
+
+def test_preset_change_keeps_edits_and_the_ratio_field_lists_valid_counts(page, server, screenshots):
+    page.goto("/#/new")
+    page.locator("form.newjob").wait_for()
+    page.locator("details.advanced > summary").click()
+    page.fill("input[name=learning_rate]", "0.05")
+    page.fill("input[name=n_parents]", "12")
+    help_text = page.locator(".ratio-help")
+    assert "Valid x for n_parents = 12: 1, 2, 3, 4, 6, 12." in help_text.inner_text()
+    page.fill("input[name=ratios]", "5, 4")
+    assert "5 does not divide 12" in help_text.inner_text()
+    page.select_option("select[name=system]", "multi")
+    kept = page.locator(".kept-edits")
+    assert "learning_rate 0.05" in kept.inner_text() and "n_parents 12" in kept.inner_text()
+    assert page.input_value("input[name=learning_rate]") == "0.05"
+    page.screenshot(path=str(screenshots / "new-kept-edits.png"), full_page=True)
+    kept.get_by_role("button", name="Use the preset’s values").click()
+    assert page.input_value("input[name=learning_rate]") == "0.1"
+    assert kept.inner_text() == ""
+    # letters in a number field: the range at once, not an empty value sent to the server
+    page.fill("input[name=seeds]", "")
+    page.locator("input[name=seeds]").press_sequentially("1e")  # Chromium takes only digits and 'e' here
+    error = page.locator('.field[data-for="seeds"] .field-error')
+    assert "Not a number: must be a whole number from 1 to" in error.inner_text()
+
+
+def test_compare_says_what_is_wrong_and_what_is_hidden(page, server):
+    page.goto("/#/compare?jobs=abc")
+    assert "“abc” is not a job id" in page.locator(".notice.error").inner_text()
+    job = post_job(server, {"system": "single", "seeds": 2, "episodes": 20, "name": "hidden groups"})
+    wait_succeeded(server, [job])
+    page.goto(f"/#/compare?jobs={job['id']}&groups=none")
+    page.locator("#compare-chart[data-rendered]").wait_for()
+    assert "No configuration is ticked" in page.inner_text("#none-shown")
+    assert "% of max: this configuration’s gain" in page.inner_text(".definitions")
+    page.get_by_role("button", name="All").click()
+    page.wait_for_function("() => !document.querySelector('#none-shown').textContent")
+
+
+def test_header_counts_follow_an_action_at_once(page, server):
+    page.goto("/#/runs")
+    page.locator("#health.ok").wait_for()
+    before = page.inner_text("#health")
+    queued_before = int(before.split("·")[2].split()[0])
+    started = time.monotonic()
+    # submitted through the dashboard's own client: the header refreshes after the answer
+    page.evaluate("""() => import('/js/api.js').then(({ api }) => api.createJob(
+        { system: 'large', seeds: 1, episodes: 3000, params: { n_parents: 1000 }, name: 'header counts' }))""")
+    page.wait_for_function(
+        """(before) => { const t = document.getElementById('health').textContent;
+            const [, running, queued] = t.split('·').map((x) => parseInt(x, 10));
+            return running + queued > before; }""", arg=queued_before + int(before.split("·")[1].split()[0]),
+        timeout=5000)
+    assert time.monotonic() - started < 5  # not the 10 s poll
+    listed = page.evaluate("() => import('/js/api.js').then(({ api }) => api.listJobs({ q: 'header counts' }))")
+    job_id = listed["data"][0]["id"]
+    page.evaluate(f"() => import('/js/api.js').then(({{ api }}) => api.cancelJob({job_id}))")
