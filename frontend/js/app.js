@@ -11,6 +11,7 @@ import * as studies from './studies.js';
 import * as study from './study.js';
 import * as newstudy from './newstudy.js';
 import * as paper from './paper.js';
+import { installShortcuts } from './shortcuts.js';
 
 const main = document.getElementById('main');
 const banner = document.getElementById('banner');
@@ -88,6 +89,7 @@ async function render() {
     heading.setAttribute('tabindex', '-1');
     heading.focus({ preventScroll: true });
   }
+  if (gen === generation) window.dispatchEvent(new CustomEvent('view-mounted'));
 }
 
 window.addEventListener('api-status', (ev) => {
@@ -131,6 +133,12 @@ window.addEventListener('hashchange', () => {
   render();
 });
 setupToken();
+const shortcutStatus = document.createElement('p');
+shortcutStatus.className = 'visually-hidden';
+shortcutStatus.setAttribute('aria-live', 'polite');
+shortcutStatus.id = 'shortcut-status';
+document.body.append(shortcutStatus);
+installShortcuts((text) => { shortcutStatus.textContent = text; });
 // The skip link must not touch the hash (the router owns it): move focus to <main> instead.
 document.querySelector('.skip-link').addEventListener('click', (ev) => {
   ev.preventDefault();

@@ -44,7 +44,7 @@ export async function mount(root, params, ctx) {
     STATUSES.map((s) => h('option', { value: s, selected: s === filters.status }, s)));
   const systemSel = h('select', { name: 'system' }, h('option', { value: '' }, 'Any'));
   const tagIn = h('input', { type: 'text', name: 'tag', value: filters.tag, placeholder: 'e.g. paper' });
-  const qIn = h('input', { type: 'search', name: 'q', value: filters.q, placeholder: 'name, notes, tags' });
+  const qIn = h('input', { type: 'search', name: 'q', value: filters.q, placeholder: 'name, notes, tags', 'data-shortcut': 'search' });
   const sortSel = h('select', { name: 'sort' });
   function fillSorts() {
     const options = SORTS.map(([v, l]) => h('option', { value: v, selected: v === filters.sort }, l));
@@ -66,7 +66,7 @@ export async function mount(root, params, ctx) {
   const columnsBox = h('details', { class: 'columns-picker' }, h('summary', {}, 'Parameter columns'),
     h('div', { class: 'param-boxes' }, paramBoxes));
 
-  const compareBtn = h('button', { type: 'button', class: 'primary', disabled: true, onclick: () => {
+  const compareBtn = h('button', { type: 'button', class: 'primary', disabled: true, 'data-shortcut': 'compare', onclick: () => {
     ctx.navigate('/compare', { jobs: [...selected].sort((a, b) => a - b).join(',') });
   } }, 'Compare selected');
   const clearBtn = h('button', { type: 'button', class: 'secondary', disabled: true, onclick: () => {

@@ -40,7 +40,7 @@ export async function mount(root, params, ctx) {
     ['running', 'finished', 'cancelled'].map((s) => h('option', { value: s, selected: s === filters.status }, s)));
   const methodSel = h('select', { name: 'method' }, h('option', { value: '' }, 'Any'),
     ['grid', 'random', 'tpe'].map((m) => h('option', { value: m, selected: m === filters.method }, m)));
-  const qIn = h('input', { type: 'search', name: 'q', value: filters.q, placeholder: 'name' });
+  const qIn = h('input', { type: 'search', name: 'q', value: filters.q, placeholder: 'name', 'data-shortcut': 'search' });
   const sortSel = h('select', { name: 'sort' }, SORTS.map(([v, l]) => h('option', { value: v, selected: v === filters.sort }, l)));
   const form = h('form', { class: 'filters', role: 'search', 'aria-label': 'Filter studies', onsubmit: (e) => { e.preventDefault(); reload(); } },
     field('Status', statusSel), field('Method', methodSel), field('Search', qIn), field('Sort', sortSel));

@@ -67,3 +67,32 @@ def test_header_counts_follow_an_action_at_once(page, server):
     listed = page.evaluate("() => import('/js/api.js').then(({ api }) => api.listJobs({ q: 'header counts' }))")
     job_id = listed["data"][0]["id"]
     page.evaluate(f"() => import('/js/api.js').then(({{ api }}) => api.cancelJob({job_id}))")
+
+
+def test_keyboard_shortcuts(page, server, screenshots):
+    jobs = [post_job(server, {"system": "single", "seeds": 2, "episodes": 10, "name": f"keys {i}", "tags": ["keys"]})
+            for i in range(2)]
+    wait_succeeded(server, jobs)
+    page.goto("/#/compare")
+    page.locator("h1").wait_for()
+    page.keyboard.press("/")  # from elsewhere: the runs search
+    page.wait_for_function("() => document.activeElement && document.activeElement.name === 'q'")
+    page.keyboard.type("keys")
+    page.locator(f'tr[data-id="{jobs[0]["id"]}"]').wait_for()
+    page.locator("body").click(position={"x": 5, "y": 300})
+    page.keyboard.press("c")  # nothing selected: said, not done
+    assert "Select jobs" in page.locator("#shortcut-status").text_content()
+    for job in jobs:
+        page.get_by_label(f"Select job {job['id']} for comparison").check()
+    page.locator("h1").click()
+    page.keyboard.press("c")
+    page.wait_for_url(f"**/#/compare?jobs={jobs[0]['id']},{jobs[1]['id']}*")
+    page.keyboard.press("?")
+    dialog = page.locator("#shortcuts-dialog")
+    dialog.wait_for()
+    assert "Open a new experiment" in dialog.inner_text()
+    page.screenshot(path=str(screenshots / "shortcuts.png"))
+    page.keyboard.press("Escape")
+    dialog.wait_for(state="detached")
+    page.keyboard.press("n")
+    page.wait_for_url("**/#/new")
