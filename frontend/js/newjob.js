@@ -37,6 +37,28 @@ export async function mount(root, params, ctx) {
   });
   nameIn.addEventListener('input', () => { nameIn.dataset.touched = '1'; });
 
+  // "Clone into a new experiment" on a job's page: its whole configuration, ready to edit
+  let clonedSeeds = null; // the job's seed list when it is not 0 .. n-1 (kept unless the count is edited)
+  const cloneNote = h('p', { class: 'help', id: 'clone-note' });
+  if (params.clone) {
+    try {
+      const job = await api.getJob(Number(params.clone));
+      fields.load({ system: job.system, algorithms: job.algorithms, seeds: job.seeds.length, episodes: job.episodes,
+        params: job.params });
+      nameIn.value = `${job.name || `job ${job.id}`} (clone)`;
+      nameIn.dataset.touched = '1';
+      tagsIn.value = (job.tags || []).join(', ');
+      notesIn.value = `Cloned from job ${job.id}.`;
+      const plain = job.seeds.every((seed, i) => seed === i);
+      if (!plain) clonedSeeds = job.seeds;
+      cloneNote.textContent = `A copy of job ${job.id}'s configuration: change what you need and run it.` +
+        (plain ? '' : ` It runs the same seeds (${job.seeds.join(', ')}) unless you change their number.`);
+      fields.seedsIn.addEventListener('input', () => { clonedSeeds = null; }, { once: true });
+    } catch (e) {
+      cloneNote.textContent = `Cannot clone job ${params.clone}: ${e.message}`;
+    }
+  }
+
   const summary = h('div', { class: 'error-summary', id: nextId('summary'), 'aria-live': 'assertive' });
   const submitBtn = h('button', { type: 'submit', class: 'primary' }, 'Run experiment');
   const paperBtn = h('button', { type: 'button', class: 'secondary' }, 'Reproduce the paper (4 jobs)');
@@ -44,7 +66,7 @@ export async function mount(root, params, ctx) {
   const showErrors = (err) => fields.showErrors(err, summary, 'experiment');
 
   const form = h('form', { class: 'newjob', novalidate: true, 'aria-describedby': summary.id },
-    summary,
+    cloneNote, summary,
     h('div', { class: 'grid2' },
       h('div', {},
         fields.fieldBlock('system', 'System preset', fields.systemSel, null), fields.systemDesc, fields.keptNote,
@@ -69,6 +91,7 @@ export async function mount(root, params, ctx) {
     }
     const body = {
       ...experiment,
+      ...(clonedSeeds ? { seeds: clonedSeeds } : {}),
       name: nameIn.value.trim() || nameIn.placeholder,
       tags: parseTags(tagsIn.value),
       notes: notesIn.value,
@@ -114,6 +137,6 @@ export async function mount(root, params, ctx) {
       h('h2', { id: 'paper-h' }, 'Full reproduction'),
       h('p', {}, `The paper’s four systems, each with its published configurations, ${PAPER_SEEDS} seeds × ${PAPER_EPISODES} episodes.`),
       paperBtn, paperStatus));
-  fields.applyPreset();
+  if (!params.clone) fields.applyPreset(); // a clone's fields were filled from its job above
   return null;
 }

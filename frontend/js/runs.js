@@ -1,7 +1,7 @@
 // Runs view: filterable, sortable, cursor-paginated table of jobs with compare/edit/cancel/delete.
 
 import { api } from './api.js';
-import { h, statusCell, confirmDialog, cancelConsequence, keepLabel, editJobDialog, notice, debounce, nextId } from './ui.js';
+import { h, statusCell, confirmDialog, promptDialog, cancelConsequence, keepLabel, editJobDialog, notice, debounce, nextId } from './ui.js';
 import { fmtDate, fmtDuration, seedCount, sortAlgorithms } from './stats.js';
 import { columnsFromQuery, sortKey, nextSort, sortState, cellText, cellInterval } from './runcolumns.js';
 
@@ -75,6 +75,45 @@ export async function mount(root, params, ctx) {
     updateSelection();
   } }, 'Clear selection');
 
+  // Bulk actions on the selected jobs: one request per job, then a line saying what each did.
+  const bulkStatus = h('p', { class: 'help bulk-status', id: 'bulk-status', 'aria-live': 'polite' });
+  async function bulk(what, eligible, act) {
+    const chosen = [...selected].map((id) => rows.get(id)?.job).filter(Boolean);
+    const doing = chosen.filter(eligible);
+    let done = 0;
+    const failed = [];
+    for (const job of doing) {
+      try { await act(job); done += 1; } catch (e) { failed.push(`job ${job.id}: ${e.message}`); }
+    }
+    const skipped = chosen.length - doing.length;
+    bulkStatus.textContent = `${what}: ${done} of ${chosen.length} selected job${chosen.length === 1 ? '' : 's'}` +
+      (skipped ? `; ${skipped} skipped (${what === 'Cancelled' ? 'not queued or running' : 'running: cancel first'})` : '') +
+      (failed.length ? `; failed: ${failed.join('; ')}` : '') + '.';
+  }
+  const tagBtn = h('button', { type: 'button', class: 'secondary', disabled: true, onclick: async () => {
+    const tag = await promptDialog('Tag the selected jobs', `Tag to add to ${selected.size} job${selected.size === 1 ? '' : 's'}`, 'Add tag');
+    if (!tag) return;
+    await bulk('Tagged', () => true, async (job) => {
+      if (!(job.tags || []).includes(tag)) replaceRow(await api.patchJob(job.id, { tags: [...(job.tags || []), tag] }));
+    });
+  } }, 'Tag selected');
+  const cancelSelBtn = h('button', { type: 'button', class: 'secondary', disabled: true, onclick: async () => {
+    if (!(await confirmDialog('Cancel the selected jobs?', `Cancel the queued and running jobs among the ${selected.size} selected? ` +
+      'The runs they completed are kept.', 'Cancel them', true, 'Keep them'))) return;
+    await bulk('Cancelled', (job) => job.status === 'queued' || job.status === 'running', async (job) => replaceRow(await api.cancelJob(job.id)));
+  } }, 'Cancel selected');
+  const deleteSelBtn = h('button', { type: 'button', class: 'danger', disabled: true, onclick: async () => {
+    if (!(await confirmDialog('Delete the selected jobs?', `Delete the ${selected.size} selected jobs that are not running, with all their results? ` +
+      'This cannot be undone.', 'Delete them', true, 'Keep them'))) return;
+    await bulk('Deleted', (job) => job.status !== 'running', async (job) => {
+      await api.deleteJob(job.id);
+      rows.get(job.id)?.tr.remove();
+      rows.delete(job.id);
+      selected.delete(job.id);
+    });
+    updateSelection();
+  } }, 'Delete selected');
+
   const filterForm = h('form', { class: 'filters', role: 'search', 'aria-label': 'Filter jobs', onsubmit: (e) => { e.preventDefault(); reload(); } },
     field('Status', statusSel), field('System', systemSel), field('Tag', tagIn), field('Search', qIn), field('Sort', sortSel),
     field('Result columns of', resultSel), columnsBox);
@@ -112,7 +151,9 @@ export async function mount(root, params, ctx) {
 
   root.append(
     h('div', { class: 'view-head' }, h('h1', {}, 'Runs'),
-      h('div', { class: 'toolbar' }, compareBtn, clearBtn, h('a', { class: 'button primary', href: '#/new' }, 'New experiment'))),
+      h('div', { class: 'toolbar' }, compareBtn, tagBtn, cancelSelBtn, deleteSelBtn, clearBtn,
+        h('a', { class: 'button primary', href: '#/new' }, 'New experiment'))),
+    bulkStatus,
     filterForm, errorBox, countEl, tableWrap, emptyBox, h('div', { class: 'more' }, moreBtn), live);
 
   api.systems().then((s) => {
@@ -147,6 +188,7 @@ export async function mount(root, params, ctx) {
   function updateSelection() {
     compareBtn.disabled = selected.size === 0;
     clearBtn.disabled = selected.size === 0;
+    for (const b of [tagBtn, cancelSelBtn, deleteSelBtn]) b.disabled = selected.size === 0;
     compareBtn.textContent = selected.size ? `Compare selected (${selected.size})` : 'Compare selected';
   }
 
@@ -200,6 +242,7 @@ export async function mount(root, params, ctx) {
 
   function replaceRow(job) {
     const old = rows.get(job.id);
+    if (!job.summaries && old) job.summaries = old.job.summaries; // PATCH and cancel answer without them
     const tr = row(job);
     if (old) old.tr.replaceWith(tr);
     rows.set(job.id, { job, tr });

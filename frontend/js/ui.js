@@ -97,6 +97,24 @@ export function confirmDialog(title, message, confirmLabel = 'Confirm', danger =
   });
 }
 
+/** Modal asking for one line of text; resolves to the trimmed text, or null when dismissed. */
+export function promptDialog(title, label, confirmLabel) {
+  return new Promise((resolve) => {
+    const dlg = dialogShell(title);
+    const id = nextId('prompt');
+    const input = h('input', { type: 'text', id, maxlength: 50, required: true });
+    const form = h('form', { method: 'dialog' },
+      h('div', { class: 'field' }, h('label', { for: id }, label), input),
+      h('div', { class: 'actions' },
+        h('button', { type: 'submit', value: 'cancel', class: 'secondary', formnovalidate: true }, 'Back'),
+        h('button', { type: 'submit', value: 'ok', class: 'primary' }, confirmLabel)));
+    dlg.append(form);
+    dlg.addEventListener('close', () => resolve(dlg.returnValue === 'ok' && input.value.trim() ? input.value.trim() : null));
+    dlg.showModal();
+    input.focus();
+  });
+}
+
 /** Dialog editing a job's name, tags and notes (PATCH). Resolves to the updated job or null. */
 export function editJobDialog(job) {
   return new Promise((resolve) => {
