@@ -51,7 +51,7 @@ const CONFIG = {
   displaylogo: false,
   showSendToCloud: false, // plotly.js 4 adds a "Share chart..." button that uploads the data to Plotly's cloud
   modeBarButtonsToRemove: ['select2d', 'lasso2d', 'autoScale2d'],
-  toImageButtonOptions: { format: 'png', scale: 2 },
+  toImageButtonOptions: { format: 'svg' }, // the camera button saves the chart as SVG, for papers
 };
 
 function baseLayout(extra = {}) {

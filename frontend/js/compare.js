@@ -7,6 +7,7 @@ import { h, notice, nextId } from './ui.js';
 import { draw, purge, loadPlotly, meanBandTraces, utilityLayout, pctBarTrace } from './charts.js';
 import { parseIds, badIds, DEFINITIONS, groupKey, pctErrorBars, fmtNumber, fmtPct, fmtCI, algorithmRank, seedCount, smoothingNote, episodesPerPoint } from './stats.js';
 import { configurations, groupLabels, diffTable, facets, lineStyles } from './comparegroups.js';
+import { axisControls, withAxis, syncZoom, tableCsvButton } from './chartcontrols.js';
 
 const POINTS = 500;
 const SMOOTH_CHOICES = [1, 5, 11, 25, 51, 101]; // episodes, centred
@@ -118,18 +119,24 @@ export async function mount(root, params, ctx) {
   const bars = h('div', { class: 'chart bars', id: 'compare-bars', role: 'img', 'aria-label': 'Percent from uniform per configuration with 95% confidence intervals' });
   plots.push(...charts, bars);
   const smoothNote = h('p', { class: 'help', id: 'smoothing-note' });
+  const axisUi = axisControls(() => redraw());
   const noneShown = h('div', { id: 'none-shown' });
   const diff = diffTable(groups.map((g) => g.config_hash), configs);
-  const diffSection = diff.rows.length ? h('section', { 'aria-labelledby': 'h-diff' },
-    h('h2', { id: 'h-diff' }, 'What differs between the configurations'),
-    h('div', { class: 'table-wrap' }, h('table', { class: 'summary diff', id: 'param-diff' },
+  const diffTableEl = h('table', { class: 'summary diff', id: 'param-diff' },
       h('thead', {}, h('tr', {}, h('th', { scope: 'col' }, 'Parameter'),
         diff.hashes.map((hash) => h('th', { scope: 'col', title: hash }, `${configs[hash].system} ${hash.slice(0, 6)}`)))),
       h('tbody', {}, diff.rows.map((r) => h('tr', {}, h('th', { scope: 'row' }, r.name),
-        r.values.map((v) => h('td', { class: 'num' }, v)))))))) : null;
+        r.values.map((v) => h('td', { class: 'num' }, v))))));
+  const diffSection = diff.rows.length ? h('section', { 'aria-labelledby': 'h-diff' },
+    h('h2', { id: 'h-diff' }, 'What differs between the configurations ', tableCsvButton(diffTableEl, 'compare-parameters.csv')),
+    h('div', { class: 'table-wrap' }, diffTableEl)) : null;
   const jobsLine = h('p', { class: 'help' }, 'Jobs: ', data.jobs.map((j, i) => [i ? ', ' : '',
     h('a', { href: `#/jobs/${j.id}` }, `#${j.id} ${j.name || ''}`), ` (${j.status})`]));
   const tableBody = h('tbody');
+  const pooledTable = h('table', { class: 'summary' },
+    h('thead', {}, h('tr', {}, ['Configuration', 'Jobs', 'Runs', 'Final mean', '95% CI', '% from uniform', '95% CI', '% of max']
+      .map((c) => h('th', { scope: 'col' }, c)))),
+    tableBody);
 
   body.replaceChildren(
     jobsLine,
@@ -139,14 +146,11 @@ export async function mount(root, params, ctx) {
     noneShown,
     h('section', { 'aria-labelledby': 'h-cu' }, h('h2', { id: 'h-cu' }, 'System utility per episode'),
       systems.length > 1 ? h('p', { class: 'help' }, 'One chart per system: their utilities lie on different scales.') : null,
-      h('div', { class: systems.length > 1 ? 'grid2 facets' : '' }, charts), smoothNote),
+      axisUi.element, h('div', { class: systems.length > 1 ? 'grid2 facets' : '' }, charts), smoothNote),
     h('div', { class: 'grid2 wide' },
       h('section', { 'aria-labelledby': 'h-cb' }, h('h2', { id: 'h-cb' }, '% from uniform (95% CI)'), bars),
-      h('section', { 'aria-labelledby': 'h-ct' }, h('h2', { id: 'h-ct' }, 'Pooled final utility'),
-        h('div', { class: 'table-wrap' }, h('table', { class: 'summary' },
-          h('thead', {}, h('tr', {}, ['Configuration', 'Jobs', 'Runs', 'Final mean', '95% CI', '% from uniform', '95% CI', '% of max']
-            .map((c) => h('th', { scope: 'col' }, c)))),
-          tableBody)), h('p', { class: 'help definitions' }, DEFINITIONS))));
+      h('section', { 'aria-labelledby': 'h-ct' }, h('h2', { id: 'h-ct' }, 'Pooled final utility ', tableCsvButton(pooledTable, 'compare-final-utility.csv')),
+        h('div', { class: 'table-wrap' }, pooledTable), h('p', { class: 'help definitions' }, DEFINITIONS))));
 
   async function redraw() {
     ctx.setQuery({
@@ -178,7 +182,7 @@ export async function mount(root, params, ctx) {
         h('td', { class: 'num ci' }, fmtCI(s.pct_ci95, 1, true)),
         h('td', { class: 'num' }, fmtPct(s.pct_of_max, 1, false)));
     }));
-    const p1 = Promise.all(charts.map((c, k) => draw(c, traces[k], utilityLayout(systems.length > 1 ? systems[k] : ''))));
+    const p1 = Promise.all(charts.map((c, k) => draw(c, traces[k], withAxis(utilityLayout(systems.length > 1 ? systems[k] : ''), axisUi.axis))));
     const p2 = draw(bars, [pctBarTrace(barIdx.map((i) => labels[i]), pctErrorBars(barIdx.map((i) => groups[i].summary)), barIdx.map((i) => styles[i].color))],
       { yaxis: { title: { text: '% from uniform' }, zeroline: true }, xaxis: { automargin: true }, hovermode: 'closest', showlegend: false });
     await Promise.all([p1, p2]);
@@ -187,6 +191,7 @@ export async function mount(root, params, ctx) {
   }
 
   await redraw();
+  if (charts.length > 1) syncZoom(charts);
   const ms = performance.now() - t0;
   performance.mark('compare-rendered');
   root.dataset.renderMs = ms.toFixed(1);

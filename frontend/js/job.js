@@ -6,6 +6,7 @@ import { h, statusCell, jobMeta, notice, editJobDialog, confirmDialog, cancelCon
 import { draw, purge, loadPlotly, meanBandTraces, seedTraces, utilityLayout, heatmapTrace, colour } from './charts.js';
 import { fmtNumber, fmtPct, fmtCI, pctProgress, algorithmRank, smoothingNote, episodesPerPoint, DEFINITIONS } from './stats.js';
 import { algorithmColour } from './colours.js';
+import { axisControls, withAxis, tableCsvButton } from './chartcontrols.js';
 import { fmtParam } from './studydata.js';
 import { configRows, differenceSummary, summaryCsv, configJson } from './jobconfig.js';
 
@@ -19,6 +20,8 @@ export async function mount(root, params, ctx) {
   let timer = null;
   const plots = [];
   let smooth = Math.max(1, Number(params.smooth) || 1);
+  let redrawUtility = null; // the utility chart's redraw, once results are shown
+  const axisUi = axisControls(() => redrawUtility && redrawUtility());
   let showSeeds = params.seeds === '1';
 
   const title = h('h1', {}, `Job ${id}`);
@@ -233,12 +236,13 @@ export async function mount(root, params, ctx) {
         if (showSeeds) traces.push(...seedTraces(c.algorithm, c.seeds, col, smooth));
         traces.push(...meanBandTraces(c.algorithm, c.episodes, col, smooth));
       });
-      await draw(chart, traces, utilityLayout());
+      await draw(chart, traces, withAxis(utilityLayout(), axisUi.axis));
       chart.dataset.rendered = String(Date.now());
       chartStatus.textContent = '';
       smoothNote.textContent = smoothingNote(smooth, episodesPerPoint((data.configurations[0] || {}).episodes?.episode));
       ctx.setQuery({ smooth: smooth > 1 ? smooth : '', seeds: showSeeds ? '1' : '' });
     };
+    redrawUtility = redraw;
     smoothSel.addEventListener('change', () => { smooth = Number(smoothSel.value); redraw(); });
     seedsCb.addEventListener('change', async () => {
       showSeeds = seedsCb.checked;
@@ -253,7 +257,7 @@ export async function mount(root, params, ctx) {
         h('div', { class: 'controls' },
           h('label', { for: smoothId }, 'Smoothing (centred mean)'), smoothSel,
           h('label', { class: 'check', for: seedsId }, seedsCb, ' Show individual seeds'), chartStatus),
-        chart, smoothNote),
+        axisUi.element, chart, smoothNote),
       summaryTable(r),
       weightsSection(r),
       h('section', { 'aria-labelledby': 'h-dl' }, h('h2', { id: 'h-dl' }, 'Download'),
@@ -288,27 +292,28 @@ export async function mount(root, params, ctx) {
 
   function summaryTable(r) {
     const paper = r.paper || null;
+    const table = h('table', { class: 'summary' },
+      h('caption', {}, paper ? 'Ours against the paper’s published % from uniform.' : 'The paper has no figure for these parameters.'),
+      h('thead', {}, h('tr', {},
+        ['Configuration', 'Runs', 'Final mean', '95% CI', '% from uniform', '95% CI', '% of max']
+          .map((c) => h('th', { scope: 'col' }, c)),
+        paper ? h('th', { scope: 'col' }, 'Paper: % from uniform') : null)),
+      h('tbody', {}, r.configurations.map((c) => {
+        const s = c.summary || {};
+        const pv = paper ? paper[c.algorithm] : undefined;
+        return h('tr', {},
+          h('th', { scope: 'row' }, c.algorithm),
+          h('td', { class: 'num' }, s.n_runs ?? '–'),
+          h('td', { class: 'num' }, fmtNumber(s.final_mean)),
+          h('td', { class: 'num ci' }, fmtCI(s.ci95)),
+          h('td', { class: 'num' }, fmtPct(s.pct_from_uniform)),
+          h('td', { class: 'num ci' }, fmtCI(s.pct_ci95, 1, true)),
+          h('td', { class: 'num' }, fmtPct(s.pct_of_max, 1, false)),
+          paper ? h('td', { class: 'num paper' }, pv === undefined || pv === null ? '–' : fmtPct(pv)) : null);
+      })));
     return h('section', { 'aria-labelledby': 'h-sum' },
-      h('h2', { id: 'h-sum' }, 'Final utility'),
-      h('div', { class: 'table-wrap' }, h('table', { class: 'summary' },
-        h('caption', {}, paper ? 'Ours against the paper’s published % from uniform.' : 'The paper has no figure for these parameters.'),
-        h('thead', {}, h('tr', {},
-          ['Configuration', 'Runs', 'Final mean', '95% CI', '% from uniform', '95% CI', '% of max']
-            .map((c) => h('th', { scope: 'col' }, c)),
-          paper ? h('th', { scope: 'col' }, 'Paper: % from uniform') : null)),
-        h('tbody', {}, r.configurations.map((c) => {
-          const s = c.summary || {};
-          const pv = paper ? paper[c.algorithm] : undefined;
-          return h('tr', {},
-            h('th', { scope: 'row' }, c.algorithm),
-            h('td', { class: 'num' }, s.n_runs ?? '–'),
-            h('td', { class: 'num' }, fmtNumber(s.final_mean)),
-            h('td', { class: 'num ci' }, fmtCI(s.ci95)),
-            h('td', { class: 'num' }, fmtPct(s.pct_from_uniform)),
-            h('td', { class: 'num ci' }, fmtCI(s.pct_ci95, 1, true)),
-            h('td', { class: 'num' }, fmtPct(s.pct_of_max, 1, false)),
-            paper ? h('td', { class: 'num paper' }, pv === undefined || pv === null ? '–' : fmtPct(pv)) : null);
-        })))),
+      h('h2', { id: 'h-sum' }, 'Final utility ', tableCsvButton(table, `job-${id}-final-utility.csv`)),
+      h('div', { class: 'table-wrap' }, table),
       h('p', { class: 'help definitions' }, DEFINITIONS));
   }
 

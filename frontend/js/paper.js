@@ -6,6 +6,7 @@ import { h, notice } from './ui.js';
 import { fmtPct, fmtCI, algorithmRank } from './stats.js';
 import { algorithmColour } from './colours.js';
 import { paperRows, agreement } from './paperdata.js';
+import { tableCsvButton } from './chartcontrols.js';
 
 const DOC_URL = '/project-docs/reproduction.md';
 
@@ -47,9 +48,7 @@ export async function mount(root, params, ctx) {
   const rows = paperRows(schema, results);
   rows.sort((a, b) => schema.systems.findIndex((s) => s.name === a.system) - schema.systems.findIndex((s) => s.name === b.system)
     || algorithmRank(a.algorithm) - algorithmRank(b.algorithm));
-  body.replaceChildren(
-    h('p', { id: 'paper-agreement' }, agreement(rows)),
-    h('div', { class: 'table-wrap' }, h('table', { class: 'summary paper-table', id: 'paper-table' },
+  const table = h('table', { class: 'summary paper-table', id: 'paper-table' },
       h('caption', {}, 'A flag marks a figure whose published value lies outside our 95% interval.'),
       h('thead', {}, h('tr', {}, ['System', 'Configuration', 'Job', 'Seeds', 'Ours: % from uniform', '95% CI', 'Paper',
         'Paper within our CI?', 'Ours: % of max', 'Paper: % of max'].map((c) => h('th', { scope: 'col' }, c)))),
@@ -63,7 +62,9 @@ export async function mount(root, params, ctx) {
         h('td', { class: 'num paper' }, fmtPct(r.paper)),
         h('td', { class: 'flag' }, r.outside === null ? 'not run' : (r.outside ? '⚑ outside' : 'within')),
         h('td', { class: 'num' }, fmtPct(r.oursOfMax, 1, false)),
-        h('td', { class: 'num paper' }, r.paperOfMax === null ? '–' : fmtPct(r.paperOfMax, 1, false))))))),
-  );
+        h('td', { class: 'num paper' }, r.paperOfMax === null ? '–' : fmtPct(r.paperOfMax, 1, false))))));
+  body.replaceChildren(
+    h('p', { id: 'paper-agreement' }, agreement(rows), ' ', tableCsvButton(table, 'ours-against-the-paper.csv')),
+    h('div', { class: 'table-wrap' }, table));
   return () => { stopped = true; };
 }

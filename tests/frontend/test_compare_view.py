@@ -5,6 +5,7 @@ that says what it is."""
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 from tests.frontend.test_job_view import get_job, post_job
 
@@ -27,7 +28,7 @@ def test_compare_facets_by_system_and_labels_by_difference(browser, server, scre
             post_job(server, base | {"system": "single", "params": {"learning_rate": 0.09}, "name": "single lr"}),
             post_job(server, base | {"system": "large", "name": "large default"})]
     wait_succeeded(server, jobs)
-    context = browser.new_context(viewport={"width": 1280, "height": 800}, base_url=server)
+    context = browser.new_context(viewport={"width": 1280, "height": 800}, base_url=server, accept_downloads=True)
     page = context.new_page()
     page.set_default_timeout(60000)
     try:
@@ -57,5 +58,27 @@ def test_compare_facets_by_system_and_labels_by_difference(browser, server, scre
         hover = page.eval_on_selector("#compare-chart", "el => el.data.find(t => t.meta.kind === 'mean').hovertemplate")
         assert "95% CI" in hover
         page.screenshot(path=str(screenshots / "compare-facets.png"), full_page=True)
+
+        # log scale and a y range apply to every chart of the view
+        charts = list(systems.values())
+        page.locator("input.log-y").check()
+        page.wait_for_function("(ids) => ids.every(id => document.querySelector(id).layout.yaxis.type === 'log')",
+                               arg=charts)
+        page.fill("input.y-low", "0.5")
+        page.fill("input.y-high", "20")
+        page.locator("input.y-high").dispatch_event("change")
+        page.wait_for_function("""(ids) => ids.every(id => { const r = document.querySelector(id).layout.yaxis.range;
+            return r && Math.abs(r[0] - Math.log10(0.5)) < 1e-9 && Math.abs(r[1] - Math.log10(20)) < 1e-9; })""",
+                               arg=charts)
+        # zooming one chart's episodes zooms the other's
+        page.evaluate("(id) => Plotly.relayout(document.querySelector(id), {'xaxis.range': [10, 30]})", charts[0])
+        page.wait_for_function("(id) => { const r = document.querySelector(id).layout.xaxis.range; "
+                               "return r && r[0] === 10 && r[1] === 30; }", arg=charts[1])
+        # each chart saves as SVG; each table as CSV
+        assert page.eval_on_selector(charts[0], "el => el._context.toImageButtonOptions.format") == "svg"
+        with page.expect_download() as download_info:
+            page.locator('button[data-csv="compare-final-utility.csv"]').click()
+        lines = Path(download_info.value.path()).read_text().splitlines()
+        assert lines[0].startswith("Configuration,Jobs,Runs,Final mean") and len(lines) == 7
     finally:
         context.close()
