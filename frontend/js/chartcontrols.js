@@ -1,7 +1,8 @@
 // Controls shared by a view's utility charts: a log-scale toggle and a y-range, zoom synced across
-// the view's charts; and the CSV export of a table. `withAxis` and `csvOf` are pure.
+// the view's charts; and the CSV export of a table. `withAxis` and `axisProblem` are pure.
 
-import { h, nextId } from './ui.js';
+import { h, nextId, downloadText } from './ui.js';
+import { csvOf } from './stats.js';
 
 /** `layout` with the y axis as `axis` says: {log: bool, low: number|null, high: number|null}. */
 export function withAxis(layout, axis) {
@@ -73,25 +74,10 @@ export function syncZoom(charts) {
   }
 }
 
-function csvCell(v) {
-  const text = v === null || v === undefined ? '' : String(v);
-  return /[",\n\r]/.test(text) ? `"${text.replace(/"/g, '""')}"` : text;
-}
-
-/** Rows of cells as CSV text. */
-export function csvOf(rows) {
-  return `${rows.map((r) => r.map(csvCell).join(',')).join('\n')}\n`;
-}
-
 /** A button that downloads `table` (its header and body cells, as shown) as a CSV file. */
 export function tableCsvButton(table, filename) {
   return h('button', { type: 'button', class: 'small secondary csv-button', 'data-csv': filename, onclick: () => {
     const rows = [...table.querySelectorAll('tr')].map((tr) => [...tr.children].map((cell) => cell.textContent.trim()));
-    const url = URL.createObjectURL(new Blob([csvOf(rows)], { type: 'text/csv' }));
-    const a = h('a', { href: url, download: filename });
-    document.body.append(a);
-    a.click();
-    a.remove();
-    setTimeout(() => URL.revokeObjectURL(url), 1000);
+    downloadText(filename, 'text/csv', csvOf(rows));
   } }, 'Table as CSV');
 }

@@ -2,7 +2,7 @@
 // with bands, seeds on demand, smoothing, paper-style table, weight heatmap and bars, downloads.
 
 import { api } from './api.js';
-import { h, statusCell, jobMeta, notice, editJobDialog, confirmDialog, cancelConsequence, keepLabel, nextId } from './ui.js';
+import { h, statusCell, jobMeta, notice, editJobDialog, confirmDialog, cancelConsequence, keepLabel, nextId, downloadText } from './ui.js';
 import { draw, purge, loadPlotly, meanBandTraces, seedTraces, utilityLayout, heatmapTrace, colour } from './charts.js';
 import { fmtNumber, fmtPct, fmtCI, pctProgress, algorithmRank, smoothingNote, episodesPerPoint, DEFINITIONS } from './stats.js';
 import { algorithmColour } from './colours.js';
@@ -92,15 +92,6 @@ export async function mount(root, params, ctx) {
               h('td', { class: 'num' }, fmtParam(r.value)),
               h('td', { class: 'num preset help' }, r.differs ? `preset ${fmtParam(r.preset)}` : '')))))))),
         h('p', { class: 'help' }, `Seeds: ${job.seeds.join(', ')}. Configuration hash ${job.config_hash}.`)));
-  }
-
-  function download(name, type, text) {
-    const url = URL.createObjectURL(new Blob([text], { type }));
-    const a = h('a', { href: url, download: name });
-    document.body.append(a);
-    a.click();
-    a.remove();
-    setTimeout(() => URL.revokeObjectURL(url), 1000);
   }
 
   function renderStatus() {
@@ -267,11 +258,11 @@ export async function mount(root, params, ctx) {
           h('a', { class: 'button secondary', href: api.episodesUrl(id, 'json'), download: `job-${id}-episodes.json` }, 'Episodes as JSON'),
           ' ',
           h('button', { type: 'button', class: 'secondary', id: 'download-summary',
-            onclick: () => download(`job-${id}-summary.csv`, 'text/csv', summaryCsv(job, r.configurations)) },
+            onclick: () => downloadText(`job-${id}-summary.csv`, 'text/csv', summaryCsv(job, r.configurations)) },
           'Final utility and parameters as CSV'),
           ' ',
           h('button', { type: 'button', class: 'secondary', id: 'download-config',
-            onclick: () => download(`job-${id}-config.json`, 'application/json', configJson(job)) },
+            onclick: () => downloadText(`job-${id}-config.json`, 'application/json', configJson(job)) },
           'Configuration as JSON')),
         h('p', { class: 'help' }, 'The episodes are every stored utility (job_id, algorithm, seed, episode, utility); ' +
           'the CSV of final utilities carries every resolved parameter as a column.')));

@@ -2,6 +2,7 @@
 // it. Pure functions (no DOM), so that node's test runner checks them.
 
 import { fmtParam } from './studydata.js';
+import { csvOf } from './stats.js';
 
 const GROUP_TITLES = {
   system: 'System',
@@ -51,11 +52,6 @@ export function differenceSummary(job, rows) {
     differ.map((r) => `${r.name} ${fmtParam(r.value)}`).join(', ') + '.';
 }
 
-function csvCell(v) {
-  const text = v === null || v === undefined ? '' : String(v);
-  return /[",\n\r]/.test(text) ? `"${text.replace(/"/g, '""')}"` : text;
-}
-
 /**
  * The final-utility table as CSV, one row per configuration, with the job's identity and every
  * resolved parameter as columns, so that a row read alone says what was run.
@@ -64,16 +60,16 @@ export function summaryCsv(job, configurations) {
   const names = Object.keys(job.params || {}).sort();
   const head = ['job_id', 'system', 'config_hash', 'algorithm', 'seeds_stored', 'seeds', 'episodes', 'final_mean',
     'ci95_low', 'ci95_high', 'pct_from_uniform', 'pct_ci95_low', 'pct_ci95_high', 'pct_of_max', ...names];
-  const lines = [head.join(',')];
+  const lines = [head];
   for (const c of configurations) {
     const s = c.summary || {};
     const ci = s.ci95 || [null, null];
     const pci = s.pct_ci95 || [null, null];
     const row = [job.id, job.system, job.config_hash, c.algorithm, c.seeds_done ?? s.n_runs, job.seeds.length, job.episodes,
       s.final_mean, ci[0], ci[1], s.pct_from_uniform, pci[0], pci[1], s.pct_of_max, ...names.map((n) => job.params[n])];
-    lines.push(row.map(csvCell).join(','));
+    lines.push(row);
   }
-  return `${lines.join('\n')}\n`;
+  return csvOf(lines);
 }
 
 /** The job's configuration as one JSON document: what re-running it needs, and where it came from. */

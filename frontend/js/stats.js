@@ -278,3 +278,14 @@ export function changedParams(values, base) {
   }
   return out;
 }
+
+/** One CSV cell, quoted when it holds a comma, quote or line break. */
+function csvCell(v) {
+  const text = v === null || v === undefined ? '' : String(v);
+  return /[",\n\r]/.test(text) ? `"${text.replace(/"/g, '""')}"` : text;
+}
+
+/** Rows of cells as CSV text. */
+export function csvOf(rows) {
+  return `${rows.map((r) => r.map(csvCell).join(',')).join('\n')}\n`;
+}

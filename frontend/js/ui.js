@@ -70,6 +70,16 @@ function dialogShell(titleText) {
   return dlg;
 }
 
+/** Save `text` as a file named `name` (a download the browser starts at once). */
+export function downloadText(name, type, text) {
+  const url = URL.createObjectURL(new Blob([text], { type }));
+  const a = h('a', { href: url, download: name });
+  document.body.append(a);
+  a.click();
+  a.remove();
+  setTimeout(() => URL.revokeObjectURL(url), 1000);
+}
+
 /** What cancelling a job does to its results, in one sentence for the confirmation. */
 export function cancelConsequence(job) {
   if (job.status === 'queued' && !(job.progress > 0)) return 'It has not started: nothing is lost.';

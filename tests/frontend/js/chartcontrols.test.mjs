@@ -1,6 +1,7 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { withAxis, axisProblem, csvOf } from '../../../frontend/js/chartcontrols.js';
+import { withAxis, axisProblem } from '../../../frontend/js/chartcontrols.js';
+import { csvOf } from '../../../frontend/js/stats.js';
 
 test('withAxis: log scale and a y range (in log10 on a log axis); automatic otherwise', () => {
   const base = { yaxis: { title: { text: 'System utility' } } };
