@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+from pathlib import Path
 from urllib.parse import urlparse
 
 import pytest
@@ -48,11 +49,12 @@ def test_dashboard_needs_nothing_the_csp_blocks(watched, server, finished_job):
     png = page.evaluate("() => Plotly.toImage(document.querySelector('#utility-chart'), {format: 'png'})")
     assert png.startswith("data:image/png;base64,") and len(png) > 1000
     buttons = page.eval_on_selector_all("#utility-chart .modebar-btn", "bs => bs.map(b => b.dataset.title)")
-    assert "Download plot as a PNG" in buttons
+    assert "Download plot" in buttons  # as SVG (charts.js CONFIG), for papers
     page.hover("#utility-chart")
     with page.expect_download() as download:
-        page.locator("#utility-chart .modebar-btn[data-title='Download plot as a PNG']").click()
-    assert download.value.suggested_filename.endswith(".png")
+        page.locator("#utility-chart .modebar-btn[data-title='Download plot']").click()
+    assert download.value.suggested_filename.endswith(".svg")
+    assert "<svg" in Path(download.value.path()).read_text()[:2000]
 
     # plotly.js came from its versioned address (cached for a year), named by index.html.
     src = page.get_attribute("#plotly-src", "href")
@@ -77,7 +79,7 @@ def test_api_docs_render_offline_under_the_csp(watched, server, finished_job):
     page.goto(f"/#/jobs/{finished_job}")
     wait_rendered(page, "#utility-chart")
     buttons = page.eval_on_selector_all("#utility-chart .modebar-btn", "bs => bs.map(b => b.dataset.title)")
-    assert "Download plot as a PNG" in buttons
+    assert "Download plot" in buttons
     assert not [b for b in buttons if "Share" in b]  # plotly.js's upload to its cloud is not offered
 
     # The footer's link leads to Swagger UI, drawn from local assets: the operations are listed.
