@@ -16,6 +16,7 @@ import importlib.metadata
 import importlib.resources
 import importlib.util
 import os
+import sys
 from dataclasses import dataclass
 from functools import cache, cached_property
 from pathlib import Path
@@ -33,8 +34,14 @@ PLOTLY_ALIAS = "/vendor/plotly.min.js"
 HTML_PLACEHOLDER = f'href="{PLOTLY_ALIAS}"'
 
 
-REPRODUCTION_DOC = Path(__file__).resolve().parents[1] / "docs" / "reproduction.md"
-"""How the paper's tables are reproduced and why some figures differ (present in a source checkout)."""
+def _reproduction_doc() -> Path:
+    """docs/reproduction.md: the source checkout's, else the copy an install puts under share/mgrao/docs."""
+    checkout = Path(__file__).resolve().parents[1] / "docs" / "reproduction.md"
+    return checkout if checkout.is_file() else Path(sys.prefix) / "share" / "mgrao" / "docs" / "reproduction.md"
+
+
+REPRODUCTION_DOC = _reproduction_doc()
+"""How the paper's tables are reproduced and why some figures differ (linked from the paper view)."""
 REPRODUCTION_DOC_URL = "/project-docs/reproduction.md"
 
 
