@@ -160,7 +160,8 @@ def read_only_install() -> Iterator[ReadOnlyInstall]:
         root.chmod(0o755)
         source = root / "src"
         source.mkdir()
-        for name in ["pyproject.toml", "README.md"]:
+        (source / "docs").mkdir()
+        for name in ["pyproject.toml", "README.md", "docs/reproduction.md"]:  # what pyproject.toml installs
             shutil.copy2(ROOT / name, source / name)
         for package in ["backend", "frontend", "mgrao_cli", "mgrao_core"]:
             shutil.copytree(ROOT / package, source / package, ignore=shutil.ignore_patterns("__pycache__"))
