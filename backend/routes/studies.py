@@ -2,19 +2,17 @@
 
 from __future__ import annotations
 
-import base64
-import json
-from datetime import datetime
 from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Body, Path, Query, Response, status
-from sqlalchemy import func, or_, select
+from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from backend import analysis, studies
 from backend.cache import AnswerCache
 from backend.deps import Authorized, DatabaseDep, SessionDep
-from backend.errors import BadQuery, InvalidSpec
+from backend.errors import InvalidSpec
+from backend.keyset import Keyset
 from backend.models import Study
 from backend.schemas import MAX_JOB_ID
 from backend.study_plots import study_plots
@@ -58,23 +56,6 @@ def _location(field: str) -> list[str | int]:
     return loc
 
 
-def _cursor(sort: str, key: Any, study_id: int) -> str:
-    if isinstance(key, datetime):
-        key = key.isoformat()
-    return base64.urlsafe_b64encode(json.dumps([sort, key, study_id]).encode()).decode().rstrip("=")
-
-
-def _after(cursor: str, sort: str) -> tuple[Any, int]:
-    try:
-        cursor_sort, key, study_id = json.loads(base64.urlsafe_b64decode(cursor + "=" * (-len(cursor) % 4)))
-        if cursor_sort != sort or isinstance(study_id, bool) or not isinstance(study_id, int) \
-                or not isinstance(key, str) or not 1 <= study_id <= MAX_JOB_ID:
-            raise ValueError
-        return (datetime.fromisoformat(key) if sort.lstrip("-") == "created_at" else key), study_id
-    except (ValueError, TypeError, UnicodeDecodeError):
-        raise BadQuery("cursor", "is not a cursor of this listing (use next_cursor as given, same sort)") from None
-
-
 @router.get("")
 def list_studies(
     session: SessionDep,
@@ -87,6 +68,8 @@ def list_studies(
 ) -> Response:
     """Studies matching the filters, one page at a time (keyset pagination), with trials per status."""
     column = _COLUMNS[sort.lstrip("-")]
+    order = Keyset(sort, sort.startswith("-"), column, "datetime" if column is Study.created_at else "text", Study.id,
+                   "study")
     clauses = []
     if status_:
         clauses.append(Study.status == status_)
@@ -95,20 +78,11 @@ def list_studies(
     if q:
         clauses.append(func.lower(Study.name).contains(q.lower(), autoescape=True))
     total = session.scalar(select(func.count()).select_from(Study).where(*clauses)) or 0
-    statement = select(Study).where(*clauses)
-    descending = sort.startswith("-")
-    if cursor:
-        key, after = _after(cursor, sort)
-        if descending:
-            statement = statement.where(or_(column < key, (column == key) & (Study.id < after)))
-        else:
-            statement = statement.where(or_(column > key, (column == key) & (Study.id > after)))
-    order = (column.desc(), Study.id.desc()) if descending else (column.asc(), Study.id.asc())
-    rows = list(session.scalars(statement.order_by(*order).limit(limit + 1)))
+    rows = list(session.scalars(order.apply(select(Study).where(*clauses), cursor).limit(limit + 1)))
     next_cursor = None
     if len(rows) > limit:
         rows = rows[:limit]
-        next_cursor = _cursor(sort, getattr(rows[-1], column.key), rows[-1].id)
+        next_cursor = order.encode(getattr(rows[-1], column.key), rows[-1].id)
     counts = studies.trial_counts(session, [s.id for s in rows])
     return _json({"data": [studies.study_dict(s, counts[s.id]) for s in rows], "next_cursor": next_cursor,
                   "count": total})
