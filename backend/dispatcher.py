@@ -22,13 +22,11 @@ from __future__ import annotations
 
 import logging
 import os
-import signal
 import socket
 import threading
 import time
 from collections import deque
 from dataclasses import dataclass, field
-from types import FrameType
 from typing import Any
 
 from distributed import Client, Future, KilledWorker, wait
@@ -37,6 +35,7 @@ from backend import queue, studies
 from backend.dask_tasks import PLUGIN_NAME, WarmUp, simulate_chunk
 from backend.db import Database
 from backend.heartbeats import Heartbeats
+from backend.lifeline import stop_on_signals
 from backend.retry import Backoff, HealthClock, Stopping, persist
 from backend.settings import Settings
 from mgrao_core import ExperimentSpec, MgraoError, NumericalError, plan_chunks, spec_from_dict
@@ -95,11 +94,7 @@ class Dispatcher:
 
     def install_signal_handlers(self) -> None:
         """Stop cleanly on SIGTERM and SIGINT."""
-        def handler(_signum: int, _frame: FrameType | None) -> None:
-            self.stop()
-
-        signal.signal(signal.SIGTERM, handler)
-        signal.signal(signal.SIGINT, handler)
+        stop_on_signals(self.stop)
 
     def serve_forever(self) -> None:
         """Migrate, connect, then dispatch until :meth:`stop`; database and cluster faults are waited out."""

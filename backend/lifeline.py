@@ -25,6 +25,7 @@ import signal
 import sys
 import threading
 import time
+from collections.abc import Callable
 
 SUPERVISOR_ENV = "MGRAO_SUPERVISOR_PID"
 POLL_S = 0.5
@@ -35,6 +36,12 @@ EXIT_ORPHANED = 3
 _PR_SET_PDEATHSIG = 1
 
 log = logging.getLogger("mgrao.lifeline")
+
+
+def stop_on_signals(stop: Callable[..., object]) -> None:
+    """SIGTERM and SIGINT call ``stop(signum, frame)``: a clean stop (a worker's or the dispatcher's)."""
+    signal.signal(signal.SIGTERM, stop)
+    signal.signal(signal.SIGINT, stop)
 
 
 def bind_to_supervisor(environ: dict[str, str] | os._Environ = os.environ) -> int | None:

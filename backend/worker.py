@@ -11,17 +11,16 @@ from __future__ import annotations
 
 import logging
 import os
-import signal
 import socket
 import threading
 from collections.abc import Callable
-from types import FrameType
 from typing import TypeVar
 
 from backend import queue, studies
 from backend.db import Database
 from backend.dialect import reason
 from backend.heartbeats import Heartbeats
+from backend.lifeline import stop_on_signals
 from backend.retry import Backoff, HealthClock, Stopping, persist
 from backend.settings import Settings
 
@@ -50,11 +49,7 @@ class Worker:
 
     def install_signal_handlers(self) -> None:
         """Stop cleanly on SIGTERM and SIGINT."""
-        def handler(_signum: int, _frame: FrameType | None) -> None:
-            self.stop()
-
-        signal.signal(signal.SIGTERM, handler)
-        signal.signal(signal.SIGINT, handler)
+        stop_on_signals(self.stop)
 
     def warm_up(self) -> None:
         """Load (or compile) the numba engine before claiming jobs."""
