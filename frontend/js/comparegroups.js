@@ -4,7 +4,7 @@
 
 import { algorithmColour } from './colours.js';
 import { fmtParam } from './studydata.js';
-import { sameValue } from './jobconfig.js';
+import { sameValue } from './stats.js';
 
 const DASHES = ['solid', 'dash', 'dot', 'dashdot', 'longdash', 'longdashdot'];
 

@@ -2,7 +2,7 @@
 // it. Pure functions (no DOM), so that node's test runner checks them.
 
 import { fmtParam } from './studydata.js';
-import { csvOf } from './stats.js';
+import { csvOf, sameValue } from './stats.js';
 
 const GROUP_TITLES = {
   system: 'System',
@@ -12,15 +12,6 @@ const GROUP_TITLES = {
   volatility: 'Volatility (environment)',
   mgrao: 'MG-RAO (algorithm)',
 };
-
-/** Two parameter values are the same (floats compared to 1e-12 relative, as the server resolves them). */
-export function sameValue(a, b) {
-  if (a === b) return true;
-  if (typeof a === 'number' && typeof b === 'number' && Number.isFinite(a) && Number.isFinite(b)) {
-    return Math.abs(a - b) <= 1e-12 * Math.max(1, Math.abs(b));
-  }
-  return false;
-}
 
 /**
  * The configuration as rows in the schema's order, grouped: one per parameter with the job's

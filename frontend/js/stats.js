@@ -267,14 +267,17 @@ export function seedCount(job) {
   return isFiniteNumber(job.seeds) ? job.seeds : 0;
 }
 
+/** Two parameter values are the same (floats compared to 1e-12 relative, as the server resolves them). */
+export function sameValue(a, b) {
+  if (a === b) return true;
+  return isFiniteNumber(a) && isFiniteNumber(b) && Math.abs(a - b) <= 1e-12 * Math.max(1, Math.abs(b));
+}
+
 /** Parameters in `values` that differ from `base` (numbers compared numerically, null vs value counts). */
 export function changedParams(values, base) {
   const out = {};
   for (const [k, v] of Object.entries(values)) {
-    const b = base ? base[k] : undefined;
-    if (v === b) continue;
-    if (isFiniteNumber(v) && isFiniteNumber(b) && Math.abs(v - b) <= 1e-12 * Math.max(1, Math.abs(b))) continue;
-    out[k] = v;
+    if (!sameValue(v, base ? base[k] : undefined)) out[k] = v;
   }
   return out;
 }

@@ -1,6 +1,7 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { sameValue, configRows, differenceSummary, summaryCsv, configJson } from '../../../frontend/js/jobconfig.js';
+import { configRows, differenceSummary, summaryCsv, configJson } from '../../../frontend/js/jobconfig.js';
+import { sameValue } from '../../../frontend/js/stats.js';
 
 const schema = {
   systems: [{ name: 'single', params: { n_types: 20, learning_rate: 0.1, quality_model: 'hyperbolic' } }],
