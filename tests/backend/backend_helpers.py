@@ -13,7 +13,7 @@ from pathlib import Path
 import httpx
 
 from backend.worker import Worker
-from tests.support.local_service import free_port, mgrao_command, serve_command, wait_healthy
+from tests.support.local_service import free_port, mgrao_command, serve_command, stop_all, wait_healthy
 
 TOKEN = "s3cret-token"
 JSON = {"Content-Type": "application/json"}  # what a write without a body must still say
@@ -92,15 +92,7 @@ class Service:
         self.server.wait()
 
     def stop(self) -> None:
-        for process in [*self.workers, *([self.server] if self.server else [])]:
-            if process.poll() is None:
-                process.send_signal(signal.SIGTERM)
-        for process in [*self.workers, *([self.server] if self.server else [])]:
-            try:
-                process.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                process.kill()
-                process.wait()
+        stop_all([*self.workers, *([self.server] if self.server else [])], timeout=30)
         for log in self._logs:
             log.close()
 

@@ -10,7 +10,7 @@ import sys
 import time
 from pathlib import Path
 
-from tests.support.local_service import free_port
+from tests.support.local_service import free_port, stop_all
 
 
 def _dask(*args: str) -> list[str]:
@@ -102,16 +102,7 @@ class DaskCluster:
             self.start_worker(**self._worker_options)
 
     def stop(self) -> None:
-        processes = [*self.workers, *([self.scheduler] if self.scheduler else [])]
-        for process in processes:
-            if process.poll() is None:
-                process.send_signal(signal.SIGTERM)
-        for process in processes:
-            try:
-                process.wait(timeout=20)
-            except subprocess.TimeoutExpired:
-                process.kill()
-                process.wait()
+        stop_all([*self.workers, *([self.scheduler] if self.scheduler else [])], timeout=20)
         for log in self._logs:
             log.close()
 

@@ -6,6 +6,7 @@ of them start the service the same way and stop what they start.
 
 from __future__ import annotations
 
+import signal
 import socket
 import subprocess
 import sys
@@ -62,3 +63,16 @@ def stop(process: subprocess.Popen, timeout: float = 30.0) -> None:
         except subprocess.TimeoutExpired:
             process.kill()
             process.wait(timeout=5)
+
+
+def stop_all(processes: list[subprocess.Popen], timeout: float = 30.0) -> None:
+    """SIGTERM every process at once, wait up to ``timeout`` seconds for each, SIGKILL what is left."""
+    for process in processes:
+        if process.poll() is None:
+            process.send_signal(signal.SIGTERM)
+    for process in processes:
+        try:
+            process.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
