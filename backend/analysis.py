@@ -4,14 +4,13 @@ Runs are read a few at a time and folded into per-episode statistics, so the mem
 needs grows with the episodes of a configuration, not with its runs. Every answer is bounded:
 at most :data:`MAX_RESPONSE_VALUES` numbers in curves (beyond that the default downsamples and
 an explicit request is refused with 422 naming the limit) and at most
-:data:`MAX_WEIGHT_VALUES` learned weights per configuration. A job that is still running, or was
+:data:`backend.weights.MAX_WEIGHT_VALUES` learned weights per configuration. A job that is still running, or was
 cancelled or failed after storing some chunks, answers with what is stored, marked ``partial``.
 """
 
 from __future__ import annotations
 
 import json
-import math
 import threading
 from collections.abc import Iterator, Sequence
 from typing import Any
@@ -21,6 +20,7 @@ import orjson
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
+from backend import weights
 from backend.cache import AnswerCache
 from backend.crud import get_job, job_dict
 from backend.errors import BadQuery, Conflict
@@ -35,8 +35,6 @@ MAX_CONCURRENT_BUILDS = 2
 """Results or comparisons computed at once; more requests wait their turn (each build holds one
 answer's arrays, up to :data:`MAX_RESPONSE_VALUES` numbers)."""
 _BUILDS = threading.BoundedSemaphore(MAX_CONCURRENT_BUILDS)
-MAX_WEIGHT_VALUES = 200_000
-"""Learned weights shown per configuration (children x groups x types); larger PW are left out."""
 _BAND_ARRAYS = 3  # mean, low, high (the episode index is shared)
 _READ_BATCH = 16
 
@@ -89,32 +87,6 @@ def _stream(session: Session, job_ids: Sequence[int], *columns: Any) -> Iterator
     yield from session.execute(statement)
 
 
-def _weights(session: Session, job_id: int, algorithm: str) -> dict[str, Any]:
-    combined: np.ndarray | None = None
-    groups: np.ndarray | None = None
-    shape: list[int] = []
-    count = 0
-    statement = (select(Run.combined_weights, Run.group_weights, Run.group_shape)
-                 .where(Run.job_id == job_id, Run.algorithm == algorithm).execution_options(yield_per=_READ_BATCH))
-    for combined_blob, group_blob, group_shape in session.execute(statement):
-        shape = list(group_shape)
-        values = np.frombuffer(combined_blob, dtype="<f8")
-        combined = values.copy() if combined is None else combined + values
-        if shape and shape[1] > 0 and math.prod(shape) <= MAX_WEIGHT_VALUES:
-            values = np.frombuffer(group_blob, dtype="<f8")
-            groups = values.copy() if groups is None else groups + values
-        count += 1
-    n_children = shape[0] if shape else 1
-    out: dict[str, Any] = {"combined": (combined / count).reshape(n_children, -1).tolist(), "groups": []}
-    if groups is not None:
-        out["groups"] = (groups / count).reshape(shape).tolist()
-    elif shape and shape[1] > 0:
-        out["groups"] = None
-        out["groups_omitted"] = (f"{math.prod(shape):,} parent-group weights per run exceed the "
-                                 f"{MAX_WEIGHT_VALUES:,} shown")
-    return out
-
-
 def _configurations(session: Session, job: Job, points: int | None, include_seeds: bool) -> dict[str, Any]:
     algorithms = job.config["algorithms"]
     episodes = job.config["episodes"]
@@ -147,7 +119,7 @@ def _configurations(session: Session, job: Job, points: int | None, include_seed
             "algorithm": algorithm, "config_hash": job.config_hash, "seeds_done": seeds_done[algorithm],
             "summary": summaries[algorithm].as_dict(),
             "episodes": stats[algorithm].band_arrays(used),
-            "weights": _weights(session, job.id, algorithm),
+            "weights": weights.mean_over_seeds(session, job.id, algorithm),
         }
         if include_seeds:
             entry["seeds"] = sorted(per_seed[algorithm], key=lambda s: seed_order.get(s["seed"], 0))

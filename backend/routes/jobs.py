@@ -11,18 +11,21 @@ from fastapi import APIRouter, Path, Query, Response, status
 from fastapi.responses import JSONResponse, StreamingResponse
 from sqlalchemy import select
 
-from backend import analysis, crud, studies, summaries
+from backend import analysis, crud, studies, summaries, weights
 from backend.deps import Authorized, DatabaseDep, SessionDep, SettingsDep
 from backend.errors import InvalidSpec
 from backend.job_order import SORT_HELP
 from backend.models import Job
 from backend.schemas import MAX_JOB_ID, JobCreate, JobOut, JobPage, JobPatch, Status
 from mgrao_core import MAX_EPISODES, ConfigError, make_spec
+from mgrao_core.spec import MAX_SEED_VALUE
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 
 JobId = Annotated[int, Path(ge=1, le=MAX_JOB_ID, description="A job's id.")]
 Points = Annotated[int | None, Query(ge=1, le=MAX_EPISODES, description="Downsample to at most this many points.")]
+Seed = Annotated[int | None, Query(ge=0, le=MAX_SEED_VALUE,
+                                   description="One of the job's seeds (default: its first stored).")]
 
 
 @router.post("", status_code=status.HTTP_202_ACCEPTED, response_model=JobOut, dependencies=[Authorized])
@@ -106,6 +109,12 @@ def job_results(job_id: JobId, session: SessionDep, points: Points = None, inclu
     head, body = analysis.job_results_parts(session, job_id=job_id, points=points, include_seeds=include_seeds)
     return StreamingResponse(_slices(head, body), media_type="application/json",
                              headers={"Content-Length": str(len(head) + len(body) - 1)})
+
+
+@router.get("/{job_id:int}/weights")
+def job_weights(job_id: JobId, session: SessionDep, seed: Seed = None) -> Response:
+    """Every configuration's final weights for one seed (the oracle's allocation among them where it ran)."""
+    return Response(analysis.dumps(weights.of_seed(session, job_id=job_id, seed=seed)), media_type="application/json")
 
 
 SLICE_BYTES = 1024**2

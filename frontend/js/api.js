@@ -104,6 +104,7 @@ export const api = {
   cancelJob: (id) => request('POST', `/jobs/${id}/cancel`),
   deleteJob: (id) => request('DELETE', `/jobs/${id}`),
   results: (id, query, opts) => request('GET', `/jobs/${id}/results`, { query, ...opts }),
+  weights: (id, seed, opts) => request('GET', `/jobs/${id}/weights`, { query: { seed }, ...opts }),
   compare: (ids, points, opts) => request('GET', '/compare', { query: { jobs: ids.join(','), points }, ...opts }),
   episodesUrl: (id, format) => url(`/jobs/${id}/episodes`, { format }),
   listStudies: (query, opts) => request('GET', '/studies', { query, ...opts }),

@@ -129,6 +129,17 @@ export function pctBarTrace(labels, bars, colors) {
   };
 }
 
+/**
+ * An axis over the indices 0..n-1 labelled every `dtick`-th index, so that labels sit at least
+ * `minGap` pixels apart on an axis `pixels` long (50 parent groups on 300 px: every 3rd).
+ */
+export function indexAxis(n, pixels, minGap = 16) {
+  const fit = Math.max(1, Math.floor(pixels / minGap));
+  const steps = [1, 2, 5, 10, 20, 25, 50, 100, 200, 250, 500, 1000];
+  const dtick = steps.find((s) => Math.ceil(n / s) <= fit) || Math.ceil(n / fit);
+  return { tickmode: 'linear', tick0: 0, dtick };
+}
+
 export function heatmapTrace(z, groupLabels, typeLabels) {
   return {
     type: 'heatmap', z, x: typeLabels, y: groupLabels, colorscale: 'Viridis',

@@ -3,12 +3,13 @@
 
 import { api } from './api.js';
 import { h, statusCell, jobMeta, notice, editJobDialog, confirmDialog, cancelConsequence, keepLabel, nextId, downloadText } from './ui.js';
-import { draw, purge, loadPlotly, meanBandTraces, seedTraces, utilityLayout, heatmapTrace, colour } from './charts.js';
+import { draw, purge, loadPlotly, meanBandTraces, seedTraces, utilityLayout } from './charts.js';
 import { fmtNumber, fmtPct, fmtCI, pctProgress, algorithmRank, smoothingNote, episodesPerPoint, DEFINITIONS } from './stats.js';
 import { algorithmColour } from './colours.js';
 import { axisControls, withAxis, tableCsvButton } from './chartcontrols.js';
 import { fmtParam } from './studydata.js';
 import { configRows, differenceSummary, summaryCsv, configJson } from './jobconfig.js';
+import { weightsSection } from './jobweights.js';
 
 const POINTS = 600;
 const SMOOTH_CHOICES = [1, 5, 11, 25, 51, 101]; // episodes, centred
@@ -23,6 +24,7 @@ export async function mount(root, params, ctx) {
   let redrawUtility = null; // the utility chart's redraw, once results are shown
   const axisUi = axisControls(() => redrawUtility && redrawUtility());
   let showSeeds = params.seeds === '1';
+  const weightsState = {}; // the weights' chosen seed, configuration and child, kept across live redraws
 
   const title = h('h1', {}, `Job ${id}`);
   const statusBox = h('div', { class: 'job-status', 'aria-live': 'polite' });
@@ -250,7 +252,7 @@ export async function mount(root, params, ctx) {
           h('label', { class: 'check', for: seedsId }, seedsCb, ' Show individual seeds'), chartStatus),
         axisUi.element, chart, smoothNote),
       summaryTable(r),
-      weightsSection(r),
+      weightsSection({ jobId: id, results: r, plots, state: weightsState }),
       h('section', { 'aria-labelledby': 'h-dl' }, h('h2', { id: 'h-dl' }, 'Download'),
         h('p', { class: 'downloads' },
           h('a', { class: 'button secondary', href: api.episodesUrl(id, 'csv'), download: `job-${id}-episodes.csv` }, 'Episodes as CSV'),
@@ -306,55 +308,6 @@ export async function mount(root, params, ctx) {
       h('h2', { id: 'h-sum' }, 'Final utility ', tableCsvButton(table, `job-${id}-final-utility.csv`)),
       h('div', { class: 'table-wrap' }, table),
       h('p', { class: 'help definitions' }, DEFINITIONS));
-  }
-
-  function weightsSection(r) {
-    const configs = r.configurations.filter((c) => c.weights && Array.isArray(c.weights.combined) && c.weights.combined.length);
-    if (!configs.length) return h('section', {}, h('h2', {}, 'Learned weights'), notice('empty', 'No learned weights were stored for this job.'));
-    const cfgId = nextId('cfg');
-    const childId = nextId('child');
-    const nGroups = (c) => ((c.weights.groups || [])[0] || []).length;
-    const preferred = configs.reduce((best, c) => (nGroups(c) > nGroups(best) ? c : best), configs[0]);
-    const cfgSel = h('select', { id: cfgId }, configs.map((c) => h('option', { value: c.algorithm, selected: c === preferred }, c.algorithm)));
-    const childSel = h('select', { id: childId });
-    const heat = h('div', { class: 'chart heat', id: 'weights-heatmap', role: 'img', 'aria-label': 'Heatmap of parent-group weights per task type' });
-    const bars = h('div', { class: 'chart bars', id: 'weights-bars', role: 'img', 'aria-label': 'Combined weights per task type for each child' });
-    const heatNote = h('p', { class: 'help', 'aria-live': 'polite' });
-    plots.push(heat, bars);
-
-    const drawWeights = () => {
-      const c = configs.find((x) => x.algorithm === cfgSel.value) || configs[0];
-      const nChildren = c.weights.combined.length;
-      if (childSel.options.length !== nChildren) {
-        const prev = Number(childSel.value) || 0;
-        childSel.replaceChildren(...Array.from({ length: nChildren }, (_, i) => h('option', { value: i, selected: i === prev }, `child ${i}`)));
-      }
-      const child = Math.min(Number(childSel.value) || 0, nChildren - 1);
-      const nTypes = c.weights.combined[0].length;
-      const types = Array.from({ length: nTypes }, (_, i) => i);
-      const g = (c.weights.groups || [])[child];
-      if (g && g.length) {
-        heat.hidden = false;
-        heatNote.textContent = `${g.length} parent groups of child ${child} under ${c.algorithm}.`;
-        draw(heat, [heatmapTrace(g, g.map((_, i) => i), types)],
-          { xaxis: { title: { text: 'Task type' }, dtick: 1 }, yaxis: { title: { text: 'Parent group' }, autorange: 'reversed', dtick: 1 }, hovermode: 'closest' });
-      } else {
-        purge(heat);
-        heat.hidden = true;
-        heatNote.textContent = `${c.algorithm} learns no group weights; only its combined weights are shown.`;
-      }
-      draw(bars, c.weights.combined.map((w, i) => ({
-        type: 'bar', name: `child ${i}`, x: types, y: w, marker: { color: colour(i) }, meta: { kind: 'bar', child: i },
-      })), { barmode: 'group', xaxis: { title: { text: 'Task type' }, dtick: 1 }, yaxis: { title: { text: 'Combined weight' } }, hovermode: 'closest', showlegend: nChildren > 1 });
-    };
-    cfgSel.addEventListener('change', drawWeights);
-    childSel.addEventListener('change', drawWeights);
-    queueMicrotask(drawWeights);
-    return h('section', { 'aria-labelledby': 'h-w' },
-      h('h2', { id: 'h-w' }, 'Learned weights (mean over seeds, final episode)'),
-      h('div', { class: 'controls' }, h('label', { for: cfgId }, 'Configuration'), cfgSel, h('label', { for: childId }, 'Child'), childSel),
-      heatNote,
-      h('div', { class: 'grid2' }, heat, bars));
   }
 
   await update();

@@ -1,0 +1,135 @@
+// The job view's learned weights: one seed's final weights (or the mean over seeds), a heatmap of a
+// child's parent-group weights (PW) and its combined weights beside the oracle's allocation.
+// Every seed draws its own composite types and value profiles, so one seed shows what the mean hides.
+
+import { api } from './api.js';
+import { h, notice, nextId } from './ui.js';
+import { draw, purge, heatmapTrace, indexAxis } from './charts.js';
+import { algorithmColour } from './colours.js';
+
+const MEAN = 'mean';
+const ORACLE = 'oracle';
+
+/** What the weights describe, in one line: the seed, or the mean and why it washes out. */
+export function weightsNote(seed, nSeeds) {
+  if (seed === MEAN) {
+    return `Mean over ${nSeeds} seeds. Every seed draws its own composite types and value profiles, ` +
+      'so the mean washes out the structure a learner found: choose a seed to see it.';
+  }
+  return `Seed ${seed}: its final weights (every seed draws its own composite types and value profiles).`;
+}
+
+/**
+ * The section. `results` is the job's results answer (its configurations carry the mean weights);
+ * `state` keeps the chosen seed, configuration and child across redraws of a running job.
+ */
+export function weightsSection({ jobId, results, plots, state }) {
+  const configs = results.configurations.filter((c) => c.weights && Array.isArray(c.weights.combined) && c.weights.combined.length);
+  if (!configs.length) return h('section', {}, h('h2', {}, 'Learned weights'), notice('empty', 'No learned weights were stored for this job.'));
+  const nGroups = (w) => ((w.groups || [])[0] || []).length;
+  const learners = configs.filter((c) => c.algorithm !== ORACLE);
+  const preferred = (learners.length ? learners : configs).reduce((best, c) => (nGroups(c.weights) > nGroups(best.weights) ? c : best));
+  if (!state.algorithm || !configs.some((c) => c.algorithm === state.algorithm)) state.algorithm = preferred.algorithm;
+  const hasOracle = configs.some((c) => c.algorithm === ORACLE);
+
+  const ids = { seed: nextId('wseed'), cfg: nextId('cfg'), child: nextId('child') };
+  const seedSel = h('select', { id: ids.seed, 'data-testid': 'weights-seed' });
+  const cfgSel = h('select', { id: ids.cfg }, configs.map((c) => h('option', { value: c.algorithm, selected: c.algorithm === state.algorithm }, c.algorithm)));
+  const childSel = h('select', { id: ids.child });
+  const heat = h('div', { class: 'chart heat', id: 'weights-heatmap', role: 'img', 'aria-label': 'Heatmap of a child’s parent-group weights per task type' });
+  const bars = h('div', { class: 'chart bars', id: 'weights-bars', role: 'img', 'aria-label': 'A child’s combined weights per task type, beside the oracle’s allocation' });
+  const seedNote = h('p', { class: 'help', id: 'weights-seed-note', 'aria-live': 'polite' });
+  const heatNote = h('p', { class: 'help', id: 'weights-heat-note', 'aria-live': 'polite' });
+  plots.push(heat, bars);
+
+  let answer = null; // the weights of the chosen seed ({configurations}), or the means
+  const meanAnswer = { seed: MEAN, configurations: configs.map((c) => ({ algorithm: c.algorithm, ...c.weights })) };
+
+  let seeds = null; // the seeds with stored runs, once the first answer came
+  const fillSeeds = () => {
+    const nMean = configs[0].seeds_done ?? (seeds || []).length;
+    seedSel.replaceChildren(
+      ...(seeds || []).map((s) => h('option', { value: String(s), selected: String(s) === String(state.seed) }, `seed ${s}`)),
+      h('option', { value: MEAN, selected: state.seed === MEAN }, `mean over ${nMean} seeds`));
+  };
+
+  const load = async () => {
+    if (state.seed === MEAN && seeds) { answer = meanAnswer; return; }
+    try {
+      const one = await api.weights(jobId, state.seed === MEAN || state.seed == null ? undefined : state.seed);
+      seeds = one.seeds;
+      if (state.seed !== MEAN) state.seed = one.seed;
+      answer = state.seed === MEAN ? meanAnswer : one;
+      fillSeeds();
+    } catch (e) {
+      answer = meanAnswer;
+      state.seed = MEAN;
+      fillSeeds();
+      seedNote.dataset.error = e.message;
+    }
+  };
+
+  const drawWeights = () => {
+    if (!answer) return;
+    const c = answer.configurations.find((x) => x.algorithm === cfgSel.value) || answer.configurations[0];
+    state.algorithm = c.algorithm;
+    const nChildren = c.combined.length;
+    if (childSel.options.length !== nChildren) {
+      childSel.replaceChildren(...Array.from({ length: nChildren }, (_, i) => h('option', { value: i, selected: i === (state.child || 0) }, `child ${i}`)));
+    }
+    const child = Math.min(Number(childSel.value) || 0, nChildren - 1);
+    state.child = child;
+    const nTypes = c.combined[child].length;
+    const types = Array.from({ length: nTypes }, (_, i) => i);
+    const failed = seedNote.dataset.error ? `Cannot load one seed’s weights (${seedNote.dataset.error}). ` : '';
+    seedNote.textContent = failed + weightsNote(answer.seed, configs.find((x) => x.algorithm === c.algorithm)?.seeds_done ?? 0) +
+      (hasOracle ? '' : ' This job did not run the oracle, so there is no best fixed allocation to set beside it.');
+    const g = (c.groups || [])[child];
+    const width = heat.clientWidth || 600;
+    const height = heat.clientHeight || 380;
+    if (g && g.length) {
+      heat.hidden = false;
+      heatNote.textContent = `${g.length} parent groups of child ${child} under ${c.algorithm}` +
+        (answer.seed === MEAN ? ', mean over seeds.' : `, seed ${answer.seed}.`);
+      draw(heat, [heatmapTrace(g, g.map((_, i) => i), types)], {
+        xaxis: { title: { text: 'Task type' }, ...indexAxis(nTypes, width - 160, 22) },
+        yaxis: { title: { text: 'Parent group' }, autorange: 'reversed', ...indexAxis(g.length, height - 110, 16) },
+        hovermode: 'closest',
+      });
+    } else {
+      purge(heat);
+      heat.hidden = true;
+      heatNote.textContent = c.groups === null ? `${c.algorithm}: ${c.groups_omitted}.`
+        : `${c.algorithm} learns no group weights; only its combined weights are shown.`;
+    }
+    const shown = [c, ...answer.configurations.filter((x) => x.algorithm === ORACLE && x !== c)];
+    draw(bars, shown.map((x) => ({
+      type: 'bar', name: x.algorithm === ORACLE ? 'oracle (best fixed allocation)' : x.algorithm, x: types, y: x.combined[child],
+      marker: { color: algorithmColour(x.algorithm) }, meta: { kind: 'bar', config: x.algorithm, child },
+      hovertemplate: `${x.algorithm}, type %{x}: %{y:.4f}<extra></extra>`,
+    })), {
+      barmode: 'group', showlegend: true, legend: { orientation: 'h', y: 1.12 }, hovermode: 'closest',
+      xaxis: { title: { text: `Task type (child ${child})` }, ...indexAxis(nTypes, width - 100, 22) },
+      yaxis: { title: { text: 'Combined weight' } },
+    });
+  };
+
+  seedSel.addEventListener('change', async () => {
+    state.seed = seedSel.value === MEAN ? MEAN : Number(seedSel.value);
+    await load();
+    drawWeights();
+  });
+  cfgSel.addEventListener('change', drawWeights);
+  childSel.addEventListener('change', () => { state.child = Number(childSel.value); drawWeights(); });
+  fillSeeds();
+  queueMicrotask(async () => { await load(); drawWeights(); });
+
+  return h('section', { 'aria-labelledby': 'h-w' },
+    h('h2', { id: 'h-w' }, 'Learned weights (final episode)'),
+    h('div', { class: 'controls' },
+      h('label', { for: ids.seed }, 'Seed'), seedSel,
+      h('label', { for: ids.cfg }, 'Configuration'), cfgSel,
+      h('label', { for: ids.child }, 'Child'), childSel),
+    seedNote, heatNote,
+    h('div', { class: 'grid2' }, heat, bars));
+}

@@ -1,0 +1,52 @@
+"""``GET /api/jobs/{id}/weights``: one seed's final weights, bit for bit the core's, and its errors."""
+
+from __future__ import annotations
+
+import numpy as np
+from backend_helpers import drain
+from fastapi.testclient import TestClient
+
+from backend.worker import Worker
+from mgrao_core import make_spec, run_experiment
+
+ALGORITHMS = ["uniform", "oracle", "mgrao-1:1", "mgrao-max"]
+
+
+def test_one_seed_is_that_seeds_runs_bit_for_bit(client: TestClient, worker: Worker) -> None:
+    body = {"system": "multi", "algorithms": ALGORITHMS, "seeds": [7, 3, 11], "episodes": 12}
+    job = client.post("/api/jobs", json=body).json()
+    drain(worker)
+    expected = run_experiment(make_spec("multi", ALGORITHMS, [7, 3, 11], 12))
+
+    first = client.get(f"/api/jobs/{job['id']}/weights").json()
+    assert first["seed"] == 7 and first["seeds"] == [7, 3, 11]  # the job's order, its first seed by default
+    answer = client.get(f"/api/jobs/{job['id']}/weights?seed=3").json()
+    assert answer["seed"] == 3 and [c["algorithm"] for c in answer["configurations"]] == ALGORITHMS
+    for config in answer["configurations"]:
+        run = next(r for r in expected.runs if r.algorithm == config["algorithm"] and r.seed == 3)
+        assert np.array_equal(np.array(config["combined"]), run.combined_weights)
+        if config["algorithm"] in ("uniform", "oracle"):
+            assert config["groups"] == []
+        else:
+            assert np.array_equal(np.array(config["groups"]), run.group_weights)
+    # each seed's own structure: the oracle's allocations differ between seeds, and the mean is neither
+    oracle = {seed: np.array(next(c for c in client.get(f"/api/jobs/{job['id']}/weights?seed={seed}").json()
+                                  ["configurations"] if c["algorithm"] == "oracle")["combined"]) for seed in (7, 3)}
+    assert not np.allclose(oracle[7], oracle[3])
+    mean = next(c for c in client.get(f"/api/jobs/{job['id']}/results").json()["configurations"]
+                if c["algorithm"] == "oracle")["weights"]["combined"]
+    assert not np.allclose(mean, oracle[3])
+
+
+def test_a_seed_not_of_the_job_or_not_stored_is_refused(client: TestClient, worker: Worker) -> None:
+    job = client.post("/api/jobs", json={"system": "single", "seeds": 2, "episodes": 5}).json()
+    queued = client.post("/api/jobs", json={"system": "single", "seeds": 2, "episodes": 5, "name": "later"}).json()
+    assert client.get(f"/api/jobs/{job['id']}/weights").status_code == 409  # nothing stored yet
+    assert worker.run_once()  # the older job only
+    wrong = client.get(f"/api/jobs/{job['id']}/weights?seed=5")
+    assert wrong.status_code == 422 and "seed" in wrong.text and "0, 1" in wrong.text
+    for bad in ("-1", "4294967296", "abc", "1.5"):
+        response = client.get(f"/api/jobs/{job['id']}/weights?seed={bad}")
+        assert response.status_code == 422 and "seed" in response.text, bad
+    assert client.get(f"/api/jobs/{queued['id']}/weights?seed=0").status_code == 409
+    assert client.get("/api/jobs/999999/weights").status_code == 404

@@ -1,0 +1,80 @@
+"""The job view's learned weights: one chosen seed (not the mean that washes each seed's structure
+out), the oracle's allocation beside the learner's for that seed, and thinned labels at 50 groups.
+
+Real `mgrao serve` with real workers, a real SQLite file, headless Chromium.
+"""
+
+from __future__ import annotations
+
+import json
+import urllib.request
+
+from tests.frontend.test_job_view import post_job, wait_for
+
+ALGORITHMS = ["uniform", "oracle", "mgrao-1:1", "mgrao-max"]
+
+
+def get(base: str, path: str) -> dict:
+    with urllib.request.urlopen(f"{base}{path}", timeout=30) as response:
+        return json.loads(response.read())
+
+
+def bars(page) -> dict[str, list[float]]:
+    return page.eval_on_selector("#weights-bars", "el => Object.fromEntries((el.data || []).map("
+                                 "t => [t.meta.config, Array.from(t.y)]))")
+
+
+def test_weights_of_one_seed_beside_the_oracle(page, server, screenshots):
+    job = post_job(server, {"system": "large", "algorithms": ALGORITHMS, "seeds": [4, 8, 15], "episodes": 40,
+                            "name": "weights per seed"})
+    wait_for(lambda: get(server, f"/api/jobs/{job['id']}")["status"] == "succeeded", 120, "the job to finish")
+    one = {seed: {c["algorithm"]: c for c in get(server, f"/api/jobs/{job['id']}/weights?seed={seed}")
+                  ["configurations"]} for seed in (4, 8)}
+    page.set_viewport_size({"width": 1280, "height": 900})
+    page.goto(f"/#/jobs/{job['id']}")
+    page.locator("#weights-bars .main-svg").first.wait_for(timeout=60000)
+    seed = page.get_by_label("Seed", exact=True)
+    configuration = page.get_by_label("Configuration", exact=True).and_(page.locator("select"))
+    wait_for(lambda: seed.locator("option").count() == 4, 10, "the stored seeds in the selector")
+    assert seed.locator("option").all_inner_texts() == ["seed 4", "seed 8", "seed 15", "mean over 3 seeds"]
+    assert seed.input_value() == "4"  # one seed by default, not the mean
+    assert configuration.input_value() == "mgrao-max"  # the most parent groups: 50
+
+    # the learner's combined weights beside the oracle's allocation, both for seed 4, as stored
+    wait_for(lambda: set(bars(page)) == {"mgrao-max", "oracle"}, 10, "the learner and the oracle in the bars")
+    assert bars(page)["oracle"] == one[4]["oracle"]["combined"][0]
+    assert bars(page)["mgrao-max"] == one[4]["mgrao-max"]["combined"][0]
+    heat = page.eval_on_selector("#weights-heatmap", "el => ({z: el.data[0].z, dtick: el.layout.yaxis.dtick, "
+                                 "labels: el.querySelectorAll('.yaxislayer-above .ytick').length})")
+    assert heat["z"] == one[4]["mgrao-max"]["groups"][0]
+    assert heat["dtick"] > 1 and 5 <= heat["labels"] <= 20, heat  # 50 groups: thinned, not 50 labels
+    assert "Seed 4" in page.locator("#weights-seed-note").inner_text()
+    page.locator("#h-w").scroll_into_view_if_needed()
+    page.screenshot(path=str(screenshots / "weights-seed.png"))
+
+    # another seed: its own structure (the oracle's allocation differs), as stored
+    seed.select_option("8")
+    wait_for(lambda: bars(page).get("oracle") == one[8]["oracle"]["combined"][0], 10, "seed 8's oracle")
+    assert one[8]["oracle"]["combined"] != one[4]["oracle"]["combined"]
+    assert bars(page)["mgrao-max"] == one[8]["mgrao-max"]["combined"][0]
+
+    # the mean is still there, saying what it hides
+    results = get(server, f"/api/jobs/{job['id']}/results")
+    mean = {c["algorithm"]: c["weights"]["combined"][0] for c in results["configurations"]}
+    seed.select_option("mean")
+    wait_for(lambda: bars(page).get("oracle") == mean["oracle"], 10, "the mean over seeds")
+    assert "washes out" in page.locator("#weights-seed-note").inner_text()
+
+    # a learner without groups shows its combined weights only; the choice of seed holds
+    configuration.select_option("uniform")
+    wait_for(lambda: "learns no group weights" in page.locator("#weights-heat-note").inner_text(), 10, "the note")
+    assert page.locator("#weights-heatmap").is_hidden()
+
+
+def test_a_job_without_the_oracle_says_so(page, server):
+    job = post_job(server, {"system": "single", "algorithms": ["uniform", "mgrao-max"], "seeds": 2, "episodes": 20})
+    wait_for(lambda: get(server, f"/api/jobs/{job['id']}")["status"] == "succeeded", 120, "the job to finish")
+    page.goto(f"/#/jobs/{job['id']}")
+    page.locator("#weights-bars .main-svg").first.wait_for(timeout=60000)
+    wait_for(lambda: "did not run the oracle" in page.locator("#weights-seed-note").inner_text(), 10, "the note")
+    assert set(bars(page)) == {"mgrao-max"}
