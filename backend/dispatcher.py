@@ -36,6 +36,7 @@ from backend.dask_tasks import PLUGIN_NAME, WarmUp, simulate_chunk
 from backend.db import Database
 from backend.heartbeats import Heartbeats
 from backend.lifeline import stop_on_signals
+from backend.presence import Presence
 from backend.retry import Backoff, HealthClock, Stopping, persist
 from backend.settings import Settings
 from mgrao_core import ExperimentSpec, MgraoError, NumericalError, plan_chunks, spec_from_dict
@@ -103,11 +104,14 @@ class Dispatcher:
         except Stopping:
             return
         self.beats.start()
+        presence = Presence(self.db, self.dispatcher_id, kind="dask", interval_s=self.settings.heartbeat_s)
+        presence.start()
         backoff = Backoff(first=0.5, cap=10.0)
         try:
             while not self.shutdown.is_set():
                 try:
                     self._ensure_connected()
+                    presence.ready()  # connected: every Dask worker has run the kernel warm-up
                     self._drop_lost_jobs()
                     self._fill()
                     self._collect()
@@ -123,6 +127,7 @@ class Dispatcher:
             self._hand_back()
             self._disconnect()
             self.beats.close()
+            presence.close()
             self.db.dispose()
 
     # ---- the cluster -----------------------------------------------------------------------------

@@ -175,3 +175,23 @@ class Trial(Base):
     runs: Mapped[int] = mapped_column(Integer, default=0)
     created_at: Mapped[datetime] = mapped_column(DateTime, default=utcnow)
     finished_at: Mapped[datetime | None] = mapped_column(DateTime, nullable=True)
+
+
+WARMING, READY = "warming", "ready"
+WORKER_STATES = (WARMING, READY)
+
+
+class WorkerPresence(Base):
+    """A worker process (or the Dask dispatcher) that is alive: ``backend/presence.py`` keeps the row.
+
+    ``state`` is ``warming`` while the process loads or compiles the simulation kernel and ``ready``
+    once it can run a job; ``seen_at`` is stamped by the database clock every heartbeat.
+    """
+
+    __tablename__ = "workers"
+
+    worker_id: Mapped[str] = mapped_column(String(200), primary_key=True)
+    kind: Mapped[str] = mapped_column(String(16))
+    state: Mapped[str] = mapped_column(String(16))
+    started_at: Mapped[datetime] = mapped_column(DateTime)
+    seen_at: Mapped[datetime] = mapped_column(DateTime, index=True)

@@ -100,3 +100,4 @@ class Health(BaseModel):
     database: str
     queued: int
     running: int
+    workers: dict[str, int] | None = None

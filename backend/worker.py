@@ -21,6 +21,7 @@ from backend.db import Database
 from backend.dialect import reason
 from backend.heartbeats import Heartbeats
 from backend.lifeline import stop_on_signals
+from backend.presence import Presence
 from backend.retry import Backoff, HealthClock, Stopping, persist
 from backend.settings import Settings
 
@@ -145,30 +146,40 @@ class Worker:
             return queue.stored_seeds(session, job_id=job_id, algorithms=algorithms)
 
     def serve_forever(self, *, warm_up: bool = True) -> None:
-        """Migrate, warm up, then run jobs until :meth:`stop`; database errors are waited out."""
+        """Migrate, warm up, then run jobs until :meth:`stop`; database errors are waited out.
+
+        The ``workers`` table says meanwhile that this process is alive, warming up, then ready.
+        """
         try:
             self.persist(lambda: self.db.migrate(create_missing=False), "migrating the database")
         except Stopping:
             return
-        if warm_up:
-            self.warm_up()
-        log.info("worker %s ready", self.worker_id)
-        backoff = Backoff()
+        presence = Presence(self.db, self.worker_id, kind="local", interval_s=self.settings.heartbeat_s)
+        presence.start()
         try:
-            while not self.shutdown.is_set():
-                try:
-                    ran = self.run_once()
-                    backoff.reset()
-                except Exception as error:  # noqa: BLE001 - a worker outlives every failure of one poll
-                    delay = backoff.next()
-                    log.warning("polling the queue failed (%s); retrying in %.2f s", reason(error), delay)
-                    self.shutdown.wait(delay)
-                    continue
-                if not ran:
-                    self.shutdown.wait(self.settings.poll_s)
+            if warm_up:
+                self.warm_up()
+            presence.ready()
+            log.info("worker %s ready", self.worker_id)
+            self._poll()
         finally:
+            presence.close()
             self.db.dispose()
 
+    def _poll(self) -> None:
+        """Claim and run jobs until :meth:`stop`; a failing poll is retried with a capped backoff."""
+        backoff = Backoff()
+        while not self.shutdown.is_set():
+            try:
+                ran = self.run_once()
+                backoff.reset()
+            except Exception as error:  # noqa: BLE001 - a worker outlives every failure of one poll
+                delay = backoff.next()
+                log.warning("polling the queue failed (%s); retrying in %.2f s", reason(error), delay)
+                self.shutdown.wait(delay)
+                continue
+            if not ran:
+                self.shutdown.wait(self.settings.poll_s)
 
 def main(settings: Settings | None = None) -> None:
     """Entry point of a worker process (``mgrao worker``, or started by ``mgrao serve``)."""

@@ -7,8 +7,8 @@ from fastapi.responses import JSONResponse
 from sqlalchemy.exc import SQLAlchemyError
 
 import mgrao_core
-from backend import crud
-from backend.deps import DatabaseDep
+from backend import crud, presence
+from backend.deps import DatabaseDep, SettingsDep
 from backend.dialect import DatabaseUnavailable, reason
 from backend.faults import RETRY_AFTER_S
 from backend.models import QUEUED, RUNNING
@@ -18,8 +18,11 @@ router = APIRouter(prefix="/api", tags=["health"])
 
 
 @router.get("/health", response_model=Health)
-def health(db: DatabaseDep) -> JSONResponse:
-    """Service status, version, whether the database can be written now, and queue depth.
+def health(db: DatabaseDep, settings: SettingsDep) -> JSONResponse:
+    """Service status, version, whether the database can be written now, queue depth and workers.
+
+    ``workers`` counts the worker processes seen within ``stale_after_s`` by state: ``warming``
+    (loading or compiling the simulation kernel) or ``ready``.
 
     The database check is what a submission needs: a write transaction on a fresh connection,
     rolled back, on the file the service was configured with. 503 with the reason otherwise.
@@ -28,11 +31,13 @@ def health(db: DatabaseDep) -> JSONResponse:
         db.probe()
         with db.session() as session:
             counts = crud.count_by_status(session)
+            workers = presence.counts(session, stale_after_s=settings.stale_after_s)
     except (DatabaseUnavailable, SQLAlchemyError) as error:
         why = str(error) if isinstance(error, DatabaseUnavailable) else reason(error)
-        body = {"status": "error", "version": mgrao_core.__version__, "database": why, "queued": 0, "running": 0}
+        body = {"status": "error", "version": mgrao_core.__version__, "database": why, "queued": 0, "running": 0,
+                "workers": None}
         return JSONResponse(body, status_code=503, headers={"Retry-After": str(RETRY_AFTER_S)})
     return JSONResponse({
         "status": "ok", "version": mgrao_core.__version__, "database": "ok",
-        "queued": counts.get(QUEUED, 0), "running": counts.get(RUNNING, 0),
+        "queued": counts.get(QUEUED, 0), "running": counts.get(RUNNING, 0), "workers": workers,
     })

@@ -2,7 +2,7 @@
 // mount(container, params, ctx) and may return a cleanup function (stop polling, purge plots).
 
 import { api, getToken, setToken } from './api.js';
-import { parseHash, buildHash } from './stats.js';
+import { parseHash, buildHash, workersWord } from './stats.js';
 import * as runs from './runs.js';
 import * as newjob from './newjob.js';
 import * as job from './job.js';
@@ -107,7 +107,9 @@ async function checkHealth() {
   const el = document.getElementById('health');
   try {
     const hl = await api.health();
-    el.textContent = `server ${hl.version || ''} · ${hl.running ?? 0} running · ${hl.queued ?? 0} queued`;
+    const workers = workersWord(hl.workers);
+    el.textContent = `server ${hl.version || ''} · ${hl.running ?? 0} running · ${hl.queued ?? 0} queued` +
+      (workers ? ` · ${workers}` : '');
     el.className = 'health ok';
   } catch {
     el.textContent = 'server unreachable';

@@ -4,7 +4,7 @@
 import { api } from './api.js';
 import { h, statusCell, jobMeta, notice, editJobDialog, confirmDialog, cancelConsequence, keepLabel, nextId, downloadText } from './ui.js';
 import { draw, purge, loadPlotly, meanBandTraces, seedTraces, utilityLayout } from './charts.js';
-import { fmtNumber, fmtPct, fmtCI, pctProgress, algorithmRank, smoothingNote, episodesPerPoint, DEFINITIONS } from './stats.js';
+import { fmtNumber, fmtPct, fmtCI, pctProgress, waitingMessage, algorithmRank, smoothingNote, episodesPerPoint, DEFINITIONS } from './stats.js';
 import { algorithmColour } from './colours.js';
 import { axisControls, withAxis, tableCsvButton } from './chartcontrols.js';
 import { fmtParam } from './studydata.js';
@@ -19,6 +19,8 @@ export async function mount(root, params, ctx) {
   loadPlotly(); // start fetching/evaluating plotly.js while the API answers
   let stopped = false;
   let timer = null;
+  let workers = null; // /api/health's workers ({warming, ready}) while the job waits in the queue
+  let workersAt = 0;
   const plots = [];
   let smooth = Math.max(1, Number(params.smooth) || 1);
   let redrawUtility = null; // the utility chart's redraw, once results are shown
@@ -99,12 +101,12 @@ export async function mount(root, params, ctx) {
   function renderStatus() {
     const pct = pctProgress(job.progress);
     if (job.status === 'queued' || job.status === 'running') {
-      const waiting = pct > 0 ? `Waiting for a worker… (${pct}% already stored)` : 'Waiting for a worker…';
+      const waiting = waitingMessage(workers, pct);
       statusBox.replaceChildren(h('div', { class: 'progress-block' },
         h('span', { class: `badge status-${job.status}` },
           job.status === 'running' ? h('span', { class: 'spinner', 'aria-hidden': 'true' }) : null, job.status),
         h('progress', { class: 'big', max: 100, value: pct, 'aria-label': 'Job progress', id: 'job-progress' }),
-        h('span', { class: 'pct', role: 'status' }, job.status === 'queued' ? waiting : `Running: ${pct}% done`)),
+        h('span', { class: 'pct', role: 'status', id: 'job-waiting' }, job.status === 'queued' ? waiting : `Running: ${pct}% done`)),
       ...[requeueNote()].filter(Boolean));
     } else if (job.status === 'failed') {
       statusBox.replaceChildren(notice('error', 'This job failed.', h('pre', { class: 'error-text' }, job.error || 'No reason was recorded.')));
@@ -168,9 +170,16 @@ export async function mount(root, params, ctx) {
     await showResults();
   }
 
+  async function readWorkers() {
+    if (job.status !== 'queued' || Date.now() - workersAt < 2000) return;
+    workersAt = Date.now();
+    try { workers = (await api.health()).workers || null; } catch { workers = null; }
+  }
+
   async function poll() {
     if (stopped) return;
     try {
+      await readWorkers();
       const next = await api.getJob(id);
       if (stopped) return;
       const changed = next.status !== job.status;
@@ -310,6 +319,7 @@ export async function mount(root, params, ctx) {
       h('p', { class: 'help definitions' }, DEFINITIONS));
   }
 
+  await readWorkers();
   await update();
   if (job.status === 'queued' || job.status === 'running') timer = setTimeout(poll, 1000);
   return () => { stopped = true; clearTimeout(timer); for (const p of plots) purge(p); };

@@ -292,3 +292,28 @@ function csvCell(v) {
 export function csvOf(rows) {
   return `${rows.map((r) => r.map(csvCell).join(',')).join('\n')}\n`;
 }
+
+/** The header's few words on the workers of `/api/health` (`{warming, ready}`; null when unknown). */
+export function workersWord(workers) {
+  if (!workers) return '';
+  const { warming = 0, ready = 0 } = workers;
+  if (warming && !ready) return `${warming} ${warming === 1 ? 'worker' : 'workers'} warming up`;
+  if (!warming && !ready) return 'no worker';
+  return `${ready} ${ready === 1 ? 'worker' : 'workers'}` + (warming ? ` (+${warming} warming up)` : '');
+}
+
+/** What a queued job is waiting for, given the workers of `/api/health` and the share already stored. */
+export function waitingMessage(workers, pct) {
+  const stored = pct > 0 ? ` (${pct}% already stored)` : '';
+  if (!workers) return `Waiting for a worker…${stored}`;
+  const { warming = 0, ready = 0 } = workers;
+  if (!ready && warming) {
+    return `Workers are warming up: loading the simulation kernel (compiling it takes about 20 s on a fresh ` +
+      `install, a second or two after). The job starts when one is ready.${stored}`;
+  }
+  if (!ready) {
+    return 'No worker is running: start one with `mgrao worker` (or `mgrao serve` with --workers 1 or more); ' +
+      `the job waits in the queue.${stored}`;
+  }
+  return `Waiting for a worker: ${ready} ready, running the jobs queued before this one.${stored}`;
+}

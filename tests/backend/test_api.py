@@ -283,7 +283,7 @@ def test_systems_health_and_static(client: TestClient) -> None:
     assert {p["name"] for p in systems["parameters"]} >= {"n_types", "n_parents"}
     submit(client)
     assert client.get("/api/health").json() == {"status": "ok", "version": "0.1.0", "database": "ok",
-                                                "queued": 1, "running": 0}
+                                                "queued": 1, "running": 0, "workers": {"warming": 0, "ready": 0}}
     plotly = client.get("/vendor/plotly.min.js")
     assert plotly.status_code == 200 and len(plotly.content) > 1_000_000
     assert client.get("/openapi.json").json()["paths"]["/api/jobs"]["post"]["summary"]

@@ -149,3 +149,16 @@ test('seedCount and changedParams', () => {
   assert.deepEqual(changedParams({ a: 1, b: 0.1 + 0.2, c: null, d: 'x' }, { a: 1, b: 0.3, c: 0.5, d: 'x' }), { c: null });
   assert.deepEqual(changedParams({ n: 5000 }, { n: 10 }), { n: 5000 });
 });
+
+test('workersWord and waitingMessage say whether workers are warming up, ready or missing', async () => {
+  const { workersWord, waitingMessage } = await import('../../../frontend/js/stats.js');
+  assert.equal(workersWord(null), '');
+  assert.equal(workersWord({ warming: 2, ready: 0 }), '2 workers warming up');
+  assert.equal(workersWord({ warming: 0, ready: 1 }), '1 worker');
+  assert.equal(workersWord({ warming: 1, ready: 2 }), '2 workers (+1 warming up)');
+  assert.equal(workersWord({ warming: 0, ready: 0 }), 'no worker');
+  assert.match(waitingMessage({ warming: 2, ready: 0 }, 0), /^Workers are warming up/);
+  assert.match(waitingMessage({ warming: 0, ready: 0 }, 0), /No worker is running/);
+  assert.match(waitingMessage({ warming: 0, ready: 2 }, 40), /2 ready.*\(40% already stored\)/);
+  assert.equal(waitingMessage(null, 0), 'Waiting for a worker…');
+});

@@ -1,0 +1,84 @@
+"""The ``workers`` table and ``/api/health``'s ``workers``: real `mgrao worker` processes on SQLite and
+PostgreSQL, stopped cleanly (their row goes), SIGKILLed (their row stops counting after
+``stale_after_s``) and frozen with SIGSTOP; rows unseen for an hour are forgotten."""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+
+from backend_helpers import Service
+from fastapi.testclient import TestClient
+from sqlalchemy import insert, select
+
+from backend import presence
+from backend.db import Database
+from backend.dialect import db_now
+from backend.models import WorkerPresence
+from backend.presence import Presence
+
+
+def health_workers(service: Service) -> dict[str, int]:
+    return service.get("/api/health").json()["workers"]
+
+
+def rows(db_url: str) -> dict[str, str]:
+    database = Database(db_url)
+    try:
+        with database.session() as session:
+            return dict(session.execute(select(WorkerPresence.worker_id, WorkerPresence.state)).all())
+    finally:
+        database.dispose()
+
+
+def test_worker_processes_report_ready_and_leave(service: Service) -> None:
+    service.start_server(workers=0)
+    assert health_workers(service) == {"warming": 0, "ready": 0}
+    first, second = service.start_worker(), service.start_worker()
+    service.wait_for(lambda: health_workers(service) == {"warming": 0, "ready": 2}, 90, "two ready workers")
+    assert {int(worker_id.rsplit(":", 1)[1]) for worker_id in rows(service.db_url)} == {first.pid, second.pid}
+
+    first.send_signal(signal.SIGTERM)  # a clean stop deletes its row
+    first.wait(timeout=30)
+    assert [int(w.rsplit(":", 1)[1]) for w in rows(service.db_url)] == [second.pid]
+    assert health_workers(service) == {"warming": 0, "ready": 1}
+
+    second.send_signal(signal.SIGSTOP)  # frozen: no refresh, so it stops counting after stale_after_s (2 s)
+    try:
+        service.wait_for(lambda: health_workers(service) == {"warming": 0, "ready": 0}, 15, "the frozen one to lapse")
+    finally:
+        second.send_signal(signal.SIGCONT)
+    service.wait_for(lambda: health_workers(service)["ready"] == 1, 15, "the thawed worker to count again")
+
+    os.kill(second.pid, signal.SIGKILL)  # killed: its row stays, counted no more
+    second.wait(timeout=10)
+    service.wait_for(lambda: health_workers(service) == {"warming": 0, "ready": 0}, 15, "the killed worker to lapse")
+    assert list(rows(service.db_url)) == [f"{os.uname().nodename}:{second.pid}"]
+
+
+def test_states_counts_and_forgetting(db: Database, client: TestClient) -> None:
+    with db.write() as session:  # a process killed two hours ago, by the database clock
+        old = db_now(session, minus_seconds=2 * presence.FORGET_AFTER_S)
+        session.execute(insert(WorkerPresence).values(worker_id="gone:1", kind="local", state="ready",
+                                                      started_at=old, seen_at=old))
+    assert rows(db.url) == {"gone:1": "ready"}
+    one = Presence(db, "here:2", kind="local", interval_s=0.1)
+    one.start()
+    try:
+        deadline = time.monotonic() + 10
+        while rows(db.url) != {"here:2": "warming"} and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert rows(db.url) == {"here:2": "warming"}  # the long-gone row was forgotten on start
+        assert client.get("/api/health").json()["workers"] == {"warming": 1, "ready": 0}
+        one.ready()
+        deadline = time.monotonic() + 10
+        while rows(db.url) != {"here:2": "ready"} and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert client.get("/api/health").json()["workers"] == {"warming": 0, "ready": 1}
+        with db.session() as session:
+            assert presence.counts(session, stale_after_s=60) == {"warming": 0, "ready": 1}
+    finally:
+        one.close()
+    assert rows(db.url) == {}
+

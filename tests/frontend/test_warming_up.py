@@ -1,0 +1,58 @@
+"""A job submitted while the workers compile the kernel says so, and the header counts warming workers.
+
+Real `mgrao serve` with one real worker whose numba cache directory is empty (NUMBA_CACHE_DIR), so
+that it compiles the kernel as on a fresh install; a real SQLite file; headless Chromium.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from tests.frontend.conftest import ROOT
+from tests.frontend.test_job_view import post_job
+from tests.support.local_service import free_port, serve_command, stop, wait_healthy
+
+
+@pytest.fixture
+def cold_server(tmp_path: Path) -> Iterator[str]:
+    port = free_port()
+    env = {**os.environ, "MGRAO_DATABASE_URL": f"sqlite:///{tmp_path / 'cold.db'}",
+           "NUMBA_CACHE_DIR": str(tmp_path / "numba-cache"), "MGRAO_HEARTBEAT_S": "0.5", "MGRAO_STALE_AFTER_S": "4"}
+    env.pop("MGRAO_API_TOKEN", None)
+    with open(tmp_path / "serve.log", "wb") as log:
+        proc = subprocess.Popen(serve_command(port, workers=1), env=env, cwd=ROOT, stdout=log, stderr=subprocess.STDOUT)
+    base = f"http://127.0.0.1:{port}"
+    try:
+        wait_healthy(base, proc)
+        yield base
+    finally:
+        stop(proc, timeout=15)
+
+
+def test_a_job_waiting_for_warming_workers_says_so(browser, cold_server, screenshots):
+    job = post_job(cold_server, {"system": "single", "seeds": 2, "episodes": 20, "name": "first job"})
+    context = browser.new_context(viewport={"width": 1280, "height": 800}, base_url=cold_server)
+    page = context.new_page()
+    page.set_default_timeout(120000)
+    try:
+        page.goto(f"/#/jobs/{job['id']}")
+        waiting = page.locator("#job-waiting")
+        waiting.wait_for()
+        page.wait_for_function("() => /warming up/.test(document.getElementById('job-waiting').textContent)",
+                               timeout=30000)
+        assert "loading the simulation kernel" in waiting.inner_text()
+        page.wait_for_function("() => /1 worker warming up/.test(document.getElementById('health').textContent)",
+                               timeout=30000)
+        page.screenshot(path=str(screenshots / "job-warming-up.png"))
+        # compiled: the worker reports ready, runs the job, and the header counts it as a worker
+        page.locator("#utility-chart .main-svg").first.wait_for(timeout=180000)
+        page.evaluate("window.dispatchEvent(new CustomEvent('jobs-changed'))")
+        page.wait_for_function("() => /· 1 worker$/.test(document.getElementById('health').textContent)",
+                               timeout=15000)
+    finally:
+        context.close()
