@@ -43,22 +43,27 @@ def _answer(combined: np.ndarray, groups: np.ndarray | None, shape: list[int]) -
 
 
 def mean_over_seeds(session: Session, job_id: int, algorithm: str) -> dict[str, Any]:
-    """The mean over the stored seeds of a configuration's final weights (see :func:`_answer`)."""
+    """The mean over the stored seeds of a configuration's final weights (see :func:`_answer`).
+
+    Every run of a configuration has the same shape: PW too large to show are never read.
+    """
+    of_config = (Run.job_id == job_id, Run.algorithm == algorithm)
+    first = session.scalar(select(Run.group_shape).where(*of_config).limit(1))
+    if first is None:
+        return {"combined": [], "groups": []}
+    shape = list(first)
+    columns = (Run.combined_weights, Run.group_weights) if _shown(shape) else (Run.combined_weights,)
     combined: np.ndarray | None = None
     groups: np.ndarray | None = None
-    shape: list[int] = []
     count = 0
-    statement = (select(Run.combined_weights, Run.group_weights, Run.group_shape)
-                 .where(Run.job_id == job_id, Run.algorithm == algorithm).execution_options(yield_per=_READ_BATCH))
-    for combined_blob, group_blob, group_shape in session.execute(statement):
-        shape = list(group_shape)
-        values = np.frombuffer(combined_blob, dtype="<f8")
+    for blobs in session.execute(select(*columns).where(*of_config).execution_options(yield_per=_READ_BATCH)):
+        values = np.frombuffer(blobs[0], dtype="<f8")
         combined = values.copy() if combined is None else combined + values
-        if _shown(shape):
-            values = np.frombuffer(group_blob, dtype="<f8")
+        if len(blobs) > 1:
+            values = np.frombuffer(blobs[1], dtype="<f8")
             groups = values.copy() if groups is None else groups + values
         count += 1
-    if combined is None:
+    if combined is None:  # deleted meanwhile
         return {"combined": [], "groups": []}
     return _answer(combined / count, None if groups is None else groups / count, shape)
 
@@ -81,13 +86,16 @@ def of_seed(session: Session, *, job_id: int, seed: int | None = None) -> dict[s
     chosen = stored[0] if seed is None else seed
     if chosen not in stored:
         raise Conflict(f"seed {chosen} of job {job_id} has no stored runs yet ({len(stored):,} seeds stored)")
-    rows = session.execute(select(Run.algorithm, Run.combined_weights, Run.group_weights, Run.group_shape)
+    rows = session.execute(select(Run.id, Run.algorithm, Run.combined_weights, Run.group_shape)
                            .where(Run.job_id == job_id, Run.seed == chosen)).all()
     rank = {a: i for i, a in enumerate(job.config["algorithms"])}
     configurations = []
-    for algorithm, combined_blob, group_blob, group_shape in sorted(rows, key=lambda r: rank.get(r[0], len(rank))):
+    for run_id, algorithm, combined_blob, group_shape in sorted(rows, key=lambda r: rank.get(r[1], len(rank))):
         shape = list(group_shape)
-        groups = np.frombuffer(group_blob, dtype="<f8") if _shown(shape) else None
+        groups = None
+        if _shown(shape):  # a PW too large to show is never read
+            blob = session.scalar(select(Run.group_weights).where(Run.id == run_id))
+            groups = np.frombuffer(blob, dtype="<f8")
         configurations.append({"algorithm": algorithm}
                               | _answer(np.frombuffer(combined_blob, dtype="<f8"), groups, shape))
     return {"job_id": job_id, "seed": chosen, "seeds": stored, "configurations": configurations}
