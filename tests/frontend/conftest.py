@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import subprocess
 from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -17,6 +18,41 @@ CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-backg
 SCREENSHOTS = ROOT / "test-output" / "screenshots"
 
 
+@contextmanager
+def running_service(tmp: Path, workers: int, **env: str) -> Iterator[str]:
+    """A real `mgrao serve` on 127.0.0.1 with its own SQLite file in ``tmp`` and ``env`` set; its base URL.
+
+    Stopped (by process id) on leaving; a service that does not come up fails the test with its log.
+    """
+    port = free_port()
+    environment = {**os.environ, "MGRAO_DATABASE_URL": f"sqlite:///{tmp / 't.db'}", **env}
+    environment.pop("MGRAO_API_TOKEN", None)
+    with open(tmp / "serve.log", "wb") as log:
+        proc = subprocess.Popen(serve_command(port, workers=workers), env=environment, cwd=ROOT, stdout=log,
+                                stderr=subprocess.STDOUT)
+    base = f"http://127.0.0.1:{port}"
+    try:
+        try:
+            wait_healthy(base, proc)
+        except RuntimeError as e:
+            pytest.fail(f"could not start mgrao serve: {e}\n{(tmp / 'serve.log').read_text(errors='replace')[-3000:]}")
+        yield base
+    finally:
+        stop(proc, timeout=15)
+
+
+@contextmanager
+def page_at(browser, base: str, width: int = 1280, height: int = 800) -> Iterator:
+    """A page of a fresh browser context on ``base`` (a minute's default timeout), closed on leaving."""
+    context = browser.new_context(viewport={"width": width, "height": height}, base_url=base, accept_downloads=True)
+    page = context.new_page()
+    page.set_default_timeout(60000)
+    try:
+        yield page
+    finally:
+        context.close()
+
+
 @pytest.fixture(scope="session")
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     """Base URL of a running service. MGRAO_DASHBOARD_URL points the tests at an existing one instead."""
@@ -25,21 +61,8 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
         wait_healthy(external.rstrip("/"), None, timeout=10)
         yield external.rstrip("/")
         return
-    tmp = tmp_path_factory.mktemp("dashboard")
-    port = free_port()
-    env = {**os.environ, "MGRAO_DATABASE_URL": f"sqlite:///{tmp / 't.db'}"}
-    env.pop("MGRAO_API_TOKEN", None)
-    with open(tmp / "serve.log", "wb") as log:
-        proc = subprocess.Popen(serve_command(port, workers=2), env=env, cwd=ROOT, stdout=log, stderr=subprocess.STDOUT)
-    base = f"http://127.0.0.1:{port}"
-    try:
-        wait_healthy(base, proc)
-    except RuntimeError as e:
-        stop(proc)
-        log_tail = (tmp / "serve.log").read_text(errors="replace")[-3000:]
-        pytest.fail(f"could not start mgrao serve: {e}\n{log_tail}")
-    yield base
-    stop(proc, timeout=15)
+    with running_service(tmp_path_factory.mktemp("dashboard"), workers=2) as base:
+        yield base
 
 
 @pytest.fixture(scope="session")

@@ -12,7 +12,6 @@ import os
 import re
 import signal
 import sqlite3
-import subprocess
 import time
 import urllib.request
 from collections.abc import Iterator
@@ -20,8 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.frontend.conftest import ROOT
-from tests.support.local_service import free_port, serve_command, stop, wait_healthy
+from tests.frontend.conftest import page_at, running_service
 
 
 def post_job(base: str, body: dict) -> dict:
@@ -79,20 +77,9 @@ def test_job_shows_its_configuration_against_the_preset(page, server, screenshot
 @pytest.fixture
 def restless_server(tmp_path: Path) -> Iterator[tuple[str, Path]]:
     """`mgrao serve` with one worker and a 4 s staleness: a killed worker's job is re-queued soon."""
-    port = free_port()
-    database = tmp_path / "restless.db"
-    env = {**os.environ, "MGRAO_DATABASE_URL": f"sqlite:///{database}", "MGRAO_STALE_AFTER_S": "4",
-           "MGRAO_HEARTBEAT_S": "0.5", "MGRAO_PROGRESS_S": "0.5"}
-    env.pop("MGRAO_API_TOKEN", None)
-    with open(tmp_path / "serve.log", "wb") as log:
-        proc = subprocess.Popen(serve_command(port, workers=1), env=env, cwd=ROOT, stdout=log,
-                                stderr=subprocess.STDOUT)
-    base = f"http://127.0.0.1:{port}"
-    try:
-        wait_healthy(base, proc)
-        yield base, database
-    finally:
-        stop(proc, timeout=15)
+    with running_service(tmp_path, workers=1, MGRAO_STALE_AFTER_S="4", MGRAO_HEARTBEAT_S="0.5",
+                         MGRAO_PROGRESS_S="0.5") as base:
+        yield base, tmp_path / "t.db"
 
 
 def worker_pid(database: Path, job_id: int) -> int | None:
@@ -111,10 +98,7 @@ def test_curves_fill_in_and_a_requeued_job_says_why(browser, restless_server, sc
     # one seed per chunk (30M atomic tasks a seed; a chunk holds at most 50M), a few seconds each
     job = post_job(base, {"system": "large", "algorithms": ["uniform", "mgrao-1:1"], "seeds": 5, "episodes": 3000,
                           "params": {"n_parents": 1000}, "name": "live curves"})
-    context = browser.new_context(viewport={"width": 1280, "height": 800}, base_url=base)
-    page = context.new_page()
-    page.set_default_timeout(60000)
-    try:
+    with page_at(browser, base) as page:
         page.goto(f"/#/jobs/{job['id']}")
         note = page.locator("#partial-note")
         note.wait_for(timeout=120000)  # the first chunk stored: its curves are drawn while the job runs
@@ -139,5 +123,3 @@ def test_curves_fill_in_and_a_requeued_job_says_why(browser, restless_server, sc
         page.screenshot(path=str(screenshots / "job-requeued.png"), full_page=True)
         # every run stored exactly once; what the killed attempt stored was kept, not recomputed
         assert stored_runs(database, job["id"]) == 10 and kept >= 2
-    finally:
-        context.close()

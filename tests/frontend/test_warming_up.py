@@ -6,40 +6,25 @@ that it compiles the kernel as on a fresh install; a real SQLite file; headless 
 
 from __future__ import annotations
 
-import os
-import subprocess
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
-from tests.frontend.conftest import ROOT
+from tests.frontend.conftest import page_at, running_service
 from tests.frontend.test_job_view import post_job
-from tests.support.local_service import free_port, serve_command, stop, wait_healthy
 
 
 @pytest.fixture
 def cold_server(tmp_path: Path) -> Iterator[str]:
-    port = free_port()
-    env = {**os.environ, "MGRAO_DATABASE_URL": f"sqlite:///{tmp_path / 'cold.db'}",
-           "NUMBA_CACHE_DIR": str(tmp_path / "numba-cache"), "MGRAO_HEARTBEAT_S": "0.5", "MGRAO_STALE_AFTER_S": "4"}
-    env.pop("MGRAO_API_TOKEN", None)
-    with open(tmp_path / "serve.log", "wb") as log:
-        proc = subprocess.Popen(serve_command(port, workers=1), env=env, cwd=ROOT, stdout=log, stderr=subprocess.STDOUT)
-    base = f"http://127.0.0.1:{port}"
-    try:
-        wait_healthy(base, proc)
+    with running_service(tmp_path, workers=1, NUMBA_CACHE_DIR=str(tmp_path / "numba-cache"),
+                         MGRAO_HEARTBEAT_S="0.5", MGRAO_STALE_AFTER_S="4") as base:
         yield base
-    finally:
-        stop(proc, timeout=15)
 
 
 def test_a_job_waiting_for_warming_workers_says_so(browser, cold_server, screenshots):
     job = post_job(cold_server, {"system": "single", "seeds": 2, "episodes": 20, "name": "first job"})
-    context = browser.new_context(viewport={"width": 1280, "height": 800}, base_url=cold_server)
-    page = context.new_page()
-    page.set_default_timeout(120000)
-    try:
+    with page_at(browser, cold_server) as page:
         page.goto(f"/#/jobs/{job['id']}")
         waiting = page.locator("#job-waiting")
         waiting.wait_for()
@@ -54,5 +39,3 @@ def test_a_job_waiting_for_warming_workers_says_so(browser, cold_server, screens
         page.evaluate("window.dispatchEvent(new CustomEvent('jobs-changed'))")
         page.wait_for_function("() => /· 1 worker$/.test(document.getElementById('health').textContent)",
                                timeout=15000)
-    finally:
-        context.close()
