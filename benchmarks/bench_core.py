@@ -28,8 +28,24 @@ _POINT = textwrap.dedent(
     from mgrao_core.reproduction import reproduce
     args = json.loads(sys.argv[1])
     run_experiment(make_spec("multi", seeds=1, episodes=2))  # load the compiled kernel
+    extra = {}
     start = time.perf_counter()
-    if args["what"] == "reproduce":
+    if args["what"] == "oracle":
+        from mgrao_core.oracle import oracle_weights
+        from mgrao_core.world import draw_world
+        spec = make_spec(args["system"], ["oracle"], args["seeds"], 1, args["set"])
+        small = make_spec("single", ["oracle"], 1, 1).params
+        oracle_weights(small, draw_world(small, 0), 0)  # load its compiled code too
+        checks = []
+        start = time.perf_counter()
+        for seed in spec.seeds:
+            world = draw_world(spec.params, seed)
+            oracle_weights(spec.params, world, seed, should_stop=lambda: checks.append(time.perf_counter()) or False)
+        work = spec.params.n_parents * spec.params.types_per_composite * len(spec.seeds)  # one sample per seed
+        ends = [start] + checks + [time.perf_counter()]
+        extra = {"per_seed": (ends[-1] - start) / len(spec.seeds),
+                 "longest_unchecked": max(b - a for a, b in zip(ends, ends[1:]))}
+    elif args["what"] == "reproduce":
         results = reproduce(seeds=args["seeds"], episodes=args["episodes"])
         work = sum(r.spec.work for r in results.values())
     elif args["what"] == "reference":
@@ -45,7 +61,7 @@ _POINT = textwrap.dedent(
         run_experiment(spec)
     wall = time.perf_counter() - start
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    print(json.dumps({"wall": wall, "work": work, "peak_mib": peak}))
+    print(json.dumps({"wall": wall, "work": work, "peak_mib": peak} | extra))
     """
 )
 
@@ -151,6 +167,17 @@ def main() -> None:
         f"  dense per-agent reference (mgrao_core.reference) on single, 2 seeds: {ref['work'] / ref['wall']:.3g} "
         f"tasks/s; at that rate the reproduction would take about {per_task * best['work']:.0f} s"
     )
+
+    print("\nOracle at 1,000 parents x 200 types per composite (large system), 2 seeds; beside it engine runs")
+    size = {"n_parents": 1000, "n_types": 200, "types_per_composite": 200}
+    oracle = measure(what="oracle", system="large", seeds=2, set=size)
+    print(f"{'':>38} {'now':>9}" + (f" {'before':>9} {'ratio':>7}" if BASELINE else ""))
+    print(f"{'oracle s per seed':>38} {oracle['per_seed']:>9.3f}{beside(oracle, 'per_seed')}")
+    print(f"{'longest s between two stop checks':>38} {oracle['longest_unchecked']:>9.3f}"
+          f"{beside(oracle, 'longest_unchecked')}  (target: under 0.5)")
+    for algorithm in ("mgrao-1:1", "mgrao-max"):
+        run = measure(what="run", system="large", algorithms=[algorithm], seeds=1, episodes=100, set=size)
+        print(f"{algorithm + ' s, 1 seed x 100 episodes':>38} {run['wall']:>9.3f}{beside(run)}")
 
     def custom(parents: int, algorithms: list[str], seeds: int, episodes: int) -> dict:
         return {
