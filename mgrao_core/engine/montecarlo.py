@@ -21,6 +21,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from mgrao_core.engine.cache import load_without_compiler
+
 _PAIRWISE_BLOCK = 128  # numpy's PW_BLOCKSIZE: longer runs are split in two
 
 
@@ -120,3 +122,6 @@ def add_proportional_values(profiles, factors, first, sums, scratch):
             else:
                 for k in range(per_composite):
                     sums[p, k] += scratch[k] / total
+
+
+load_without_compiler([draw_scaled_normals, add_proportional_values])
