@@ -8,7 +8,9 @@ the ratio; a point the earlier version refuses (a limit it did not have) prints 
 Every point runs in a fresh subprocess (after a warm-up call that loads the compiled kernel), so
 its peak memory (max RSS) is its own. Throughput counts atomic tasks simulated per second:
 seeds x algorithms x episodes x active parents x types per composite; each is one quality
-evaluation, one value returned and (for MG-RAO) one algorithm-1 update.
+evaluation, one value returned and (for MG-RAO) one algorithm-1 update. The start-up point instead
+times ``python -m mgrao_cli reproduce --seeds 30`` as whole processes (interpreter, imports, loading
+the cached kernel, simulation, exit), each checkout run from its own root.
 """
 
 from __future__ import annotations
@@ -17,9 +19,12 @@ import argparse
 import json
 import math
 import os
+import resource
+import statistics
 import subprocess
 import sys
 import textwrap
+import time
 
 _POINT = textwrap.dedent(
     """
@@ -136,6 +141,41 @@ def sweep(title: str, name: str, values: list[int], build, explain: str) -> None
     print(f"{line} ({explain})")
 
 
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+STARTUP = ["-m", "mgrao_cli", "reproduce", "--seeds", "30"]
+"""``mgrao reproduce --seeds 30``, run from a checkout's root (its packages first on the path)."""
+
+
+def startup(runs: int = 11) -> None:
+    """Whole processes of ``mgrao reproduce --seeds 30``, the kernel cached: medians of wall and CPU seconds.
+
+    With a baseline the two checkouts run in turn (now, before, now, ...), so that a drift of the
+    machine's speed reaches both, and the ratio is taken pair by pair.
+    """
+    roots = [ROOT] + ([BASELINE] if BASELINE else [])
+    for root in roots:  # warm-up: load (or compile and store) each checkout's kernel
+        subprocess.run([sys.executable, *STARTUP], cwd=root, capture_output=True, check=True)
+    walls: dict[str, list[float]] = {root: [] for root in roots}
+    cpus: dict[str, list[float]] = {root: [] for root in roots}
+    for _ in range(runs):
+        for root in roots:
+            before = resource.getrusage(resource.RUSAGE_CHILDREN)
+            start = time.perf_counter()
+            subprocess.run([sys.executable, *STARTUP], cwd=root, capture_output=True, check=True)
+            walls[root].append(time.perf_counter() - start)
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
+            cpus[root].append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
+    print(f"\nStart-up: `python {' '.join(STARTUP)}` as a whole process, the kernel cached, {runs} runs")
+    now = statistics.median(walls[ROOT])
+    line = f"  wall median {now:.3f} s (target: at most 0.8), CPU median {statistics.median(cpus[ROOT]):.3f} s"
+    if BASELINE:
+        ratios = [a / b for a, b in zip(walls[ROOT], walls[BASELINE], strict=True)]
+        line += (f"; before: wall {statistics.median(walls[BASELINE]):.3f} s, CPU "
+                 f"{statistics.median(cpus[BASELINE]):.3f} s; wall ratio now / before, median of pairs "
+                 f"{statistics.median(ratios):.2f}")
+    print(line)
+
+
 def main() -> None:
     """Print the reproduction figures and the scaling sweeps."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -161,6 +201,7 @@ def main() -> None:
                 f"  before: wall median {before[len(before) // 2]:.3f} s; "
                 f"ratio of medians {walls[2] / before[len(before) // 2]:.2f} (target: at most 1.05)"
             )
+    startup()
     ref = measure(what="reference", system="single", seeds=2, episodes=100)
     per_task = ref["wall"] / ref["work"]
     print(
