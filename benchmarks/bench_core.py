@@ -8,7 +8,9 @@ the ratio; a point the earlier version refuses (a limit it did not have) prints 
 Every point runs in a fresh subprocess (after a warm-up call that loads the compiled kernel), so
 its peak memory (max RSS) is its own. Throughput counts atomic tasks simulated per second:
 seeds x algorithms x episodes x active parents x types per composite; each is one quality
-evaluation, one value returned and (for MG-RAO) one algorithm-1 update.
+evaluation, one value returned and (for MG-RAO) one algorithm-1 update. The start-up point instead
+times ``python -m mgrao_cli reproduce --seeds 30`` as whole processes (interpreter, imports, loading
+the cached kernel, simulation, exit), each checkout run from its own root.
 """
 
 from __future__ import annotations
@@ -17,9 +19,12 @@ import argparse
 import json
 import math
 import os
+import resource
+import statistics
 import subprocess
 import sys
 import textwrap
+import time
 
 _POINT = textwrap.dedent(
     """
@@ -28,8 +33,24 @@ _POINT = textwrap.dedent(
     from mgrao_core.reproduction import reproduce
     args = json.loads(sys.argv[1])
     run_experiment(make_spec("multi", seeds=1, episodes=2))  # load the compiled kernel
+    extra = {}
     start = time.perf_counter()
-    if args["what"] == "reproduce":
+    if args["what"] == "oracle":
+        from mgrao_core.oracle import oracle_weights
+        from mgrao_core.world import draw_world
+        spec = make_spec(args["system"], ["oracle"], args["seeds"], 1, args["set"])
+        small = make_spec("single", ["oracle"], 1, 1).params
+        oracle_weights(small, draw_world(small, 0), 0)  # load its compiled code too
+        checks = []
+        start = time.perf_counter()
+        for seed in spec.seeds:
+            world = draw_world(spec.params, seed)
+            oracle_weights(spec.params, world, seed, should_stop=lambda: checks.append(time.perf_counter()) or False)
+        work = spec.params.n_parents * spec.params.types_per_composite * len(spec.seeds)  # one sample per seed
+        ends = [start] + checks + [time.perf_counter()]
+        extra = {"per_seed": (ends[-1] - start) / len(spec.seeds),
+                 "longest_unchecked": max(b - a for a, b in zip(ends, ends[1:]))}
+    elif args["what"] == "reproduce":
         results = reproduce(seeds=args["seeds"], episodes=args["episodes"])
         work = sum(r.spec.work for r in results.values())
     elif args["what"] == "reference":
@@ -45,7 +66,7 @@ _POINT = textwrap.dedent(
         run_experiment(spec)
     wall = time.perf_counter() - start
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    print(json.dumps({"wall": wall, "work": work, "peak_mib": peak}))
+    print(json.dumps({"wall": wall, "work": work, "peak_mib": peak} | extra))
     """
 )
 
@@ -120,6 +141,41 @@ def sweep(title: str, name: str, values: list[int], build, explain: str) -> None
     print(f"{line} ({explain})")
 
 
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+STARTUP = ["-m", "mgrao_cli", "reproduce", "--seeds", "30"]
+"""``mgrao reproduce --seeds 30``, run from a checkout's root (its packages first on the path)."""
+
+
+def startup(runs: int = 11) -> None:
+    """Whole processes of ``mgrao reproduce --seeds 30``, the kernel cached: medians of wall and CPU seconds.
+
+    With a baseline the two checkouts run in turn (now, before, now, ...), so that a drift of the
+    machine's speed reaches both, and the ratio is taken pair by pair.
+    """
+    roots = [ROOT] + ([BASELINE] if BASELINE else [])
+    for root in roots:  # warm-up: load (or compile and store) each checkout's kernel
+        subprocess.run([sys.executable, *STARTUP], cwd=root, capture_output=True, check=True)
+    walls: dict[str, list[float]] = {root: [] for root in roots}
+    cpus: dict[str, list[float]] = {root: [] for root in roots}
+    for _ in range(runs):
+        for root in roots:
+            before = resource.getrusage(resource.RUSAGE_CHILDREN)
+            start = time.perf_counter()
+            subprocess.run([sys.executable, *STARTUP], cwd=root, capture_output=True, check=True)
+            walls[root].append(time.perf_counter() - start)
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
+            cpus[root].append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
+    print(f"\nStart-up: `python {' '.join(STARTUP)}` as a whole process, the kernel cached, {runs} runs")
+    now = statistics.median(walls[ROOT])
+    line = f"  wall median {now:.3f} s (target: at most 0.8), CPU median {statistics.median(cpus[ROOT]):.3f} s"
+    if BASELINE:
+        ratios = [a / b for a, b in zip(walls[ROOT], walls[BASELINE], strict=True)]
+        line += (f"; before: wall {statistics.median(walls[BASELINE]):.3f} s, CPU "
+                 f"{statistics.median(cpus[BASELINE]):.3f} s; wall ratio now / before, median of pairs "
+                 f"{statistics.median(ratios):.2f}")
+    print(line)
+
+
 def main() -> None:
     """Print the reproduction figures and the scaling sweeps."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -145,12 +201,24 @@ def main() -> None:
                 f"  before: wall median {before[len(before) // 2]:.3f} s; "
                 f"ratio of medians {walls[2] / before[len(before) // 2]:.2f} (target: at most 1.05)"
             )
+    startup()
     ref = measure(what="reference", system="single", seeds=2, episodes=100)
     per_task = ref["wall"] / ref["work"]
     print(
         f"  dense per-agent reference (mgrao_core.reference) on single, 2 seeds: {ref['work'] / ref['wall']:.3g} "
         f"tasks/s; at that rate the reproduction would take about {per_task * best['work']:.0f} s"
     )
+
+    print("\nOracle at 1,000 parents x 200 types per composite (large system), 2 seeds; beside it engine runs")
+    size = {"n_parents": 1000, "n_types": 200, "types_per_composite": 200}
+    oracle = measure(what="oracle", system="large", seeds=2, set=size)
+    print(f"{'':>38} {'now':>9}" + (f" {'before':>9} {'ratio':>7}" if BASELINE else ""))
+    print(f"{'oracle s per seed':>38} {oracle['per_seed']:>9.3f}{beside(oracle, 'per_seed')}")
+    print(f"{'longest s between two stop checks':>38} {oracle['longest_unchecked']:>9.3f}"
+          f"{beside(oracle, 'longest_unchecked')}  (target: under 0.5)")
+    for algorithm in ("mgrao-1:1", "mgrao-max"):
+        run = measure(what="run", system="large", algorithms=[algorithm], seeds=1, episodes=100, set=size)
+        print(f"{algorithm + ' s, 1 seed x 100 episodes':>38} {run['wall']:>9.3f}{beside(run)}")
 
     def custom(parents: int, algorithms: list[str], seeds: int, episodes: int) -> dict:
         return {

@@ -16,6 +16,7 @@ from typing import Any
 import click
 
 import mgrao_core
+from mgrao_cli.engine_loading import load_engine
 from mgrao_core import ConfigError, MgraoError, make_spec
 from mgrao_core.presets import PRESETS
 from mgrao_core.reproduction import DEFAULT_SEEDS, READINGS, reproduction_table
@@ -136,9 +137,10 @@ def run(system: str, algorithms: str | None, seeds: int, first_seed: int, episod
         spec = make_spec(system, labels, _seed_range(seeds, first_seed), episodes, _parse_sets(sets))
     except ConfigError as error:
         _fail(error)
+    load_engine()
     started = time.perf_counter()
     with _progress(f"{system}", spec.work >= PROGRESS_BAR_WORK) as update:
-        result = mgrao_core.run_experiment(spec, on_progress=update)  # loads the compiled engine
+        result = mgrao_core.run_experiment(spec, on_progress=update)
     elapsed = time.perf_counter() - started
     summary = result.summary()
     if fmt == "json":
@@ -188,6 +190,7 @@ def reproduce(seeds: int, first_seed: int, episodes: int, reading: str, sets: tu
               out: str | None) -> None:
     """Run the paper's four systems and print its tables with ours beside them."""
     overrides = READINGS[reading] | _parse_sets(sets)
+    load_engine()
     started = time.perf_counter()
     try:
         with _progress("reproduce", seeds * episodes >= 30_000) as update:

@@ -12,7 +12,8 @@ to store the chunk's runs (one serialised copy of every run, as the service's wo
 * ``draws``: one block of per-episode randomness per seed, the per-seed arrays and their stacked
   copies (:data:`mgrao_core.runner.BLOCK_ATOMIC_TASKS` bounds a block);
 * ``utilities``: every episode utility of the chunk's runs, and the block's output;
-* ``oracle``: the Monte-Carlo temporaries of the oracle's expected values (one seed at a time);
+* ``oracle``: the Monte-Carlo temporaries of the oracle's expected values (one seed at a time,
+  :data:`ORACLE_DRAWS` noise values at a time) and its weights;
 * ``results``: the final weights copied into each run, and the serialised copy of every run.
 
 The process's own baseline (the interpreter, numpy, numba and the compiled kernel, about 150 to
@@ -39,7 +40,11 @@ and its progress shown, a chunk at a time, and a cluster can share the chunks ou
 BLOCK_ATOMIC_TASKS = 4_000_000
 """Atomic tasks per block: progress is reported and cancellation checked between blocks."""
 ORACLE_BATCH = 128
-"""Monte-Carlo samples of the oracle's expected values drawn at once."""
+"""Monte-Carlo samples of the oracle's expected values summed apart before they are added to the
+total: fixes the order of the floating-point sums (a different batch gives different last bits)."""
+ORACLE_DRAWS = 262_144
+"""Noise values of the oracle's Monte-Carlo estimate drawn at once (2 MiB), or one sample's when that
+is more; ``should_stop`` is polled between draws."""
 _F = 8  # bytes of a float64 or an int64
 
 
@@ -100,8 +105,8 @@ def chunk_cost(spec: ExperimentSpec, n_seeds: int) -> ChunkCost:
     utilities = _F * lanes * (spec.episodes + block)
     oracle = 0
     if "oracle" in spec.algorithms:
-        oracle = _F * (4 * ORACLE_BATCH * parents * per_composite + 2 * parents * per_composite
-                       + 3 * types + n_seeds * children * types)
+        oracle = _F * (max(ORACLE_DRAWS, parents * per_composite) + 2 * parents * per_composite
+                       + per_composite + 3 * types + n_seeds * children * types)
     weights = sum(children * (a.n_groups + 1) * types for a in algorithms) * n_seeds
     results = _F * (2 * weights + lanes * spec.episodes)
     return ChunkCost(state, worlds, draws, utilities, oracle, results)

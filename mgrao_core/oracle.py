@@ -17,6 +17,16 @@ it bounds every algorithm from above in expectation. With several children each 
 best allocation for its own resource were it to receive every task (the parents' routing is not
 known in advance), which specialising learners can beat; under volatility the oracle knows the
 full system's task stream and, with ``rejoin_profile="new"``, only the initial profiles.
+
+``V`` is estimated by Monte Carlo (:func:`expected_type_values`): :data:`EXPECTATION_SAMPLES`
+draws of every parent's noisy proportional values from the seed's ``"oracle"`` stream. That is
+the costly part (200 million noise values a seed at 1,000 parents and 200 types per composite);
+the allocation itself is cheap. The draws and the sums are compiled
+(:mod:`mgrao_core.engine.montecarlo`) and take a bounded number of noise values at a time, so
+memory stays small and ``should_stop`` is polled every :data:`~mgrao_core.budget.ORACLE_DRAWS`
+values (or every sample, when one is larger). They perform the plain numpy computation's
+operations in its order, ``exp`` being numpy's own, so the weights are bit for bit those of
+earlier versions (``tests/core/test_oracle.py`` keeps that computation as the reference).
 """
 
 from __future__ import annotations
@@ -25,7 +35,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from mgrao_core.budget import ORACLE_BATCH
+from mgrao_core.budget import ORACLE_BATCH, ORACLE_DRAWS
+from mgrao_core.engine.montecarlo import add_proportional_values, draw_scaled_normals
 from mgrao_core.errors import Cancelled
 from mgrao_core.params import SystemParams
 from mgrao_core.world import World, stream
@@ -39,19 +50,28 @@ def expected_type_values(params: SystemParams, world: World, seed: int,
     """``V[t]``: the expected proportional value of type ``t`` per episode.
 
     Estimated by Monte Carlo on the seed's own ``"oracle"`` stream; the profile alone would
-    ignore the effect of the value noise on ``ctv``. ``should_stop`` is polled between batches of
-    samples (:class:`Cancelled` when it returns True).
+    ignore the effect of the value noise on ``ctv``. The samples are summed in batches of
+    :data:`~mgrao_core.budget.ORACLE_BATCH` and drawn :data:`~mgrao_core.budget.ORACLE_DRAWS` noise
+    values at a time; ``should_stop`` is polled before every draw (:class:`Cancelled` when it
+    returns True).
     """
     rng = stream(seed, "oracle")
+    n_parents, per_composite = world.profiles.shape
+    at_once = max(1, min(ORACLE_BATCH, ORACLE_DRAWS // (n_parents * per_composite)))
+    factors = np.empty((at_once, n_parents, per_composite))
+    batch_sums = np.empty_like(world.profiles)
+    scratch = np.empty(per_composite)
     expected = np.zeros_like(world.profiles)
-    remaining = EXPECTATION_SAMPLES
-    while remaining:
-        if should_stop is not None and should_stop():
-            raise Cancelled(f"stopped while estimating the oracle's values for seed {seed}")
-        batch = min(remaining, ORACLE_BATCH)
-        noisy = world.profiles * np.exp(params.value_noise * rng.standard_normal((batch,) + world.profiles.shape))
-        expected += (noisy / noisy.sum(axis=2, keepdims=True)).sum(axis=0)
-        remaining -= batch
+    for batch_start in range(0, EXPECTATION_SAMPLES, ORACLE_BATCH):
+        batch = min(ORACLE_BATCH, EXPECTATION_SAMPLES - batch_start)
+        for start in range(0, batch, at_once):
+            if should_stop is not None and should_stop():
+                raise Cancelled(f"stopped while estimating the oracle's values for seed {seed}")
+            noise = factors[: min(at_once, batch - start)]
+            draw_scaled_normals(rng, params.value_noise, noise)
+            np.exp(noise, out=noise)  # numpy's exp, as the plain expression has it (see engine.montecarlo)
+            add_proportional_values(world.profiles, noise, start == 0, batch_sums, scratch)
+        expected += batch_sums
     expected /= EXPECTATION_SAMPLES
     values = np.zeros(params.n_types)
     np.add.at(values, world.parent_types.ravel(), expected.ravel())

@@ -102,7 +102,8 @@ def run_chunk(
         spec: a validated experiment (see :func:`mgrao_core.make_spec`).
         seeds: some of the spec's seeds; a run's numbers do not depend on which others run with it.
         on_progress: called with the fraction of the chunk done (0 < f <= 1) after every block.
-        should_stop: polled between seeds of the oracle and before every block.
+        should_stop: polled inside the oracle's estimate (see :mod:`mgrao_core.oracle`) and before every
+            block.
         episodes_per_block: override the block size (results do not depend on it).
 
     Raises:

@@ -11,7 +11,7 @@ Everything here is checked against the dense reference (:mod:`mgrao_core.referen
 """
 
 import mgrao_core._numba_cache  # noqa: F401, I001  (first: picks a writable numba cache before numba loads)
-from mgrao_core.engine.cache import bind_to_sources
+from mgrao_core.engine.cache import bind_to_sources, load_without_compiler
 from mgrao_core.engine.environment import Environment, environment_of
 from mgrao_core.engine.kernel import KIND_MGRAO, KIND_ORACLE, KIND_UNIFORM, Draws, Lanes, Worlds, finish, run_block
 from mgrao_core.engine.learning import (
@@ -24,6 +24,7 @@ from mgrao_core.engine.learning import (
 )
 
 bind_to_sources([run_block, finish])
+load_without_compiler([run_block, finish])
 
 __all__ = [
     "KIND_MGRAO",

@@ -1,10 +1,16 @@
-"""Numba's on-disk cache of the kernel, made to notice changes in any of the engine's files.
+"""Numba's on-disk cache of the kernel: stale after any change of the engine, loaded without the compiler.
 
 Numba keys a cached function on its own source file alone. The kernel inlines functions from
 :mod:`~mgrao_core.engine.environment` and :mod:`~mgrao_core.engine.learning`, so after an edit of
 either (or a checkout that touches only them) numba would load the old kernel and compute old
 numbers. :func:`bind_to_sources` adds a digest of every engine source to the stamp numba checks,
 so any change recompiles the kernel.
+
+Before it loads a cached function, numba imports and registers every implementation it has (its
+target context's "refresh", about 0.15 s of a process that runs for under a second), which
+compiling needs and running machine code does not. :func:`load_without_compiler` makes a load
+initialise only numba's runtime (the allocator the compiled code calls); a miss compiles as before,
+and compiling refreshes the context itself.
 """
 
 from __future__ import annotations
@@ -45,3 +51,34 @@ def bind_to_sources(dispatchers: Iterable[Any], digest: str | None = None) -> No
             continue
         if not (isinstance(stamp, tuple) and len(stamp) == 2 and stamp[1] == digest):
             cache_file._source_stamp = (stamp, digest)
+
+
+def load_without_compiler(dispatchers: Iterable[Any]) -> None:
+    """Make each numba dispatcher load its cached machine code without refreshing numba's compiler.
+
+    Call it before the dispatchers first run. A dispatcher whose cache does not look as expected
+    (no cache, or other numba internals) keeps numba's own loading; so does any load that fails.
+    """
+    try:
+        from numba.core.runtime import rtsys
+    except ImportError:  # numba's layout changed: keep its own loading
+        return
+    for dispatcher in dispatchers:
+        cache = getattr(dispatcher, "_cache", None)
+        load = getattr(cache, "_load_overload", None)
+        guard = getattr(cache, "_guard_against_spurious_io_errors", None)
+        if load is None or guard is None or not hasattr(cache, "load_overload") or not hasattr(rtsys, "initialize"):
+            continue
+        cache.load_overload = _lean_loader(cache.load_overload, load, guard, rtsys)
+
+
+def _lean_loader(numbas_own: Any, load: Any, guard: Any, rtsys: Any) -> Any:
+    def load_overload(sig: Any, target_context: Any) -> Any:
+        try:
+            rtsys.initialize(target_context)  # the runtime the code allocates through (refresh would do this too)
+            with guard():
+                return load(sig, target_context)  # None on a miss: the dispatcher compiles (and refreshes)
+        except Exception:  # noqa: BLE001  (whatever went wrong, numba's own path decides)
+            return numbas_own(sig, target_context)
+
+    return load_overload

@@ -228,3 +228,21 @@ def test_help_and_the_web_layers_imports_load_no_numba():
     out = subprocess.run([sys.executable, "-c", "import mgrao_core; print(mgrao_core.run_experiment.__module__)"],
                          capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "mgrao_core.runner"  # the engine still comes with the package, on first use
+
+
+def test_a_simulating_command_imports_only_its_own_module():
+    # subcommands load on first use: `mgrao reproduce` imports neither the service's nor the studies' commands
+    code = ("import sys; from mgrao_cli.main import cli; "
+            "cli(['reproduce', '--seeds', '1', '--episodes', '2', '--format', 'json'], standalone_mode=False); "
+            "print(sorted(m for m in sys.modules if m.startswith('mgrao_cli')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip().splitlines()[-1] == str(["mgrao_cli", "mgrao_cli.engine_loading",
+                                                        "mgrao_cli.experiments", "mgrao_cli.main"])
+
+
+def test_the_engine_is_imported_with_the_collector_paused_then_frozen():
+    code = ("import gc, sys; from mgrao_cli.engine_loading import load_engine; load_engine(); "
+            "frozen = gc.get_freeze_count(); load_engine(); "
+            "print(gc.isenabled(), 'numba' in sys.modules, frozen > 10_000, gc.get_freeze_count() == frozen)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["True", "True", "True", "True"]  # the second call changes nothing

@@ -3,11 +3,12 @@
 import numpy as np
 import pytest
 
+from mgrao_core import Cancelled, make_spec, run_experiment
 from mgrao_core import equations as eq
-from mgrao_core import make_spec, run_experiment
-from mgrao_core.oracle import expected_type_values, oracle_weights, type_loads
+from mgrao_core.budget import ORACLE_BATCH, ORACLE_DRAWS
+from mgrao_core.oracle import EXPECTATION_SAMPLES, expected_type_values, oracle_weights, type_loads
 from mgrao_core.params import make_params
-from mgrao_core.world import draw_world
+from mgrao_core.world import draw_world, stream
 
 LINEAR = {"quality_model": "relative-linear"}
 
@@ -150,3 +151,91 @@ def test_oracle_run_uses_the_oracle_weights():
     world = draw_world(spec.params, 5)
     np.testing.assert_array_equal(run.combined_weights, oracle_weights(spec.params, world, 5))
     assert run.group_weights.size == 0
+
+
+def _plain_numpy_expected_type_values(params, world, seed):
+    """The estimate as earlier versions computed it, in plain numpy: the reference for the compiled one."""
+    rng = stream(seed, "oracle")
+    expected = np.zeros_like(world.profiles)
+    remaining = EXPECTATION_SAMPLES
+    while remaining:
+        batch = min(remaining, ORACLE_BATCH)
+        noisy = world.profiles * np.exp(params.value_noise * rng.standard_normal((batch,) + world.profiles.shape))
+        expected += (noisy / noisy.sum(axis=2, keepdims=True)).sum(axis=0)
+        remaining -= batch
+    expected /= EXPECTATION_SAMPLES
+    values = np.zeros(params.n_types)
+    np.add.at(values, world.parent_types.ravel(), expected.ravel())
+    return values
+
+
+# (system, overrides, the last child's three largest weights and sum_t (t + 1) * w[c, t] over every
+# child, for seed 7, as the plain numpy oracle computed them before the estimate was compiled)
+EARLIER_WEIGHTS = [
+    ("single", {}, [0.37056447680537297, 0.3218887187821621, 0.28173229698494817], 10.89576419161601),
+    ("multi", {}, [0.22869861577705608, 0.21279061827776963, 0.199666872835002], 35.63958672382397),
+    ("volatile", {"rejoin_profile": "new"}, [0.37056447680537297, 0.3218887187821621, 0.28173229698494817],
+     10.89576419161601),
+    ("large", {"quality_model": "exponential"}, [0.26850403951833696, 0.2052116316289399, 0.16858978803096636],
+     12.58279342876716),
+    ("single", {"quality_model": "relative-linear", "routing": "per-task"},
+     [0.16666666666666666, 0.16666666666666666, 0.16666666666666666], 9.166666666666668),
+    ("multi", {"load_sharing": True}, [0.28856497832402306, 0.27093591538447315, 0.19027847704853276],
+     21.769501138865813),
+    ("single", {"value_noise": 5.0, "value_concentration": 0.01},
+     [0.26248864257882726, 0.1898947164111858, 0.11314577263706373], 9.069083026438872),
+    ("single", {"value_noise": 0.0}, [0.3720880805379415, 0.32175598232988123, 0.28011069297415747],
+     10.910636994412227),
+    ("single", {"n_types": 200, "types_per_composite": 200, "n_parents": 20, "n_composite_types": 20},
+     [0.07011255162925975, 0.06594486674818745, 0.06212319205023278], 108.46759750130352),
+    ("multi", {"n_types": 150, "types_per_composite": 129, "n_parents": 7, "quality_model": "exponential"},
+     [0.18682260377273793, 0.15817266654432569, 0.13622540153477714], 217.81024679845333),
+    ("single", {"n_types": 9, "types_per_composite": 8, "load_sharing": True},
+     [0.6814316193402359, 0.13657346632810005, 0.1204586740696249], 4.4775370800157015),
+    ("single", {"n_types": 2, "types_per_composite": 1, "quality_model": "relative-linear"}, [1.0, 0.0], 1.0),
+]
+
+
+@pytest.mark.parametrize(("system", "overrides"), [(system, overrides) for system, overrides, _, _ in EARLIER_WEIGHTS])
+def test_expected_type_values_are_the_plain_numpy_estimate_bit_for_bit(system, overrides):
+    # the same draws, the same operations in the same order: stored oracle runs re-run to the bit
+    params = make_spec(system, ["oracle"], seeds=1, episodes=1, overrides=overrides).params
+    for seed in (0, 1, 7):
+        world = draw_world(params, seed)
+        np.testing.assert_array_equal(expected_type_values(params, world, seed),
+                                      _plain_numpy_expected_type_values(params, world, seed))
+
+
+@pytest.mark.parametrize(("system", "overrides", "largest", "weighted_sum"), EARLIER_WEIGHTS)
+def test_oracle_weights_are_those_of_earlier_versions(system, overrides, largest, weighted_sum):
+    params = make_spec(system, ["oracle"], seeds=1, episodes=1, overrides=overrides).params
+    weights = oracle_weights(params, draw_world(params, 7), 7)
+    np.testing.assert_allclose(np.sort(weights[-1])[::-1][:3], largest, rtol=1e-12, atol=0)
+    assert float((weights * np.arange(1, params.n_types + 1)).sum()) == pytest.approx(weighted_sum, rel=1e-12)
+
+
+LARGE = {"n_parents": 1000, "n_types": 200, "types_per_composite": 200}
+
+
+def test_a_large_oracle_stops_at_the_check_that_returns_true():
+    params = make_spec("large", ["oracle"], seeds=1, episodes=1, overrides=LARGE).params
+    calls = []
+
+    def stop_on_fifth_check() -> bool:
+        calls.append(1)
+        return len(calls) == 5
+
+    with pytest.raises(Cancelled, match="oracle's values for seed 3"):
+        oracle_weights(params, draw_world(params, 3), 3, should_stop=stop_on_fifth_check)
+    assert len(calls) == 5
+
+
+def test_a_large_oracle_checks_for_a_stop_every_few_noise_values():
+    # between two checks it draws at most ORACLE_DRAWS noise values, or one sample when that is more
+    params = make_spec("large", ["oracle"], seeds=1, episodes=1, overrides=LARGE).params
+    calls = []
+    world = draw_world(params, 3)
+    values = expected_type_values(params, world, 3, should_stop=lambda: calls.append(1) or False)
+    per_sample = params.n_parents * params.types_per_composite
+    assert len(calls) * max(ORACLE_DRAWS, per_sample) >= EXPECTATION_SAMPLES * per_sample
+    assert values.sum() == pytest.approx(params.n_parents, rel=1e-12)
