@@ -312,7 +312,7 @@ export function waitingMessage(workers, pct) {
       `install, a second or two after). The job starts when one is ready.${stored}`;
   }
   if (!ready) {
-    return 'No worker is running: start one with `mgrao worker` (or `mgrao serve` with --workers 1 or more); ' +
+    return 'No worker is running: start one with “mgrao worker” (or “mgrao serve” with --workers 1 or more); ' +
       `the job waits in the queue.${stored}`;
   }
   return `Waiting for a worker: ${ready} ready, running the jobs queued before this one.${stored}`;
