@@ -36,7 +36,7 @@ from backend.dask_tasks import PLUGIN_NAME, WarmUp, simulate_chunk
 from backend.db import Database
 from backend.heartbeats import Heartbeats
 from backend.lifeline import stop_on_signals
-from backend.presence import Presence
+from backend.presence import Presence, refresh_interval
 from backend.retry import Backoff, HealthClock, Stopping, persist
 from backend.settings import Settings
 from mgrao_core import ExperimentSpec, MgraoError, NumericalError, plan_chunks, spec_from_dict
@@ -104,7 +104,7 @@ class Dispatcher:
         except Stopping:
             return
         self.beats.start()
-        presence = Presence(self.db, self.dispatcher_id, kind="dask", interval_s=self.settings.heartbeat_s)
+        presence = Presence(self.db, self.dispatcher_id, kind="dask", interval_s=refresh_interval(self.settings))
         presence.start()
         backoff = Backoff(first=0.5, cap=10.0)
         try:

@@ -3,7 +3,8 @@
 Every local worker process (and the Dask dispatcher) keeps one row: its id, its kind, its state
 (``warming`` while it loads or compiles the simulation kernel, about 20 s on a fresh install;
 ``ready`` once it can run a job) and when it was last seen, by the database clock. A thread
-refreshes the row every heartbeat, busy or idle; a clean stop deletes it; the row of a killed
+refreshes the row (:func:`refresh_interval`: four times per ``stale_after_s``, busy or idle) and
+at once when the state changes; a clean stop deletes it; the row of a killed
 process stops being refreshed and no longer counts after ``stale_after_s`` (the same age after
 which its job is re-queued), and the next process to start deletes rows older than
 :data:`FORGET_AFTER_S`. :func:`counts` is what ``/api/health`` reports. Nothing here touches a
@@ -21,11 +22,22 @@ from sqlalchemy.orm import Session
 from backend.db import Database
 from backend.dialect import db_now, reason
 from backend.models import READY, WARMING, WORKER_STATES, WorkerPresence
+from backend.settings import Settings
 
 log = logging.getLogger("mgrao.presence")
 
 FORGET_AFTER_S = 3600.0
 """Rows of processes unseen for this long are deleted when another process starts."""
+
+
+def refresh_interval(settings: Settings) -> float:
+    """Seconds between refreshes: four per staleness window, never more often than the heartbeat.
+
+    Each refresh is a write: on SQLite it takes the database's one write lock for a moment, and a
+    process frozen inside it (SIGSTOP, a debugger) holds that lock until it resumes or dies, so
+    idle workers write as seldom as their row's freshness allows.
+    """
+    return max(settings.heartbeat_s, settings.stale_after_s / 4)
 
 
 class Presence(threading.Thread):

@@ -21,7 +21,7 @@ from backend.db import Database
 from backend.dialect import reason
 from backend.heartbeats import Heartbeats
 from backend.lifeline import stop_on_signals
-from backend.presence import Presence
+from backend.presence import Presence, refresh_interval
 from backend.retry import Backoff, HealthClock, Stopping, persist
 from backend.settings import Settings
 
@@ -154,7 +154,7 @@ class Worker:
             self.persist(lambda: self.db.migrate(create_missing=False), "migrating the database")
         except Stopping:
             return
-        presence = Presence(self.db, self.worker_id, kind="local", interval_s=self.settings.heartbeat_s)
+        presence = Presence(self.db, self.worker_id, kind="local", interval_s=refresh_interval(self.settings))
         presence.start()
         try:
             if warm_up:
