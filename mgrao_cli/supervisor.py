@@ -33,6 +33,19 @@ CHECK_S = 0.5
 STOP_TIMEOUT_S = 30.0
 
 
+def stop_processes(processes: list[subprocess.Popen], timeout_s: float) -> None:
+    """SIGTERM every process at once, wait up to ``timeout_s`` for each, then SIGKILL what is left."""
+    for process in processes:
+        if process.poll() is None:
+            process.send_signal(signal.SIGTERM)
+    for process in processes:
+        try:
+            process.wait(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+
+
 @dataclass(frozen=True)
 class Backoff:
     """Delay before restarting a worker: ``first_s`` doubled per quick death in a row, at most ``cap_s``."""
@@ -172,13 +185,4 @@ class WorkerPool:
         """Stop every worker (each hands its running job back to the queue): SIGTERM, then SIGKILL."""
         self._stopping.set()
         with self._lock:
-            processes = [s.process for s in self._slots if s.process is not None]
-            for process in processes:
-                if process.poll() is None:
-                    process.send_signal(signal.SIGTERM)
-            for process in processes:
-                try:
-                    process.wait(timeout=STOP_TIMEOUT_S)
-                except subprocess.TimeoutExpired:
-                    process.kill()
-                    process.wait()
+            stop_processes([s.process for s in self._slots if s.process is not None], STOP_TIMEOUT_S)

@@ -13,7 +13,8 @@ from pathlib import Path
 import httpx
 
 from backend.worker import Worker
-from tests.support.local_service import free_port, mgrao_command, serve_command, stop_all, wait_healthy
+from mgrao_cli.supervisor import stop_processes
+from tests.support.local_service import free_port, mgrao_command, serve_command, wait_healthy
 
 TOKEN = "s3cret-token"
 JSON = {"Content-Type": "application/json"}  # what a write without a body must still say
@@ -92,7 +93,7 @@ class Service:
         self.server.wait()
 
     def stop(self) -> None:
-        stop_all([*self.workers, *([self.server] if self.server else [])], timeout=30)
+        stop_processes([*self.workers, *([self.server] if self.server else [])], 30)
         for log in self._logs:
             log.close()
 

@@ -10,7 +10,8 @@ import sys
 import time
 from pathlib import Path
 
-from tests.support.local_service import free_port, stop_all
+from mgrao_cli.supervisor import stop_processes
+from tests.support.local_service import free_port
 
 
 def _dask(*args: str) -> list[str]:
@@ -102,7 +103,7 @@ class DaskCluster:
             self.start_worker(**self._worker_options)
 
     def stop(self) -> None:
-        stop_all([*self.workers, *([self.scheduler] if self.scheduler else [])], timeout=20)
+        stop_processes([*self.workers, *([self.scheduler] if self.scheduler else [])], 20)
         for log in self._logs:
             log.close()
 

@@ -6,12 +6,13 @@ of them start the service the same way and stop what they start.
 
 from __future__ import annotations
 
-import signal
 import socket
 import subprocess
 import sys
 import time
 import urllib.request
+
+from mgrao_cli.supervisor import stop_processes
 
 
 def free_port() -> int:
@@ -56,23 +57,4 @@ def wait_healthy(base: str, process: subprocess.Popen | None = None, timeout: fl
 
 def stop(process: subprocess.Popen, timeout: float = 30.0) -> None:
     """SIGTERM the process, wait up to ``timeout`` seconds, then SIGKILL it."""
-    if process.poll() is None:
-        process.terminate()
-        try:
-            process.wait(timeout=timeout)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait(timeout=5)
-
-
-def stop_all(processes: list[subprocess.Popen], timeout: float = 30.0) -> None:
-    """SIGTERM every process at once, wait up to ``timeout`` seconds for each, SIGKILL what is left."""
-    for process in processes:
-        if process.poll() is None:
-            process.send_signal(signal.SIGTERM)
-    for process in processes:
-        try:
-            process.wait(timeout=timeout)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
+    stop_processes([process], timeout)
