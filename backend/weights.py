@@ -76,7 +76,7 @@ def of_seed(session: Session, *, job_id: int, seed: int | None = None) -> dict[s
     """
     job = get_job(session, job_id=job_id)
     order = {s: i for i, s in enumerate(job.config["seeds"])}
-    stored = sorted(set(session.scalars(select(Run.seed).where(Run.job_id == job_id))), key=order.__getitem__)
+    stored = sorted(session.scalars(select(Run.seed).where(Run.job_id == job_id).distinct()), key=order.__getitem__)
     if seed is not None and seed not in order:
         seeds = job.config["seeds"]
         listed = ", ".join(map(str, seeds[:5])) + (f", … ({len(seeds):,} seeds)" if len(seeds) > 5 else "")

@@ -181,6 +181,7 @@ class Worker:
             if not ran:
                 self.shutdown.wait(self.settings.poll_s)
 
+
 def main(settings: Settings | None = None) -> None:
     """Entry point of a worker process (``mgrao worker``, or started by ``mgrao serve``)."""
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")

@@ -131,7 +131,7 @@ export function pctBarTrace(labels, bars, colors) {
 
 /**
  * An axis over the indices 0..n-1 labelled every `dtick`-th index, so that labels sit at least
- * `minGap` pixels apart on an axis `pixels` long (50 parent groups on 300 px: every 3rd).
+ * `minGap` pixels apart on an axis `pixels` long (50 parent groups on 300 px: every 5th).
  */
 export function indexAxis(n, pixels, minGap = 16) {
   const fit = Math.max(1, Math.floor(pixels / minGap));

@@ -46,6 +46,7 @@ export function weightsSection({ jobId, results, plots, state }) {
   const meanAnswer = { seed: MEAN, configurations: configs.map((c) => ({ algorithm: c.algorithm, ...c.weights })) };
 
   let seeds = null; // the seeds with stored runs, once the first answer came
+  let loadError = ''; // why one seed's weights could not be loaded (the mean is shown instead)
   const fillSeeds = () => {
     const nMean = configs[0].seeds_done ?? (seeds || []).length;
     seedSel.replaceChildren(
@@ -65,7 +66,7 @@ export function weightsSection({ jobId, results, plots, state }) {
       answer = meanAnswer;
       state.seed = MEAN;
       fillSeeds();
-      seedNote.dataset.error = e.message;
+      loadError = e.message;
     }
   };
 
@@ -81,7 +82,7 @@ export function weightsSection({ jobId, results, plots, state }) {
     state.child = child;
     const nTypes = c.combined[child].length;
     const types = Array.from({ length: nTypes }, (_, i) => i);
-    const failed = seedNote.dataset.error ? `Cannot load one seed’s weights (${seedNote.dataset.error}). ` : '';
+    const failed = loadError ? `Cannot load one seed’s weights (${loadError}). ` : '';
     seedNote.textContent = failed + weightsNote(answer.seed, configs.find((x) => x.algorithm === c.algorithm)?.seeds_done ?? 0) +
       (hasOracle ? '' : ' This job did not run the oracle, so there is no best fixed allocation to set beside it.');
     const g = (c.groups || [])[child];
