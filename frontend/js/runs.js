@@ -223,7 +223,7 @@ export async function mount(root, params, ctx) {
     const tr = h('tr', { dataset: { id: job.id, status: job.status } },
       h('td', {}, cb),
       h('td', { class: 'num' }, job.id),
-      h('td', {}, h('a', { href: `#/jobs/${job.id}` }, job.name || `job ${job.id}`),
+      h('td', { class: 'job-name' }, h('a', { href: `#/jobs/${job.id}` }, job.name || `job ${job.id}`),
         job.notes ? h('div', { class: 'note', title: job.notes }, job.notes) : null),
       h('td', { class: 'status' }, statusCell(job)),
       h('td', {}, job.system),
@@ -232,8 +232,8 @@ export async function mount(root, params, ctx) {
       h('td', { class: 'num' }, job.episodes),
       columns.map((c) => h('td', { class: `num extra ${c.kind}`, title: cellInterval(job, c) || null, 'data-column': sortKey(c) },
         cellText(job, c))),
-      h('td', {}, (job.tags || []).map((t) => h('button', { type: 'button', class: 'tag', 'aria-label': `Filter by tag ${t}`,
-        onclick: () => { tagIn.value = t; reload(); } }, t))),
+      h('td', {}, (job.tags || []).map((t) => h('button', { type: 'button', class: 'tag', title: t, 'aria-label': `Filter by tag ${t}`,
+        onclick: () => { tagIn.value = t; reload(); } }, h('span', {}, t)))),
       h('td', { class: 'nowrap' }, h('time', { datetime: job.created_at || '' }, fmtDate(job.created_at))),
       h('td', { class: 'num nowrap' }, fmtDuration(job.duration_s)),
       h('td', {}, actions));
@@ -306,9 +306,11 @@ export async function mount(root, params, ctx) {
       for (const id of ids.slice(0, 20)) {
         if (stopped) return;
         try {
+          const asked = rows.get(id);
           const job = await api.getJob(id);
           const r = rows.get(id);
-          if (r && !stopped && (job.status !== r.job.status || job.progress !== r.job.progress)) {
+          // A row replaced while the answer was on its way (cancelled, edited) is newer than the answer.
+          if (r && r === asked && !stopped && (job.status !== r.job.status || job.progress !== r.job.progress)) {
             if (job.status !== r.job.status) window.dispatchEvent(new CustomEvent('jobs-changed'));
             const focused = r.tr.contains(document.activeElement);
             if (!focused) replaceRow(job);
