@@ -49,8 +49,11 @@ def parse_algorithm(label: str, n_parents: int, field: str = "algorithm") -> Alg
         return Algorithm(text, "mgrao", n_parents)
     match = _RATIO.match(text) if text is not None else None
     if match is None:
+        valid = ", ".join(str(d) for d in divisors(n_parents))
         raise ConfigError(
-            field, f"unknown algorithm {label!r}: use uniform, oracle, mgrao-max or mgrao-x:1"
+            field,
+            f"unknown algorithm {label!r}: use uniform, oracle, mgrao-max or mgrao-x:1 with x, the parent "
+            f"groups per child, a divisor of n_parents = {n_parents} ({valid})",
         )
     groups, children = int(match.group(1)), int(match.group(2))
     if children != 1:
