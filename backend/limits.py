@@ -2,9 +2,16 @@
 
 from __future__ import annotations
 
+import asyncio
 import json
+import time
 
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+DRAIN_BYTES = 32 * 1024 * 1024
+"""Most of a refused body read (and dropped) before the 413, so that the client, still sending, reads it."""
+DRAIN_S = 2.0
+"""Longest time spent reading a refused body before the 413."""
 
 
 class BodyLimit:
@@ -13,6 +20,12 @@ class BodyLimit:
     The whole body is read here, counted as it streams in (with or without Content-Length, e.g.
     chunked), and handed to the app only once it is known to fit. The app's own body parsing
     therefore never sees an oversized body: it cannot turn the refusal into another error.
+
+    Before answering 413 the rest of the body is read and dropped, up to :data:`DRAIN_BYTES` or
+    :data:`DRAIN_S`, whichever comes first. A server that closes its socket with unread bytes in it
+    sends a TCP reset, and a client still sending then loses the answer (seen in 15 of 200 declared
+    10 MB bodies under load). A client that asked ``Expect: 100-continue`` has sent nothing yet and
+    is refused at once.
     """
 
     def __init__(self, app: ASGIApp, max_bytes: int) -> None:
@@ -24,8 +37,11 @@ class BodyLimit:
         if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
-        declared = dict(scope.get("headers") or []).get(b"content-length")
+        headers = dict(scope.get("headers") or [])
+        declared = headers.get(b"content-length")
         if declared is not None and (not declared.isdigit() or int(declared) > self.max_bytes):
+            if headers.get(b"expect", b"").lower() != b"100-continue":
+                await _drain(receive)
             await self._refuse(send)
             return
         chunks: list[bytes] = []
@@ -38,6 +54,8 @@ class BodyLimit:
             chunk = message.get("body", b"")
             size += len(chunk)
             if size > self.max_bytes:
+                if message.get("more_body", False):
+                    await _drain(receive)
                 await self._refuse(send)
                 return
             chunks.append(chunk)
@@ -62,3 +80,22 @@ class BodyLimit:
                                 (b"content-length", str(len(body)).encode()),
                                 (b"connection", b"close")]})
         await send({"type": "http.response.body", "body": body})
+
+
+async def _drain(receive: Receive) -> None:
+    """Read and drop what is left of a request body, within :data:`DRAIN_BYTES` and :data:`DRAIN_S`."""
+    deadline = time.monotonic() + DRAIN_S
+    dropped = 0
+    while dropped < DRAIN_BYTES:
+        left = deadline - time.monotonic()
+        if left <= 0:
+            return
+        try:
+            message = await asyncio.wait_for(receive(), left)
+        except TimeoutError:
+            return
+        if message["type"] != "http.request":
+            return
+        dropped += len(message.get("body", b""))
+        if not message.get("more_body", False):
+            return
