@@ -187,7 +187,8 @@ def test_at_most_threads_plus_margin_chunks_in_flight(topology: Topology) -> Non
 def test_a_dask_worker_killed_mid_job(topology: Topology) -> None:
     topology.start_cluster(workers=2)
     topology.start_dispatcher(MGRAO_JOB_MEMORY_MIB="16")
-    job_id = topology.submit(_big())
+    long = make_spec("large", seeds=24, episodes=3000)  # seconds of chunks left when the cancel lands
+    job_id = topology.submit(long)
     topology.wait_for(lambda: topology.stored_seeds(job_id) > 0, "the first stored chunk")
     victim = topology.cluster.worker_pids()[0]
     os.kill(victim, signal.SIGKILL)
@@ -240,7 +241,8 @@ def test_a_chunk_that_kills_its_worker_every_time_fails_its_job_only(tmp_path: P
 def test_the_scheduler_restarted_mid_job(topology: Topology) -> None:
     topology.start_cluster(workers=2)
     topology.start_dispatcher(MGRAO_JOB_MEMORY_MIB="16")
-    job_id = topology.submit(_big())
+    long = make_spec("large", seeds=24, episodes=3000)  # seconds of chunks left when the cancel lands
+    job_id = topology.submit(long)
     topology.wait_for(lambda: topology.stored_seeds(job_id) > 0, "the first stored chunk")
     topology.cluster.restart_scheduler()
     topology.wait(job_id)
@@ -269,7 +271,8 @@ def test_cancelling_a_job_cancels_its_futures_and_keeps_its_chunks(topology: Top
 
     topology.start_cluster(workers=2)
     topology.start_dispatcher(MGRAO_JOB_MEMORY_MIB="16")
-    job_id = topology.submit(_big())
+    long = make_spec("large", seeds=24, episodes=3000)  # seconds of chunks left when the cancel lands
+    job_id = topology.submit(long)
     topology.wait_for(lambda: topology.stored_seeds(job_id) > 0, "the first stored chunk")
     with topology.db.write() as session:
         crud.cancel_job(session, job_id=job_id)
@@ -283,7 +286,7 @@ def test_cancelling_a_job_cancels_its_futures_and_keeps_its_chunks(topology: Top
         topology.wait_for(lambda: not ours(), "the job's futures to be cancelled", timeout=30)
     time.sleep(1)
     assert topology.job(job_id).status == "cancelled"
-    assert stored <= topology.stored_seeds(job_id) < len(_big().seeds)  # partial, and no more after the cancel
+    assert stored <= topology.stored_seeds(job_id) < len(long.seeds)  # partial, and no more after the cancel
     after = make_spec("single", seeds=3, episodes=40)
     after_id = topology.submit(after)
     topology.wait(after_id)  # the dispatcher goes on with other jobs

@@ -80,14 +80,17 @@ def test_serve_restarts_a_worker_that_died(service: Service) -> None:
 
 def test_many_workers_run_each_of_200_jobs_exactly_once(service: Service) -> None:
     service.start_server(workers=0)
+    for _ in range(3):
+        service.start_worker()
+    # all three ready before the first job, so that no one of them drains the queue while the others load
+    service.wait_for(lambda: (service.get("/api/health").json()["workers"] or {}).get("ready") == 3,
+                     timeout=120, what="three ready workers")
     ids = []
     for i in range(200):
         response = service.post("/api/jobs", json={"system": "single", "seeds": [i % 7], "episodes": 3,
                                                    "algorithms": ["uniform", "mgrao-max"]})
         assert response.status_code == 202
         ids.append(response.json()["id"])
-    for _ in range(3):
-        service.start_worker()
 
     def all_done() -> bool:
         return service.get("/api/jobs?status=succeeded&limit=1").json()["count"] == 200

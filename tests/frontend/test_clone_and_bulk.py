@@ -37,7 +37,8 @@ def test_bulk_tag_cancel_and_delete(page, server, screenshots):
     done = [post_job(server, {"system": "single", "seeds": 1, "episodes": 5, "name": f"bulk {i}", "tags": ["bulk"]})
             for i in range(2)]
     wait_succeeded(server, done)
-    slow = post_job(server, {"system": "large", "algorithms": ["uniform", "mgrao-1:1"], "seeds": 4, "episodes": 3000,
+    # about a minute of work, so it is still queued or running when cancelled however slow the machine
+    slow = post_job(server, {"system": "large", "algorithms": ["uniform", "mgrao-1:1"], "seeds": 30, "episodes": 3000,
                              "params": {"n_parents": 1000}, "name": "bulk slow", "tags": ["bulk"]})
     page.goto("/#/runs?tag=bulk")
     for job in [*done, slow]:
@@ -53,6 +54,7 @@ def test_bulk_tag_cancel_and_delete(page, server, screenshots):
     page.wait_for_function("() => document.getElementById('bulk-status').textContent.startsWith('Cancelled: 1 of 3')")
     assert "2 skipped (not queued or running)" in page.inner_text("#bulk-status")
     assert get_job(server, slow["id"])["status"] == "cancelled"
+    page.locator(f'tr[data-id="{slow["id"]}"][data-status="cancelled"]').wait_for()
     page.screenshot(path=str(screenshots / "runs-bulk.png"), full_page=True)
 
     page.get_by_role("button", name="Delete selected").click()

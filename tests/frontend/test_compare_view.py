@@ -7,6 +7,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+from tests.frontend.conftest import page_at
 from tests.frontend.test_job_view import get_job, post_job
 
 
@@ -28,10 +29,7 @@ def test_compare_facets_by_system_and_labels_by_difference(browser, server, scre
             post_job(server, base | {"system": "single", "params": {"learning_rate": 0.09}, "name": "single lr"}),
             post_job(server, base | {"system": "large", "name": "large default"})]
     wait_succeeded(server, jobs)
-    context = browser.new_context(viewport={"width": 1280, "height": 800}, base_url=server, accept_downloads=True)
-    page = context.new_page()
-    page.set_default_timeout(60000)
-    try:
+    with page_at(browser, server) as page:
         page.goto(f"/#/compare?jobs={','.join(str(j['id']) for j in jobs)}&smooth=11")
         page.locator("#compare-chart[data-rendered]").wait_for()
         page.locator("#compare-chart-2[data-rendered]").wait_for()
@@ -80,5 +78,3 @@ def test_compare_facets_by_system_and_labels_by_difference(browser, server, scre
             page.locator('button[data-csv="compare-final-utility.csv"]').click()
         lines = Path(download_info.value.path()).read_text().splitlines()
         assert lines[0].startswith("Configuration,Jobs,Runs,Final mean") and len(lines) == 7
-    finally:
-        context.close()

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import urllib.request
 
+from tests.frontend.conftest import page_at
 from tests.frontend.test_compare_view import wait_succeeded
 from tests.frontend.test_job_view import post_job
 
@@ -16,12 +17,9 @@ def test_ours_against_the_paper(browser, server, screenshots):
     jobs = [post_job(server, {"system": s["name"], "algorithms": s["algorithms"], "seeds": 8, "episodes": 100,
                               "tags": ["paper"], "name": f"paper {s['name']}"}) for s in systems]
     wait_succeeded(server, jobs)
-    context = browser.new_context(viewport={"width": 1280, "height": 800}, base_url=server)
-    page = context.new_page()
-    page.set_default_timeout(30000)
-    errors = []
-    page.on("pageerror", lambda error: errors.append(error))
-    try:
+    with page_at(browser, server) as page:
+        errors = []
+        page.on("pageerror", lambda error: errors.append(error))
         page.goto("/#/paper")
         page.locator("#paper-table").wait_for()
         rows = page.locator("#paper-table tbody tr")
@@ -39,5 +37,3 @@ def test_ours_against_the_paper(browser, server, screenshots):
             assert answer.status == 200 and b"reproduc" in answer.read().lower()
         page.screenshot(path=str(screenshots / "paper.png"), full_page=True)
         assert not errors
-    finally:
-        context.close()

@@ -54,11 +54,11 @@ def test_a_three_by_three_grid_from_the_form_fills_its_heatmap_and_opens_a_job(p
     page.wait_for_function("() => document.querySelector('.study-heatmap')?.dataset.cells === '9'", timeout=180_000)
     done = wait_study(server, study_id)
     assert done["study"]["trials"] == {"succeeded": 9}
-    expect(page.locator(".study-state")).to_contain_text("9/9")
+    expect(page.locator(".study-state")).to_contain_text("9/9", timeout=30_000)  # the next poll, at the latest
     heat = page.evaluate("() => document.querySelector('.study-heatmap').data[0].z")
     assert len(heat) == 3 and all(len(row) == 3 and all(v is not None for v in row) for row in heat)
-    assert page.locator(".study-slice").count() == 2
-    assert page.locator("table.trials tbody tr").count() == 9
+    expect(page.locator(".study-slice")).to_have_count(2, timeout=30_000)  # drawn after the heatmap
+    expect(page.locator("table.trials tbody tr")).to_have_count(9, timeout=30_000)
     page.screenshot(path=str(screenshots / "study-view.png"), full_page=True)
 
     # sort by the objective, best first: the first row is the study's best trial

@@ -12,7 +12,8 @@ from pathlib import Path
 import pytest
 
 from tests.frontend.conftest import page_at, running_service
-from tests.frontend.test_job_view import post_job
+from tests.frontend.test_form_messages import health
+from tests.frontend.test_job_view import post_job, wait_for
 
 
 @pytest.fixture
@@ -24,6 +25,8 @@ def cold_server(tmp_path: Path) -> Iterator[str]:
 
 def test_a_job_waiting_for_warming_workers_says_so(browser, cold_server, screenshots):
     job = post_job(cold_server, {"system": "single", "seeds": 2, "episodes": 20, "name": "first job"})
+    # the header reads the workers when the page loads (then every 10 s): load it once the worker has said so
+    wait_for(lambda: (health(cold_server)["workers"] or {}).get("warming") == 1, 60, "the worker to report warming")
     with page_at(browser, cold_server) as page:
         page.goto(f"/#/jobs/{job['id']}")
         waiting = page.locator("#job-waiting")
