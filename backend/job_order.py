@@ -57,7 +57,7 @@ def _configuration(label: str) -> str:
     match = re.fullmatch(r"mgrao-0*(\d{1,6}):\d{1,6}", label.strip().lower())
     groups = int(match.group(1)) if match and int(match.group(1)) > 0 else 1
     try:
-        return parse_algorithm(label, n_parents=groups, field="sort").label
+        return parse_algorithm(label, n_parents=groups, field="sort", hint_groups=False).label
     except ConfigError as error:
         raise BadQuery("sort", error.message) from None
 

@@ -30,7 +30,7 @@ class Algorithm:
     n_groups: int = 0
 
 
-def parse_algorithm(label: str, n_parents: int, field: str = "algorithm") -> Algorithm:
+def parse_algorithm(label: str, n_parents: int, field: str = "algorithm", *, hint_groups: bool = True) -> Algorithm:
     """Turn a label into an :class:`Algorithm` for a system with ``n_parents`` parents.
 
     ``mgrao-x:1`` means x parent groups per child (paper: "an x:y ratio of parent-agent groups to
@@ -38,6 +38,9 @@ def parse_algorithm(label: str, n_parents: int, field: str = "algorithm") -> Alg
 
     Labels are read without case or surrounding spaces, and ratios without leading zeros: the
     returned ``label`` is the canonical spelling (``" MGRAO-05:1"`` is ``"mgrao-5:1"``).
+
+    An unknown label's error lists the x that ``n_parents`` allows, unless ``hint_groups`` is false
+    (a caller without a system, such as a sort key, passes a made-up ``n_parents``).
 
     Raises:
         ConfigError: an unknown label, y other than 1, or an x that does not divide the parents.
@@ -49,12 +52,10 @@ def parse_algorithm(label: str, n_parents: int, field: str = "algorithm") -> Alg
         return Algorithm(text, "mgrao", n_parents)
     match = _RATIO.match(text) if text is not None else None
     if match is None:
-        valid = ", ".join(str(d) for d in divisors(n_parents))
-        raise ConfigError(
-            field,
-            f"unknown algorithm {label!r}: use uniform, oracle, mgrao-max or mgrao-x:1 with x, the parent "
-            f"groups per child, a divisor of n_parents = {n_parents} ({valid})",
-        )
+        hint = "x being the parent groups per child, a whole number"
+        if hint_groups:
+            hint = f"{hint} dividing n_parents = {n_parents} ({', '.join(str(d) for d in divisors(n_parents))})"
+        raise ConfigError(field, f"unknown algorithm {label!r}: use uniform, oracle, mgrao-max or mgrao-x:1, {hint}")
     groups, children = int(match.group(1)), int(match.group(2))
     if children != 1:
         raise ConfigError(field, f"{label}: only x:1 (groups per child) is supported, got y = {children}")

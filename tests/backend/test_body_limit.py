@@ -111,12 +111,13 @@ def test_a_client_that_sends_its_whole_declared_body_before_reading_gets_the_413
         assert_413_answer(read_all(sock))
 
 
-def test_expect_100_continue_is_refused_before_the_body(live_server: str) -> None:
-    """A client asking ``Expect: 100-continue`` waits for the go-ahead: it gets the 413 instead, and
-    never sends its body."""
+@pytest.mark.parametrize("expect", ["100-continue", "100-Continue, foo"])
+def test_expect_100_continue_is_refused_before_the_body(live_server: str, expect: str) -> None:
+    """A client asking ``Expect: 100-continue`` with a declared length over the limit waits for the
+    go-ahead: it gets the 413 instead, and never sends its body."""
     url = urlparse(live_server)
     head = (f"POST /api/jobs HTTP/1.1\r\nHost: {url.netloc}\r\nContent-Type: application/json\r\n"
-            f"Content-Length: {TEN_MB}\r\nExpect: 100-continue\r\n\r\n").encode()
+            f"Content-Length: {TEN_MB}\r\nExpect: {expect}\r\n\r\n").encode()
     with socket.create_connection((url.hostname, url.port), timeout=30) as sock:
         sock.sendall(head)
         assert_413_answer(read_all(sock))  # no "100 Continue" before it
@@ -133,14 +134,17 @@ def test_a_refused_body_that_stalls_is_answered_within_the_drain_time(live_serve
         assert_413_answer(read_all(sock))
 
 
-def test_reading_a_refused_body_stops_at_the_drain_bytes() -> None:
-    """A client that sends without end: the middleware reads at most DRAIN_BYTES of it, then answers."""
+def run_limit(headers: list[tuple[bytes, bytes]], messages: list[dict]) -> tuple[int, list[dict]]:
+    """Drive BodyLimit over a request whose body arrives as ``messages`` (then 1 MiB pieces without end);
+    how many times it read, and what it sent."""
     asked = 0
     sent: list[dict] = []
 
-    async def endless() -> dict:
+    async def receive() -> dict:
         nonlocal asked
         asked += 1
+        if asked <= len(messages):
+            return messages[asked - 1]
         return {"type": "http.request", "body": b"x" * 2**20, "more_body": True}
 
     async def send(message: dict) -> None:
@@ -149,7 +153,25 @@ def test_reading_a_refused_body_stops_at_the_drain_bytes() -> None:
     async def never(scope, receive, send) -> None:
         raise AssertionError("an oversized body reached the app")
 
-    scope = {"type": "http", "method": "POST", "path": "/api/jobs", "headers": [(b"content-type", b"application/json")]}
-    asyncio.run(BodyLimit(never, max_bytes=LIMIT)(scope, endless, send))
+    scope = {"type": "http", "http_version": "1.1", "method": "POST", "path": "/api/jobs",
+             "headers": [(b"content-type", b"application/json"), *headers]}
+    asyncio.run(BodyLimit(never, max_bytes=LIMIT)(scope, receive, send))
+    return asked, sent
+
+
+def test_reading_a_refused_body_stops_at_the_drain_bytes() -> None:
+    """A client that sends without end: the middleware reads DRAIN_BYTES past the limit, then answers."""
+    asked, sent = run_limit([], [])
     assert sent[0]["status"] == 413
-    assert asked <= DRAIN_BYTES // 2**20 + 1
+    assert asked == DRAIN_BYTES // 2**20 + 1  # the piece that passed the limit, then DRAIN_BYTES dropped
+
+
+def test_a_declared_body_beyond_the_drain_bytes_is_refused_unread() -> None:
+    asked, sent = run_limit([(b"content-length", str(LIMIT + DRAIN_BYTES + 1).encode())], [])
+    assert asked == 0 and sent[0]["status"] == 413
+
+
+def test_a_client_that_leaves_while_its_body_is_drained_gets_no_answer() -> None:
+    piece = {"type": "http.request", "body": b"x" * 2**20, "more_body": True}
+    asked, sent = run_limit([(b"content-length", str(TEN_MB).encode())], [piece, piece, {"type": "http.disconnect"}])
+    assert asked == 3 and sent == []

@@ -187,8 +187,7 @@ def test_at_most_threads_plus_margin_chunks_in_flight(topology: Topology) -> Non
 def test_a_dask_worker_killed_mid_job(topology: Topology) -> None:
     topology.start_cluster(workers=2)
     topology.start_dispatcher(MGRAO_JOB_MEMORY_MIB="16")
-    long = make_spec("large", seeds=24, episodes=3000)  # seconds of chunks left when the cancel lands
-    job_id = topology.submit(long)
+    job_id = topology.submit(_big())
     topology.wait_for(lambda: topology.stored_seeds(job_id) > 0, "the first stored chunk")
     victim = topology.cluster.worker_pids()[0]
     os.kill(victim, signal.SIGKILL)
@@ -241,8 +240,7 @@ def test_a_chunk_that_kills_its_worker_every_time_fails_its_job_only(tmp_path: P
 def test_the_scheduler_restarted_mid_job(topology: Topology) -> None:
     topology.start_cluster(workers=2)
     topology.start_dispatcher(MGRAO_JOB_MEMORY_MIB="16")
-    long = make_spec("large", seeds=24, episodes=3000)  # seconds of chunks left when the cancel lands
-    job_id = topology.submit(long)
+    job_id = topology.submit(_big())
     topology.wait_for(lambda: topology.stored_seeds(job_id) > 0, "the first stored chunk")
     topology.cluster.restart_scheduler()
     topology.wait(job_id)

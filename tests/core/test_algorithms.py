@@ -66,7 +66,7 @@ def test_unknown_labels(label):
     with pytest.raises(ConfigError) as info:
         parse_algorithm(label, 10)
     assert "unknown algorithm" in info.value.message
-    assert "a divisor of n_parents = 10 (1, 2, 5, 10)" in info.value.message  # what x in mgrao-x:1 may be
+    assert "a whole number dividing n_parents = 10 (1, 2, 5, 10)" in info.value.message  # what x may be
 
 
 def test_parse_algorithms_list_errors():

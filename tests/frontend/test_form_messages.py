@@ -18,6 +18,10 @@ def health(base: str) -> dict:
         return json.loads(answer.read())
 
 
+def active(reading: dict) -> int:
+    return reading["running"] + reading["queued"]
+
+
 def test_preset_change_keeps_edits_and_the_ratio_field_lists_valid_counts(page, server, screenshots):
     page.goto("/#/new")
     page.locator("form.newjob").wait_for()
@@ -58,7 +62,7 @@ def test_compare_says_what_is_wrong_and_what_is_hidden(page, server):
 
 def test_header_counts_follow_an_action_at_once(page, server):
     # nothing left active by earlier tests, whose ending would offset the new job in the header's sum
-    wait_for(lambda: health(server)["running"] + health(server)["queued"] == 0, 120, "an idle queue")
+    wait_for(lambda: active(health(server)) == 0, 120, "an idle queue")
     page.goto("/#/runs")
     page.locator("#health.ok").wait_for()
     before = page.inner_text("#health")

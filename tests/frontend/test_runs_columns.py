@@ -97,5 +97,5 @@ def test_runs_table_fits_1280_with_its_cancel_button_in_view(browser, server, sc
             page.get_by_role("dialog").get_by_role("button", name="Cancel job").click()
             page.locator(f'tr[data-id="{slow[0]["id"]}"][data-status="cancelled"]').wait_for()
     finally:
-        for job in slow[1:]:
+        for job in slow:  # the one cancelled through the page answers 409
             cancel(server, job["id"])
