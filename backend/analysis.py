@@ -25,7 +25,7 @@ from backend.cache import AnswerCache
 from backend.crud import get_job, job_dict
 from backend.errors import BadQuery, Conflict
 from backend.memory import trim
-from backend.models import SUCCEEDED, Job, Run
+from backend.models import RUN_READ_BATCH, SUCCEEDED, Job, Run
 from mgrao_core import PRESETS, EpisodeStats, final_utilities, summarise
 from mgrao_core.reproduction import PAPER_EPISODES
 
@@ -36,7 +36,6 @@ MAX_CONCURRENT_BUILDS = 2
 answer's arrays, up to :data:`MAX_RESPONSE_VALUES` numbers)."""
 _BUILDS = threading.BoundedSemaphore(MAX_CONCURRENT_BUILDS)
 _BAND_ARRAYS = 3  # mean, low, high (the episode index is shared)
-_READ_BATCH = 16
 
 
 def utilities(run: Run) -> np.ndarray:
@@ -83,7 +82,7 @@ def choose_points(field: str, requested: int | None, episodes: int, curves: int)
 
 def _stream(session: Session, job_ids: Sequence[int], *columns: Any) -> Iterator[Any]:
     statement = (select(*columns).where(Run.job_id.in_(list(job_ids))).order_by(Run.job_id, Run.id)
-                 .execution_options(yield_per=_READ_BATCH))
+                 .execution_options(yield_per=RUN_READ_BATCH))
     yield from session.execute(statement)
 
 
@@ -206,7 +205,7 @@ def _compare(session: Session, *, job_ids: Sequence[int], points: int | None) ->
         finals[key], contributors[key] = {}, []
         for job in members:
             statement = (select(Run.seed, Run.utilities).where(Run.job_id == job.id, Run.algorithm == algorithm)
-                         .order_by(Run.id).execution_options(yield_per=_READ_BATCH))
+                         .order_by(Run.id).execution_options(yield_per=RUN_READ_BATCH))
             for seed, blob in session.execute(statement):
                 if seed in finals[key]:
                     continue

@@ -85,6 +85,10 @@ class JobTag(Base):
     tag: Mapped[str] = mapped_column(String(50), primary_key=True, index=True)
 
 
+RUN_READ_BATCH = 16
+"""Runs fetched at a time where a job's runs are streamed (each holds a seed's utilities and weights)."""
+
+
 class Run(Base):
     """One (algorithm, seed) run of a job: every episode utility and the final weights.
 
@@ -185,7 +189,8 @@ class WorkerPresence(Base):
     """A worker process (or the Dask dispatcher) that is alive: ``backend/presence.py`` keeps the row.
 
     ``state`` is ``warming`` while the process loads or compiles the simulation kernel and ``ready``
-    once it can run a job; ``seen_at`` is stamped by the database clock every heartbeat.
+    once it can run a job; ``seen_at`` is stamped by the database clock at every refresh
+    (:func:`backend.presence.refresh_interval`).
     """
 
     __tablename__ = "workers"

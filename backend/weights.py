@@ -18,11 +18,10 @@ from sqlalchemy.orm import Session
 
 from backend.crud import get_job
 from backend.errors import BadQuery, Conflict
-from backend.models import Run
+from backend.models import RUN_READ_BATCH, Run
 
 MAX_WEIGHT_VALUES = 200_000
 """Learned weights shown per configuration (children x groups x types); larger PW are left out."""
-_READ_BATCH = 16
 
 
 def _shown(shape: list[int]) -> bool:
@@ -56,7 +55,7 @@ def mean_over_seeds(session: Session, job_id: int, algorithm: str) -> dict[str, 
     combined: np.ndarray | None = None
     groups: np.ndarray | None = None
     count = 0
-    for blobs in session.execute(select(*columns).where(*of_config).execution_options(yield_per=_READ_BATCH)):
+    for blobs in session.execute(select(*columns).where(*of_config).execution_options(yield_per=RUN_READ_BATCH)):
         values = np.frombuffer(blobs[0], dtype="<f8")
         combined = values.copy() if combined is None else combined + values
         if len(blobs) > 1:
