@@ -5,17 +5,15 @@ the summary columns defined where they are shown."""
 
 from __future__ import annotations
 
-import json
 import time
-import urllib.request
 
 from tests.frontend.test_compare_view import wait_succeeded
+from tests.frontend.test_dashboard import api
 from tests.frontend.test_job_view import post_job, wait_for
 
 
 def health(base: str) -> dict:
-    with urllib.request.urlopen(f"{base}/api/health", timeout=10) as answer:
-        return json.loads(answer.read())
+    return api(base, "GET", "/health")
 
 
 def active(reading: dict) -> int:

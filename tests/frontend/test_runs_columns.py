@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import time
 import urllib.error
-import urllib.request
 
 from tests.frontend.conftest import page_at
+from tests.frontend.test_dashboard import api
 from tests.frontend.test_job_view import get_job, post_job
 
 RATES = [0.5, 0.05, 0.2]
@@ -53,11 +53,8 @@ def test_result_and_parameter_columns_sort_by_header(browser, server, screenshot
 
 def cancel(base: str, job_id: int) -> None:
     """Cancel a job that may already have ended (409 then)."""
-    request = urllib.request.Request(f"{base}/api/jobs/{job_id}/cancel", data=b"{}", method="POST",
-                                     headers={"Content-Type": "application/json"})
     try:
-        with urllib.request.urlopen(request, timeout=10):
-            pass
+        api(base, "POST", f"/jobs/{job_id}/cancel")
     except urllib.error.HTTPError as e:
         if e.code != 409:
             raise
