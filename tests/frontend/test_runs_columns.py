@@ -96,3 +96,40 @@ def test_runs_table_fits_1280_with_its_cancel_button_in_view(browser, server, sc
     finally:
         for job in slow:  # the one cancelled through the page answers 409
             cancel(server, job["id"])
+
+
+def test_a_progress_answer_older_than_a_cancel_does_not_bring_the_row_back(browser, server):
+    """The runs page polls active jobs; a poll answer on its way while the row is cancelled says
+    "running" and must not replace the newer, cancelled row. The answer is held back here (the
+    route) until the cancel has been shown, then delivered."""
+    job = post_job(server, {"system": "large", "algorithms": ["uniform", "mgrao-1:1"], "seeds": 30, "episodes": 3000,
+                            "params": {"n_parents": 1000}, "name": "stale poll", "tags": ["stale-poll"]})
+    held = []
+
+    def hold_first_poll(route) -> None:
+        if held:
+            route.continue_()
+        else:
+            held.append((route, route.fetch()))  # the job's state now: queued or running
+
+    try:
+        with page_at(browser, server) as page:
+            page.goto("/#/runs?tag=stale-poll")
+            row = page.locator(f'tr[data-id="{job["id"]}"]')
+            row.wait_for()
+            page.route(f"**/api/jobs/{job['id']}", hold_first_poll)
+            deadline = time.monotonic() + 30
+            while not held:  # the next poll (every 1.5 s) is caught
+                assert time.monotonic() < deadline, "the runs page did not poll the active job"
+                page.wait_for_timeout(100)
+            route, answer = held[0]
+            assert answer.json()["status"] in ("queued", "running")
+            page.get_by_role("button", name=f"Cancel job {job['id']}").click()
+            page.get_by_role("dialog").get_by_role("button", name="Cancel job").click()
+            page.locator(f'tr[data-id="{job["id"]}"][data-status="cancelled"]').wait_for()
+            route.fulfill(response=answer)  # the stale answer arrives after the cancel
+            page.wait_for_timeout(500)
+            assert row.get_attribute("data-status") == "cancelled"
+            page.unroute(f"**/api/jobs/{job['id']}")
+    finally:
+        cancel(server, job["id"])
