@@ -91,7 +91,7 @@ def _install_error_handlers(app: FastAPI) -> None:
 def create_app(settings: Settings | None = None) -> FastAPI:
     """Build the service: API routers first, then the API docs, libraries and the dashboard at ``/``."""
     settings = settings or Settings()
-    db = Database(settings.database_url, settings.db_busy_timeout_s)
+    db = Database(settings.database_url, settings.db_busy_timeout_s, reserve_bytes=settings.min_free_bytes)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:

@@ -19,9 +19,11 @@ PACKAGE_DIR = Path(__file__).resolve().parent
 class Database:
     """One engine and its session factory."""
 
-    def __init__(self, url: str, busy_timeout_s: float = dialect.BUSY_TIMEOUT_MS / 1000) -> None:
+    def __init__(self, url: str, busy_timeout_s: float = dialect.BUSY_TIMEOUT_MS / 1000, *,
+                 reserve_bytes: int = 0) -> None:
         self.url = url
         self.file = dialect.sqlite_file(url)
+        self.reserve_bytes = reserve_bytes
         self.engine: Engine = dialect.create_engine_for(url, busy_timeout_s)
         self.sessions = sessionmaker(self.engine, expire_on_commit=False)
 
@@ -45,14 +47,27 @@ class Database:
             dialect.check_file_identity(session)
 
     def probe(self) -> None:
-        """Check that the database can be written now (a write that rolls back).
+        """Check that the database can take new work now: room on its disk, and a write that rolls back.
 
         Raises:
             DatabaseUnavailable: with the reason.
         """
         if self.file is not None and not self.file.exists():
             raise dialect.DatabaseUnavailable(f"the database file {self.file} is missing (moved or deleted)")
+        self.require_room()
         dialect.probe_write(self.engine)
+
+    def require_room(self) -> None:
+        """Refuse new work while a SQLite file's disk has less than :attr:`reserve_bytes` free.
+
+        What is kept free is for the results of jobs already accepted. PostgreSQL's disk is its
+        server's: there a full disk is reported by the write that fails.
+
+        Raises:
+            DatabaseUnavailable: naming the free space and the reserve.
+        """
+        if self.file is not None and self.reserve_bytes > 0:
+            dialect.check_room(self.file, self.reserve_bytes)
 
     def migrate(self, *, create_missing: bool = True) -> None:
         """Bring the schema to the newest revision, creating a missing SQLite file if asked.

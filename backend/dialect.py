@@ -124,6 +124,38 @@ class DatabaseUnavailable(Exception):
     """The database cannot be written or read right now (the service answers 503)."""
 
 
+def free_bytes(path: Path) -> int:
+    """Bytes this process may still write on the file system that holds ``path`` (a file or directory).
+
+    The superuser may also fill the blocks a file system keeps in reserve for it, so for root
+    this is the free count, for anyone else the available count.
+    """
+    info = os.statvfs(path)
+    blocks = info.f_bfree if hasattr(os, "geteuid") and os.geteuid() == 0 else info.f_bavail
+    return blocks * info.f_frsize
+
+
+def check_room(path: Path, reserve_bytes: int) -> None:
+    """Refuse new work when the SQLite file's file system has less than ``reserve_bytes`` free.
+
+    The database file, its write-ahead log and its journal all live in the file's directory, so
+    that is the file system every write needs room on. A completely full disk does not stop a
+    write that rolls back (nothing reaches the file), so a write probe alone cannot see it.
+
+    Raises:
+        DatabaseUnavailable: naming the free space and the reserve.
+    """
+    try:
+        free = free_bytes(path.parent)
+    except OSError:  # the directory itself is gone: the file checks report that
+        return
+    if free < reserve_bytes:
+        raise DatabaseUnavailable(
+            f"the disk holding {path} is (nearly) full: {free / 1024**2:.1f} MiB free, less than the "
+            f"{reserve_bytes / 1024**2:g} MiB kept for the results of accepted jobs (MGRAO_MIN_FREE_MIB); "
+            "no new work is accepted until space is freed")
+
+
 _PATH_KEY = "mgrao_path"
 _IDENTITY_KEY = "mgrao_identity"
 

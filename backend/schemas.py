@@ -98,6 +98,8 @@ class Health(BaseModel):
     status: str
     version: str
     database: str
-    queued: int
-    running: int
+    queued: int | None
+    """Jobs queued; null when the database cannot be read (a 503)."""
+    running: int | None
+    """Jobs running; null when the database cannot be read (a 503)."""
     workers: dict[str, int] | None = None

@@ -34,6 +34,11 @@ class Settings(BaseSettings):
         30.0, gt=0, le=3600,
         description="How long a database call waits for another process's write lock before answering 503.",
     )
+    min_free_mib: float = Field(
+        16.0, ge=0, le=1024**2,
+        description="Free space the SQLite database's disk must keep for the results of accepted jobs: below "
+                    "it /api/health answers 503 and new jobs and studies are refused with 503 (0 = no check).",
+    )
     study_poll_s: float = Field(2.0, gt=0, le=3600,
                                 description="How often the API advances running studies (their trials also "
                                             "advance them as they end).")
@@ -54,6 +59,11 @@ class Settings(BaseSettings):
     def job_memory_bytes(self) -> int:
         """:attr:`job_memory_mib` in bytes."""
         return self.job_memory_mib * 1024**2
+
+    @property
+    def min_free_bytes(self) -> int:
+        """:attr:`min_free_mib` in bytes."""
+        return int(self.min_free_mib * 1024**2)
     port: int = Field(8000, ge=0, le=65535)
     allowed_hosts: Annotated[list[str], NoDecode] = Field(
         ["127.0.0.1", "localhost"], min_length=1,

@@ -24,8 +24,10 @@ def health(db: DatabaseDep, settings: SettingsDep) -> JSONResponse:
     ``workers`` counts the worker processes seen within ``stale_after_s`` by state: ``warming``
     (loading or compiling the simulation kernel) or ``ready``.
 
-    The database check is what a submission needs: a write transaction on a fresh connection,
-    rolled back, on the file the service was configured with. 503 with the reason otherwise.
+    The database check is what a submission needs: room on the SQLite file's disk (at least
+    ``MGRAO_MIN_FREE_MIB`` free) and a write transaction on a fresh connection, rolled back, on the
+    file the service was configured with. 503 with the reason otherwise; the queue's counts and the
+    workers are then unknown (null).
     """
     try:
         db.probe()
@@ -34,8 +36,8 @@ def health(db: DatabaseDep, settings: SettingsDep) -> JSONResponse:
             workers = presence.counts(session, stale_after_s=settings.stale_after_s)
     except (DatabaseUnavailable, SQLAlchemyError) as error:
         why = str(error) if isinstance(error, DatabaseUnavailable) else reason(error)
-        body = {"status": "error", "version": mgrao_core.__version__, "database": why, "queued": 0, "running": 0,
-                "workers": None}
+        body = {"status": "error", "version": mgrao_core.__version__, "database": why, "queued": None,
+                "running": None, "workers": None}
         return JSONResponse(body, status_code=503, headers={"Retry-After": str(RETRY_AFTER_S)})
     return JSONResponse({
         "status": "ok", "version": mgrao_core.__version__, "database": "ok",

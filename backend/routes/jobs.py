@@ -36,6 +36,7 @@ def submit_job(body: JobCreate, db: DatabaseDep, settings: SettingsDep, response
                          memory_budget=settings.job_memory_bytes)
     except ConfigError as error:
         raise InvalidSpec.from_config_error(error, params=body.params) from None
+    db.require_room()
     with db.write() as session:
         job = crud.create_job(session, spec=spec, name=body.name, tags=body.tags, notes=body.notes)
         session.flush()

@@ -38,6 +38,7 @@ def submit_study(db: DatabaseDep, body: Annotated[dict[str, Any], Body()]) -> Re
         plan = make_plan(body)
     except ConfigError as error:
         raise InvalidSpec(_location(error.field), error.field, str(error)) from None
+    db.require_room()
     study_id = studies.create_study(db, plan=plan)
     with db.session() as session:
         detail = studies.study_detail(session, study_id)
@@ -125,6 +126,7 @@ def cancel_study(study_id: StudyId, db: DatabaseDep) -> Response:
 @router.post("/{study_id:int}/rerun-failed", dependencies=[Authorized])
 def rerun_failed(study_id: StudyId, db: DatabaseDep) -> Response:
     """Run the failed and cancelled trials again (same parameters, same numbers; no cell twice)."""
+    db.require_room()
     count = studies.rerun_failed(db, study_id=study_id)
     with db.session() as session:
         return _json(studies.study_detail(session, study_id) | {"rerun": count})

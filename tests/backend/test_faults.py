@@ -223,3 +223,77 @@ def test_a_restarted_worker_does_not_bring_back_a_missing_database(service: Serv
     later = _accepted(service)
     _wait_succeeded(service, later)  # the restarted worker found the file and works
     assert _stored_jobs(db_file) == 2
+
+
+@pytest.fixture
+def small_disk(tmp_path: Path):
+    """A 32 MiB tmpfs mounted at ``tmp_path/disk`` (unmounted at the end); skips where mounting is not allowed."""
+    mount = tmp_path / "disk"
+    mount.mkdir()
+    try:
+        done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=32m,mode=0755", "tmpfs", str(mount)],
+                              capture_output=True, text=True, check=False, timeout=30)
+    except FileNotFoundError:
+        pytest.skip("no mount command on this machine")
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here (needs root and CAP_SYS_ADMIN): {done.stderr.strip()}")
+    yield mount
+    subprocess.run(["umount", "-l", str(mount)], capture_output=True, check=False, timeout=30)
+
+
+def _fill(disk: Path, leave_bytes: int = 0) -> Path:
+    """Write a file on ``disk`` until at most ``leave_bytes`` are free (ENOSPC ends it at 0); its path."""
+    filler = disk / "filler"
+    block = b"\0" * 1024**2
+    with open(filler, "wb", buffering=0) as out:
+        while (free := shutil.disk_usage(disk).free) > leave_bytes:
+            try:
+                out.write(block[: max(4096, min(len(block), free - leave_bytes))])
+            except OSError:  # ENOSPC: nothing left
+                break
+    return filler
+
+
+def test_a_full_disk_answers_503_on_health_and_submissions_and_loses_nothing(tmp_path: Path, small_disk: Path) -> None:
+    # the issue's probe: health said "ok" on 400 of 400 polls while every submission got 503 "database or disk
+    # is full"; a write that rolls back never needs new space, so only the free space tells
+    service = Service(tmp_path, db_url=f"sqlite:///{small_disk / 'service.db'}")  # its logs stay on tmp_path
+    service.env["MGRAO_MIN_FREE_MIB"] = "4"
+    try:
+        service.start_server(workers=1)
+        db_file = small_disk / "service.db"
+        _wait_succeeded(service, _accepted(service))
+        running = _accepted(service, {"system": "large", "seeds": 20, "episodes": 3000})
+        service.wait_for(lambda: service.get(f"/api/jobs/{running}").json()["status"] == "running", what="running")
+
+        filler = _fill(small_disk)  # the disk completely full
+        polls = [service.get("/api/health") for _ in range(20)]
+        assert {p.status_code for p in polls} == {503}, [p.text for p in polls if p.status_code != 503][:1]
+        body = polls[-1].json()
+        assert "full" in body["database"] and "MGRAO_MIN_FREE_MIB" in body["database"], body
+        assert body["queued"] is None and body["running"] is None, body  # unknown, not an empty queue
+        acknowledged, codes = _submit(service, 10)
+        assert acknowledged == 0 and set(codes) == {503}, codes
+        study = service.post("/api/studies", json={
+            "name": "full disk", "method": "grid", "base": {"system": "single", "seeds": 2, "episodes": 10},
+            "space": {"learning_rate": {"values": [0.1, 0.2]}},
+            "objective": {"configuration": "mgrao-max", "metric": "final_mean", "direction": "maximize"}})
+        assert study.status_code == 503 and "MGRAO_MIN_FREE_MIB" in study.text, study.text
+
+        filler.unlink()
+        _fill(small_disk, leave_bytes=2 * 1024**2)  # some room, but less than the reserve
+        nearly = service.get("/api/health")
+        assert nearly.status_code == 503 and "nearly" in nearly.json()["database"], nearly.text
+        assert service.post("/api/jobs", json=SMALL).status_code == 503
+        listing = service.get("/api/jobs")  # on a disk completely full SQLite's WAL index cannot grow, reads too
+        assert listing.status_code == 200 and listing.json()["count"] == 2, listing.text  # fail; here they work
+
+        filler.unlink()
+        service.wait_for(lambda: service.get("/api/health").status_code == 200, what="health after space was freed")
+        _wait_succeeded(service, _accepted(service))
+        _wait_succeeded(service, running)  # the job that ran through the full disk finishes, its runs whole
+        configurations = service.get(f"/api/jobs/{running}/results").json()["configurations"]
+        assert configurations and all(c["seeds_done"] == 20 for c in configurations), configurations
+        assert _stored_jobs(db_file) == 3  # exactly the acknowledged ones
+    finally:
+        service.stop()
