@@ -37,7 +37,7 @@ from backend.db import Database
 from backend.heartbeats import Heartbeats
 from backend.lifeline import stop_on_signals
 from backend.presence import Presence, refresh_interval
-from backend.retry import Backoff, HealthClock, Stopping, persist
+from backend.retry import Backoff, HealthClock, OutageLog, Stopping, persist
 from backend.settings import Settings
 from mgrao_core import ExperimentSpec, MgraoError, NumericalError, plan_chunks, spec_from_dict
 
@@ -106,7 +106,8 @@ class Dispatcher:
         self.beats.start()
         presence = Presence(self.db, self.dispatcher_id, kind="dask", interval_s=refresh_interval(self.settings))
         presence.start()
-        backoff = Backoff(first=0.5, cap=10.0)
+        backoff = Backoff(first=0.5)
+        outage = OutageLog(log, f"dispatcher {self.dispatcher_id} dispatching")
         try:
             while not self.shutdown.is_set():
                 try:
@@ -116,13 +117,13 @@ class Dispatcher:
                     self._fill()
                     self._collect()
                     backoff.reset()
+                    outage.succeeded()
                 except Stopping:
                     break
                 except Exception as error:  # noqa: BLE001 - the dispatcher outlives every fault of one round
-                    delay = backoff.next()
-                    log.warning("dispatching failed (%s: %s); retrying in %.1f s", type(error).__name__, error, delay)
+                    outage.failed(error)
                     self._disconnect()
-                    self.shutdown.wait(delay)
+                    self.shutdown.wait(backoff.next())
         finally:
             self._hand_back()
             self._disconnect()

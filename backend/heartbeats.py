@@ -16,8 +16,7 @@ from dataclasses import dataclass, field
 
 from backend import queue
 from backend.db import Database
-from backend.dialect import reason
-from backend.retry import HealthClock
+from backend.retry import HealthClock, OutageLog
 
 log = logging.getLogger("mgrao.heartbeats")
 
@@ -39,6 +38,7 @@ class Heartbeats(threading.Thread):
         super().__init__(name=name, daemon=True)
         self.db, self.heartbeat_s, self.progress_s = db, heartbeat_s, progress_s
         self.health = health
+        self.outage = OutageLog(log, f"{name} of running jobs")
         self._beats: dict[int, _Beat] = {}
         self._lock = threading.Lock()
         self._closed = threading.Event()
@@ -88,10 +88,11 @@ class Heartbeats(threading.Thread):
         except Exception as error:  # a busy database must not stop the beats; the next one retries
             if self.health is not None:
                 self.health.failure()
-            log.warning("heartbeat of job %s failed: %s", beat.claim.job_id, reason(error))
+            self.outage.failed(error)
             return
         if self.health is not None:
             self.health.success()
+        self.outage.succeeded()
         if not ours:
             with self._lock:
                 beat.lost = True

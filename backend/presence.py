@@ -22,6 +22,7 @@ from sqlalchemy.orm import Session
 from backend.db import Database
 from backend.dialect import db_now, reason
 from backend.models import READY, WARMING, WORKER_STATES, WorkerPresence
+from backend.retry import OutageLog
 from backend.settings import Settings
 
 log = logging.getLogger("mgrao.presence")
@@ -47,6 +48,7 @@ class Presence(threading.Thread):
         super().__init__(name=f"presence-{worker_id}", daemon=True)
         self.db, self.worker_id, self.kind, self.interval_s = db, worker_id, kind, interval_s
         self.state = WARMING
+        self.outage = OutageLog(log, f"refreshing worker {worker_id} in the workers table")
         self._closed = threading.Event()
         self._wake = threading.Event()
 
@@ -86,7 +88,9 @@ class Presence(threading.Thread):
                     session.execute(insert(WorkerPresence).values(worker_id=self.worker_id, kind=self.kind,
                                                                   state=self.state, started_at=now, seen_at=now))
         except Exception as error:  # noqa: BLE001 - presence is advisory: retried at the next refresh
-            log.warning("could not refresh worker %s in the workers table (%s)", self.worker_id, reason(error))
+            self.outage.failed(error)
+        else:
+            self.outage.succeeded()
 
     def _forget_the_long_gone(self) -> None:
         try:

@@ -2,7 +2,9 @@
 
 A worker or dispatcher must outlive every database fault (read-only, locked, unreachable for a
 while): each call is retried with a capped exponential backoff until it succeeds or the process
-is told to stop.
+is told to stop. The cap (:data:`RETRY_CAP_S`) is short, so work resumes about that long after the
+database returns; an outage is logged once when it starts and once when it ends
+(:class:`OutageLog`), however many tries it takes.
 """
 
 from __future__ import annotations
@@ -19,12 +21,15 @@ from backend.dialect import DatabaseUnavailable, reason
 
 T = TypeVar("T")
 log = logging.getLogger("mgrao.retry")
+RETRY_CAP_S = 2.0
+"""The longest wait between two tries of a failing database call: work resumes at most this long
+after the database returns (a try is one cheap query, so trying this often costs the database nothing)."""
 
 
 class Backoff:
     """Capped exponential waits between retries."""
 
-    def __init__(self, first: float = 0.25, cap: float = 30.0) -> None:
+    def __init__(self, first: float = 0.25, cap: float = RETRY_CAP_S) -> None:
         self.first, self.cap, self.delay = first, cap, first
 
     def next(self) -> float:
@@ -67,6 +72,38 @@ class HealthClock:
             return self._since is not None and time.monotonic() - self._since >= seconds
 
 
+class OutageLog:
+    """Logs a repeated call's failures as one line when they start and one when the call goes through again.
+
+    A loop that retries every :data:`RETRY_CAP_S` through a database outage would otherwise log (and,
+    with a traceback, fill the log) at every try. A failure that is not the database's own (a bug)
+    carries its traceback, once.
+    """
+
+    def __init__(self, logger: logging.Logger, what: str) -> None:
+        self.logger, self.what = logger, what
+        self.failures = 0
+        self.since = 0.0
+
+    def failed(self, error: BaseException) -> None:
+        """A try failed: a warning if it is the first of a run of failures, else a debug line."""
+        self.failures += 1
+        if self.failures > 1:
+            self.logger.debug("%s failed again (%s)", self.what, reason(error))
+            return
+        self.since = time.monotonic()
+        ours = isinstance(error, SQLAlchemyError | DatabaseUnavailable)
+        self.logger.warning("%s failed (%s); retrying at least every %g s, logged again when it goes through",
+                            self.what, reason(error), RETRY_CAP_S, exc_info=None if ours else error)
+
+    def succeeded(self) -> None:
+        """A try went through: one line if it ends a run of failures."""
+        if self.failures:
+            self.logger.warning("%s goes through again after %.1f s and %d failed tries", self.what,
+                                time.monotonic() - self.since, self.failures)
+            self.failures = 0
+
+
 class Stopping(Exception):
     """The process was told to stop while a database call was still failing."""
 
@@ -78,6 +115,7 @@ def persist(call: Callable[[], T], what: str, stop: threading.Event, health: Hea
         Stopping: ``stop`` was set while the database was failing.
     """
     backoff = Backoff()
+    outage = OutageLog(log, what)
     while True:
         try:
             value = call()
@@ -86,10 +124,10 @@ def persist(call: Callable[[], T], what: str, stop: threading.Event, health: Hea
                 health.failure()
             if stop.is_set():
                 raise Stopping(f"stopping while {what} failed: {reason(error)}") from error
-            delay = backoff.next()
-            log.warning("%s failed (%s); retrying in %.2f s", what, reason(error), delay)
-            stop.wait(delay)
+            outage.failed(error)
+            stop.wait(backoff.next())
         else:
             if health is not None:
                 health.success()
+            outage.succeeded()
             return value

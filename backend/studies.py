@@ -43,6 +43,7 @@ from backend.models import (
     Trial,
     utcnow,
 )
+from backend.retry import OutageLog
 from mgrao_core import ConfigError
 from mgrao_core.search import StudyPlan, evaluate, make_plan
 
@@ -395,13 +396,16 @@ class StudyDriver(threading.Thread):
         self.stopping = threading.Event()
 
     def run(self) -> None:
-        """Advance until stopped; a failing database only delays the next round."""
+        """Advance until stopped; a failing database only delays the next round (logged once per outage)."""
+        outage = OutageLog(log, "advancing studies")
         while not self.stopping.wait(self.period_s):
             try:
                 for study_id in running_studies(self.db):
                     advance(self.db, study_id)
-            except Exception:  # noqa: BLE001 - the next round retries
-                log.warning("advancing studies failed", exc_info=True)
+            except Exception as error:  # noqa: BLE001 - the next round retries
+                outage.failed(error)
+            else:
+                outage.succeeded()
 
     def stop(self) -> None:
         """End the thread after its current round."""

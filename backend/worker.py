@@ -18,11 +18,10 @@ from typing import TypeVar
 
 from backend import queue, studies
 from backend.db import Database
-from backend.dialect import reason
 from backend.heartbeats import Heartbeats
 from backend.lifeline import stop_on_signals
 from backend.presence import Presence, refresh_interval
-from backend.retry import Backoff, HealthClock, Stopping, persist
+from backend.retry import Backoff, HealthClock, OutageLog, Stopping, persist
 from backend.settings import Settings
 
 log = logging.getLogger("mgrao.worker")
@@ -169,14 +168,15 @@ class Worker:
     def _poll(self) -> None:
         """Claim and run jobs until :meth:`stop`; a failing poll is retried with a capped backoff."""
         backoff = Backoff()
+        outage = OutageLog(log, f"worker {self.worker_id} polling the queue")
         while not self.shutdown.is_set():
             try:
                 ran = self.run_once()
                 backoff.reset()
+                outage.succeeded()
             except Exception as error:  # noqa: BLE001 - a worker outlives every failure of one poll
-                delay = backoff.next()
-                log.warning("polling the queue failed (%s); retrying in %.2f s", reason(error), delay)
-                self.shutdown.wait(delay)
+                outage.failed(error)
+                self.shutdown.wait(backoff.next())
                 continue
             if not ran:
                 self.shutdown.wait(self.settings.poll_s)

@@ -86,13 +86,25 @@ class PostgresServer:
         """initdb, then start the server and wait until it accepts connections."""
         self._run(str(self.bin / "initdb"), "-D", str(self.data), "-U", self.user, "-A", "trust", "-E", "UTF8",
                   "--no-sync")
+        self._start_server()
+        return self
+
+    def _start_server(self) -> None:
         options = (f"-p {self.port} -c listen_addresses=127.0.0.1 -k {self.root} -c fsync=off "
                    "-c synchronous_commit=off -c full_page_writes=off -c max_connections=300 "
                    "-c shared_buffers=64MB")
         self._run(str(self.bin / "pg_ctl"), "-D", str(self.data), "-o", options, "-l", str(self.root / "server.log"),
                   "-w", "-t", "60", "start")
         self.pid = int((self.data / "postmaster.pid").read_text().splitlines()[0])
-        return self
+
+    def halt(self) -> None:
+        """An outage: stop the server at once (``pg_ctl stop -m immediate``), keeping its data for :meth:`resume`."""
+        self._run(str(self.bin / "pg_ctl"), "-D", str(self.data), "-m", "immediate", "-w", "-t", "60", "stop")
+        self.pid = None
+
+    def resume(self) -> None:
+        """Start the server again on the same port and data after :meth:`halt`."""
+        self._start_server()
 
     def url(self, database: str = "postgres") -> str:
         """The SQLAlchemy URL of ``database`` (psycopg 3)."""
