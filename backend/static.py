@@ -3,9 +3,13 @@
 * The dashboard (the ``frontend`` package) is revalidated on every use (``Cache-Control:
   no-cache`` with ETag/Last-Modified), so an upgrade shows at the next load. ``index.html`` is
   served with the versioned plotly.js address filled in.
-* Libraries (plotly.js from the ``plotly`` package, Swagger UI from ``fastapi-offline``)
-  live under addresses that carry their version and are cached for a year (``immutable``); each is
-  gzip-compressed once, in memory, for the clients that accept gzip. Every file answers HEAD.
+* Libraries (plotly.js, Swagger UI from ``fastapi-offline``) live under addresses that carry
+  their version and are cached for a year (``immutable``); each is gzip-compressed once, in memory,
+  for the clients that accept gzip. Every file answers HEAD.
+* plotly.js is the dashboard's partial bundle (``frontend/vendor/plotly-dashboard.min.js``: the
+  trace types the dashboard draws, a quarter of the full bundle's bytes, built from npm's plotly.js
+  by ``tools/plotly-bundle/build.sh``) when it was built from the plotly.js version that the
+  installed ``plotly`` package ships; otherwise that package's full bundle, with a warning.
 """
 
 from __future__ import annotations
@@ -15,6 +19,8 @@ import hashlib
 import importlib.metadata
 import importlib.resources
 import importlib.util
+import json
+import logging
 import os
 import sys
 from dataclasses import dataclass
@@ -32,6 +38,7 @@ IMMUTABLE = "public, max-age=31536000, immutable"
 REVALIDATE = "no-cache"
 PLOTLY_ALIAS = "/vendor/plotly.min.js"
 HTML_PLACEHOLDER = f'href="{PLOTLY_ALIAS}"'
+log = logging.getLogger("mgrao.api")
 
 
 def _reproduction_doc() -> Path:
@@ -61,17 +68,60 @@ def frontend_dir() -> Path | None:
     return fallback if fallback.is_dir() else None
 
 
-def plotly_js() -> Path:
-    """plotly.min.js from the installed ``plotly`` package (never a CDN)."""
+def full_plotly_js() -> Path:
+    """plotly.min.js, every trace type, from the installed ``plotly`` package (never a CDN)."""
     return Path(str(importlib.resources.files("plotly") / "package_data" / "plotly.min.js"))
 
 
+@dataclass(frozen=True)
+class PlotlyBuild:
+    """The plotly.js the dashboard gets: its file, its versioned address, the trace types it draws."""
+
+    path: Path
+    url: str
+    traces: tuple[str, ...] | None
+    """The trace types it registers; None for the full bundle (all of them)."""
+
+
+def _partial_bundle(version: str) -> PlotlyBuild | None:
+    """The dashboard's partial bundle if it is installed whole and was built from plotly.js ``version``."""
+    static = frontend_dir()
+    if static is None:
+        return None
+    script, manifest_file = static / "vendor" / "plotly-dashboard.min.js", static / "vendor" / "plotly-dashboard.json"
+    try:
+        manifest = json.loads(manifest_file.read_text(encoding="utf-8"))
+        digest = hashlib.sha256(script.read_bytes()).hexdigest()
+    except (OSError, ValueError):
+        return None
+    if manifest.get("sha256") != digest:
+        log.warning("%s does not match its manifest (sha256); serving the plotly package's full plotly.js", script)
+        return None
+    if manifest.get("plotly_js") != version:
+        log.warning("the dashboard's plotly.js bundle was built from plotly.js %s but the installed plotly package "
+                    "ships %s: serving the package's full bundle (rebuild with tools/plotly-bundle/build.sh, or "
+                    "install the plotly version pyproject.toml pins)", manifest.get("plotly_js"), version)
+        return None
+    return PlotlyBuild(script, f"/vendor/plotly-dashboard-{version}-{digest[:12]}.min.js", tuple(manifest["traces"]))
+
+
 @cache
-def plotly_url() -> str:
-    """The versioned address of plotly.js, e.g. ``/vendor/plotly-4.1.1.min.js`` (plotly.js's own version)."""
+def plotly_build() -> PlotlyBuild:
+    """The partial bundle when it matches the installed plotly.js version, else the full bundle."""
     from plotly.offline import get_plotlyjs_version
 
-    return f"/vendor/plotly-{get_plotlyjs_version()}.min.js"
+    version = get_plotlyjs_version()
+    return _partial_bundle(version) or PlotlyBuild(full_plotly_js(), f"/vendor/plotly-{version}.min.js", None)
+
+
+def plotly_js() -> Path:
+    """The file of the plotly.js the dashboard is served (:func:`plotly_build`)."""
+    return plotly_build().path
+
+
+def plotly_url() -> str:
+    """Its versioned address, e.g. ``/vendor/plotly-dashboard-4.1.1-<sha256 prefix>.min.js``."""
+    return plotly_build().url
 
 
 def docs_assets_dir() -> Path:

@@ -17,10 +17,13 @@ DASHBOARD_FILES = ["/", "/index.html", "/js/app.js", "/js/charts.js", "/js/api.j
 
 
 def test_plotly_is_served_under_its_version(client: TestClient) -> None:
+    import hashlib
+
     from plotly.offline import get_plotlyjs_version
 
-    url = plotly_url()
-    assert url == f"/vendor/plotly-{get_plotlyjs_version()}.min.js"
+    url = plotly_url()  # the dashboard's partial bundle: its plotly.js version and the start of its sha256
+    digest = hashlib.sha256(plotly_js().read_bytes()).hexdigest()
+    assert url == f"/vendor/plotly-dashboard-{get_plotlyjs_version()}-{digest[:12]}.min.js"
     response = client.get(url, headers=IDENTITY)
     assert response.status_code == 200 and response.content == plotly_js().read_bytes()
     assert response.headers["content-type"].startswith("text/javascript")
