@@ -11,6 +11,7 @@ import re
 import subprocess
 from pathlib import Path
 
+import httpx
 import pytest
 from backend_helpers import BASE_URL, JSON, TOKEN, Service
 from fastapi.testclient import TestClient
@@ -18,7 +19,7 @@ from pydantic import ValidationError
 
 from backend.app import create_app
 from backend.settings import Settings
-from tests.support.local_service import free_port, serve_command
+from tests.support.local_service import free_port, mgrao_command, serve_command
 
 pytestmark = pytest.mark.slow
 
@@ -130,6 +131,36 @@ def test_protected_reads_without_a_token_are_refused_at_start(tmp_path: Path) ->
     assert done.returncode == 1, done.stderr
     assert "Error: invalid settings: MGRAO_PROTECT_READS=true needs MGRAO_API_TOKEN" in done.stderr
     assert "Traceback" not in done.stderr and not db_file.exists()
+
+
+def test_study_commands_send_the_token(tmp_path: Path) -> None:
+    service = Service(tmp_path)
+    try:
+        protected(service)
+        study = tmp_path / "study.json"
+        study.write_text(httpx.Request("POST", "/", json=SMALL_STUDY).content.decode())
+        without = {k: v for k, v in service.env.items() if k != "MGRAO_API_TOKEN"}
+
+        def mgrao(*args: str, env: dict[str, str] = without) -> subprocess.CompletedProcess:
+            return subprocess.run(mgrao_command("study", *args, "--url", service.base), env=env, capture_output=True,
+                                  text=True, timeout=120, check=False)
+
+        refused = mgrao("run", str(study), "--detach")
+        assert refused.returncode == 1 and "needs its API token: pass --token" in refused.stderr, refused.stderr
+        submitted = mgrao("run", str(study), "--detach", "--token", TOKEN)
+        assert submitted.returncode == 0, submitted.stderr
+        study_id = submitted.stdout.strip()
+        refused = mgrao("show", study_id)
+        assert refused.returncode == 1 and "needs its API token: pass --token" in refused.stderr, refused.stderr
+        assert mgrao("show", study_id, "--token", "wrong").returncode == 1
+        by_option = mgrao("show", study_id, "--token", TOKEN)
+        assert by_option.returncode == 0, by_option.stderr
+        assert by_option.stdout.startswith(f"study {study_id} 'private study': grid, running")
+        by_env = mgrao("show", study_id, "--json", env=service.env)  # MGRAO_API_TOKEN
+        assert by_env.returncode == 0, by_env.stderr
+        assert '"name": "private study"' in by_env.stdout
+    finally:
+        service.stop()
 
 
 def test_setting_off_keeps_reads_open(tmp_path: Path) -> None:
