@@ -18,7 +18,7 @@ from backend.errors import BadQuery, Conflict, InvalidSpec, NotFound
 from backend.limits import BodyLimit
 from backend.memory import return_large_blocks
 from backend.routes import compare, health, jobs, studies, systems
-from backend.security import AllowedHosts, SameOriginWrites, SecurityHeaders, allowed_hosts
+from backend.security import AllowedHosts, SameOriginWrites, SecurityHeaders, TokenRequired, allowed_hosts
 from backend.settings import Settings
 from backend.static import CompressAssets, frontend_dir, install_static, plotly_js
 from backend.studies import StudyDriver
@@ -119,9 +119,13 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     install_static(app)  # last: the dashboard is mounted at "/"
 
     # add_middleware wraps: the last added runs first. Order of a request: security headers on
-    # whatever answers, Host check (400), same-origin writes (403/415), body limit (413), gzip of
-    # browser files when the client accepts it (text of 1000 bytes or more, not /api), the app.
+    # whatever answers, Host check (400), same-origin writes (403/415), body limit (413), with
+    # MGRAO_PROTECT_READS the token for /api, the API schema and docs (401), gzip of browser files
+    # when the client accepts it (text of 1000 bytes or more, not /api), the app.
     app.add_middleware(CompressAssets, minimum_size=1000, compresslevel=6)
+    if settings.protect_reads:
+        app.add_middleware(TokenRequired, token=settings.api_token,
+                           paths=(app.openapi_url or "/openapi.json", "/docs", "/redoc"))
     app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
     app.add_middleware(SameOriginWrites)
     app.add_middleware(AllowedHosts, hosts=allowed_hosts(settings.allowed_hosts, settings.host))

@@ -1,6 +1,7 @@
-"""Browser-facing protections: allowed Host headers, same-origin writes and security headers.
+"""Browser-facing protections: allowed Host headers, same-origin writes, security headers, protected reads.
 
-Three ASGI middlewares, applied to every HTTP request of the service (API, dashboard, docs):
+Three ASGI middlewares, applied to every HTTP request of the service (API, dashboard, docs), and a
+fourth with ``MGRAO_PROTECT_READS``:
 
 * :class:`AllowedHosts` answers 400 to a ``Host`` header that is not one of the configured hosts
   (``MGRAO_ALLOWED_HOSTS``), which defeats DNS rebinding: a page of another site whose name was
@@ -10,14 +11,19 @@ Three ASGI middlewares, applied to every HTTP request of the service (API, dashb
   ``Content-Type: application/json`` (415 otherwise), which a page of another site cannot send
   without a CORS preflight that this server never grants.
 * :class:`SecurityHeaders` adds the Content-Security-Policy and its companions to every response.
+* :class:`TokenRequired` (only with ``MGRAO_PROTECT_READS=true``) answers 401 to any request under
+  ``/api``, for ``/openapi.json`` or ``/docs`` without the bearer token, reads included;
+  ``/api/health`` answers everyone, but only its status to those without the token.
 """
 
 from __future__ import annotations
 
 import json
+import secrets
 from collections.abc import Iterable
 from urllib.parse import urlsplit
 
+from fastapi.security.utils import get_authorization_scheme_param
 from starlette.datastructures import Headers, MutableHeaders
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
@@ -82,10 +88,11 @@ def allowed_hosts(configured: Iterable[str], bind_host: str = "") -> frozenset[s
     return frozenset(hosts)
 
 
-async def _refuse(send: Send, status: int, detail: str) -> None:
+async def _refuse(send: Send, status: int, detail: str, headers: Iterable[tuple[bytes, bytes]] = ()) -> None:
     body = json.dumps({"detail": detail}).encode()
     await send({"type": "http.response.start", "status": status,
-                "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode())]})
+                "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode()),
+                            *headers]})
     await send({"type": "http.response.body", "body": body})
 
 
@@ -195,3 +202,83 @@ class SecurityHeaders:
             await send(message)
 
         await self.app(scope, receive, send_with_headers)
+
+
+def bearer_matches(authorization: str | None, token: str) -> bool:
+    """Whether an ``Authorization`` header is ``Bearer <token>`` (scheme in any case; constant-time compare).
+
+    Read as FastAPI's ``HTTPBearer`` reads it, so that the routes' own check (``backend.deps``) and
+    :class:`TokenRequired` accept the same headers.
+    """
+    scheme, given = get_authorization_scheme_param(authorization)
+    if not (authorization and scheme and given) or scheme.lower() != "bearer":
+        return False
+    return secrets.compare_digest(given.encode(), token.encode())
+
+
+class TokenRequired:
+    """401 without the bearer token for every request under ``prefix`` and for ``paths``; ``health`` says less.
+
+    Runs inside :class:`BodyLimit`, so a write is refused for its origin, content type or size (403,
+    415, 413) as without this middleware, then here for its token: before FastAPI reads its body. The
+    write routes keep their own check (``backend.deps.Authorized``). A GET of ``health`` passes
+    without the token, and its answer is cut to ``{"status": ...}`` with the same status code (and
+    ``Retry-After``): nothing about the queue, the workers or the database.
+    """
+
+    def __init__(self, app: ASGIApp, token: str, paths: Iterable[str], prefix: str = "/api",
+                 health: str = "/api/health") -> None:
+        if not token:
+            raise ValueError("TokenRequired needs a token")
+        self.app = app
+        self.token = token
+        self.paths = frozenset(paths)
+        self.prefix = prefix
+        self.health = health
+
+    def guarded(self, path: str) -> bool:
+        """Whether ``path`` needs the token."""
+        return path == self.prefix or path.startswith(self.prefix + "/") or path in self.paths
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        """Pass a request with the token, or one for a path that holds no data; refuse the others."""
+        path = scope.get("path", "")
+        if (scope["type"] != "http" or not self.guarded(path)
+                or bearer_matches(Headers(scope=scope).get("authorization"), self.token)):
+            await self.app(scope, receive, send)
+            return
+        if path == self.health and scope.get("method") == "GET":
+            await self.app(scope, receive, _status_only(send))
+            return
+        await _refuse(send, 401, "missing or wrong bearer token: this server's data, reads included, needs "
+                                 "Authorization: Bearer <MGRAO_API_TOKEN>", headers=[(b"www-authenticate", b"Bearer")])
+
+
+def _status_only(send: Send) -> Send:
+    """A ``send`` that turns a health answer into ``{"status": ...}``, keeping its code and ``Retry-After``."""
+    start: Message = {}
+    chunks: list[bytes] = []
+
+    async def reduced(message: Message) -> None:
+        if message["type"] == "http.response.start":
+            start.update(message)
+            return
+        if message["type"] != "http.response.body":
+            await send(message)
+            return
+        chunks.append(message.get("body", b""))
+        if message.get("more_body", False):
+            return
+        code = start.get("status", 500)
+        try:
+            said = json.loads(b"".join(chunks)).get("status")
+        except (ValueError, AttributeError):
+            said = None
+        status = said if said in ("ok", "error") else ("ok" if code < 400 else "error")
+        body = json.dumps({"status": status}).encode()
+        headers = [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode())]
+        headers += [(k, v) for k, v in start.get("headers", []) if k.lower() == b"retry-after"]
+        await send({"type": "http.response.start", "status": code, "headers": headers})
+        await send({"type": "http.response.body", "body": body})
+
+    return reduced

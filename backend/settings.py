@@ -19,6 +19,9 @@ class Settings(BaseSettings):
     database_url: str = "sqlite:///./mgrao.db"
     workers: int = Field(1, ge=0, le=64, description="Local worker processes started by `mgrao serve`.")
     api_token: str | None = Field(None, description="Bearer token for mutating routes; unset = auth off.")
+    protect_reads: bool = Field(
+        False, description="Reads need the bearer token too: every /api route but a detail-free /api/health, "
+                           "/openapi.json and /docs (needs MGRAO_API_TOKEN).")
     stale_after_s: float = Field(60.0, gt=0, description="Heartbeat age after which a running job is re-queued.")
     heartbeat_s: float = Field(5.0, gt=0, description="Seconds between a worker's heartbeats.")
     progress_s: float = Field(1.0, gt=0, description="Smallest interval between progress writes.")
@@ -52,6 +55,15 @@ class Settings(BaseSettings):
             raise ValueError(
                 f"MGRAO_STALE_AFTER_S ({self.stale_after_s:g}) must be at least twice MGRAO_HEARTBEAT_S "
                 f"({self.heartbeat_s:g}), or live jobs would be re-queued between two heartbeats"
+            )
+        return self
+
+    @model_validator(mode="after")
+    def _protected_reads_need_a_token(self) -> Settings:
+        if self.protect_reads and not self.api_token:
+            raise ValueError(
+                "MGRAO_PROTECT_READS=true needs MGRAO_API_TOKEN: set the token that reads and writes must send "
+                "(Authorization: Bearer <token>), or unset MGRAO_PROTECT_READS"
             )
         return self
 

@@ -8,6 +8,7 @@ import signal
 import socket
 from collections.abc import Iterator
 from types import FrameType
+from typing import Any
 
 import click
 
@@ -37,6 +38,26 @@ def listen(host: str, port: int) -> socket.socket:
             raise click.ClickException(f"port {port} on {host} is in use (choose another with --port)") from None
         raise click.ClickException(f"cannot listen on {host} port {port}: {error.strerror or error}") from None
     return sock
+
+
+def settings_or_exit(settings_class: type, overrides: dict[str, object]) -> Any:
+    """``settings_class(**overrides)``, or a one-line error per refused setting (exit status 1, no traceback).
+
+    Raises:
+        click.ClickException: a setting is invalid, e.g. ``MGRAO_PROTECT_READS=true`` without
+            ``MGRAO_API_TOKEN``.
+    """
+    from pydantic import ValidationError
+
+    try:
+        return settings_class(**overrides)
+    except ValidationError as error:
+        lines = []
+        for item in error.errors():
+            message = str(item.get("msg", "invalid")).removeprefix("Value error, ")
+            where = ".".join(str(part) for part in item.get("loc", ()))
+            lines.append(f"MGRAO_{where.upper()}: {message}" if where else message)
+        raise click.ClickException("invalid settings: " + "; ".join(lines)) from None
 
 
 def _server_class() -> type:
@@ -69,7 +90,7 @@ def serve(host: str | None, port: int | None, workers: int | None, database_url:
     overrides = {k: v for k, v in
                  {"host": host, "port": port, "workers": workers, "database_url": database_url}.items()
                  if v is not None}
-    settings = Settings(**overrides)
+    settings = settings_or_exit(Settings, overrides)
     sock = listen(settings.host, settings.port)  # first: a busy port fails before anything starts
     _Server = _server_class()  # noqa: N806
     db = Database(settings.database_url)

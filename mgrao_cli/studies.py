@@ -8,7 +8,6 @@ dashboard shows, and it keeps running if the command is interrupted.
 from __future__ import annotations
 
 import json
-import os
 import sys
 import time
 import urllib.error
@@ -22,7 +21,8 @@ DEFAULT_URL = "http://127.0.0.1:8000"
 URL_OPTION = click.option("--url", envvar="MGRAO_URL", default=DEFAULT_URL, show_default=True,
                           help="The service's base URL (env MGRAO_URL).")
 TOKEN_OPTION = click.option("--token", envvar="MGRAO_API_TOKEN", default=None,
-                            help="The service's API token, if it has one (env MGRAO_API_TOKEN).")
+                            help="The service's API token, if it has one (env MGRAO_API_TOKEN); sent with "
+                                 "every request, reads too.")
 TOP_OPTION = click.option("--top", default=5, show_default=True, type=click.IntRange(1, 1000),
                           help="How many of the best trials to print.")
 ENDED = ("succeeded", "failed", "cancelled")
@@ -155,11 +155,12 @@ def run_study(file: Path, url: str, token: str | None, top: int, detach: bool, p
 @study.command("show")
 @click.argument("study_id", type=click.IntRange(1, 2**53))
 @URL_OPTION
+@TOKEN_OPTION
 @TOP_OPTION
 @click.option("--json", "as_json", is_flag=True, help="Print the service's whole answer as JSON.")
-def show_study(study_id: int, url: str, top: int, as_json: bool) -> None:
+def show_study(study_id: int, url: str, token: str | None, top: int, as_json: bool) -> None:
     """Print a study's state and its best trials."""
-    answer = Api(url, os.environ.get("MGRAO_API_TOKEN")).call("GET", f"/api/studies/{study_id}")
+    answer = Api(url, token).call("GET", f"/api/studies/{study_id}")
     if as_json:
         click.echo(json.dumps(answer, indent=1))
         return

@@ -1,7 +1,13 @@
 // The one REST client of the dashboard. Every request goes to the page's own origin under /api.
 // Errors become ApiError with a readable message; 422 bodies keep their per-field details.
+// A known bearer token goes with every request. A read refused with 401 means the server protects
+// its reads (MGRAO_PROTECT_READS): the page asks for the token once (tokenform.js), keeps it in
+// sessionStorage and sends the request again; a refused token is forgotten and asked for again.
 
-const TOKEN_KEY = 'mgrao-api-token';
+import { askForToken } from './tokenform.js';
+
+const TOKEN_KEY = 'mgrao-api-token'; // localStorage: the footer's "Save token"
+const SESSION_KEY = 'mgrao-api-token'; // sessionStorage: the token asked for by a refused read
 
 export class ApiError extends Error {
   constructor(status, message, detail = null) {
@@ -12,15 +18,71 @@ export class ApiError extends Error {
   }
 }
 
-export function getToken() {
+let pageToken = ''; // the asked-for token when sessionStorage is disabled: it lives for this page only
+
+function sessionToken() {
+  try { return sessionStorage.getItem(SESSION_KEY) || ''; } catch { return pageToken; }
+}
+
+function setSessionToken(token) {
+  pageToken = token;
+  try {
+    if (token) sessionStorage.setItem(SESSION_KEY, token);
+    else sessionStorage.removeItem(SESSION_KEY);
+  } catch { /* storage disabled: pageToken holds it */ }
+}
+
+/** The token saved with the footer's form (localStorage). */
+export function savedToken() {
   try { return localStorage.getItem(TOKEN_KEY) || ''; } catch { return ''; }
 }
 
+/** The token requests send: the one asked for in this session, else the saved one ('' for none). */
+export function getToken() {
+  return sessionToken() || savedToken();
+}
+
+/** Save (or with '' clear) the footer's token; it replaces the one asked for in this session. */
 export function setToken(token) {
+  setSessionToken('');
   try {
     if (token) localStorage.setItem(TOKEN_KEY, token);
     else localStorage.removeItem(TOKEN_KEY);
   } catch { /* storage disabled: the token lives for this page only */ }
+}
+
+let readsNeedToken = false; // a read was refused (401): from then on any 401 asks for the token
+let asking = null; // the token form's pending answer, shared by every request refused meanwhile
+
+function tokenAsked(refused) {
+  if (!asking) asking = askForToken(refused).finally(() => { asking = null; });
+  return asking;
+}
+
+/**
+ * After a 401 to a request sent with `sent`: whether to send it again, once a token is known.
+ * Only a server that refused a read asks (MGRAO_PROTECT_READS); a write refused elsewhere is an error.
+ */
+async function tokenAfter401(method, sent, signal) {
+  if (typeof document === 'undefined' || !(method === 'GET' || readsNeedToken)) return false;
+  readsNeedToken = true;
+  if (getToken() === sent) { // not replaced by an answer to the form while this request was out
+    if (sent && sessionToken() === sent) setSessionToken('');
+    setSessionToken(await tokenAsked(Boolean(sent)));
+  }
+  if (signal && signal.aborted) throw new DOMException('The request was aborted.', 'AbortError');
+  return true;
+}
+
+/** fetch() with the known token, if any; a `url` under /api whose answer is 401 asks for it as `request` does. */
+export async function authorizedFetch(address, init = {}) {
+  for (;;) {
+    const token = getToken();
+    const headers = { ...(init.headers || {}) };
+    if (token) headers.Authorization = `Bearer ${token}`;
+    const response = await fetch(address, { ...init, headers });
+    if (response.status !== 401 || !(await tokenAfter401(init.method || 'GET', token, init.signal))) return response;
+  }
 }
 
 /** Fired on window: 'api-status' with detail {up: bool, message}. The app shows or hides its banner. */
@@ -56,11 +118,9 @@ export async function request(method, path, { query, body, signal } = {}) {
   // Every change is sent as JSON, with or without a body: the server refuses (415) a write without
   // Content-Type: application/json unless its Origin is the server's own (docs/api.md, "Cross-site requests").
   if (body !== undefined || method !== 'GET') headers['Content-Type'] = 'application/json';
-  const token = getToken();
-  if (token && method !== 'GET') headers.Authorization = `Bearer ${token}`;
   let response;
   try {
-    response = await fetch(url(path, query), {
+    response = await authorizedFetch(url(path, query), {
       method, headers, signal, body: body === undefined ? undefined : JSON.stringify(body),
     });
   } catch (err) {

@@ -1,7 +1,7 @@
 // Hash router: #/runs, #/new, #/jobs/<id>, #/compare?jobs=1,2&smooth=5, #/studies, #/studies/new, #/studies/<id>. Each view module exports
 // mount(container, params, ctx) and may return a cleanup function (stop polling, purge plots).
 
-import { api, getToken, setToken } from './api.js';
+import { api, savedToken, setToken } from './api.js';
 import { parseHash, buildHash, workersWord } from './stats.js';
 import * as runs from './runs.js';
 import * as newjob from './newjob.js';
@@ -107,6 +107,11 @@ async function checkHealth() {
   const el = document.getElementById('health');
   try {
     const hl = await api.health();
+    if (!('version' in hl)) { // a server that protects its reads tells only its status without the token
+      el.textContent = hl.status === 'ok' ? 'server up' : 'server error';
+      el.className = hl.status === 'ok' ? 'health ok' : 'health down';
+      return;
+    }
     const workers = workersWord(hl.workers);
     el.textContent = `server ${hl.version || ''} · ${hl.running ?? 0} running · ${hl.queued ?? 0} queued` +
       (workers ? ` · ${workers}` : '');
@@ -121,7 +126,7 @@ function setupToken() {
   const form = document.getElementById('token-form');
   const input = document.getElementById('api-token');
   const status = document.getElementById('token-status');
-  input.value = getToken();
+  input.value = savedToken();
   form.addEventListener('submit', (ev) => {
     ev.preventDefault();
     setToken(input.value.trim());

@@ -2,7 +2,7 @@
 // with bands, seeds on demand, smoothing, paper-style table, weight heatmap and bars, downloads.
 
 import { api } from './api.js';
-import { h, statusCell, jobMeta, notice, editJobDialog, confirmDialog, cancelConsequence, keepLabel, nextId, downloadText } from './ui.js';
+import { h, statusCell, jobMeta, notice, editJobDialog, confirmDialog, cancelConsequence, keepLabel, nextId, downloadText, downloadWithToken } from './ui.js';
 import { draw, purge, loadPlotly, meanBandTraces, seedTraces, utilityLayout } from './charts.js';
 import { fmtNumber, fmtPct, fmtCI, pctProgress, waitingMessage, algorithmRank, smoothingNote, episodesPerPoint, DEFINITIONS } from './stats.js';
 import { algorithmColour } from './colours.js';
@@ -264,9 +264,11 @@ export async function mount(root, params, ctx) {
       weightsSection({ jobId: id, results: r, plots, state: weightsState }),
       h('section', { 'aria-labelledby': 'h-dl' }, h('h2', { id: 'h-dl' }, 'Download'),
         h('p', { class: 'downloads' },
-          h('a', { class: 'button secondary', href: api.episodesUrl(id, 'csv'), download: `job-${id}-episodes.csv` }, 'Episodes as CSV'),
+          h('a', { class: 'button secondary', href: api.episodesUrl(id, 'csv'), download: `job-${id}-episodes.csv`,
+            onclick: downloadWithToken }, 'Episodes as CSV'),
           ' ',
-          h('a', { class: 'button secondary', href: api.episodesUrl(id, 'json'), download: `job-${id}-episodes.json` }, 'Episodes as JSON'),
+          h('a', { class: 'button secondary', href: api.episodesUrl(id, 'json'), download: `job-${id}-episodes.json`,
+            onclick: downloadWithToken }, 'Episodes as JSON'),
           ' ',
           h('button', { type: 'button', class: 'secondary', id: 'download-summary',
             onclick: () => downloadText(`job-${id}-summary.csv`, 'text/csv', summaryCsv(job, r.configurations)) },

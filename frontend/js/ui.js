@@ -1,7 +1,7 @@
 // Small DOM helpers shared by the views: element builder, status badges, dialogs.
 
 import { fmtDate, fmtDuration, pctProgress, seedCount } from './stats.js';
-import { api } from './api.js';
+import { api, authorizedFetch, getToken } from './api.js';
 
 /** h('button', {class: 'x', onclick: f}, 'text', child) -> element. Attributes starting with "on" are listeners. */
 export function h(tag, attrs = {}, ...children) {
@@ -78,6 +78,35 @@ export function downloadText(name, type, text) {
   a.click();
   a.remove();
   setTimeout(() => URL.revokeObjectURL(url), 1000);
+}
+
+/**
+ * Click handler of a download link under /api: with a known API token, fetch the file with it and save
+ * it (a plain link cannot send the token); without one the link downloads by itself. An error is shown
+ * after the link.
+ */
+export async function downloadWithToken(ev) {
+  if (!getToken()) return;
+  ev.preventDefault();
+  const link = ev.currentTarget;
+  const said = link.nextElementSibling && link.nextElementSibling.classList.contains('download-error')
+    ? link.nextElementSibling : null;
+  if (said) said.remove();
+  link.setAttribute('aria-busy', 'true');
+  try {
+    const response = await authorizedFetch(link.href, { headers: { Accept: '*/*' } });
+    if (!response.ok) throw new Error(`the server answered ${response.status}`);
+    const url = URL.createObjectURL(await response.blob());
+    const a = h('a', { href: url, download: link.getAttribute('download') || '' });
+    document.body.append(a);
+    a.click();
+    a.remove();
+    setTimeout(() => URL.revokeObjectURL(url), 1000);
+  } catch (e) {
+    link.after(h('span', { class: 'field-error download-error', role: 'alert' }, ` Download failed: ${e.message}.`));
+  } finally {
+    link.removeAttribute('aria-busy');
+  }
 }
 
 /** What cancelling a job does to its results, in one sentence for the confirmation. */

@@ -22,11 +22,13 @@ SCREENSHOTS = ROOT / "test-output" / "screenshots"
 def running_service(tmp: Path, workers: int, **env: str) -> Iterator[str]:
     """A real `mgrao serve` on 127.0.0.1 with its own SQLite file in ``tmp`` and ``env`` set; its base URL.
 
-    Stopped (by process id) on leaving; a service that does not come up fails the test with its log.
+    The caller's MGRAO_API_TOKEN is not passed on (one in ``env`` is). Stopped (by process id) on
+    leaving; a service that does not come up fails the test with its log.
     """
     port = free_port()
-    environment = {**os.environ, "MGRAO_DATABASE_URL": f"sqlite:///{tmp / 't.db'}", **env}
+    environment = {**os.environ, "MGRAO_DATABASE_URL": f"sqlite:///{tmp / 't.db'}"}
     environment.pop("MGRAO_API_TOKEN", None)
+    environment |= env
     with open(tmp / "serve.log", "wb") as log:
         proc = subprocess.Popen(serve_command(port, workers=workers), env=environment, cwd=ROOT, stdout=log,
                                 stderr=subprocess.STDOUT)
