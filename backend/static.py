@@ -16,7 +16,6 @@ import importlib.metadata
 import importlib.resources
 import importlib.util
 import os
-import sys
 from dataclasses import dataclass
 from functools import cache, cached_property
 from pathlib import Path
@@ -32,17 +31,6 @@ IMMUTABLE = "public, max-age=31536000, immutable"
 REVALIDATE = "no-cache"
 PLOTLY_ALIAS = "/vendor/plotly.min.js"
 HTML_PLACEHOLDER = f'href="{PLOTLY_ALIAS}"'
-
-
-def _reproduction_doc() -> Path:
-    """docs/reproduction.md: the source checkout's, else the copy an install puts under share/mgrao/docs."""
-    checkout = Path(__file__).resolve().parents[1] / "docs" / "reproduction.md"
-    return checkout if checkout.is_file() else Path(sys.prefix) / "share" / "mgrao" / "docs" / "reproduction.md"
-
-
-REPRODUCTION_DOC = _reproduction_doc()
-"""How the paper's tables are reproduced and why some figures differ (linked from the paper view)."""
-REPRODUCTION_DOC_URL = "/project-docs/reproduction.md"
 
 
 def frontend_dir() -> Path | None:
@@ -182,13 +170,6 @@ def install_static(app: FastAPI) -> None:
 
     for name, media_type in DOCS_ASSETS.items():
         _serve_vendor_file(app, docs_asset_url(name), VendorFile(docs_assets_dir() / name, media_type))
-
-    if REPRODUCTION_DOC.is_file():  # a source checkout: the paper view links to how its figures are made
-
-        @app.api_route(REPRODUCTION_DOC_URL, methods=["GET", "HEAD"], include_in_schema=False)
-        def reproduction_doc() -> Response:
-            return FileResponse(REPRODUCTION_DOC, media_type="text/plain; charset=utf-8",
-                                headers={"cache-control": REVALIDATE})
 
     static = frontend_dir()
     if static is None:
