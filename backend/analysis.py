@@ -26,8 +26,9 @@ from backend.crud import get_job, job_dict
 from backend.errors import BadQuery, Conflict
 from backend.memory import trim
 from backend.models import RUN_READ_BATCH, SUCCEEDED, Job, Run
-from mgrao_core import PRESETS, EpisodeStats, final_utilities, summarise
+from mgrao_core import PRESETS, EpisodeStats, final_utilities, paired_pct_from_uniform, summarise
 from mgrao_core.reproduction import PAPER_EPISODES
+from mgrao_core.stats import BASELINE
 
 MAX_RESPONSE_VALUES = 1_000_000
 """Numbers in the curves of one results or compare answer (about 20 MB of JSON)."""
@@ -108,8 +109,9 @@ def _configurations(session: Session, job: Job, points: int | None, include_seed
             one.add(values)
             band = one.band_arrays(used)
             per_seed[algorithm].append({"seed": seed, "episode": band["episode"], "utility": band["mean"]})
-    summaries = summarise({a: dict(sorted(finals[a].items(), key=lambda kv: seed_order.get(kv[0], 0)))
-                           for a in algorithms if finals[a]})
+    ordered = {a: dict(sorted(finals[a].items(), key=lambda kv: seed_order.get(kv[0], 0)))
+               for a in algorithms if finals[a]}
+    summaries = summarise(ordered)
     configurations = []
     for algorithm in algorithms:
         if not finals[algorithm]:
@@ -117,6 +119,7 @@ def _configurations(session: Session, job: Job, points: int | None, include_seed
         entry: dict[str, Any] = {
             "algorithm": algorithm, "config_hash": job.config_hash, "seeds_done": seeds_done[algorithm],
             "summary": summaries[algorithm].as_dict(),
+            "pct_by_seed": _pct_by_seed(ordered[algorithm], ordered.get(BASELINE), seed_order),
             "episodes": stats[algorithm].band_arrays(used),
             "weights": weights.mean_over_seeds(session, job.id, algorithm),
         }
@@ -124,6 +127,14 @@ def _configurations(session: Session, job: Job, points: int | None, include_seed
             entry["seeds"] = sorted(per_seed[algorithm], key=lambda s: seed_order.get(s["seed"], 0))
         configurations.append(entry)
     return {"points": used, "configurations": configurations}
+
+
+def _pct_by_seed(by_seed: dict[int, float], baseline: dict[int, float] | None,
+                 seed_order: dict[int, int]) -> list[dict[str, Any]]:
+    """Each seed's paired % from uniform (the values the summary's mean and interval are made of), in job order."""
+    paired = paired_pct_from_uniform(by_seed, baseline)
+    return [{"seed": seed, "pct_from_uniform": paired[seed]}
+            for seed in sorted(paired, key=lambda seed: seed_order.get(seed, 0))]
 
 
 RESULTS_CACHE = AnswerCache()
