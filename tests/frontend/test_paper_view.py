@@ -75,7 +75,7 @@ def test_a_smaller_tagged_clone_never_replaces_the_paper_job_and_the_paper_is_pl
         page.goto("/#/paper")
         page.locator("#paper-table").wait_for()
         row = page.locator('#paper-table tr[data-system="single"][data-algorithm="mgrao-max"]')
-        link = row.locator("a.paper-job")
+        link = row.locator("td").nth(1).locator("a")  # the Job column
         assert link.inner_text() == f"#{big['id']}", "the single rows must use the 120-seed job, not the newer clone"
         assert link.get_attribute("href") == f"#/jobs/{big['id']}"
         assert row.locator("td").nth(2).inner_text() == "120"  # the Seeds column
