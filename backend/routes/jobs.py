@@ -27,6 +27,7 @@ CONFIG_HASH = re.compile(r"[0-9a-f]{64}")
 CONFIG_HASH_HELP = "Only the jobs of this configuration: a job's config_hash (64 lowercase hex digits)."
 JobId = Annotated[int, Path(ge=1, le=MAX_JOB_ID, description="A job's id.")]
 Points = Annotated[int | None, Query(ge=1, le=MAX_EPISODES, description="Downsample to at most this many points.")]
+PctBySeed = Annotated[bool, Query(description="Add each seed's paired % from uniform (pct_by_seed).")]
 Seed = Annotated[int | None, Query(ge=0, le=MAX_SEED_VALUE,
                                    description="One of the job's seeds (default: its first stored).")]
 
@@ -114,9 +115,11 @@ def delete_job(job_id: JobId, db: DatabaseDep) -> Response:
 
 
 @router.get("/{job_id:int}/results")
-def job_results(job_id: JobId, session: SessionDep, points: Points = None, include_seeds: bool = False) -> Response:
-    """Per configuration: summary, episode band, mean final weights (and each seed's curve)."""
-    head, body = analysis.job_results_parts(session, job_id=job_id, points=points, include_seeds=include_seeds)
+def job_results(job_id: JobId, session: SessionDep, points: Points = None, include_seeds: bool = False,
+                pct_by_seed: PctBySeed = False) -> Response:
+    """Per configuration: summary, episode band, mean final weights (and each seed's curve or % from uniform)."""
+    head, body = analysis.job_results_parts(session, job_id=job_id, points=points, include_seeds=include_seeds,
+                                            pct_by_seed=pct_by_seed)
     return StreamingResponse(_slices(head, body), media_type="application/json",
                              headers={"Content-Length": str(len(head) + len(body) - 1)})
 

@@ -55,7 +55,7 @@ export async function mount(root, params, ctx) {
     await Promise.all(schema.systems.filter((s) => s.paper_config_hash && Object.keys(s.paper || {}).length)
       .map(async (sys) => {
         const job = choosePaperJob(sys, await paperJobs(sys));
-        if (job) results[sys.name] = await api.results(job.id, { points: 10 });
+        if (job) results[sys.name] = await api.results(job.id, { points: 10, pct_by_seed: true });
       }));
   } catch (e) {
     body.replaceChildren(notice('error', `Cannot load the paper runs: ${e.message}`));

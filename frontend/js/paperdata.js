@@ -55,7 +55,7 @@ export function fmtSeedPercentile(p) {
 
 /**
  * Rows for the systems of `schema` in its order. `results[system]` is a job's results answer (its
- * configurations' summaries, `pct_by_seed` and `paper`), or absent. A row's `outside` is true when
+ * configurations' summaries, `pct_by_seed` (asked for with `?pct_by_seed=true`) and `paper`), or absent. A row's `outside` is true when
  * the paper's % from uniform is outside our 95% interval, null when either is missing;
  * `amongSeeds` is where the paper's figure falls among our seeds' own % from uniform
  * (:func:`seedPercentile`), null without them.

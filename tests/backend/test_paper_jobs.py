@@ -51,7 +51,10 @@ def test_a_malformed_config_hash_is_refused_naming_the_field_and_its_form(client
 def test_results_carry_each_seeds_paired_pct_from_uniform(client: TestClient, worker: Worker) -> None:
     job = submit(client, seeds=[5, 3, 11, 2], episodes=15)
     assert drain(worker) == 1
-    results = client.get(f"/api/jobs/{job['id']}/results").json()
+    assert all("pct_by_seed" not in c for c in client.get(f"/api/jobs/{job['id']}/results").json()["configurations"])
+    refused = client.get(f"/api/jobs/{job['id']}/results?pct_by_seed=maybe")
+    assert refused.status_code == 422 and refused.json()["detail"][0]["field"] == "pct_by_seed", refused.text
+    results = client.get(f"/api/jobs/{job['id']}/results?pct_by_seed=true").json()
     episodes = json.loads(client.get(f"/api/jobs/{job['id']}/episodes?format=json").content)
     finals: dict[str, dict[int, float]] = {}
     for algorithm in job["algorithms"]:

@@ -68,7 +68,7 @@ def test_a_smaller_tagged_clone_never_replaces_the_paper_job_and_the_paper_is_pl
     clone = post_job(server, body | {"seeds": 10, "tags": ["paper"], "name": "clone of the paper job"})
     changed = post_job(server, body | {"seeds": 150, "tags": ["paper"], "params": {"learning_rate": 0.5}})
     wait_succeeded(server, [clone, changed])
-    results = api_get(server, f"/api/jobs/{big['id']}/results?points=10")
+    results = api_get(server, f"/api/jobs/{big['id']}/results?points=10&pct_by_seed=true")
     with page_at(browser, server) as page:
         errors = []
         page.on("pageerror", lambda error: errors.append(error))
