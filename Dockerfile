@@ -7,6 +7,8 @@ COPY mgrao_core ./mgrao_core
 COPY mgrao_cli ./mgrao_cli
 COPY backend ./backend
 COPY frontend ./frontend
+COPY docs ./docs
+COPY mgrao_docs ./mgrao_docs
 RUN pip install --no-cache-dir ".[cluster]" && useradd --create-home mgrao && mkdir /data && chown mgrao /data
 USER mgrao
 ENV MGRAO_DATABASE_URL=sqlite:////data/mgrao.db

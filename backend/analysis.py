@@ -26,8 +26,9 @@ from backend.crud import get_job, job_dict
 from backend.errors import BadQuery, Conflict
 from backend.memory import trim
 from backend.models import RUN_READ_BATCH, SUCCEEDED, Job, Run
-from mgrao_core import PRESETS, EpisodeStats, final_utilities, summarise
+from mgrao_core import PRESETS, EpisodeStats, final_utilities, paired_pct_from_uniform, summarise
 from mgrao_core.reproduction import PAPER_EPISODES
+from mgrao_core.stats import BASELINE
 
 MAX_RESPONSE_VALUES = 1_000_000
 """Numbers in the curves of one results or compare answer (about 20 MB of JSON)."""
@@ -86,7 +87,8 @@ def _stream(session: Session, job_ids: Sequence[int], *columns: Any) -> Iterator
     yield from session.execute(statement)
 
 
-def _configurations(session: Session, job: Job, points: int | None, include_seeds: bool) -> dict[str, Any]:
+def _configurations(session: Session, job: Job, points: int | None, include_seeds: bool,
+                    pct_by_seed: bool = False) -> dict[str, Any]:
     algorithms = job.config["algorithms"]
     episodes = job.config["episodes"]
     stats = {a: EpisodeStats(episodes) for a in algorithms}
@@ -108,8 +110,9 @@ def _configurations(session: Session, job: Job, points: int | None, include_seed
             one.add(values)
             band = one.band_arrays(used)
             per_seed[algorithm].append({"seed": seed, "episode": band["episode"], "utility": band["mean"]})
-    summaries = summarise({a: dict(sorted(finals[a].items(), key=lambda kv: seed_order.get(kv[0], 0)))
-                           for a in algorithms if finals[a]})
+    ordered = {a: dict(sorted(finals[a].items(), key=lambda kv: seed_order.get(kv[0], 0)))
+               for a in algorithms if finals[a]}
+    summaries = summarise(ordered)
     configurations = []
     for algorithm in algorithms:
         if not finals[algorithm]:
@@ -120,10 +123,20 @@ def _configurations(session: Session, job: Job, points: int | None, include_seed
             "episodes": stats[algorithm].band_arrays(used),
             "weights": weights.mean_over_seeds(session, job.id, algorithm),
         }
+        if pct_by_seed:
+            entry["pct_by_seed"] = _pct_by_seed(ordered[algorithm], ordered.get(BASELINE), seed_order)
         if include_seeds:
             entry["seeds"] = sorted(per_seed[algorithm], key=lambda s: seed_order.get(s["seed"], 0))
         configurations.append(entry)
     return {"points": used, "configurations": configurations}
+
+
+def _pct_by_seed(by_seed: dict[int, float], baseline: dict[int, float] | None,
+                 seed_order: dict[int, int]) -> list[dict[str, Any]]:
+    """Each seed's paired % from uniform (the values the summary's mean and interval are made of), in job order."""
+    paired = paired_pct_from_uniform(by_seed, baseline)
+    return [{"seed": seed, "pct_from_uniform": paired[seed]}
+            for seed in sorted(paired, key=lambda seed: seed_order.get(seed, 0))]
 
 
 RESULTS_CACHE = AnswerCache()
@@ -138,7 +151,7 @@ def dumps(value: Any) -> bytes:
 
 
 def job_results_parts(session: Session, *, job_id: int, points: int | None = None,
-                      include_seeds: bool = False) -> tuple[bytes, bytes]:
+                      include_seeds: bool = False, pct_by_seed: bool = False) -> tuple[bytes, bytes]:
     """``GET /api/jobs/{id}/results`` (docs/api.md "Results") as two pieces of JSON sent in turn.
 
     The job's head, then its configurations: the cached bytes themselves, not a copy.
@@ -150,30 +163,33 @@ def job_results_parts(session: Session, *, job_id: int, points: int | None = Non
     def build() -> bytes:
         with _BUILDS:
             try:
-                return dumps(_configurations(session, job, points, include_seeds))
+                return dumps(_configurations(session, job, points, include_seeds, pct_by_seed))
             finally:
                 trim()
 
     if partial:  # still changing (or never complete): not cached
         body = build()
     else:
-        body = RESULTS_CACHE.get_or_build((job.id, job.config_hash, job.finished_at, points, include_seeds), build)
+        key = (job.id, job.config_hash, job.finished_at, points, include_seeds, pct_by_seed)
+        body = RESULTS_CACHE.get_or_build(key, build)
     expected = len(job.config["seeds"]) * len(job.config["algorithms"])
     head = {"job": job_dict(job), "paper": paper_figures(job), "partial": partial or stored < expected}
     return dumps(head)[:-1] + b",", body
 
 
 def job_results_json(session: Session, *, job_id: int, points: int | None = None,
-                     include_seeds: bool = False) -> bytes:
+                     include_seeds: bool = False, pct_by_seed: bool = False) -> bytes:
     """``GET /api/jobs/{id}/results`` as one piece of JSON."""
-    head, body = job_results_parts(session, job_id=job_id, points=points, include_seeds=include_seeds)
+    head, body = job_results_parts(session, job_id=job_id, points=points, include_seeds=include_seeds,
+                                   pct_by_seed=pct_by_seed)
     return head + body[1:]
 
 
 def job_results(session: Session, *, job_id: int, points: int | None = None,
-                include_seeds: bool = False) -> dict[str, Any]:
+                include_seeds: bool = False, pct_by_seed: bool = False) -> dict[str, Any]:
     """``GET /api/jobs/{id}/results`` as data."""
-    return json.loads(job_results_json(session, job_id=job_id, points=points, include_seeds=include_seeds))
+    return json.loads(job_results_json(session, job_id=job_id, points=points, include_seeds=include_seeds,
+                                       pct_by_seed=pct_by_seed))
 
 
 def compare(session: Session, *, job_ids: Sequence[int], points: int | None = None) -> dict[str, Any]:

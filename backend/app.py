@@ -14,6 +14,7 @@ import mgrao_core
 from backend import faults
 from backend.apidocs import install_api_docs
 from backend.db import Database
+from backend.docpages import install_docs
 from backend.errors import BadQuery, Conflict, InvalidSpec, NotFound
 from backend.limits import BodyLimit
 from backend.memory import return_large_blocks
@@ -116,6 +117,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.include_router(module.router)
 
     install_api_docs(app)
+    install_docs(app)  # the project's docs/ as HTML pages under /project-docs/
     install_static(app)  # last: the dashboard is mounted at "/"
 
     # add_middleware wraps: the last added runs first. Order of a request: security headers on

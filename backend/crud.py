@@ -136,8 +136,11 @@ def _escape_like(text: str) -> str:
     return text.replace("\\", "\\\\").replace("%", "\\%").replace("_", "\\_")
 
 
-def _filters(*, status: str | None, system: str | None, tag: str | None, q: str | None) -> list[ColumnElement]:
+def _filters(*, status: str | None, system: str | None, tag: str | None, q: str | None,
+             config_hash: str | None = None) -> list[ColumnElement]:
     clauses: list[ColumnElement] = []
+    if config_hash:
+        clauses.append(Job.config_hash == config_hash)
     if status:
         clauses.append(Job.status == status)
     if system:
@@ -159,13 +162,15 @@ def _filters(*, status: str | None, system: str | None, tag: str | None, q: str 
 def list_jobs(
     session: Session, *, status: str | None = None, system: str | None = None, tag: str | None = None,
     q: str | None = None, sort: str = "-created_at", limit: int = 50, cursor: str | None = None,
+    config_hash: str | None = None,
 ) -> tuple[list[Job], str | None, int]:
     """One page of jobs, the cursor of the next page (None at the end) and the total matching.
 
-    ``sort`` as :func:`backend.job_order.parse_sort` reads it (BadQuery naming ``sort`` or ``cursor``).
+    ``sort`` as :func:`backend.job_order.parse_sort` reads it (BadQuery naming ``sort`` or ``cursor``);
+    ``config_hash`` keeps the jobs of one configuration (system, resolved parameters, episodes).
     """
     order = parse_sort(sort)
-    clauses = _filters(status=status, system=system, tag=tag, q=q)
+    clauses = _filters(status=status, system=system, tag=tag, q=q, config_hash=config_hash)
     total = session.scalar(select(func.count()).select_from(Job).where(*clauses)) or 0
     statement = order.apply(select(Job, order.value).where(*clauses), cursor)
     rows = session.execute(statement.limit(limit + 1)).all()

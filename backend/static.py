@@ -22,7 +22,6 @@ import importlib.util
 import json
 import logging
 import os
-import sys
 from dataclasses import dataclass
 from functools import cache, cached_property
 from pathlib import Path
@@ -39,17 +38,6 @@ REVALIDATE = "no-cache"
 PLOTLY_ALIAS = "/vendor/plotly.min.js"
 HTML_PLACEHOLDER = f'href="{PLOTLY_ALIAS}"'
 log = logging.getLogger("mgrao.api")
-
-
-def _reproduction_doc() -> Path:
-    """docs/reproduction.md: the source checkout's, else the copy an install puts under share/mgrao/docs."""
-    checkout = Path(__file__).resolve().parents[1] / "docs" / "reproduction.md"
-    return checkout if checkout.is_file() else Path(sys.prefix) / "share" / "mgrao" / "docs" / "reproduction.md"
-
-
-REPRODUCTION_DOC = _reproduction_doc()
-"""How the paper's tables are reproduced and why some figures differ (linked from the paper view)."""
-REPRODUCTION_DOC_URL = "/project-docs/reproduction.md"
 
 
 def frontend_dir() -> Path | None:
@@ -232,13 +220,6 @@ def install_static(app: FastAPI) -> None:
 
     for name, media_type in DOCS_ASSETS.items():
         _serve_vendor_file(app, docs_asset_url(name), VendorFile(docs_assets_dir() / name, media_type))
-
-    if REPRODUCTION_DOC.is_file():  # a source checkout: the paper view links to how its figures are made
-
-        @app.api_route(REPRODUCTION_DOC_URL, methods=["GET", "HEAD"], include_in_schema=False)
-        def reproduction_doc() -> Response:
-            return FileResponse(REPRODUCTION_DOC, media_type="text/plain; charset=utf-8",
-                                headers={"cache-control": REVALIDATE})
 
     static = frontend_dir()
     if static is None:

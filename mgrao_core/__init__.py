@@ -23,7 +23,15 @@ from mgrao_core.spec import (
     make_spec,
     spec_from_dict,
 )
-from mgrao_core.stats import FINAL_EPISODES, ConfigSummary, EpisodeStats, episode_band, final_utilities, summarise
+from mgrao_core.stats import (
+    FINAL_EPISODES,
+    ConfigSummary,
+    EpisodeStats,
+    episode_band,
+    final_utilities,
+    paired_pct_from_uniform,
+    summarise,
+)
 
 __version__ = "0.1.0"
 
@@ -76,5 +84,6 @@ __all__ = [
     "run_chunk",
     "run_experiment",
     "spec_from_dict",
+    "paired_pct_from_uniform",
     "summarise",
 ]

@@ -78,6 +78,16 @@ class ConfigSummary:
         return {k: clean(v) for k, v in asdict(self).items()}
 
 
+def paired_pct_from_uniform(by_seed: Mapping[int, float], baseline: Mapping[int, float] | None) -> dict[int, float]:
+    """Each seed's % from uniform: ``100 (final / uniform's final of the same seed - 1)``, in seed order.
+
+    Only the seeds both have where uniform's final utility is positive (:func:`summarise` averages
+    these); empty without a baseline.
+    """
+    common = sorted(s for s in set(by_seed) & set(baseline) if baseline[s] > 0) if baseline else []
+    return {s: 100.0 * (by_seed[s] / baseline[s] - 1.0) for s in common}
+
+
 def summarise(finals: Mapping[str, Mapping[int, float]]) -> dict[str, ConfigSummary]:
     """Summaries per configuration from each run's final utility.
 
@@ -93,12 +103,8 @@ def summarise(finals: Mapping[str, Mapping[int, float]]) -> dict[str, ConfigSumm
     baseline = finals.get(BASELINE)
     pct: dict[str, tuple[float, float, float] | None] = {}
     for label, by_seed in finals.items():
-        common = sorted(s for s in set(by_seed) & set(baseline) if baseline[s] > 0) if baseline else []
-        if not common:
-            pct[label] = None
-            continue
-        ratios = np.array([by_seed[s] / baseline[s] for s in common])
-        pct[label] = mean_ci95(100.0 * (ratios - 1.0))
+        paired = paired_pct_from_uniform(by_seed, baseline)
+        pct[label] = mean_ci95(np.array(list(paired.values()))) if paired else None
     reference = pct.get(REFERENCE)
     summaries = {}
     for label, by_seed in finals.items():

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Iterator
 from typing import Annotated, Literal
 
@@ -13,7 +14,7 @@ from sqlalchemy import select
 
 from backend import analysis, crud, studies, summaries, weights
 from backend.deps import Authorized, DatabaseDep, SessionDep, SettingsDep
-from backend.errors import InvalidSpec
+from backend.errors import BadQuery, InvalidSpec
 from backend.job_order import SORT_HELP
 from backend.models import Job
 from backend.schemas import MAX_JOB_ID, JobCreate, JobOut, JobPage, JobPatch, Status
@@ -22,8 +23,11 @@ from mgrao_core.spec import MAX_SEED_VALUE
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 
+CONFIG_HASH = re.compile(r"[0-9a-f]{64}")
+CONFIG_HASH_HELP = "Only the jobs of this configuration: a job's config_hash (64 lowercase hex digits)."
 JobId = Annotated[int, Path(ge=1, le=MAX_JOB_ID, description="A job's id.")]
 Points = Annotated[int | None, Query(ge=1, le=MAX_EPISODES, description="Downsample to at most this many points.")]
+PctBySeed = Annotated[bool, Query(description="Add each seed's paired % from uniform (pct_by_seed).")]
 Seed = Annotated[int | None, Query(ge=0, le=MAX_SEED_VALUE,
                                    description="One of the job's seeds (default: its first stored).")]
 
@@ -52,13 +56,19 @@ def list_jobs(
     system: Annotated[str | None, Query(max_length=32)] = None,
     tag: Annotated[str | None, Query(max_length=50)] = None,
     q: Annotated[str | None, Query(max_length=200, description="Text in name, notes or tags.")] = None,
+    config_hash: Annotated[str | None, Query(max_length=64, description=CONFIG_HASH_HELP)] = None,
     sort: Annotated[str, Query(max_length=80, description=SORT_HELP)] = "-created_at",
     limit: Annotated[int, Query(ge=1, le=200)] = 50,
     cursor: Annotated[str | None, Query(max_length=500)] = None,
 ) -> JSONResponse:
     """Jobs matching the filters, one page at a time (keyset pagination), each with its stored summaries."""
+    if config_hash is not None and not CONFIG_HASH.fullmatch(config_hash):
+        raise BadQuery("config_hash", f"must be 64 lowercase hexadecimal digits (a job's config_hash, e.g. a "
+                                      f"system's paper_config_hash in GET /api/systems), got {len(config_hash)} "
+                                      "characters" + ("" if len(config_hash) != 64 else " that are not all 0-9a-f"))
     jobs, next_cursor, total = crud.list_jobs(
-        session, status=status, system=system, tag=tag, q=q, sort=sort, limit=limit, cursor=cursor
+        session, status=status, system=system, tag=tag, q=q, sort=sort, limit=limit, cursor=cursor,
+        config_hash=config_hash,
     )
     stored = summaries.of_jobs(session, [job.id for job in jobs])
     data = [crud.job_dict(job) | {"summaries": stored.get(job.id, {})} for job in jobs]
@@ -105,9 +115,11 @@ def delete_job(job_id: JobId, db: DatabaseDep) -> Response:
 
 
 @router.get("/{job_id:int}/results")
-def job_results(job_id: JobId, session: SessionDep, points: Points = None, include_seeds: bool = False) -> Response:
-    """Per configuration: summary, episode band, mean final weights (and each seed's curve)."""
-    head, body = analysis.job_results_parts(session, job_id=job_id, points=points, include_seeds=include_seeds)
+def job_results(job_id: JobId, session: SessionDep, points: Points = None, include_seeds: bool = False,
+                pct_by_seed: PctBySeed = False) -> Response:
+    """Per configuration: summary, episode band, mean final weights (and each seed's curve or % from uniform)."""
+    head, body = analysis.job_results_parts(session, job_id=job_id, points=points, include_seeds=include_seeds,
+                                            pct_by_seed=pct_by_seed)
     return StreamingResponse(_slices(head, body), media_type="application/json",
                              headers={"Content-Length": str(len(head) + len(body) - 1)})
 

@@ -2,10 +2,24 @@
 
 from __future__ import annotations
 
+from functools import cache
+
 from fastapi import APIRouter
 
+from backend.crud import config_hash
 from backend.deps import SettingsDep
-from mgrao_core import MAX_ALGORITHMS, MAX_EPISODES, MAX_SEEDS, MAX_WORK, PARAMETERS, PRESETS, search
+from mgrao_core import MAX_ALGORITHMS, MAX_EPISODES, MAX_SEEDS, MAX_WORK, PARAMETERS, PRESETS, make_spec, search
+from mgrao_core.reproduction import PAPER_EPISODES
+
+
+@cache
+def paper_config_hash(system: str) -> str:
+    """The ``config_hash`` of the paper's experiment of ``system``: its preset unchanged, 100 episodes.
+
+    A job has it whatever its seeds, algorithms, name or tags (``GET /api/jobs?config_hash=``).
+    """
+    return config_hash(make_spec(system, seeds=1, episodes=PAPER_EPISODES).as_dict())
+
 
 router = APIRouter(prefix="/api", tags=["systems"])
 
@@ -17,7 +31,7 @@ def systems(settings: SettingsDep) -> dict:
         "systems": [
             {"name": p.name, "description": p.description, "params": p.params.as_dict(),
              "algorithms": list(p.algorithms), "paper": dict(p.paper_pct_from_uniform),
-             "paper_pct_of_max": dict(p.paper_pct_of_max)}
+             "paper_pct_of_max": dict(p.paper_pct_of_max), "paper_config_hash": paper_config_hash(p.name)}
             for p in PRESETS.values()
         ],
         "parameters": [p.as_dict() for p in PARAMETERS],

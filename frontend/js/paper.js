@@ -1,40 +1,62 @@
-// "Ours against the paper": the newest paper run of each system (tag "paper", the preset's
-// parameters, 100 episodes) beside the paper's published tables, % from uniform and % of max.
+// "Ours against the paper": for each system the job that is the paper's experiment (its preset
+// unchanged, 100 episodes, the paper's configurations; the most seeds, then the newest) beside the
+// paper's published tables, % from uniform and % of max.
 
 import { api } from './api.js';
 import { h, notice } from './ui.js';
 import { fmtPct, fmtCI, algorithmRank } from './stats.js';
 import { algorithmColour } from './colours.js';
-import { paperRows, agreement } from './paperdata.js';
+import { paperRows, agreement, choosePaperJob, fmtSeedPercentile } from './paperdata.js';
 import { tableCsvButton } from './chartcontrols.js';
 
-const DOC_URL = '/project-docs/reproduction.md';
+const DOC_URL = '/project-docs/reproduction.html';
+const MAX_PAGES = 10;  // of 200 jobs of one configuration: far more than anyone runs the paper
+
+/** Every succeeded job of `sys`'s paper configuration (`config_hash`), whatever its tags. */
+async function paperJobs(sys) {
+  const jobs = [];
+  let cursor = null;
+  for (let page = 0; page < MAX_PAGES; page += 1) {
+    const answer = await api.listJobs({ config_hash: sys.paper_config_hash, status: 'succeeded', limit: 200,
+      ...(cursor ? { cursor } : {}) });
+    jobs.push(...answer.data);
+    cursor = answer.next_cursor;
+    if (!cursor) break;
+  }
+  return jobs;
+}
+
+function percentileTitle(r) {
+  const p = r.amongSeeds;
+  if (!p) return null;
+  return `${p.below} of our ${p.n} seeds lie below the paper's ${fmtPct(r.paper)} and ${p.above} above ` +
+    `(our seeds range from ${fmtPct(p.min)} to ${fmtPct(p.max)})`;
+}
 
 export async function mount(root, params, ctx) {
   let stopped = false;
   const body = h('div', { 'aria-live': 'polite' }, h('p', { class: 'loading' }, 'Loading the paper runs…'));
   root.append(h('div', { class: 'view-head' }, h('h1', {}, 'Ours against the paper')),
-    h('p', { class: 'help' }, 'The paper’s Tables (% from uniform, % of max, after 100 episodes) beside the newest ',
-      'succeeded job of each system that runs its preset unchanged for 100 episodes, tagged “paper” ',
-      '(New experiment → “Reproduce the paper” queues them). How the figures are made and why some differ: ',
-      h('a', { href: DOC_URL, id: 'reproduction-doc' }, 'docs/reproduction.md'), '.'),
+    h('p', { class: 'help' }, 'The paper’s Tables (% from uniform, % of max, after 100 episodes) beside, for each ',
+      'system, the succeeded job that runs its preset unchanged for 100 episodes with all the paper’s ',
+      'configurations: the one with the most seeds, then the newest (tags play no part; the Job column links ',
+      'to it). New experiment → “Reproduce the paper” queues them. How the figures are made and why some differ: ',
+      h('a', { href: DOC_URL, id: 'reproduction-doc' }, 'Reproducing the paper'), '.'),
+    h('p', { class: 'help', id: 'paper-seeds-help' }, 'The paper does not say how many runs its figures average. ',
+      'Our 95% interval is for our mean over seeds; “Paper among our seeds” says where the paper’s figure falls ',
+      'among our individual seeds’ % from uniform, so a figure outside our interval but well inside our seeds’ ',
+      'spread is one a single run like ours could give.'),
     body);
 
   let schema;
-  let results = {};
+  const results = {};
   try {
     schema = await api.systems();
-    const page = await api.listJobs({ tag: 'paper', status: 'succeeded', limit: 200 });
-    const candidates = page.data.filter((j) => j.episodes === 100);
-    // per system, the newest (the listing is newest first) whose results carry the paper's figures
-    const bySystem = {};
-    for (const j of candidates) (bySystem[j.system] ||= []).push(j);
-    await Promise.all(Object.entries(bySystem).map(async ([system, jobs]) => {
-      for (const j of jobs) {
-        const r = await api.results(j.id, { points: 10 });
-        if (r.paper) { results[system] = r; return; }
-      }
-    }));
+    await Promise.all(schema.systems.filter((s) => s.paper_config_hash && Object.keys(s.paper || {}).length)
+      .map(async (sys) => {
+        const job = choosePaperJob(sys, await paperJobs(sys));
+        if (job) results[sys.name] = await api.results(job.id, { points: 10, pct_by_seed: true });
+      }));
   } catch (e) {
     body.replaceChildren(notice('error', `Cannot load the paper runs: ${e.message}`));
     return () => { stopped = true; };
@@ -51,16 +73,18 @@ export async function mount(root, params, ctx) {
   const table = h('table', { class: 'summary paper-table', id: 'paper-table' },
       h('caption', {}, 'A flag marks a figure whose published value lies outside our 95% interval.'),
       h('thead', {}, h('tr', {}, ['System', 'Configuration', 'Job', 'Seeds', 'Ours: % from uniform', '95% CI', 'Paper',
-        'Paper within our CI?', 'Ours: % of max', 'Paper: % of max'].map((c) => h('th', { scope: 'col' }, c)))),
+        'Paper within our CI?', 'Paper among our seeds', 'Ours: % of max', 'Paper: % of max']
+        .map((c) => h('th', { scope: 'col' }, c)))),
       h('tbody', {}, rows.map((r) => h('tr', { class: r.outside ? 'outside' : null, 'data-system': r.system, 'data-algorithm': r.algorithm },
         h('th', { scope: 'row' }, r.system),
         h('td', {}, h('span', { class: 'dot', style: `background: ${algorithmColour(r.algorithm)}`, 'aria-hidden': 'true' }), r.algorithm),
-        h('td', {}, r.jobId ? h('a', { href: `#/jobs/${r.jobId}` }, `#${r.jobId}`) : '–'),
+        h('td', {}, r.jobId ? h('a', { href: `#/jobs/${r.jobId}`, class: 'paper-job' }, `#${r.jobId}`) : '–'),
         h('td', { class: 'num' }, r.runs || '–'),
         h('td', { class: 'num' }, fmtPct(r.ours)),
         h('td', { class: 'num ci' }, r.ci ? fmtCI(r.ci, 1, true) : '–'),
         h('td', { class: 'num paper' }, fmtPct(r.paper)),
         h('td', { class: 'flag' }, r.outside === null ? 'not run' : (r.outside ? '⚑ outside' : 'within')),
+        h('td', { class: 'num seed-rank', title: percentileTitle(r) }, fmtSeedPercentile(r.amongSeeds)),
         h('td', { class: 'num' }, fmtPct(r.oursOfMax, 1, false)),
         h('td', { class: 'num paper' }, r.paperOfMax === null ? '–' : fmtPct(r.paperOfMax, 1, false))))));
   body.replaceChildren(

@@ -21,6 +21,8 @@ from pathlib import Path
 import pytest
 
 from mgrao_core._numba_cache import choose_cache_dir
+from tests.support.docs_crawl import crawl_docs
+from tests.support.local_service import free_port, stop, wait_healthy
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -116,6 +118,16 @@ class ReadOnlyInstall:
                 self.python, "-c", SIMULATION]
         return subprocess.run(argv, cwd=temp, capture_output=True, text=True, timeout=300, check=False)
 
+    def serve(self, temp: Path, port: int) -> subprocess.Popen:
+        """``mgrao serve`` of the install as ``nobody`` on 127.0.0.1:``port`` (no workers, SQLite in ``temp``)."""
+        environ = {"PATH": "/usr/bin:/bin", "HOME": str(self.root / "no-such-home"), "TMPDIR": str(temp),
+                   "PYTHONPATH": os.pathsep.join([str(self.site_dir), *self.deps])}
+        argv = ["runuser", "-u", "nobody", "--", "env", "-i", *(f"{k}={v}" for k, v in environ.items()),
+                self.python, "-m", "mgrao_cli", "serve", "--host", "127.0.0.1", "--port", str(port), "--workers",
+                "0", "--database-url", f"sqlite:///{temp / 'mgrao.db'}"]
+        with open(temp / "serve.log", "wb") as log:
+            return subprocess.Popen(argv, cwd=temp, stdout=log, stderr=subprocess.STDOUT)
+
     def private_temp(self, name: str) -> Path:
         temp = self.root / name
         temp.mkdir()
@@ -160,11 +172,11 @@ def read_only_install() -> Iterator[ReadOnlyInstall]:
         root.chmod(0o755)
         source = root / "src"
         source.mkdir()
-        (source / "docs").mkdir()
-        for name in ["pyproject.toml", "README.md", "docs/reproduction.md"]:  # what pyproject.toml installs
+        for name in ["pyproject.toml", "README.md"]:  # what pyproject.toml installs
             shutil.copy2(ROOT / name, source / name)
-        for package in ["backend", "frontend", "mgrao_cli", "mgrao_core"]:
-            shutil.copytree(ROOT / package, source / package, ignore=shutil.ignore_patterns("__pycache__"))
+        for package in ["backend", "frontend", "mgrao_cli", "mgrao_core", "docs", "mgrao_docs"]:
+            shutil.copytree(ROOT / package, source / package, symlinks=True,  # mgrao_docs/docs stays a link
+                            ignore=shutil.ignore_patterns("__pycache__"))
         site_dir = root / "site-packages"
         build = subprocess.run(
             [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation", "--no-index",
@@ -213,3 +225,27 @@ def test_with_no_writable_cache_directory_at_all_the_simulation_runs_uncached(
     assert "no writable cache directory" in result.stderr
     assert "data saved to" not in result.stdout
     assert "CACHE_DIR \n" in result.stdout  # numba was left without a cache directory
+
+
+@pytest.mark.slow
+def test_read_only_install_serves_every_docs_page_with_working_links(read_only_install: ReadOnlyInstall) -> None:
+    install = read_only_install
+    shipped = install.site_dir / "mgrao_docs" / "docs"
+    assert not shipped.is_symlink()  # the build copied the files the checkout's link leads to
+    assert {p.name for p in shipped.glob("*.md")} == {p.name for p in (ROOT / "docs").glob("*.md")}
+    assert {p.name for p in (shipped / "img").iterdir()} == {p.name for p in (ROOT / "docs" / "img").iterdir()}
+    temp = install.private_temp("tmp-serve")
+    port = free_port()
+    process = install.serve(temp, port)
+    base = f"http://127.0.0.1:{port}"
+    try:
+        try:
+            wait_healthy(base, process, timeout=120)
+        except RuntimeError as error:
+            pytest.fail(f"the installed mgrao serve did not start: {error}\n"
+                        f"{(temp / 'serve.log').read_text(errors='replace')[-3000:]}")
+        pages, problems = crawl_docs(base)
+        assert not problems, "\n".join(problems)
+        assert {f"/project-docs/{p.stem}.html" for p in (ROOT / "docs").glob("*.md")} <= set(pages)
+    finally:
+        stop(process, timeout=15)

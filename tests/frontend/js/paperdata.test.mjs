@@ -1,6 +1,6 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { paperRows, agreement } from '../../../frontend/js/paperdata.js';
+import { paperRows, agreement, choosePaperJob, seedPercentile, fmtSeedPercentile } from '../../../frontend/js/paperdata.js';
 
 const schema = { systems: [
   { name: 'single', paper: { 'mgrao-max': 28.0, 'mgrao-1:1': 23.4 }, paper_pct_of_max: { 'mgrao-max': 100, 'mgrao-1:1': 83.7 } },
@@ -26,4 +26,49 @@ test('paperRows: ours beside the paper, flagged where the paper lies outside our
 test('agreement counts the judged figures and says what has not run', () => {
   assert.equal(agreement(paperRows(schema, { single })),
     "1 of 2 figures hold the paper's value within our 95% interval (1 not run yet).");
+});
+
+const sys = { name: 'single', paper: { 'mgrao-max': 28.0, 'mgrao-1:1': 23.4 }, paper_config_hash: 'h' };
+const job = (id, seeds, extra = {}) => ({ id, system: 'single', status: 'succeeded', episodes: 100, config_hash: 'h',
+  algorithms: ['uniform', 'mgrao-1:1', 'mgrao-max'], seeds: Array.from({ length: seeds }, (_, i) => i),
+  created_at: `2026-01-${String(id).padStart(2, '0')}T00:00:00.000Z`, tags: [], ...extra });
+
+test('choosePaperJob: the most seeds, then the newest; never a job that is not the paper experiment', () => {
+  const hundred = job(1, 100);
+  const cloneOfTen = job(5, 10, { tags: ['paper'] });  // newer, tagged: a clone must not replace the 100 seeds
+  assert.equal(choosePaperJob(sys, [cloneOfTen, hundred]).id, 1);
+  assert.equal(choosePaperJob(sys, [hundred, job(3, 100)]).id, 3);  // equal seeds: the newest
+  assert.equal(choosePaperJob(sys, [job(9, 200, { status: 'failed' }), job(8, 200, { episodes: 50 }),
+    job(7, 200, { config_hash: 'other' }), job(6, 200, { algorithms: ['uniform', 'mgrao-max'] }),
+    job(4, 200, { system: 'multi' }), hundred]).id, 1);
+  assert.equal(choosePaperJob(sys, []), null);
+});
+
+test('seedPercentile: the share of our seeds below the paper, ties counting half', () => {
+  const p = seedPercentile([10, 20, 30, 40], 25);
+  assert.deepEqual([p.percentile, p.below, p.above, p.n, p.min, p.max], [50, 2, 2, 4, 10, 40]);
+  assert.equal(seedPercentile([10, 20, 30, 40], 20).percentile, 37.5);
+  assert.equal(seedPercentile([10, null, 30], 5).percentile, 0);
+  assert.equal(seedPercentile([], 5), null);
+  assert.equal(seedPercentile([1, 2], null), null);
+});
+
+test('fmtSeedPercentile says below or above all, else an ordinal percentile', () => {
+  assert.equal(fmtSeedPercentile(seedPercentile([10, 20], 5)), 'below all 2');
+  assert.equal(fmtSeedPercentile(seedPercentile([10, 20], 25)), 'above all 2');
+  assert.deepEqual([1, 2, 3, 4, 11, 12, 13, 21, 22, 42, 50].map((n) => fmtSeedPercentile({ percentile: n, below: 1, above: 1, n: 9 })),
+    ['1st percentile', '2nd percentile', '3rd percentile', '4th percentile', '11th percentile', '12th percentile',
+      '13th percentile', '21st percentile', '22nd percentile', '42nd percentile', '50th percentile']);
+  assert.equal(fmtSeedPercentile(null), '–');
+});
+
+test('paperRows: where the paper falls among our seeds, from the results\' pct_by_seed', () => {
+  const withSeeds = { job: { id: 4 }, configurations: [
+    { algorithm: 'mgrao-max', summary: { n_runs: 4, pct_from_uniform: 25, pct_ci95: [20, 30], pct_of_max: 100 },
+      pct_by_seed: [15, 22, 29, 34].map((v, seed) => ({ seed, pct_from_uniform: v })) },
+  ] };
+  const rows = paperRows(schema, { single: withSeeds });
+  const max = rows.find((r) => r.algorithm === 'mgrao-max' && r.system === 'single');
+  assert.deepEqual([max.amongSeeds.below, max.amongSeeds.n, max.amongSeeds.percentile], [2, 4, 50]);
+  assert.equal(rows.find((r) => r.algorithm === 'mgrao-1:1').amongSeeds, null);
 });
