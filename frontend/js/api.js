@@ -98,6 +98,7 @@ export const api = {
     return systemsCache;
   },
   listJobs: (query, opts) => request('GET', '/jobs', { query, ...opts }),
+  jobChanges: (since, opts) => request('GET', '/jobs/changes', { query: { since }, ...opts }),
   getJob: (id, opts) => request('GET', `/jobs/${id}`, opts),
   createJob: (body) => request('POST', '/jobs', { body }),
   patchJob: (id, body) => request('PATCH', `/jobs/${id}`, { body }),
