@@ -107,6 +107,7 @@ window.addEventListener('api-status', (ev) => {
 // The header: version and workers from /api/health (every 10 s), the running and queued counts from
 // the jobs poll (livejobs.js: within about a second of any change, wherever it was made).
 const header = { version: '', running: null, queued: null, workers: '' };
+let healthAt = 0; // when /api/health was last asked
 function showHeader() {
   const el = document.getElementById('health');
   el.textContent = `server ${header.version} · ${header.running ?? 0} running · ${header.queued ?? 0} queued` +
@@ -170,7 +171,6 @@ render();
 checkHealth();
 setInterval(checkHealth, 10000);
 startJobsPoll();
-let healthAt = 0;
 window.addEventListener('jobs-live', (ev) => {
   header.running = ev.detail.running;
   header.queued = ev.detail.queued;
