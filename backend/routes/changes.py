@@ -1,23 +1,27 @@
-"""Light reads for the dashboard's polls: whether jobs changed, and where one job stands.
+"""Light reads for the dashboard: whether jobs changed, where one job stands, whether an experiment would be taken.
 
 ``/api/jobs/changes``: has any job changed since a token the client holds; ``/api/jobs/{id}/status``:
-what a queued job waits for and whether runs are stored yet.
+what a queued job waits for and whether runs are stored yet; ``POST /api/jobs/check``: a submission's
+validation without queuing it, answered 200 either way (a refusal is a state of the form, not an error).
 """
 
 from __future__ import annotations
 
 import hashlib
-from typing import Annotated
+from typing import Annotated, Any
 
-from fastapi import APIRouter, Path, Query
+from fastapi import APIRouter, Body, Path, Query
 from fastapi.responses import JSONResponse
+from pydantic import ValidationError
 from sqlalchemy import and_, func, or_, select
 from sqlalchemy.orm import Session
 
 from backend import crud, presence
 from backend.deps import SessionDep, SettingsDep
+from backend.errors import InvalidSpec
 from backend.models import QUEUED, RUNNING, Job, Run
-from backend.schemas import MAX_JOB_ID
+from backend.schemas import MAX_JOB_ID, JobCreate
+from mgrao_core import MAX_WORK, ConfigError, make_spec
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 
@@ -81,3 +85,27 @@ def job_status(job_id: Annotated[int, Path(ge=1, le=MAX_JOB_ID, description="A j
         "workers": presence.counts(session, stale_after_s=settings.stale_after_s),
         "stored_runs": session.scalar(select(func.count()).select_from(Run).where(Run.job_id == job.id)),
     }
+
+
+@router.post("/check")
+def check_job(body: Annotated[dict[str, Any], Body()], settings: SettingsDep) -> dict:
+    """Validate a ``POST /api/jobs`` body without queuing it; 200 either way.
+
+    ``{"valid": true, "work", "max_work"}``, or ``{"valid": false, "detail": [...]}`` with the very
+    ``detail`` the submission would be refused with (422, docs/api.md's validation shape).
+    """
+    from backend.app import validation_details  # the app imports this module
+
+    try:
+        job = JobCreate.model_validate(body)
+    except ValidationError as error:
+        raw = [{**item, "loc": ("body", *item["loc"])} for item in error.errors()]
+        return {"valid": False, "detail": validation_details(raw)}
+    try:
+        spec = make_spec(job.system, job.algorithms, job.seeds, job.episodes, job.params,
+                         memory_budget=settings.job_memory_bytes)
+    except ConfigError as error:
+        refused = InvalidSpec.from_config_error(error, params=job.params)
+        return {"valid": False, "detail": [{"loc": refused.loc, "field": refused.field, "msg": refused.msg,
+                                            "type": "value_error"}]}
+    return {"valid": True, "work": spec.work, "max_work": MAX_WORK}
