@@ -177,5 +177,11 @@ window.addEventListener('jobs-live', (ev) => {
   if (header.version) showHeader();
   if (performance.now() - healthAt > 3000) checkHealth(); // workers warming up -> ready show with the job they run
 });
-// After an action of this page, or when a view sees a job change state, the poll asks at once.
-window.addEventListener('jobs-changed', pollJobsSoon);
+// After an action of this page, or when a view sees a job change state, the poll asks at once and
+// the workers are read again (a worker that took its first job is no longer warming up).
+let healthSoon = null;
+window.addEventListener('jobs-changed', () => {
+  pollJobsSoon();
+  clearTimeout(healthSoon);
+  healthSoon = setTimeout(checkHealth, 300);
+});

@@ -109,6 +109,7 @@ def test_a_queued_job_says_what_it_really_waits_for_and_nothing_stored_is_no_err
             page.goto(f"/#/jobs/{running['id']}")
             page.locator("#no-runs-yet").wait_for(timeout=30000)
             assert "No seed is complete yet" in page.inner_text("#no-runs-yet")
+            page.locator("#no-runs-yet").scroll_into_view_if_needed()
             page.screenshot(path=str(screenshots / "job-nothing-stored-yet.png"))
 
             text = waiting_text(page, nxt["id"], "Next in the queue")
