@@ -18,7 +18,7 @@ from backend.docpages import install_docs
 from backend.errors import BadQuery, Conflict, InvalidSpec, NotFound
 from backend.limits import BodyLimit
 from backend.memory import return_large_blocks
-from backend.routes import compare, health, jobs, studies, systems
+from backend.routes import changes, compare, health, jobs, studies, systems
 from backend.security import AllowedHosts, SameOriginWrites, SecurityHeaders, TokenRequired, allowed_hosts
 from backend.settings import Settings
 from backend.static import CompressAssets, frontend_dir, install_static, plotly_js
@@ -113,7 +113,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.db = db
     _install_error_handlers(app)
     faults.install(app)  # first of the middlewares: the innermost
-    for module in (jobs, studies, compare, systems, health):
+    for module in (jobs, changes, studies, compare, systems, health):
         app.include_router(module.router)
 
     install_api_docs(app)

@@ -11,6 +11,8 @@
 Run:  python benchmarks/bench_dashboard.py [--jobs 10000] [--compare-jobs 10] [--episodes 1000] [--repeat 5]
       (``--reuse /tmp/mgrao-bench-XXXX/bench.db --workers 0``: the stored jobs of an earlier run again)
       (``--runs-only``: the runs page alone, also sorted by a result with result and parameter columns)
+3. The runs table's live refresh: a job submitted through the API -> its row shown, and an idle
+   poll's bytes and time (``GET /api/jobs/changes``) beside a listing's.
 Needs /usr/bin/chromium (Debian) and playwright's Python package; never downloads browsers.
 """
 
@@ -114,6 +116,56 @@ def insert_jobs(url: str, n: int) -> float:
 
 def median(xs: list[float]) -> float:
     return statistics.median(xs) if xs else float("nan")
+
+
+def live_runs(base: str, url: str, ctx, repeat: int) -> None:
+    """The runs table's live refresh: submit through the API -> row shown, and what an idle poll costs.
+
+    An idle poll is ``GET /api/jobs/changes?since=<current token>``: its bytes, its time seen from a
+    client on 127.0.0.1 (median of 50), and the server's query alone (``jobs_token`` in this process on
+    the same database file); beside it the listing a poll used to need, ``GET /api/jobs?limit=50``.
+    """
+    from backend.db import Database
+    from backend.routes.changes import jobs_token
+
+    def get(path: str) -> tuple[bytes, float]:
+        t = time.perf_counter()
+        with urllib.request.urlopen(f"{base}/api{path}", timeout=30) as r:
+            body = r.read()
+        return body, time.perf_counter() - t
+
+    delays = []
+    page = ctx.new_page()
+    page.goto("/#/runs")
+    page.wait_for_selector("main[data-render-ms] table.runs tbody tr")
+    for k in range(repeat):
+        job = call(base, "POST", "/jobs", {"system": "single", "seeds": 1, "episodes": 5, "name": f"bench live {k}",
+                                           "tags": ["bench-live"]})
+        t = time.perf_counter()
+        page.wait_for_selector(f'tr[data-id="{job["id"]}"]', timeout=30000)
+        delays.append(time.perf_counter() - t)
+        page.wait_for_timeout(500)
+    page.close()
+    print(f"runs page live: submitted through the API -> row shown median {median(delays) * 1000:.0f} ms, "
+          f"max {max(delays) * 1000:.0f} ms (target about 2 s: {'MET' if max(delays) < 2.5 else 'MISSED'})")
+
+    time.sleep(3)  # let the benchmark's own jobs finish so the token stays put
+    token = json.loads(get("/jobs/changes")[0])["token"]
+    idle = [get(f"/jobs/changes?since={token}") for _ in range(50)]
+    changed = sum(1 for body, _ in idle if json.loads(body)["changed"])
+    db = Database(url)
+    server = []
+    with db.session() as session:
+        for _ in range(50):
+            t = time.perf_counter()
+            jobs_token(session)
+            server.append(time.perf_counter() - t)
+    listing = [get("/jobs?limit=50") for _ in range(10)]
+    client_ms = median([t for _, t in idle]) * 1000
+    print(f"idle poll GET /api/jobs/changes: {len(idle[0][0])} bytes, median {client_ms:.1f} ms from a client, "
+          f"token query {median(server) * 1000:.2f} ms in process ({changed} of 50 said changed); "
+          f"the listing GET /api/jobs?limit=50: {len(listing[0][0]):,} bytes, "
+          f"median {median([t for _, t in listing]) * 1000:.1f} ms")
 
 
 def main() -> None:
@@ -235,6 +287,7 @@ def main() -> None:
                 f"runs page sorted by mgrao-max's % from uniform, with 3 result columns and a parameter column: "
                 f"navigation -> table rendered median {median(columns_total):.0f} ms"
             )
+            live_runs(base, url, ctx, args.repeat)
             if not ids:
                 browser.close()
                 worst = max(median(runs_total), median(columns_total))

@@ -18,6 +18,8 @@ MAX_EPISODES = 100_000
 MAX_ALGORITHMS = 20
 MAX_WORK = 2_000_000_000
 """Atomic tasks per experiment: seeds x algorithms x episodes x parents x types per composite."""
+WORK_FACTORS = ("seeds", "algorithms", "episodes", "n_parents", "types_per_composite")
+"""What :attr:`ExperimentSpec.work` multiplies: the counts of seeds and algorithms, the episodes, and two parameters."""
 MAX_GROUP_UPDATES = 40_000_000_000
 """Row updates of algorithm 1 per experiment, counted at their worst: each returned value
 renormalises every active parent-group row of its child, and at slow trace decays every row stays

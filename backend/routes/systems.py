@@ -8,7 +8,17 @@ from fastapi import APIRouter
 
 from backend.crud import config_hash
 from backend.deps import SettingsDep
-from mgrao_core import MAX_ALGORITHMS, MAX_EPISODES, MAX_SEEDS, MAX_WORK, PARAMETERS, PRESETS, make_spec, search
+from mgrao_core import (
+    MAX_ALGORITHMS,
+    MAX_EPISODES,
+    MAX_SEEDS,
+    MAX_WORK,
+    PARAMETERS,
+    PRESETS,
+    WORK_FACTORS,
+    make_spec,
+    search,
+)
 from mgrao_core.reproduction import PAPER_EPISODES
 
 
@@ -26,7 +36,11 @@ router = APIRouter(prefix="/api", tags=["systems"])
 
 @router.get("/systems")
 def systems(settings: SettingsDep) -> dict:
-    """What can be submitted: systems, parameters, algorithm labels, limits and the studies' limits."""
+    """What can be submitted: systems, parameters, algorithm labels, limits and the studies' limits.
+
+    ``limits.max_work`` bounds the product of ``limits.work_factors``: the number of seeds and of
+    algorithms, the episodes and the named parameters (the form shows the budget as it fills).
+    """
     return {
         "systems": [
             {"name": p.name, "description": p.description, "params": p.params.as_dict(),
@@ -37,7 +51,8 @@ def systems(settings: SettingsDep) -> dict:
         "parameters": [p.as_dict() for p in PARAMETERS],
         "algorithms": {"fixed": ["uniform", "mgrao-1:1", "mgrao-max", "oracle"], "pattern": "mgrao-<x>:1"},
         "limits": {"max_seeds": MAX_SEEDS, "max_episodes": MAX_EPISODES, "max_algorithms": MAX_ALGORITHMS,
-                   "max_work": MAX_WORK, "max_body_bytes": settings.max_body_bytes},
+                   "max_work": MAX_WORK, "work_factors": list(WORK_FACTORS),
+                   "max_body_bytes": settings.max_body_bytes},
         "studies": {"methods": list(search.METHODS), "metrics": list(search.METRICS),
                     "max_trials": search.MAX_TRIALS, "max_in_flight": search.MAX_IN_FLIGHT,
                     "max_dimensions": search.MAX_DIMENSIONS, "max_steps": search.MAX_STEPS,

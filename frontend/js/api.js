@@ -158,8 +158,11 @@ export const api = {
     return systemsCache;
   },
   listJobs: (query, opts) => request('GET', '/jobs', { query, ...opts }),
+  jobChanges: (since, opts) => request('GET', '/jobs/changes', { query: { since }, ...opts }),
   getJob: (id, opts) => request('GET', `/jobs/${id}`, opts),
+  jobStatus: (id, opts) => request('GET', `/jobs/${id}/status`, opts),
   createJob: (body) => request('POST', '/jobs', { body }),
+  checkJob: (body) => request('POST', '/jobs/check', { body }),
   patchJob: (id, body) => request('PATCH', `/jobs/${id}`, { body }),
   cancelJob: (id) => request('POST', `/jobs/${id}/cancel`),
   deleteJob: (id) => request('DELETE', `/jobs/${id}`),

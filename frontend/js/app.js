@@ -12,6 +12,7 @@ import * as study from './study.js';
 import * as newstudy from './newstudy.js';
 import * as paper from './paper.js';
 import { installShortcuts } from './shortcuts.js';
+import { startJobsPoll, pollJobsSoon } from './livejobs.js';
 
 const main = document.getElementById('main');
 const banner = document.getElementById('banner');
@@ -103,8 +104,20 @@ window.addEventListener('api-status', (ev) => {
   }
 });
 
+// The header: version and workers from /api/health (every 10 s), the running and queued counts from
+// the jobs poll (livejobs.js: within about a second of any change, wherever it was made).
+const header = { version: '', running: null, queued: null, workers: '' };
+let healthAt = 0; // when /api/health was last asked
+function showHeader() {
+  const el = document.getElementById('health');
+  el.textContent = `server ${header.version} · ${header.running ?? 0} running · ${header.queued ?? 0} queued` +
+    (header.workers ? ` · ${header.workers}` : '');
+  el.className = 'health ok';
+}
+
 async function checkHealth() {
   const el = document.getElementById('health');
+  healthAt = performance.now();
   try {
     const hl = await api.health();
     if (!('version' in hl)) { // a server that protects its reads tells only its status without the token
@@ -112,10 +125,8 @@ async function checkHealth() {
       el.className = hl.status === 'ok' ? 'health ok' : 'health down';
       return;
     }
-    const workers = workersWord(hl.workers);
-    el.textContent = `server ${hl.version || ''} · ${hl.running ?? 0} running · ${hl.queued ?? 0} queued` +
-      (workers ? ` · ${workers}` : '');
-    el.className = 'health ok';
+    Object.assign(header, { version: hl.version || '', running: hl.running, queued: hl.queued, workers: workersWord(hl.workers) });
+    showHeader();
   } catch {
     el.textContent = 'server unreachable';
     el.className = 'health down';
@@ -140,12 +151,21 @@ window.addEventListener('hashchange', () => {
   render();
 });
 setupToken();
+// What a shortcut could not do (e.g. `c` with nothing selected): shown for a while and announced.
 const shortcutStatus = document.createElement('p');
-shortcutStatus.className = 'visually-hidden';
+shortcutStatus.className = 'toast';
+shortcutStatus.setAttribute('role', 'status');
 shortcutStatus.setAttribute('aria-live', 'polite');
 shortcutStatus.id = 'shortcut-status';
+shortcutStatus.hidden = true;
 document.body.append(shortcutStatus);
-installShortcuts((text) => { shortcutStatus.textContent = text; });
+let shortcutHide = null;
+installShortcuts((text) => {
+  shortcutStatus.textContent = text;
+  shortcutStatus.hidden = false;
+  clearTimeout(shortcutHide);
+  shortcutHide = setTimeout(() => { shortcutStatus.hidden = true; shortcutStatus.textContent = ''; }, 6000);
+});
 // The skip link must not touch the hash (the router owns it): move focus to <main> instead.
 document.querySelector('.skip-link').addEventListener('click', (ev) => {
   ev.preventDefault();
@@ -155,9 +175,18 @@ if (!location.hash) history.replaceState(null, '', '#/runs');
 render();
 checkHealth();
 setInterval(checkHealth, 10000);
-// After an action, or when a view sees a job change state, the counts follow within 0.3 s.
+startJobsPoll();
+window.addEventListener('jobs-live', (ev) => {
+  header.running = ev.detail.running;
+  header.queued = ev.detail.queued;
+  if (header.version) showHeader();
+  if (performance.now() - healthAt > 3000) checkHealth(); // workers warming up -> ready show with the job they run
+});
+// After an action of this page, or when a view sees a job change state, the poll asks at once and
+// the workers are read again (a worker that took its first job is no longer warming up).
 let healthSoon = null;
 window.addEventListener('jobs-changed', () => {
+  pollJobsSoon();
   clearTimeout(healthSoon);
   healthSoon = setTimeout(checkHealth, 300);
 });

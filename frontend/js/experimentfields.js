@@ -3,7 +3,7 @@
 // validates; its 422 messages are shown beside the inputs named by each error's field path.
 
 import { h, nextId } from './ui.js';
-import { parseRatios, fieldErrors, changedParams, sortAlgorithms } from './stats.js';
+import { parseRatios, fieldErrors, changedParams, sortAlgorithms, workBudget, workText } from './stats.js';
 import { divisors, fmtParam } from './studydata.js';
 
 /** sessionStorage key of the experiment the new-experiment form hands to the new-study form. */
@@ -219,6 +219,38 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3 } 
     };
   }
 
+  // --- the work budget: the product of limits.work_factors against limits.max_work (GET /api/systems) ---
+  let budgetBox = null;
+  const budgetText = h('p', { class: 'budget-text', id: nextId('budget') });
+  const budgetErr = h('span', { class: 'field-error', id: nextId('budgeterr'), 'aria-live': 'polite' });
+  const factorBlock = (path) => errorEls.get(path)?.input.closest('.field, fieldset');
+
+  /** Show the budget as it stands and mark the fields that drive it while it is over the limit. */
+  function updateBudget() {
+    if (!budgetBox) return null;
+    const experiment = read();
+    const budget = experiment.invalidRatios ? null : workBudget(experiment, preset().params, schema.limits);
+    budgetBox.classList.toggle('over', Boolean(budget && budget.over));
+    budgetText.textContent = budget ? workText(budget) : `Work: fill in every field to see it against the limit of ` +
+      `${schema.limits.max_work.toLocaleString('en-US')} atomic tasks per experiment.`;
+    for (const name of schema.limits.work_factors || []) {
+      const path = name === 'seeds' || name === 'algorithms' || name === 'episodes' ? name : `params.${name}`;
+      factorBlock(path)?.classList.toggle('over-budget', Boolean(budget && budget.over));
+    }
+    return budget;
+  }
+
+  /** The budget line (new-experiment form): placed once, updated on every edit of `form`. */
+  function budgetBlock(form) {
+    budgetBox = h('div', { class: 'budget', 'data-for': 'work' }, budgetText, budgetErr);
+    errorEls.set('work', { input: seedsIn, error: budgetErr });
+    const soon = () => setTimeout(updateBudget, 0); // after the form's own handlers (a preset change)
+    form.addEventListener('input', soon);
+    form.addEventListener('change', soon);
+    presetListeners.push(soon);
+    return budgetBox;
+  }
+
   function clearErrors(summary) {
     summary.replaceChildren();
     for (const { input, error } of errorEls.values()) {
@@ -243,16 +275,24 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3 } 
       if (path.startsWith('params.') || path.startsWith('space.')) advanced.open = true;
       first ||= target.input;
     }
+    if (budgetBox && Object.keys(byField).some((key) => keyOf(key) === 'work')) { // over a work limit: mark what drives it
+      for (const name of schema.limits.work_factors || []) {
+        const path = name === 'seeds' || name === 'algorithms' || name === 'episodes' ? name : `params.${name}`;
+        const block = factorBlock(path);
+        block?.classList.add('invalid');
+        errorEls.get(path)?.input.setAttribute('aria-invalid', 'true');
+      }
+    }
     const msgs = Object.keys(byField).length ? unplaced : [err.message];
     summary.replaceChildren(h('div', { class: 'notice error', role: 'alert' },
-      h('p', {}, Object.keys(byField).length ? `The server rejected the ${what}; see the marked fields.` : `The ${what} could not be started.`),
+      h('p', {}, err.lead || (Object.keys(byField).length ? `The server rejected the ${what}; see the marked fields.` : `The ${what} could not be started.`)),
       msgs.length ? h('ul', {}, msgs.map((m) => h('li', {}, m))) : null));
     if (first) first.focus();
   }
 
   return {
     fieldBlock, errorEls, systemSel, systemDesc, algoFieldset, algoBoxes, ratioIn, seedsIn, episodesIn, advanced,
-    paramInputs, preset, applyPreset, read, load, clearErrors, showErrors, keptNote,
+    paramInputs, preset, applyPreset, read, load, clearErrors, showErrors, keptNote, budgetBlock, updateBudget,
     onPreset: (listener) => presetListeners.push(listener),
   };
 }

@@ -19,7 +19,8 @@ export async function mount(root, params, ctx) {
   loadPlotly(); // start fetching/evaluating plotly.js while the API answers
   let stopped = false;
   let timer = null;
-  let workers = null; // /api/health's workers ({warming, ready}) while the job waits in the queue
+  let workers = null; // the workers ({warming, ready}) while the job waits in the queue
+  let queue = null; // {ahead, running} of GET /api/jobs/{id}/status: what the queued job waits for
   let workersAt = 0;
   const plots = [];
   let smooth = Math.max(1, Number(params.smooth) || 1);
@@ -101,7 +102,7 @@ export async function mount(root, params, ctx) {
   function renderStatus() {
     const pct = pctProgress(job.progress);
     if (job.status === 'queued' || job.status === 'running') {
-      const waiting = waitingMessage(workers, pct);
+      const waiting = waitingMessage(workers, pct, queue);
       statusBox.replaceChildren(h('div', { class: 'progress-block' },
         h('span', { class: `badge status-${job.status}` },
           job.status === 'running' ? h('span', { class: 'spinner', 'aria-hidden': 'true' }) : null, job.status),
@@ -147,18 +148,19 @@ export async function mount(root, params, ctx) {
   async function showStored() {
     if (job.status === 'queued' && !(job.progress > 0)) { body.replaceChildren(); return; }
     liveAt = Date.now();
+    const nothingYet = () => body.replaceChildren(h('p', { class: 'help', id: 'no-runs-yet', role: 'status' },
+      job.status === 'running' || job.status === 'queued'
+        ? 'No seed is complete yet: the curves appear as soon as the first chunk of seeds is stored.'
+        : 'It stored no runs.'));
     let r;
     try {
+      // Nothing stored yet is a state, not an error: ask /results (409 then) only once a run is stored.
+      if ((await api.jobStatus(id)).stored_runs === 0) { if (!stopped) nothingYet(); return; }
       r = await api.results(id, { points: POINTS, include_seeds: showSeeds ? 'true' : undefined });
     } catch (e) {
       if (stopped) return;
-      if (e.status === 409) {
-        body.replaceChildren(h('p', { class: 'help', id: 'no-runs-yet' }, job.status === 'running'
-          ? 'No seed is complete yet: the curves appear as soon as the first chunk of seeds is stored.'
-          : 'It stored no runs.'));
-      } else {
-        body.replaceChildren(notice('error', `Cannot load the stored results: ${e.message}`));
-      }
+      if (e.status === 409) nothingYet(); // the runs were deleted meanwhile
+      else body.replaceChildren(notice('error', `Cannot load the stored results: ${e.message}`));
       return;
     }
     if (stopped) return;
@@ -173,7 +175,11 @@ export async function mount(root, params, ctx) {
   async function readWorkers() {
     if (job.status !== 'queued' || Date.now() - workersAt < 2000) return;
     workersAt = Date.now();
-    try { workers = (await api.health()).workers || null; } catch { workers = null; }
+    try {
+      const st = await api.jobStatus(id);
+      workers = st.workers || null;
+      queue = { ahead: st.ahead, running: st.running };
+    } catch { workers = null; queue = null; }
   }
 
   async function poll() {

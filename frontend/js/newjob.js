@@ -65,6 +65,7 @@ export async function mount(root, params, ctx) {
   const paperStatus = h('p', { 'aria-live': 'polite', class: 'help' });
   const showErrors = (err) => fields.showErrors(err, summary, 'experiment');
 
+  const budgetSlot = h('div');
   const form = h('form', { class: 'newjob', novalidate: true, 'aria-describedby': summary.id },
     cloneNote, summary,
     h('div', { class: 'grid2' },
@@ -73,7 +74,8 @@ export async function mount(root, params, ctx) {
         fields.algoFieldset,
         h('div', { class: 'row' },
           fields.fieldBlock('seeds', 'Seeds (number of runs)', fields.seedsIn, `1 to ${schema.limits.max_seeds}`),
-          fields.fieldBlock('episodes', 'Episodes per run', fields.episodesIn, `1 to ${schema.limits.max_episodes}`))),
+          fields.fieldBlock('episodes', 'Episodes per run', fields.episodesIn, `1 to ${schema.limits.max_episodes}`)),
+        budgetSlot),
       h('div', {},
         fields.fieldBlock('name', 'Name', nameIn, null),
         fields.fieldBlock('tags', 'Tags', tagsIn, 'Comma separated'),
@@ -81,12 +83,21 @@ export async function mount(root, params, ctx) {
     fields.advanced,
     h('div', { class: 'actions' }, submitBtn));
 
+  budgetSlot.append(fields.budgetBlock(form));
+
   form.addEventListener('submit', async (ev) => {
     ev.preventDefault();
     fields.clearErrors(summary);
     const experiment = fields.read();
     if (experiment.invalidRatios) {
       showErrors({ detail: [{ field: 'algorithms', msg: `not a ratio: ${experiment.invalidRatios.join(', ')} (type whole numbers like 2, 5)` }] });
+      return;
+    }
+    const budget = fields.updateBudget();
+    if (budget && budget.over) { // said here, as the server would (a 422 naming `work`), without sending it
+      showErrors({ lead: `The experiment is over the work limit of ${budget.max.toLocaleString('en-US')} atomic tasks ` +
+        'per experiment and was not sent; see the marked fields.',
+      detail: [{ field: 'work', msg: 'Not sent: over the work limit.' }] });
       return;
     }
     const body = {
@@ -99,6 +110,9 @@ export async function mount(root, params, ctx) {
     submitBtn.disabled = true;
     submitBtn.textContent = 'Submitting…';
     try {
+      // Checked first (always 200): a refusal is shown beside its fields without a 422 in the console.
+      const verdict = await api.checkJob(body);
+      if (!verdict.valid) { showErrors({ detail: verdict.detail }); return; }
       const job = await api.createJob(body);
       ctx.navigate(`/jobs/${job.id}`);
     } catch (e) {
@@ -138,5 +152,6 @@ export async function mount(root, params, ctx) {
       h('p', {}, `The paper’s four systems, each with its published configurations, ${PAPER_SEEDS} seeds × ${PAPER_EPISODES} episodes.`),
       paperBtn, paperStatus));
   if (!params.clone) fields.applyPreset(); // a clone's fields were filled from its job above
+  fields.updateBudget();
   return null;
 }

@@ -65,3 +65,18 @@ export function columnsFromQuery(result, cols, knownParams) {
   }
   return out;
 }
+
+/** The page size that reads every row shown again in one request (the API's limit is 200). */
+export function refreshLimit(shown, page, max = 200) {
+  return Math.min(max, Math.max(page, shown));
+}
+
+/** Whether a row needs no redraw: the job as read again equals the one shown (state, progress, labels, summaries). */
+export function sameJob(shown, read) {
+  return JSON.stringify(shown) === JSON.stringify(read);
+}
+
+/** Whether only the progress of the job moved (its row's progress bar is updated in place, not redrawn). */
+export function progressOnly(shown, read) {
+  return shown.progress !== read.progress && sameJob({ ...shown, progress: 0 }, { ...read, progress: 0 });
+}

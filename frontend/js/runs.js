@@ -2,8 +2,8 @@
 
 import { api } from './api.js';
 import { h, statusCell, confirmDialog, promptDialog, cancelConsequence, keepLabel, editJobDialog, notice, debounce, nextId } from './ui.js';
-import { fmtDate, fmtDuration, seedCount, sortAlgorithms } from './stats.js';
-import { columnsFromQuery, sortKey, nextSort, sortState, cellText, cellInterval } from './runcolumns.js';
+import { fmtDate, fmtDuration, seedCount, sortAlgorithms, parseTags } from './stats.js';
+import { columnsFromQuery, sortKey, nextSort, sortState, cellText, cellInterval, refreshLimit, sameJob, progressOnly } from './runcolumns.js';
 
 const STATUSES = ['queued', 'running', 'succeeded', 'failed', 'cancelled'];
 const SORTS = [
@@ -28,7 +28,9 @@ export async function mount(root, params, ctx) {
   const rows = new Map(); // id -> {job, tr}
   let cursor = null;
   let loadToken = 0;
-  let pollTimer = null;
+  let localEdits = 0; // rows this page changed itself (cancel, edit, tag, delete): newer than an answer on its way
+  let refreshing = false;
+  let refreshAgain = false;
   let stopped = false;
 
   const live = h('p', { class: 'visually-hidden', 'aria-live': 'polite' });
@@ -91,10 +93,13 @@ export async function mount(root, params, ctx) {
       (failed.length ? `; failed: ${failed.join('; ')}` : '') + '.';
   }
   const tagBtn = h('button', { type: 'button', class: 'secondary', disabled: true, onclick: async () => {
-    const tag = await promptDialog('Tag the selected jobs', `Tag to add to ${selected.size} job${selected.size === 1 ? '' : 's'}`, 'Add tag');
-    if (!tag) return;
+    // Comma separated like every other tag field: `quicklook, single` adds two tags.
+    const tags = parseTags(await promptDialog('Tag the selected jobs',
+      `Tags to add to ${selected.size} job${selected.size === 1 ? '' : 's'} (comma separated)`, 'Add tags', { maxlength: 500 }));
+    if (!tags.length) return;
     await bulk('Tagged', () => true, async (job) => {
-      if (!(job.tags || []).includes(tag)) replaceRow(await api.patchJob(job.id, { tags: [...(job.tags || []), tag] }));
+      const missing = tags.filter((t) => !(job.tags || []).includes(t));
+      if (missing.length) replaceRow(await api.patchJob(job.id, { tags: [...(job.tags || []), ...missing] }));
     });
   } }, 'Tag selected');
   const cancelSelBtn = h('button', { type: 'button', class: 'secondary', disabled: true, onclick: async () => {
@@ -107,6 +112,7 @@ export async function mount(root, params, ctx) {
       'This cannot be undone.', 'Delete them', true, 'Keep them'))) return;
     await bulk('Deleted', (job) => job.status !== 'running', async (job) => {
       await api.deleteJob(job.id);
+      localEdits += 1;
       rows.get(job.id)?.tr.remove();
       rows.delete(job.id);
       selected.delete(job.id);
@@ -211,6 +217,7 @@ export async function mount(root, params, ctx) {
           if (!(await confirmDialog('Delete job?', `Delete job ${job.id} “${job.name || ''}” and all its results? This cannot be undone.`, 'Delete', true, 'Keep the job'))) return;
           try {
             await api.deleteJob(job.id);
+            localEdits += 1;
             const r = rows.get(job.id);
             if (r) r.tr.remove();
             rows.delete(job.id);
@@ -246,7 +253,7 @@ export async function mount(root, params, ctx) {
     const tr = row(job);
     if (old) old.tr.replaceWith(tr);
     rows.set(job.id, { job, tr });
-    schedulePoll();
+    localEdits += 1;
   }
 
   function showError(e) {
@@ -281,8 +288,12 @@ export async function mount(root, params, ctx) {
     cursor = page.next_cursor;
     moreBtn.hidden = !cursor;
     moreBtn.disabled = false;
+    showCount(page.count);
+  }
+
+  function showCount(count) {
     const shown = rows.size;
-    countEl.textContent = `${page.count} job${page.count === 1 ? '' : 's'}${page.count > shown ? `, ${shown} shown` : ''}`;
+    countEl.textContent = `${count} job${count === 1 ? '' : 's'}${count > shown ? `, ${shown} shown` : ''}`;
     const filtered = filters.status || filters.system || filters.tag || filters.q;
     tableWrap.hidden = shown === 0;
     emptyBox.replaceChildren(shown === 0
@@ -292,39 +303,78 @@ export async function mount(root, params, ctx) {
         } }, 'Clear filters'))
         : notice('empty', 'No experiments yet.', h('a', { class: 'button primary', href: '#/new' }, 'Start a new experiment')))
       : '');
-    schedulePoll();
   }
 
-  // Jobs still queued or running are refreshed one by one so their progress bars move.
-  function schedulePoll() {
-    if (pollTimer || stopped) return;
-    const active = [...rows.values()].some((r) => r.job.status === 'queued' || r.job.status === 'running');
-    if (!active) return;
-    pollTimer = setTimeout(async () => {
-      pollTimer = null;
-      const ids = [...rows.values()].filter((r) => r.job.status === 'queued' || r.job.status === 'running').map((r) => r.job.id);
-      for (const id of ids.slice(0, 20)) {
-        if (stopped) return;
-        try {
-          const asked = rows.get(id);
-          const job = await api.getJob(id);
-          const r = rows.get(id);
-          // A row replaced while the answer was on its way (cancelled, edited) is newer than the answer.
-          if (r && r === asked && !stopped && (job.status !== r.job.status || job.progress !== r.job.progress)) {
-            if (job.status !== r.job.status) window.dispatchEvent(new CustomEvent('jobs-changed'));
-            const focused = r.tr.contains(document.activeElement);
-            if (!focused) replaceRow(job);
-            else r.job = job;
-            if (job.status !== 'running' && job.status !== 'queued') live.textContent = `Job ${id} ${job.status}.`;
-          }
-        } catch { /* deleted meanwhile or server down: the banner reports the latter */ }
-      }
-      schedulePoll();
-    }, 1500);
+  // Live rows: when the jobs poll (livejobs.js) says something changed, the rows shown are read again
+  // in one request under the current filters and sort: new jobs appear, states and progress move,
+  // jobs that left the filters go. Rows keep their place in the DOM when unchanged (focus stays).
+  async function refresh() {
+    if (stopped) return;
+    if (refreshing) { refreshAgain = true; return; }
+    refreshing = true;
+    const edits = localEdits;
+    const token = loadToken;
+    const limit = refreshLimit(rows.size, PAGE);
+    let page = null;
+    try {
+      page = await api.listJobs({ status: filters.status, system: filters.system, tag: filters.tag, q: filters.q,
+        sort: filters.sort, limit });
+    } catch { /* unreachable or refused: the next change tries again */ }
+    refreshing = false;
+    if (stopped) return;
+    if (page && token === loadToken) {
+      if (edits === localEdits) applyRefresh(page, limit);
+      else refreshAgain = true; // this page changed a row meanwhile: the answer may predate it
+    }
+    if (refreshAgain) { refreshAgain = false; refresh(); }
   }
+
+  function applyRefresh(page, limit) {
+    const whole = rows.size <= limit; // the answer covers every row shown
+    const wanted = [];
+    for (const job of page.data) {
+      const old = rows.get(job.id);
+      if (old && sameJob(old.job, job)) { wanted.push(old.tr); continue; }
+      if (old && progressOnly(old.job, job)) { // the bar moves; the row and its buttons stay
+        old.tr.querySelector('td.status').replaceChildren(statusCell(job));
+        old.job = job;
+        wanted.push(old.tr);
+        continue;
+      }
+      if (old && old.tr.contains(document.activeElement)) { old.job = job; wanted.push(old.tr); continue; }
+      if (old && old.job.status !== job.status && job.status !== 'queued' && job.status !== 'running') {
+        live.textContent = `Job ${job.id} ${job.status}.`;
+      }
+      const tr = row(job);
+      if (old) old.tr.replaceWith(tr);
+      rows.set(job.id, { job, tr });
+      wanted.push(tr);
+    }
+    let ref = tbody.firstElementChild;
+    for (const tr of wanted) {
+      if (tr === ref) ref = ref.nextElementSibling;
+      else tbody.insertBefore(tr, ref);
+    }
+    if (whole) {
+      const keep = new Set(page.data.map((job) => job.id));
+      for (const [id, r] of rows) {
+        if (keep.has(id)) continue;
+        r.tr.remove();
+        rows.delete(id);
+        selected.delete(id);
+      }
+      cursor = page.next_cursor;
+      moreBtn.hidden = !cursor;
+      updateSelection();
+    }
+    showCount(page.count);
+  }
+
+  const onLive = () => refresh();
+  window.addEventListener('jobs-live', onLive);
 
   await load(true);
   root.dataset.renderMs = (performance.now() - t0).toFixed(1);
   performance.mark('runs-rendered');
-  return () => { stopped = true; clearTimeout(pollTimer); };
+  return () => { stopped = true; window.removeEventListener('jobs-live', onLive); };
 }

@@ -302,8 +302,12 @@ export function workersWord(workers) {
   return `${ready} ${ready === 1 ? 'worker' : 'workers'}` + (warming ? ` (+${warming} warming up)` : '');
 }
 
-/** What a queued job is waiting for, given the workers of `/api/health` and the share already stored. */
-export function waitingMessage(workers, pct) {
+/**
+ * What a queued job is waiting for, given the workers of `/api/health` and the share already stored.
+ * `queue` ({ahead, running} of `GET /api/jobs/{id}/status`) says what is true when workers are ready:
+ * jobs queued before this one, every ready worker busy with a running job, or a worker about to take it.
+ */
+export function waitingMessage(workers, pct, queue = null) {
   const stored = pct > 0 ? ` (${pct}% already stored)` : '';
   if (!workers) return `Waiting for a worker…${stored}`;
   const { warming = 0, ready = 0 } = workers;
@@ -315,5 +319,61 @@ export function waitingMessage(workers, pct) {
     return 'No worker is running: start one with “mgrao worker” (or “mgrao serve” with --workers 1 or more); ' +
       `the job waits in the queue.${stored}`;
   }
-  return `Waiting for a worker: ${ready} ready, running the jobs queued before this one.${stored}`;
+  const workersText = `${ready} ${ready === 1 ? 'worker' : 'workers'} ready`;
+  if (!queue) return `Waiting for a worker: ${workersText}.${stored}`;
+  const { ahead = 0, running = 0 } = queue;
+  const runningText = `${running} ${running === 1 ? 'job' : 'jobs'} running`;
+  if (ahead > 0) {
+    return `Waiting in the queue: ${ahead} ${ahead === 1 ? 'job was' : 'jobs were'} queued before this one and ` +
+      `${ahead === 1 ? 'runs' : 'run'} first (${workersText}, ${runningText}).${stored}`;
+  }
+  if (running >= ready) {
+    return `Next in the queue: ${ready === 1 ? 'the ready worker is' : `all ${ready} ready workers are`} busy ` +
+      `(${runningText}); it starts when one finishes.${stored}`;
+  }
+  return `Next in the queue: a ready worker takes it within a few seconds (${workersText}, ${runningText}).${stored}`;
+}
+
+// ---- the work budget of an experiment ------------------------------------------------------
+
+/** The form's field path of a work factor named by `GET /api/systems` (`limits.work_factors`). */
+export function workFieldPath(name) {
+  return ['seeds', 'algorithms', 'episodes'].includes(name) ? name : `params.${name}`;
+}
+
+/**
+ * An experiment's work against the limit, from `GET /api/systems`: the product of
+ * `limits.work_factors` (the number of seeds and of configurations, the episodes, parameters from
+ * the overrides or else the preset) against `limits.max_work`. {used, max, factors: [{name, value,
+ * path}], over}, or null while a factor cannot be read (an empty field).
+ */
+export function workBudget(experiment, presetParams, limits) {
+  if (!limits || !limits.max_work || !Array.isArray(limits.work_factors)) return null;
+  const overrides = experiment.params || {};
+  const factors = [];
+  for (const name of limits.work_factors) {
+    let value;
+    if (name === 'seeds') value = Array.isArray(experiment.seeds) ? experiment.seeds.length : experiment.seeds;
+    else if (name === 'algorithms') value = (experiment.algorithms || []).length;
+    else if (name === 'episodes') value = experiment.episodes;
+    else value = overrides[name] ?? (presetParams || {})[name];
+    if (typeof value !== 'number' || !Number.isFinite(value) || value < 0) return null;
+    factors.push({ name, value, path: workFieldPath(name) });
+  }
+  const used = factors.reduce((product, f) => product * f.value, 1);
+  return { used, max: limits.max_work, factors, over: used > limits.max_work };
+}
+
+/** The budget line: "3 seeds × 3 configurations × … = 9,000 atomic tasks of 2,000,000,000 allowed (0.00045%)". */
+export function workText(budget) {
+  const word = (f) => (f.name === 'algorithms' ? 'configurations' : f.name);
+  const product = budget.factors.map((f) => `${f.value.toLocaleString('en-US')} ${word(f)}`).join(' × ');
+  const used = budget.used.toLocaleString('en-US');
+  const max = budget.max.toLocaleString('en-US');
+  if (budget.over) {
+    return `Work: ${product} = ${used} atomic tasks, over the limit of ${max} per experiment ` +
+      `(${(budget.used / budget.max).toPrecision(2)} times it). Lower one of the marked fields.`;
+  }
+  const pct = (100 * budget.used) / budget.max;
+  return `Work: ${product} = ${used} atomic tasks of ${max} allowed (${pct >= 1 ? pct.toFixed(0) : pct.toPrecision(2)}%).`;
 }

@@ -137,11 +137,11 @@ export function confirmDialog(title, message, confirmLabel = 'Confirm', danger =
 }
 
 /** Modal asking for one line of text; resolves to the trimmed text, or null when dismissed. */
-export function promptDialog(title, label, confirmLabel) {
+export function promptDialog(title, label, confirmLabel, { maxlength = 50 } = {}) {
   return new Promise((resolve) => {
     const dlg = dialogShell(title);
     const id = nextId('prompt');
-    const input = h('input', { type: 'text', id, maxlength: 50, required: true });
+    const input = h('input', { type: 'text', id, maxlength, required: true });
     const form = h('form', { method: 'dialog' },
       h('div', { class: 'field' }, h('label', { for: id }, label), input),
       h('div', { class: 'actions' },

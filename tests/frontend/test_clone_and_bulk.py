@@ -6,6 +6,8 @@ from __future__ import annotations
 import json
 import urllib.request
 
+from playwright.sync_api import expect
+
 from tests.frontend.test_compare_view import wait_succeeded
 from tests.frontend.test_job_view import get_job, post_job
 
@@ -44,10 +46,13 @@ def test_bulk_tag_cancel_and_delete(page, server, screenshots):
     for job in [*done, slow]:
         page.get_by_label(f"Select job {job['id']} for comparison").check()
     page.get_by_role("button", name="Tag selected").click()
-    page.get_by_label("Tag to add to 3 jobs").fill("reviewed")
-    page.get_by_role("dialog").get_by_role("button", name="Add tag").click()
+    # comma separated like every other tag field: two tags, not one "reviewed, quicklook"
+    page.get_by_label("Tags to add to 3 jobs").fill("reviewed, quicklook")
+    page.get_by_role("dialog").get_by_role("button", name="Add tags").click()
     page.wait_for_function("() => document.getElementById('bulk-status').textContent.startsWith('Tagged: 3 of 3')")
-    assert all("reviewed" in get_job(server, j["id"])["tags"] for j in [*done, slow])
+    for job in [*done, slow]:
+        assert get_job(server, job["id"])["tags"] == ["bulk", "reviewed", "quicklook"]
+    expect(page.locator(f'tr[data-id="{slow["id"]}"] button.tag')).to_have_text(["bulk", "reviewed", "quicklook"])
 
     page.get_by_role("button", name="Cancel selected").click()
     page.get_by_role("dialog").get_by_role("button", name="Cancel them").click()

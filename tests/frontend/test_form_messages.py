@@ -91,8 +91,14 @@ def test_keyboard_shortcuts(page, server, screenshots):
     page.keyboard.type("keys")
     page.locator(f'tr[data-id="{jobs[0]["id"]}"]').wait_for()
     page.locator("body").click(position={"x": 5, "y": 300})
-    page.keyboard.press("c")  # nothing selected: said, not done
-    assert "Select jobs" in page.locator("#shortcut-status").text_content()
+    page.keyboard.press("c")  # nothing selected: said, not done, visibly and announced
+    status = page.locator("#shortcut-status")
+    assert "Select jobs" in status.text_content()
+    assert status.get_attribute("aria-live") == "polite"
+    status.wait_for(state="visible", timeout=5000)
+    box = status.bounding_box()
+    assert box and box["width"] > 100 and box["height"] > 10, f"the message is not readable on screen: {box}"
+    page.screenshot(path=str(screenshots / "shortcut-nothing-selected.png"))
     for job in jobs:
         page.get_by_label(f"Select job {job['id']} for comparison").check()
     page.locator("h1").click()

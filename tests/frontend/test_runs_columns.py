@@ -99,14 +99,14 @@ def test_runs_table_fits_1280_with_its_cancel_button_in_view(browser, server, sc
 
 
 def test_a_progress_answer_older_than_a_cancel_does_not_bring_the_row_back(browser, server):
-    """The runs page polls active jobs; a poll answer on its way while the row is cancelled says
-    "running" and must not replace the newer, cancelled row. The answer is held back here (the
-    route) until the cancel has been shown, then delivered."""
+    """The runs page reads its rows again when a job changes; a listing on its way while the row is
+    cancelled says "running" and must not replace the newer, cancelled row. The answer is held back
+    here (the route) until the cancel has been shown, then delivered."""
     job = post_job(server, {"system": "large", "algorithms": ["uniform", "mgrao-1:1"], "seeds": 30, "episodes": 3000,
                             "params": {"n_parents": 1000}, "name": "stale poll", "tags": ["stale-poll"]})
     held = []
 
-    def hold_first_poll(route) -> None:
+    def hold_first_listing(route) -> None:
         if held:
             route.continue_()
         else:
@@ -117,19 +117,21 @@ def test_a_progress_answer_older_than_a_cancel_does_not_bring_the_row_back(brows
             page.goto("/#/runs?tag=stale-poll")
             row = page.locator(f'tr[data-id="{job["id"]}"]')
             row.wait_for()
-            page.route(f"**/api/jobs/{job['id']}", hold_first_poll)
+            page.route("**/api/jobs?*", hold_first_listing)
+            # a change elsewhere moves the poll's token: the page reads its rows again
+            post_job(server, {"system": "single", "seeds": 1, "episodes": 5, "name": "a change"})
             deadline = time.monotonic() + 30
-            while not held:  # the next poll (every 1.5 s) is caught
-                assert time.monotonic() < deadline, "the runs page did not poll the active job"
+            while not held:  # the listing the change asks for is caught
+                assert time.monotonic() < deadline, "the runs page did not read its rows again after a change"
                 page.wait_for_timeout(100)
             route, answer = held[0]
-            assert answer.json()["status"] in ("queued", "running")
+            assert [j["status"] for j in answer.json()["data"] if j["id"] == job["id"]][0] in ("queued", "running")
             page.get_by_role("button", name=f"Cancel job {job['id']}").click()
             page.get_by_role("dialog").get_by_role("button", name="Cancel job").click()
             page.locator(f'tr[data-id="{job["id"]}"][data-status="cancelled"]').wait_for()
             route.fulfill(response=answer)  # the stale answer arrives after the cancel
-            page.wait_for_timeout(500)
+            page.wait_for_timeout(1500)
             assert row.get_attribute("data-status") == "cancelled"
-            page.unroute(f"**/api/jobs/{job['id']}")
+            page.unroute("**/api/jobs?*")
     finally:
         cancel(server, job["id"])

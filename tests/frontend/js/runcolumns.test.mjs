@@ -1,6 +1,6 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { sortKey, nextSort, sortState, cellText, cellInterval, columnsFromQuery } from '../../../frontend/js/runcolumns.js';
+import { sortKey, nextSort, sortState, cellText, cellInterval, columnsFromQuery, refreshLimit, sameJob, progressOnly } from '../../../frontend/js/runcolumns.js';
 
 const known = new Set(['learning_rate', 'load_sharing']);
 
@@ -39,4 +39,24 @@ test('cells: results with their interval, parameters as shown, dashes where a jo
   assert.equal(cellText(queued, mean), '–');
   assert.equal(cellText(queued, rate), '–');
   assert.equal(cellInterval(queued, mean), '');
+});
+
+test('refreshLimit reads every shown row again in one request, at least a page, at most the API limit', () => {
+  assert.equal(refreshLimit(3, 50), 50);
+  assert.equal(refreshLimit(150, 50), 150);
+  assert.equal(refreshLimit(400, 50), 200);
+});
+
+test('sameJob: a row is redrawn only when the job read again differs', () => {
+  const job = { id: 4, status: 'running', progress: 0.25, tags: ['a'], summaries: {} };
+  assert.equal(sameJob(job, { ...job, tags: ['a'] }), true);
+  assert.equal(sameJob(job, { ...job, progress: 0.5 }), false);
+  assert.equal(sameJob(job, { ...job, status: 'succeeded' }), false);
+});
+
+test('progressOnly: a moved progress bar alone is patched in place; any other change redraws the row', () => {
+  const job = { id: 4, status: 'running', progress: 0.25, tags: ['a'] };
+  assert.equal(progressOnly(job, { ...job, progress: 0.5 }), true);
+  assert.equal(progressOnly(job, { ...job }), false);
+  assert.equal(progressOnly(job, { ...job, progress: 1, status: 'succeeded' }), false);
 });

@@ -159,6 +159,18 @@ test('workersWord and waitingMessage say whether workers are warming up, ready o
   assert.equal(workersWord({ warming: 0, ready: 0 }), 'no worker');
   assert.match(waitingMessage({ warming: 2, ready: 0 }, 0), /^Workers are warming up/);
   assert.match(waitingMessage({ warming: 0, ready: 0 }, 0), /No worker is running/);
-  assert.match(waitingMessage({ warming: 0, ready: 2 }, 40), /2 ready.*\(40% already stored\)/);
+  assert.match(waitingMessage({ warming: 0, ready: 2 }, 40), /2 workers ready.*\(40% already stored\)/);
   assert.equal(waitingMessage(null, 0), 'Waiting for a worker…');
+});
+
+test('waitingMessage says what a queued job really waits for once workers are ready', async () => {
+  const { waitingMessage } = await import('../../../frontend/js/stats.js');
+  const ready = { warming: 0, ready: 1 };
+  assert.match(waitingMessage(ready, 0, { ahead: 3, running: 1 }), /^Waiting in the queue: 3 jobs were queued before this one/);
+  assert.match(waitingMessage(ready, 0, { ahead: 0, running: 1 }), /^Next in the queue: the ready worker is busy \(1 job running\)/);
+  assert.match(waitingMessage({ warming: 0, ready: 2 }, 0, { ahead: 0, running: 2 }), /all 2 ready workers are busy/);
+  assert.match(waitingMessage({ warming: 0, ready: 2 }, 0, { ahead: 0, running: 1 }), /a ready worker takes it within a few seconds/);
+  for (const queue of [{ ahead: 0, running: 0 }, { ahead: 0, running: 1 }]) {
+    assert.doesNotMatch(waitingMessage(ready, 0, queue), /queued before/);
+  }
 });
