@@ -6,7 +6,7 @@ import { api } from './api.js';
 import { h, notice, nextId } from './ui.js';
 import { draw, purge, loadPlotly, meanBandTraces, utilityLayout, pctBarTrace, bandsBelow } from './charts.js';
 import { parseIds, badIds, DEFINITIONS, groupKey, pctErrorBars, fmtNumber, fmtPct, fmtCI, algorithmRank, seedCount, smoothingNote, episodesPerPoint, bandCaution } from './stats.js';
-import { configurations, groupLabels, diffTable, facets, lineStyles, legendLayout } from './comparegroups.js';
+import { configurations, groupLabels, diffTable, facets, lineStyles, legendLayout, barsLayout } from './comparegroups.js';
 import { axisControls, withAxis, syncZoom, tableCsvButton } from './chartcontrols.js';
 
 const POINTS = 500;
@@ -208,8 +208,11 @@ export async function mount(root, params, ctx) {
       if (title) layout.title = { text: title, x: 0.01, xanchor: 'left', y: 1, yref: 'container', yanchor: 'top', pad: { t: 10 } };
       return draw(c, bandsBelow(traces[k]), withAxis(layout, axisUi.axis));
     }));
+    const barFit = barsLayout(barIdx.map((i) => labels[i]));
+    bars.style.height = `${barFit.height}px`;
     const p2 = draw(bars, [pctBarTrace(barIdx.map((i) => labels[i]), pctErrorBars(barIdx.map((i) => groups[i].summary)), barIdx.map((i) => styles[i].color))],
-      { yaxis: { title: { text: '% from uniform' }, zeroline: true }, xaxis: { automargin: true }, hovermode: 'closest', showlegend: false });
+      { yaxis: { title: { text: '% from uniform' }, zeroline: true }, xaxis: { automargin: true, tickangle: barFit.tickangle },
+        height: barFit.height, margin: barFit.margin, hovermode: 'closest', showlegend: false });
     await Promise.all([p1, p2]);
     const stamp = String(Date.now());
     for (const c of charts) c.dataset.rendered = stamp;

@@ -103,7 +103,7 @@ export function legendRows(labels, width) {
  */
 export function legendLayout(labels, width, plotHeight = 300, top = 48) {
   const rows = legendRows(labels, Math.max(100, width - 80));
-  const below = 56; // tick labels and the axis title under the plot area
+  const below = 68; // tick labels and the axis title under the plot area, and a gap
   const bottom = below + rows * LEGEND_ROW_PX + 8;
   return {
     height: top + plotHeight + bottom,
@@ -111,4 +111,15 @@ export function legendLayout(labels, width, plotHeight = 300, top = 48) {
     legend: { orientation: 'h', x: 0, xanchor: 'left', y: -below / plotHeight, yanchor: 'top',
       maxheight: rows * LEGEND_ROW_PX + 16 }, // in pixels: no scroll bar, the whole legend shows
   };
+}
+
+/**
+ * The % from uniform bars' height and margins for `labels` under the bars at -35°: the plot area
+ * keeps `plotHeight` pixels however long the labels (the deepest label sets the bottom margin).
+ */
+export function barsLayout(labels, plotHeight = 260) {
+  const longest = Math.max(0, ...labels.map((l) => String(l).length));
+  const bottom = Math.ceil(longest * LEGEND_CHAR_PX * Math.sin((35 * Math.PI) / 180)) + 24;
+  const left = 64 + Math.ceil(Math.min(longest, 24) * LEGEND_CHAR_PX * 0.82 * 0.5); // the first label reaches left
+  return { height: 24 + plotHeight + bottom, margin: { l: left, r: 16, t: 24, b: bottom }, tickangle: -35 };
 }
