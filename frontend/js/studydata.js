@@ -276,7 +276,8 @@ export function parallelPlot(parallel, dimensions, objectiveName, { minimize = f
   axes.forEach((axis, a) => {
     annotations.push({ x: a, y: 1.08, text: `<b>${axis.name}</b>`, showarrow: false, xanchor: 'center' });
     for (const [t, label] of scaled[a].ticks) {
-      annotations.push({ x: a, y: t, text: label, showarrow: false, xanchor: 'left', xshift: 4, font: { size: 11, color: '#5a6473' } });
+      annotations.push({ x: a, y: t, text: label, showarrow: false, xanchor: 'left', xshift: 4, font: { size: 11, color: '#5a6473' },
+        bgcolor: 'rgba(255, 255, 255, 0.85)', borderpad: 1 }); // readable where trials' lines cross it
     }
   });
   const layout = {
