@@ -152,7 +152,7 @@ def test_study_heatmap_titles_clear_their_ticks_and_parallel_axes_label_between_
         assert time.monotonic() < deadline, f"study {study_id} still running after 240 s"
         time.sleep(0.5)
     with page_at(browser, server) as page:
-        page.goto(f"/#/studies/{study_id}")
+        page.goto(f"/#/studies/{study_id}?x=trace_decay&y=learning_rate")  # the longer tick labels on y
         page.wait_for_function("() => document.querySelector('.study-heatmap')?.dataset.cells === '9'")
         heat = ".study-heatmap"
         ytitle = box(page, f"{heat} .ytitle")
