@@ -169,3 +169,27 @@ def test_study_heatmap_titles_clear_their_ticks_and_parallel_axes_label_between_
         assert len(labels) == 5, labels  # both ends and three values between
         page.locator(".study-heatmap").scroll_into_view_if_needed()
         page.screenshot(path=str(screenshots / "study-heatmap-parallel.png"), full_page=True)
+
+
+def rgb(hex_colour: str) -> str:
+    n = int(hex_colour.lstrip("#"), 16)
+    return f"rgb({n >> 16 & 255}, {n >> 8 & 255}, {n & 255})"
+
+
+def test_the_paper_view_gives_each_configuration_its_job_page_colour(browser, server, screenshots):
+    job = post_job(server, {"system": "single", "seeds": 3, "episodes": 100, "tags": ["paper"],
+                            "name": "paper colours"})
+    wait_succeeded(server, [job])
+    with page_at(browser, server) as page:
+        page.goto("/#/paper")
+        rows = page.locator('#paper-table tbody tr[data-system="single"]')
+        rows.first.wait_for()
+        shown = rows.first.locator("a").inner_text().lstrip("#")  # the newest single paper run: this or a later one
+        background = "e => getComputedStyle(e).backgroundColor"
+        dots = {r.get_attribute("data-algorithm"): r.locator(".dot").evaluate(background) for r in rows.all()}
+        page.screenshot(path=str(screenshots / "paper-colours.png"), full_page=True)
+        page.goto(f"/#/jobs/{shown}")
+        page.locator("#utility-chart[data-rendered]").wait_for()
+        colour = {t["config"]: rgb(t["color"]) for t in traces(page, "#utility-chart", "mean")}
+        assert dots and all(dots[a] == colour[a] for a in dots), (dots, colour)
+        assert len(set(dots.values())) == len(dots)
