@@ -81,9 +81,17 @@ export const BAND_FILL_ALPHA = 0.07;
 export const BAND_EDGE_ALPHA = 0.35;
 
 /**
+ * The fill opacity of each of `n` bands drawn together: 7%, less from six bands on so that where
+ * they all overlap they cover at most about 30% (fifty bands at 7% would make a slab again).
+ */
+export function bandAlpha(n) {
+  return Math.round(Math.min(BAND_FILL_ALPHA, 0.35 / Math.max(1, n)) * 1000) / 1000;
+}
+
+/**
  * One band trace (95% CI, filled, no legend) and one mean line trace for a configuration.
- * `options.bands` false leaves the band out; `options.symbol` marks the line (at most 12 markers),
- * for configurations past the palette's eight colours.
+ * `options.bands` false leaves the band out; `options.fillAlpha` is its opacity (`bandAlpha`);
+ * `options.symbol` marks the line (at most 12 markers), for configurations past the palette's eight colours.
  */
 export function meanBandTraces(name, series, color, smooth = 1, legendgroup = name, dash = 'solid', options = {}) {
   const s = smoothSeries(series, smooth);
@@ -97,10 +105,12 @@ export function meanBandTraces(name, series, color, smooth = 1, legendgroup = na
   };
   if (options.symbol) mean.marker = { symbol: options.symbol, size: 7, color, maxdisplayed: 12 };
   if (options.bands === false) return [mean];
+  const fill = options.fillAlpha ?? BAND_FILL_ALPHA;
+  const edge = Math.min(BAND_EDGE_ALPHA, fill * 5); // fainter edges too where many bands overlap
   return [
     {
       type: 'scatter', mode: 'lines', x: band.x, y: band.y, fill: 'toself',
-      fillcolor: rgba(color, BAND_FILL_ALPHA), line: { width: 0.6, color: rgba(color, BAND_EDGE_ALPHA) },
+      fillcolor: rgba(color, fill), line: { width: 0.6, color: rgba(color, edge) },
       hoverinfo: 'skip', showlegend: false, name: `${name} 95% CI`, legendgroup,
       meta: { kind: 'band', config: name },
     },

@@ -4,7 +4,7 @@
 
 import { api } from './api.js';
 import { h, notice, nextId } from './ui.js';
-import { draw, purge, loadPlotly, meanBandTraces, utilityLayout, pctBarTrace, bandsBelow } from './charts.js';
+import { draw, purge, loadPlotly, meanBandTraces, utilityLayout, pctBarTrace, bandsBelow, bandAlpha } from './charts.js';
 import { parseIds, badIds, DEFINITIONS, groupKey, pctErrorBars, fmtNumber, fmtPct, fmtCI, algorithmRank, seedCount, smoothingNote, episodesPerPoint, bandCaution } from './stats.js';
 import { configurations, groupLabels, diffTable, facets, lineStyles, legendLayout, barsLayout } from './comparegroups.js';
 import { axisControls, withAxis, syncZoom, tableCsvButton } from './chartcontrols.js';
@@ -117,6 +117,7 @@ export async function mount(root, params, ctx) {
     redraw();
   } });
   const caution = h('p', { class: 'help band-caution', id: 'band-caution' });
+  const legendNote = h('p', { class: 'help', id: 'legend-note' });
 
   // One chart per system (their utilities differ by an order of magnitude); the first keeps the id.
   const charts = systems.map((system, k) => h('div', {
@@ -154,7 +155,7 @@ export async function mount(root, params, ctx) {
     noneShown,
     h('section', { 'aria-labelledby': 'h-cu' }, h('h2', { id: 'h-cu' }, 'System utility per episode'),
       systems.length > 1 ? h('p', { class: 'help' }, 'One chart per system: their utilities lie on different scales.') : null,
-      axisUi.element, h('div', { class: systems.length > 1 ? 'grid2 facets' : '' }, charts), smoothNote, caution),
+      axisUi.element, h('div', { class: systems.length > 1 ? 'grid2 facets' : '' }, charts), legendNote, smoothNote, caution),
     h('div', { class: 'grid2 wide' },
       h('section', { 'aria-labelledby': 'h-cb' }, h('h2', { id: 'h-cb' }, '% from uniform (95% CI)'), bars),
       h('section', { 'aria-labelledby': 'h-ct' }, h('h2', { id: 'h-ct' }, 'Pooled final utility ', tableCsvButton(pooledTable, 'compare-final-utility.csv')),
@@ -170,10 +171,12 @@ export async function mount(root, params, ctx) {
     });
     const traces = systems.map(() => []);
     const barIdx = [];
+    const together = systems.map((system) => groups.filter((g, i) => g.system === system && shown.has(keys[i])).length);
     groups.forEach((g, i) => {
       if (!shown.has(keys[i])) return;
       traces[systems.indexOf(g.system)].push(...meanBandTraces(labels[i], g.episodes, styles[i].color, state.smooth,
-        labels[i], styles[i].dash, { bands: state.bands, symbol: styles[i].symbol }));
+        labels[i], styles[i].dash, { bands: state.bands, symbol: styles[i].symbol,
+          fillAlpha: bandAlpha(together[systems.indexOf(g.system)]) }));
       if (g.summary && g.summary.pct_from_uniform !== null && g.summary.pct_from_uniform !== undefined) barIdx.push(i);
     });
     noneShown.replaceChildren(...(shown.size ? [] : [notice('empty',
@@ -198,11 +201,13 @@ export async function mount(root, params, ctx) {
       return text && systems.length > 1 ? `${system}: ${text}` : text;
     }).filter(Boolean);
     caution.textContent = state.bands ? cautions.join(' ') : '';
+    const unlabelled = [];
     const p1 = Promise.all(charts.map((c, k) => {
       // the plot area keeps its height and the legend its place below the axis title, however many groups
       const names = traces[k].filter((t) => t.meta.kind === 'mean').map((t) => t.name);
       const fit = legendLayout(names, c.clientWidth || 600);
       c.style.height = `${fit.height}px`;
+      if (!fit.showlegend) unlabelled.push(systems[k]);
       const title = systems.length > 1 ? systems[k] : '';
       const layout = { ...utilityLayout(title), ...fit };
       if (title) layout.title = { text: title, x: 0.01, xanchor: 'left', y: 1, yref: 'container', yanchor: 'top', pad: { t: 10 } };
@@ -213,6 +218,8 @@ export async function mount(root, params, ctx) {
     const p2 = draw(bars, [pctBarTrace(barIdx.map((i) => labels[i]), pctErrorBars(barIdx.map((i) => groups[i].summary)), barIdx.map((i) => styles[i].color))],
       { yaxis: { title: { text: '% from uniform' }, zeroline: true }, xaxis: { automargin: true, tickangle: barFit.tickangle },
         height: barFit.height, margin: barFit.margin, hovermode: 'closest', showlegend: false });
+    legendNote.textContent = unlabelled.length ? `${systems.length > 1 ? `${unlabelled.join(', ')}: t` : 'T'}oo many ` +
+      'configurations for a legend on the chart: their colours and dashes are those under “Shown configurations” above.' : '';
     await Promise.all([p1, p2]);
     const stamp = String(Date.now());
     for (const c of charts) c.dataset.rendered = stamp;

@@ -96,18 +96,25 @@ export function legendRows(labels, width) {
   return rows;
 }
 
+/** Past this many legend rows a chart leaves its legend out (the "Shown configurations" swatches are the key). */
+export const MAX_LEGEND_ROWS = 16;
+
 /**
  * A utility chart's height, bottom margin and legend for `labels` on a chart `width` pixels wide:
  * the plot area keeps `plotHeight` pixels whatever the number of configurations, the legend sits
- * below the "Episode" axis title, and the chart grows by one legend row at a time.
+ * below the "Episode" axis title, and the chart grows by one legend row at a time, up to
+ * MAX_LEGEND_ROWS rows; a longer legend is left out (`showlegend` false).
  */
 export function legendLayout(labels, width, plotHeight = 300, top = 48) {
-  const rows = legendRows(labels, Math.max(100, width - 80));
+  const needed = legendRows(labels, Math.max(100, width - 80));
+  const showlegend = needed <= MAX_LEGEND_ROWS;
+  const rows = showlegend ? needed : 0;
   const below = 68; // tick labels and the axis title under the plot area, and a gap
   const bottom = below + rows * LEGEND_ROW_PX + 8;
   return {
     height: top + plotHeight + bottom,
     margin: { l: 64, r: 16, t: top, b: bottom },
+    showlegend,
     legend: { orientation: 'h', x: 0, xanchor: 'left', y: -below / plotHeight, yanchor: 'top',
       maxheight: rows * LEGEND_ROW_PX + 16 }, // in pixels: no scroll bar, the whole legend shows
   };

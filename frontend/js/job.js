@@ -3,7 +3,7 @@
 
 import { api } from './api.js';
 import { h, statusCell, jobMeta, notice, editJobDialog, confirmDialog, cancelConsequence, keepLabel, nextId, downloadText } from './ui.js';
-import { draw, purge, loadPlotly, meanBandTraces, seedTraces, utilityLayout, bandsBelow } from './charts.js';
+import { draw, purge, loadPlotly, meanBandTraces, seedTraces, utilityLayout, bandsBelow, bandAlpha } from './charts.js';
 import { fmtNumber, fmtPct, fmtCI, pctProgress, waitingMessage, algorithmRank, smoothingNote, episodesPerPoint, bandCaution, DEFINITIONS } from './stats.js';
 import { algorithmStyles } from './colours.js';
 import { axisControls, withAxis, tableCsvButton } from './chartcontrols.js';
@@ -242,7 +242,7 @@ export async function mount(root, params, ctx) {
         const style = styles[c.algorithm];
         if (showSeeds) traces.push(...seedTraces(c.algorithm, c.seeds, style.color, smooth));
         traces.push(...meanBandTraces(c.algorithm, c.episodes, style.color, smooth, c.algorithm, style.dash,
-          { bands: showBands, symbol: style.symbol }));
+          { bands: showBands, symbol: style.symbol, fillAlpha: bandAlpha(data.configurations.length) }));
       });
       await draw(chart, bandsBelow(traces), withAxis(utilityLayout(), axisUi.axis));
       caution.textContent = showBands ? bandCaution(data.configurations.map((c) => ({

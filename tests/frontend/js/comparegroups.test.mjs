@@ -1,6 +1,6 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { configurations, differingParams, groupLabels, diffTable, facets, lineStyles, legendLayout, legendRows, barsLayout } from '../../../frontend/js/comparegroups.js';
+import { configurations, differingParams, groupLabels, diffTable, facets, lineStyles, legendLayout, legendRows, barsLayout, MAX_LEGEND_ROWS } from '../../../frontend/js/comparegroups.js';
 import { algorithmStyles, PALETTE } from '../../../frontend/js/colours.js';
 
 const jobs = [
@@ -63,6 +63,11 @@ test('legendLayout keeps the plot area and puts the legend below the axis title,
   assert.equal(legendRows(['a', 'b'], 520), 1);
   assert.equal(legendRows(Array(14).fill('x'.repeat(60)), 520), 14);
   assert.ok(many.height > few.height);
+  // seventy configurations: no 2,000 px chart, the legend is left out (the group list is the key)
+  const seventy = legendLayout(Array.from({ length: 70 }, (_, i) => `single · mgrao-max · learning_rate 0.${i}`), 600);
+  assert.equal(seventy.showlegend, false);
+  assert.equal(seventy.height - seventy.margin.t - seventy.margin.b, 300);
+  assert.ok(many.showlegend && 14 <= MAX_LEGEND_ROWS); // fourteen long labels, one a row, still shown
 });
 
 test('barsLayout: long labels deepen the bottom margin, not squeeze the bars', () => {
