@@ -181,7 +181,7 @@ export async function mount(root, params, ctx) {
     });
     noneShown.replaceChildren(...(shown.size ? [] : [notice('empty',
       'No configuration is ticked: tick one or more under “Shown configurations” to draw it.')]));
-    smoothNote.textContent = smoothingNote(state.smooth, episodesPerPoint((groups[0].episodes || {}).episode));
+    smoothNote.textContent = smoothingNote(state.smooth, episodesPerPoint((groups[0].episodes || {}).episode), state.bands);
     tableBody.replaceChildren(...groups.map((g, i) => {
       const s = g.summary || {};
       return h('tr', { class: shown.has(keys[i]) ? '' : 'muted' },

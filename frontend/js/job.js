@@ -249,7 +249,7 @@ export async function mount(root, params, ctx) {
         runs: c.seeds_done ?? (c.summary || {}).n_runs, episodes: c.episodes }))) : '';
       chart.dataset.rendered = String(Date.now());
       chartStatus.textContent = '';
-      smoothNote.textContent = smoothingNote(smooth, episodesPerPoint((data.configurations[0] || {}).episodes?.episode));
+      smoothNote.textContent = smoothingNote(smooth, episodesPerPoint((data.configurations[0] || {}).episodes?.episode), showBands);
       ctx.setQuery({ smooth: smooth > 1 ? smooth : '', seeds: showSeeds ? '1' : '', bands: showBands ? '' : '0' });
     };
     redrawUtility = redraw;

@@ -41,12 +41,13 @@ export function episodesPerPoint(episodes) {
 }
 
 /** One line saying what the chart's smoothing is, in episodes, whatever the downsampling. */
-export function smoothingNote(window, perPoint) {
+export function smoothingNote(window, perPoint, bands = true) {
   const w = Math.max(1, Math.floor(Number(window) || 1));
   const points = perPoint > 1 ? ` Each plotted point is already the mean of ${perPoint} consecutive episodes.` : '';
-  if (w === 1) return `Lines: mean over seeds; bands: its 95% interval. Not smoothed.${points}`;
-  return `Lines: mean over seeds; bands: its 95% interval. Smoothed with a centred mean over ${w} episodes ` +
-    `(${(w - 1) / 2} before and after each; the band likewise).${points}`;
+  const lines = bands ? 'Lines: mean over seeds; bands: its 95% interval.' : 'Lines: mean over seeds (95% bands hidden).';
+  if (w === 1) return `${lines} Not smoothed.${points}`;
+  return `${lines} Smoothed with a centred mean over ${w} episodes ` +
+    `(${(w - 1) / 2} before and after each${bands ? '; the band likewise' : ''}).${points}`;
 }
 
 export function isFiniteNumber(v) {

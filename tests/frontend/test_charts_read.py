@@ -87,6 +87,7 @@ def test_job_bands_let_the_lines_show_and_each_configuration_has_its_own_colour(
         page.wait_for_function("() => !document.querySelector('#utility-chart').data.some(t => t.meta.kind === 'band')")
         assert "bands=0" in page.url
         assert page.inner_text("#band-caution") == ""
+        assert "95% bands hidden" in page.inner_text("#smoothing-note")
         page.reload()  # the URL keeps it
         page.locator("#utility-chart[data-rendered]").wait_for()
         assert not page.get_by_label("95% bands").is_checked()
