@@ -3,13 +3,6 @@
 
 import { bandPolygon, smoothSeries, centredAverage } from './stats.js';
 
-// Okabe-Ito, colour-blind safe, readable on white and in print.
-export const PALETTE = ['#0072B2', '#D55E00', '#009E73', '#CC79A7', '#E69F00', '#56B4E9', '#000000', '#F0E442'];
-
-export function colour(i) {
-  return PALETTE[i % PALETTE.length];
-}
-
 function rgba(hex, alpha) {
   const n = parseInt(hex.slice(1), 16);
   return `rgba(${(n >> 16) & 255}, ${(n >> 8) & 255}, ${n & 255}, ${alpha})`;
@@ -82,25 +75,55 @@ export function purge(el) {
   if (plotlyReady() && el) window.Plotly.purge(el);
 }
 
-/** One band trace (95% CI, filled, no legend) and one mean line trace for a configuration. */
-export function meanBandTraces(name, series, color, smooth = 1, legendgroup = name, dash = 'solid') {
+// A band light enough to read every line through it, even where the bands of several
+// configurations overlap (3 seeds: a t-interval 4.3 standard errors wide each side), with a faint edge.
+export const BAND_FILL_ALPHA = 0.07;
+export const BAND_EDGE_ALPHA = 0.35;
+
+/**
+ * The fill opacity of each of `n` bands drawn together: 7%, less from six bands on so that where
+ * they all overlap they cover at most about 30% (fifty bands at 7% would make a slab again).
+ */
+export function bandAlpha(n) {
+  return Math.round(Math.min(BAND_FILL_ALPHA, 0.35 / Math.max(1, n)) * 1000) / 1000;
+}
+
+/**
+ * One band trace (95% CI, filled, no legend) and one mean line trace for a configuration.
+ * `options.bands` false leaves the band out; `options.fillAlpha` is its opacity (`bandAlpha`);
+ * `options.symbol` marks the line (at most 12 markers), for configurations past the palette's eight colours.
+ */
+export function meanBandTraces(name, series, color, smooth = 1, legendgroup = name, dash = 'solid', options = {}) {
   const s = smoothSeries(series, smooth);
   const band = bandPolygon(s.episode, s.low, s.high);
   const interval = s.low.map((low, i) => [low, s.high[i]]);
+  const mean = {
+    type: 'scatter', mode: options.symbol ? 'lines+markers' : 'lines', x: s.episode, y: s.mean, name, legendgroup,
+    customdata: interval, line: { width: 2, color, dash }, meta: { kind: 'mean', config: name },
+    hovertemplate: '%{y:.4f} (95% CI %{customdata[0]:.4f} to %{customdata[1]:.4f})<extra>' +
+      name.replace(/</g, '&lt;') + '</extra>',
+  };
+  if (options.symbol) mean.marker = { symbol: options.symbol, size: 7, color, maxdisplayed: 12 };
+  if (options.bands === false) return [mean];
+  const fill = options.fillAlpha ?? BAND_FILL_ALPHA;
+  const edge = Math.min(BAND_EDGE_ALPHA, fill * 5); // fainter edges too where many bands overlap
   return [
     {
       type: 'scatter', mode: 'lines', x: band.x, y: band.y, fill: 'toself',
-      fillcolor: rgba(color, 0.18), line: { width: 0, color: rgba(color, 0) },
+      fillcolor: rgba(color, fill), line: { width: 0.6, color: rgba(color, edge) },
       hoverinfo: 'skip', showlegend: false, name: `${name} 95% CI`, legendgroup,
       meta: { kind: 'band', config: name },
     },
-    {
-      type: 'scatter', mode: 'lines', x: s.episode, y: s.mean, name, legendgroup, customdata: interval,
-      line: { width: 2, color, dash }, meta: { kind: 'mean', config: name },
-      hovertemplate: '%{y:.4f} (95% CI %{customdata[0]:.4f} to %{customdata[1]:.4f})<extra>' +
-        name.replace(/</g, '&lt;') + '</extra>',
-    },
+    mean,
   ];
+}
+
+const LAYER = { band: 0, seed: 1 };
+
+/** The traces with every band first, then the seeds, then the lines: no band is drawn over a line. */
+export function bandsBelow(traces) {
+  const layer = (t) => LAYER[t.meta && t.meta.kind] ?? 2;
+  return traces.map((t, i) => [t, i]).sort((a, b) => layer(a[0]) - layer(b[0]) || a[1] - b[1]).map(([t]) => t);
 }
 
 /** Thin lines for individual seeds of a configuration. */

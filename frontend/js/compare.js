@@ -1,12 +1,12 @@
 // Compare view: several stored jobs pooled by configuration (server side), per-episode mean and
 // band per group, % from uniform bars with CI error bars. State lives in the URL:
-// #/compare?jobs=1,2&smooth=5&groups=<key>,<key>  (groups absent = all shown).
+// #/compare?jobs=1,2&smooth=5&groups=<key>,<key>&bands=0  (groups absent = all shown; bands=0: no 95% bands).
 
 import { api } from './api.js';
 import { h, notice, nextId } from './ui.js';
-import { draw, purge, loadPlotly, meanBandTraces, utilityLayout, pctBarTrace } from './charts.js';
-import { parseIds, badIds, DEFINITIONS, groupKey, pctErrorBars, fmtNumber, fmtPct, fmtCI, algorithmRank, seedCount, smoothingNote, episodesPerPoint } from './stats.js';
-import { configurations, groupLabels, diffTable, facets, lineStyles } from './comparegroups.js';
+import { draw, purge, loadPlotly, meanBandTraces, utilityLayout, pctBarTrace, bandsBelow, bandAlpha } from './charts.js';
+import { parseIds, badIds, DEFINITIONS, groupKey, pctErrorBars, fmtNumber, fmtPct, fmtCI, algorithmRank, seedCount, smoothingNote, episodesPerPoint, bandCaution } from './stats.js';
+import { configurations, groupLabels, diffTable, facets, lineStyles, legendLayout, barsLayout } from './comparegroups.js';
 import { axisControls, withAxis, syncZoom, tableCsvButton } from './chartcontrols.js';
 
 const POINTS = 500;
@@ -20,6 +20,7 @@ export async function mount(root, params, ctx) {
     smooth: Math.max(1, Number(params.smooth) || 1),
     groups: params.groups ? params.groups.split(',').filter(Boolean) : null,
     points: Math.min(5000, Math.max(10, Number(params.points) || POINTS)),
+    bands: params.bands !== '0',
   };
   const plots = [];
   let stopped = false;
@@ -82,7 +83,7 @@ export async function mount(root, params, ctx) {
   }
   const configs = configurations(data.jobs);
   const labels = groupLabels(groups, configs);
-  const styles = lineStyles(groups);
+  const styles = lineStyles(groups, data.jobs);
   const systems = facets(groups);
   const keys = groups.map(groupKey);
   const shown = new Set(state.groups ? keys.filter((k) => state.groups.includes(k)) : keys);
@@ -110,6 +111,13 @@ export async function mount(root, params, ctx) {
     redraw();
   }
   smoothSel.addEventListener('change', () => { state.smooth = Number(smoothSel.value); redraw(); });
+  const bandsId = nextId('bands');
+  const bandsCb = h('input', { type: 'checkbox', id: bandsId, checked: state.bands, class: 'show-bands', onchange: () => {
+    state.bands = bandsCb.checked;
+    redraw();
+  } });
+  const caution = h('p', { class: 'help band-caution', id: 'band-caution' });
+  const legendNote = h('p', { class: 'help', id: 'legend-note' });
 
   // One chart per system (their utilities differ by an order of magnitude); the first keeps the id.
   const charts = systems.map((system, k) => h('div', {
@@ -140,13 +148,14 @@ export async function mount(root, params, ctx) {
 
   body.replaceChildren(
     jobsLine,
-    h('div', { class: 'controls' }, h('label', { for: smoothId }, 'Smoothing (centred mean)'), smoothSel),
+    h('div', { class: 'controls' }, h('label', { for: smoothId }, 'Smoothing (centred mean)'), smoothSel,
+      h('label', { class: 'check', for: bandsId }, bandsCb, ' 95% bands')),
     groupBoxes,
     ...(diffSection ? [diffSection] : []),
     noneShown,
     h('section', { 'aria-labelledby': 'h-cu' }, h('h2', { id: 'h-cu' }, 'System utility per episode'),
       systems.length > 1 ? h('p', { class: 'help' }, 'One chart per system: their utilities lie on different scales.') : null,
-      axisUi.element, h('div', { class: systems.length > 1 ? 'grid2 facets' : '' }, charts), smoothNote),
+      axisUi.element, h('div', { class: systems.length > 1 ? 'grid2 facets' : '' }, charts), legendNote, smoothNote, caution),
     h('div', { class: 'grid2 wide' },
       h('section', { 'aria-labelledby': 'h-cb' }, h('h2', { id: 'h-cb' }, '% from uniform (95% CI)'), bars),
       h('section', { 'aria-labelledby': 'h-ct' }, h('h2', { id: 'h-ct' }, 'Pooled final utility ', tableCsvButton(pooledTable, 'compare-final-utility.csv')),
@@ -158,23 +167,27 @@ export async function mount(root, params, ctx) {
       smooth: state.smooth > 1 ? state.smooth : '',
       points: state.points !== POINTS ? state.points : '',
       groups: shown.size === keys.length ? '' : (shown.size ? keys.filter((k) => shown.has(k)).join(',') : 'none'),
+      bands: state.bands ? '' : '0',
     });
     const traces = systems.map(() => []);
     const barIdx = [];
+    const together = systems.map((system) => groups.filter((g, i) => g.system === system && shown.has(keys[i])).length);
     groups.forEach((g, i) => {
       if (!shown.has(keys[i])) return;
       traces[systems.indexOf(g.system)].push(...meanBandTraces(labels[i], g.episodes, styles[i].color, state.smooth,
-        labels[i], styles[i].dash));
+        labels[i], styles[i].dash, { bands: state.bands, symbol: styles[i].symbol,
+          fillAlpha: bandAlpha(together[systems.indexOf(g.system)]) }));
       if (g.summary && g.summary.pct_from_uniform !== null && g.summary.pct_from_uniform !== undefined) barIdx.push(i);
     });
     noneShown.replaceChildren(...(shown.size ? [] : [notice('empty',
       'No configuration is ticked: tick one or more under “Shown configurations” to draw it.')]));
-    smoothNote.textContent = smoothingNote(state.smooth, episodesPerPoint((groups[0].episodes || {}).episode));
+    smoothNote.textContent = smoothingNote(state.smooth, episodesPerPoint((groups[0].episodes || {}).episode), state.bands);
     tableBody.replaceChildren(...groups.map((g, i) => {
       const s = g.summary || {};
       return h('tr', { class: shown.has(keys[i]) ? '' : 'muted' },
         h('th', { scope: 'row' }, h('span', { class: 'dot', style: `background: ${styles[i].color}`, 'aria-hidden': 'true' }), labels[i]),
-        h('td', {}, (g.job_ids || []).join(', ')),
+        h('td', { class: 'job-links' }, (g.job_ids || []).map((jobId, k) => [k ? ', ' : '',
+          h('a', { href: `#/jobs/${jobId}`, title: `Job ${jobId}` }, `#${jobId}`)])),
         h('td', { class: 'num' }, s.n_runs ?? '–'),
         h('td', { class: 'num' }, fmtNumber(s.final_mean)),
         h('td', { class: 'num ci' }, fmtCI(s.ci95)),
@@ -182,9 +195,31 @@ export async function mount(root, params, ctx) {
         h('td', { class: 'num ci' }, fmtCI(s.pct_ci95, 1, true)),
         h('td', { class: 'num' }, fmtPct(s.pct_of_max, 1, false)));
     }));
-    const p1 = Promise.all(charts.map((c, k) => draw(c, traces[k], withAxis(utilityLayout(systems.length > 1 ? systems[k] : ''), axisUi.axis))));
+    const cautions = systems.map((system) => {
+      const text = bandCaution(groups.filter((g, i) => g.system === system && shown.has(keys[i]))
+        .map((g) => ({ runs: (g.summary || {}).n_runs, episodes: g.episodes })));
+      return text && systems.length > 1 ? `${system}: ${text}` : text;
+    }).filter(Boolean);
+    caution.textContent = state.bands ? cautions.join(' ') : '';
+    const unlabelled = [];
+    const p1 = Promise.all(charts.map((c, k) => {
+      // the plot area keeps its height and the legend its place below the axis title, however many groups
+      const names = traces[k].filter((t) => t.meta.kind === 'mean').map((t) => t.name);
+      const fit = legendLayout(names, c.clientWidth || 600);
+      c.style.height = `${fit.height}px`;
+      if (!fit.showlegend) unlabelled.push(systems[k]);
+      const title = systems.length > 1 ? systems[k] : '';
+      const layout = { ...utilityLayout(title), ...fit };
+      if (title) layout.title = { text: title, x: 0.01, xanchor: 'left', y: 1, yref: 'container', yanchor: 'top', pad: { t: 10 } };
+      return draw(c, bandsBelow(traces[k]), withAxis(layout, axisUi.axis));
+    }));
+    const barFit = barsLayout(barIdx.map((i) => labels[i]));
+    bars.style.height = `${barFit.height}px`;
     const p2 = draw(bars, [pctBarTrace(barIdx.map((i) => labels[i]), pctErrorBars(barIdx.map((i) => groups[i].summary)), barIdx.map((i) => styles[i].color))],
-      { yaxis: { title: { text: '% from uniform' }, zeroline: true }, xaxis: { automargin: true }, hovermode: 'closest', showlegend: false });
+      { yaxis: { title: { text: '% from uniform' }, zeroline: true }, xaxis: { automargin: true, tickangle: barFit.tickangle },
+        height: barFit.height, margin: barFit.margin, hovermode: 'closest', showlegend: false });
+    legendNote.textContent = unlabelled.length ? `${systems.length > 1 ? `${unlabelled.join(', ')}: t` : 'T'}oo many ` +
+      'configurations for a legend on the chart: their colours and dashes are those under “Shown configurations” above.' : '';
     await Promise.all([p1, p2]);
     const stamp = String(Date.now());
     for (const c of charts) c.dataset.rendered = stamp;

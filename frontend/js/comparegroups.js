@@ -1,12 +1,11 @@
 // How compared configurations are told apart: labels by the parameters that differ between them,
-// the table of those differences, one chart per system, and a line style per configuration
-// (colour by algorithm, dash by variant). Pure functions (no DOM), checked by node's test runner.
+// the table of those differences, one chart per system, a line style per configuration (each its
+// own colour, colours.js) and a legend that never crowds the axes. Pure functions (no DOM), checked
+// by node's test runner.
 
-import { algorithmColour } from './colours.js';
+import { configurationStyles } from './colours.js';
 import { fmtParam } from './studydata.js';
-import { sameValue } from './stats.js';
-
-const DASHES = ['solid', 'dash', 'dot', 'dashdot', 'longdash', 'longdashdot'];
+import { sameValue, algorithmRank } from './stats.js';
 
 /** Each configuration's resolved parameters (and its episodes), by config_hash, from the compared jobs. */
 export function configurations(jobs) {
@@ -61,13 +60,73 @@ export function facets(groups) {
   return [...new Set(groups.map((g) => g.system))];
 }
 
-/** A group's line: its algorithm's colour, and a dash per configuration of that algorithm and system. */
-export function lineStyles(groups) {
-  const seen = {};
-  return groups.map((g) => {
-    const key = `${g.system}|${g.algorithm}`;
-    const variants = (seen[key] ||= []);
-    if (!variants.includes(g.config_hash)) variants.push(g.config_hash);
-    return { color: algorithmColour(g.algorithm), dash: DASHES[variants.indexOf(g.config_hash) % DASHES.length] };
-  });
+/**
+ * Each group's line `{color, dash, symbol}`: the groups of one system (drawn together on its chart)
+ * each their own (`configurationStyles`), handed out job by job in the order of `jobs` (the compared
+ * jobs), within a job in the job page's order (uniform, x:1 by x, max, oracle): a compare of one
+ * job draws it in its job page's colours, and the first job of several keeps them.
+ */
+export function lineStyles(groups, jobs = []) {
+  const order = (jobs || []).map((j) => j.config_hash);
+  const place = (g) => { const i = order.indexOf(g.config_hash); return i < 0 ? order.length : i; };
+  const out = new Array(groups.length);
+  for (const system of facets(groups)) {
+    const ranked = groups.map((_, i) => i).filter((i) => groups[i].system === system)
+      .sort((a, b) => place(groups[a]) - place(groups[b])
+        || algorithmRank(groups[a].algorithm) - algorithmRank(groups[b].algorithm) || a - b);
+    const styles = configurationStyles(ranked);
+    ranked.forEach((g, k) => { out[g] = styles[k]; });
+  }
+  return out;
+}
+
+const LEGEND_ROW_PX = 30; // a row of the horizontal legend at 13 px (plotly.js spaces them so)
+const LEGEND_CHAR_PX = 7.2; // a character of a legend label, on average, at 13 px
+const LEGEND_ITEM_PX = 46; // the line sample and the gaps around an item
+
+/** Rows a horizontal legend of `labels` takes in `width` pixels (items packed left to right). */
+export function legendRows(labels, width) {
+  let rows = labels.length ? 1 : 0;
+  let used = 0;
+  for (const label of labels) {
+    const item = LEGEND_ITEM_PX + String(label).length * LEGEND_CHAR_PX;
+    if (used > 0 && used + item > width) { rows += 1; used = 0; }
+    used += item;
+  }
+  return rows;
+}
+
+/** Past this many legend rows a chart leaves its legend out (the "Shown configurations" swatches are the key). */
+export const MAX_LEGEND_ROWS = 16;
+
+/**
+ * A utility chart's height, bottom margin and legend for `labels` on a chart `width` pixels wide:
+ * the plot area keeps `plotHeight` pixels whatever the number of configurations, the legend sits
+ * below the "Episode" axis title, and the chart grows by one legend row at a time, up to
+ * MAX_LEGEND_ROWS rows; a longer legend is left out (`showlegend` false).
+ */
+export function legendLayout(labels, width, plotHeight = 300, top = 48) {
+  const needed = legendRows(labels, Math.max(100, width - 80));
+  const showlegend = needed <= MAX_LEGEND_ROWS;
+  const rows = showlegend ? needed : 0;
+  const below = 68; // tick labels and the axis title under the plot area, and a gap
+  const bottom = below + rows * LEGEND_ROW_PX + 8;
+  return {
+    height: top + plotHeight + bottom,
+    margin: { l: 64, r: 16, t: top, b: bottom },
+    showlegend,
+    legend: { orientation: 'h', x: 0, xanchor: 'left', y: -below / plotHeight, yanchor: 'top',
+      maxheight: rows * LEGEND_ROW_PX + 16 }, // in pixels: no scroll bar, the whole legend shows
+  };
+}
+
+/**
+ * The % from uniform bars' height and margins for `labels` under the bars at -35°: the plot area
+ * keeps `plotHeight` pixels however long the labels (the deepest label sets the bottom margin).
+ */
+export function barsLayout(labels, plotHeight = 260) {
+  const longest = Math.max(0, ...labels.map((l) => String(l).length));
+  const bottom = Math.ceil(longest * LEGEND_CHAR_PX * Math.sin((35 * Math.PI) / 180)) + 24;
+  const left = 64 + Math.ceil(Math.min(longest, 24) * LEGEND_CHAR_PX * 0.82 * 0.5); // the first label reaches left
+  return { height: 24 + plotHeight + bottom, margin: { l: left, r: 16, t: 24, b: bottom }, tickangle: -35 };
 }

@@ -3,9 +3,9 @@
 
 import { api } from './api.js';
 import { h, statusCell, jobMeta, notice, editJobDialog, confirmDialog, cancelConsequence, keepLabel, nextId, downloadText, downloadWithToken } from './ui.js';
-import { draw, purge, loadPlotly, meanBandTraces, seedTraces, utilityLayout } from './charts.js';
-import { fmtNumber, fmtPct, fmtCI, pctProgress, waitingMessage, algorithmRank, smoothingNote, episodesPerPoint, DEFINITIONS } from './stats.js';
-import { algorithmColour } from './colours.js';
+import { draw, purge, loadPlotly, meanBandTraces, seedTraces, utilityLayout, bandsBelow, bandAlpha } from './charts.js';
+import { fmtNumber, fmtPct, fmtCI, pctProgress, waitingMessage, algorithmRank, smoothingNote, episodesPerPoint, bandCaution, DEFINITIONS } from './stats.js';
+import { algorithmStyles } from './colours.js';
 import { axisControls, withAxis, tableCsvButton } from './chartcontrols.js';
 import { fmtParam } from './studydata.js';
 import { configRows, differenceSummary, summaryCsv, configJson } from './jobconfig.js';
@@ -27,6 +27,7 @@ export async function mount(root, params, ctx) {
   let redrawUtility = null; // the utility chart's redraw, once results are shown
   const axisUi = axisControls(() => redrawUtility && redrawUtility());
   let showSeeds = params.seeds === '1';
+  let showBands = params.bands !== '0';
   const weightsState = {}; // the weights' chosen seed, configuration and child, kept across live redraws
 
   const title = h('h1', {}, `Job ${id}`);
@@ -230,6 +231,9 @@ export async function mount(root, params, ctx) {
     const smoothSel = h('select', { id: smoothId }, SMOOTH_CHOICES.map((n) =>
       h('option', { value: n, selected: n === smooth }, n === 1 ? 'none' : `${n} episodes`)));
     const seedsCb = h('input', { type: 'checkbox', id: seedsId, checked: showSeeds });
+    const bandsId = nextId('bands');
+    const bandsCb = h('input', { type: 'checkbox', id: bandsId, checked: showBands, class: 'show-bands' });
+    const caution = h('p', { class: 'help band-caution', id: 'band-caution' });
     const chart = h('div', { class: 'chart', id: 'utility-chart', role: 'img', 'aria-label': 'System utility per episode, mean over seeds with 95% band, per configuration' });
     const chartStatus = h('span', { 'aria-live': 'polite', class: 'help' });
     const smoothNote = h('p', { class: 'help', id: 'smoothing-note' });
@@ -239,19 +243,24 @@ export async function mount(root, params, ctx) {
       const data = showSeeds ? await fetchResults(true) : await fetchResults(false);
       if (stopped) return;
       const traces = [];
+      const styles = algorithmStyles(job.algorithms.concat(data.configurations.map((c) => c.algorithm)));
       data.configurations.forEach((c) => {
-        const col = algorithmColour(c.algorithm);
-        if (showSeeds) traces.push(...seedTraces(c.algorithm, c.seeds, col, smooth));
-        traces.push(...meanBandTraces(c.algorithm, c.episodes, col, smooth));
+        const style = styles[c.algorithm];
+        if (showSeeds) traces.push(...seedTraces(c.algorithm, c.seeds, style.color, smooth));
+        traces.push(...meanBandTraces(c.algorithm, c.episodes, style.color, smooth, c.algorithm, style.dash,
+          { bands: showBands, symbol: style.symbol, fillAlpha: bandAlpha(data.configurations.length) }));
       });
-      await draw(chart, traces, withAxis(utilityLayout(), axisUi.axis));
+      await draw(chart, bandsBelow(traces), withAxis(utilityLayout(), axisUi.axis));
+      caution.textContent = showBands ? bandCaution(data.configurations.map((c) => ({
+        runs: c.seeds_done ?? (c.summary || {}).n_runs, episodes: c.episodes }))) : '';
       chart.dataset.rendered = String(Date.now());
       chartStatus.textContent = '';
-      smoothNote.textContent = smoothingNote(smooth, episodesPerPoint((data.configurations[0] || {}).episodes?.episode));
-      ctx.setQuery({ smooth: smooth > 1 ? smooth : '', seeds: showSeeds ? '1' : '' });
+      smoothNote.textContent = smoothingNote(smooth, episodesPerPoint((data.configurations[0] || {}).episodes?.episode), showBands);
+      ctx.setQuery({ smooth: smooth > 1 ? smooth : '', seeds: showSeeds ? '1' : '', bands: showBands ? '' : '0' });
     };
     redrawUtility = redraw;
     smoothSel.addEventListener('change', () => { smooth = Number(smoothSel.value); redraw(); });
+    bandsCb.addEventListener('change', () => { showBands = bandsCb.checked; redraw(); });
     seedsCb.addEventListener('change', async () => {
       showSeeds = seedsCb.checked;
       chartStatus.textContent = showSeeds ? 'Loading seeds…' : '';
@@ -264,8 +273,9 @@ export async function mount(root, params, ctx) {
         h('h2', { id: 'h-util' }, 'System utility per episode'),
         h('div', { class: 'controls' },
           h('label', { for: smoothId }, 'Smoothing (centred mean)'), smoothSel,
-          h('label', { class: 'check', for: seedsId }, seedsCb, ' Show individual seeds'), chartStatus),
-        axisUi.element, chart, smoothNote),
+          h('label', { class: 'check', for: seedsId }, seedsCb, ' Show individual seeds'),
+          h('label', { class: 'check', for: bandsId }, bandsCb, ' 95% bands'), chartStatus),
+        axisUi.element, chart, smoothNote, caution),
       summaryTable(r),
       weightsSection({ jobId: id, results: r, plots, state: weightsState }),
       h('section', { 'aria-labelledby': 'h-dl' }, h('h2', { id: 'h-dl' }, 'Download'),

@@ -5,7 +5,7 @@
 import { api } from './api.js';
 import { h, notice, nextId } from './ui.js';
 import { draw, purge, heatmapTrace, indexAxis } from './charts.js';
-import { algorithmColour } from './colours.js';
+import { algorithmStyles } from './colours.js';
 
 const MEAN = 'mean';
 const ORACLE = 'oracle';
@@ -24,6 +24,7 @@ export function weightsNote(seed, nSeeds) {
  * `state` keeps the chosen seed, configuration and child across redraws of a running job.
  */
 export function weightsSection({ jobId, results, plots, state }) {
+  const colours = algorithmStyles(results.configurations.map((c) => c.algorithm)); // the utility chart's
   const configs = results.configurations.filter((c) => c.weights && Array.isArray(c.weights.combined) && c.weights.combined.length);
   if (!configs.length) return h('section', {}, h('h2', {}, 'Learned weights'), notice('empty', 'No learned weights were stored for this job.'));
   const nGroups = (w) => ((w.groups || [])[0] || []).length;
@@ -106,7 +107,7 @@ export function weightsSection({ jobId, results, plots, state }) {
     const shown = [c, ...answer.configurations.filter((x) => x.algorithm === ORACLE && x !== c)];
     draw(bars, shown.map((x) => ({
       type: 'bar', name: x.algorithm === ORACLE ? 'oracle (best fixed allocation)' : x.algorithm, x: types, y: x.combined[child],
-      marker: { color: algorithmColour(x.algorithm) }, meta: { kind: 'bar', config: x.algorithm, child },
+      marker: { color: colours[x.algorithm]?.color || '#000000' }, meta: { kind: 'bar', config: x.algorithm, child },
       hovertemplate: `${x.algorithm}, type %{x}: %{y:.4f}<extra></extra>`,
     })), {
       barmode: 'group', showlegend: true, legend: { orientation: 'h', y: 1.12 }, hovermode: 'closest',

@@ -5,7 +5,7 @@
 import { api } from './api.js';
 import { h, notice } from './ui.js';
 import { fmtPct, fmtCI, algorithmRank } from './stats.js';
-import { algorithmColour } from './colours.js';
+import { algorithmStyles } from './colours.js';
 import { paperRows, agreement, choosePaperJob, fmtSeedPercentile } from './paperdata.js';
 import { tableCsvButton } from './chartcontrols.js';
 
@@ -68,6 +68,9 @@ export async function mount(root, params, ctx) {
     return () => { stopped = true; };
   }
   const rows = paperRows(schema, results);
+  // each system's configurations in the colours of its job's page
+  const colours = Object.fromEntries(Object.entries(results).map(([system, r]) =>
+    [system, algorithmStyles(r.configurations.map((c) => c.algorithm))]));
   rows.sort((a, b) => schema.systems.findIndex((s) => s.name === a.system) - schema.systems.findIndex((s) => s.name === b.system)
     || algorithmRank(a.algorithm) - algorithmRank(b.algorithm));
   const table = h('table', { class: 'summary paper-table', id: 'paper-table' },
@@ -77,7 +80,7 @@ export async function mount(root, params, ctx) {
         .map((c) => h('th', { scope: 'col' }, c)))),
       h('tbody', {}, rows.map((r) => h('tr', { class: r.outside ? 'outside' : null, 'data-system': r.system, 'data-algorithm': r.algorithm },
         h('th', { scope: 'row' }, r.system),
-        h('td', {}, h('span', { class: 'dot', style: `background: ${algorithmColour(r.algorithm)}`, 'aria-hidden': 'true' }), r.algorithm),
+        h('td', {}, h('span', { class: 'dot', style: `background: ${colours[r.system]?.[r.algorithm]?.color || 'transparent'}`, 'aria-hidden': 'true' }), r.algorithm),
         h('td', {}, r.jobId ? h('a', { href: `#/jobs/${r.jobId}`, class: 'paper-job' }, `#${r.jobId}`) : '–'),
         h('td', { class: 'num' }, r.runs || '–'),
         h('td', { class: 'num' }, fmtPct(r.ours)),

@@ -141,13 +141,21 @@ export async function mount(root, params, ctx) {
         { ascending: ' ▲', descending: ' ▼', none: '' }[sortState(filters.sort, key)])));
   }
 
+  /** A parameter's name that may break after its underscores (learning_ rate), for a narrow header. */
+  function breakable(name) {
+    return String(name).split('_').flatMap((part, i) => (i ? ['_', h('wbr'), part] : [part]));
+  }
+
   function renderHead() {
+    // with optional columns the table tightens (padding, type, dates on two lines) to fit 1280 px
+    table.classList.toggle('with-extra', columns.length > 0);
     const head = (c) => (FIXED_SORTS[c] ? sortableHeader(c, FIXED_SORTS[c], c === 'Created') : h('th', { scope: 'col' }, c));
     thead.replaceChildren(h('tr', {},
       h('th', { scope: 'col' }, h('span', { class: 'visually-hidden' }, 'Select')),
       ['Id', 'Name', 'Status', 'System', 'Configurations', 'Seeds', 'Episodes'].map(head),
-      columns.map((c) => sortableHeader(c.kind === 'result' ? `${c.title} (${c.configuration})` : c.name, sortKey(c),
-        c.kind === 'result', c.help)),
+      columns.map((c) => sortableHeader(c.kind === 'result'
+        ? [c.title, ' ', h('span', { class: 'of-config' }, `(${c.configuration})`)] : breakable(c.name), sortKey(c),
+      c.kind === 'result', c.help)),
       ['Tags', 'Created', 'Duration', 'Actions'].map(head)));
   }
   renderHead();
@@ -241,7 +249,8 @@ export async function mount(root, params, ctx) {
         cellText(job, c))),
       h('td', {}, (job.tags || []).map((t) => h('button', { type: 'button', class: 'tag', title: t, 'aria-label': `Filter by tag ${t}`,
         onclick: () => { tagIn.value = t; reload(); } }, h('span', {}, t)))),
-      h('td', { class: 'nowrap' }, h('time', { datetime: job.created_at || '' }, fmtDate(job.created_at))),
+      h('td', { class: 'nowrap' }, h('time', { datetime: job.created_at || '' },
+        fmtDate(job.created_at).split(' ').flatMap((part, i) => [i ? ' ' : '', h('span', { class: 'nowrap' }, part)]))),
       h('td', { class: 'num nowrap' }, fmtDuration(job.duration_s)),
       h('td', {}, actions));
     return tr;

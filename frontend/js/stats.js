@@ -41,12 +41,13 @@ export function episodesPerPoint(episodes) {
 }
 
 /** One line saying what the chart's smoothing is, in episodes, whatever the downsampling. */
-export function smoothingNote(window, perPoint) {
+export function smoothingNote(window, perPoint, bands = true) {
   const w = Math.max(1, Math.floor(Number(window) || 1));
   const points = perPoint > 1 ? ` Each plotted point is already the mean of ${perPoint} consecutive episodes.` : '';
-  if (w === 1) return `Lines: mean over seeds; bands: its 95% interval. Not smoothed.${points}`;
-  return `Lines: mean over seeds; bands: its 95% interval. Smoothed with a centred mean over ${w} episodes ` +
-    `(${(w - 1) / 2} before and after each; the band likewise).${points}`;
+  const lines = bands ? 'Lines: mean over seeds; bands: its 95% interval.' : 'Lines: mean over seeds (95% bands hidden).';
+  if (w === 1) return `${lines} Not smoothed.${points}`;
+  return `${lines} Smoothed with a centred mean over ${w} episodes ` +
+    `(${(w - 1) / 2} before and after each${bands ? '; the band likewise' : ''}).${points}`;
 }
 
 export function isFiniteNumber(v) {
@@ -376,4 +377,47 @@ export function workText(budget) {
   }
   const pct = (100 * budget.used) / budget.max;
   return `Work: ${product} = ${used} atomic tasks of ${max} allowed (${pct >= 1 ? pct.toFixed(0) : pct.toPrecision(2)}%).`;
+}
+
+/** Fewer seeds than this and a 95% t-interval is too wide to mean much (t(0.975, 9) = 2.26; with 3 seeds 4.30). */
+export const MIN_BAND_RUNS = 10;
+
+function median(values) {
+  const v = values.filter(isFiniteNumber).sort((a, b) => a - b);
+  if (!v.length) return null;
+  const m = v.length >> 1;
+  return v.length % 2 ? v[m] : (v[m - 1] + v[m]) / 2;
+}
+
+/**
+ * Whether the 95% bands of the configurations drawn together mean much, as a sentence ('' when they
+ * do). `series`: one `{runs, episodes: {mean, low, high}}` per configuration. The bands are called
+ * too wide when a configuration has fewer than `minRuns` seeds, or when their median width (over
+ * configurations and plotted points) exceeds the median spread of the means (the highest mean less
+ * the lowest at each point): then every band covers the gaps between the lines.
+ */
+export function bandCaution(series, minRuns = MIN_BAND_RUNS) {
+  const drawn = (series || []).filter((s) => s && s.episodes && s.episodes.mean);
+  if (!drawn.length) return '';
+  const runs = Math.min(...drawn.map((s) => Number(s.runs) || 0));
+  const widths = drawn.flatMap((s) => s.episodes.low.map((low, i) => s.episodes.high[i] - low));
+  const width = median(widths);
+  let spread = null;
+  if (drawn.length > 1) {
+    const n = Math.min(...drawn.map((s) => s.episodes.mean.length));
+    const gaps = [];
+    for (let i = 0; i < n; i++) {
+      const means = drawn.map((s) => s.episodes.mean[i]).filter(isFiniteNumber);
+      if (means.length > 1) gaps.push(Math.max(...means) - Math.min(...means));
+    }
+    spread = median(gaps);
+  }
+  const reasons = [];
+  if (runs < minRuns) reasons.push(`${runs === 1 ? 'one seed' : `${runs} seeds`} per configuration (fewer than ${minRuns})`);
+  if (width !== null && spread !== null && width > spread) {
+    reasons.push(`a median band width of ${fmtNumber(width, 3)}, more than the ${fmtNumber(spread, 3)} between the highest and lowest mean`);
+  }
+  if (!reasons.length) return '';
+  return `The 95% bands are too wide to mean much: ${reasons.join('; ')}. Read the mean lines; ` +
+    `run more seeds for intervals that tell the configurations apart.`;
 }

@@ -229,7 +229,11 @@ export async function mount(root, params, ctx) {
     await draw(historyChart, historyTraces(p.history, name), { xaxis: axis('Trial'), yaxis: axis(name), hovermode: 'closest' });
     await draw(importanceChart, [importanceTrace(p.importance)], { xaxis: axis('η²', { range: [0, 1] }), yaxis: { automargin: true }, hovermode: 'closest', showlegend: false, margin: { l: 140, r: 16, t: 24, b: 52 } });
     const hm = p.heatmap;
-    await draw(heatmapChart, [studyHeatmapTrace(hm, reversed())], { xaxis: axis(hm.x, { type: 'category' }), yaxis: axis(hm.y, { type: 'category' }), hovermode: 'closest' });
+    // automargin: the margins grow to hold the tick labels, and each title sits clear of them
+    await draw(heatmapChart, [studyHeatmapTrace(hm, reversed())], {
+      xaxis: axis(hm.x, { type: 'category', automargin: true, title: { text: hm.x, standoff: 8 } }),
+      yaxis: axis(hm.y, { type: 'category', automargin: true, title: { text: hm.y, standoff: 8 } }),
+      hovermode: 'closest' });
     heatmapChart.dataset.cells = String(hm.count.flat().filter((c) => c > 0).length);
     const logs = Object.fromEntries(p.dimensions.map((d) => [d, !!(detail.definition.space[d] || {}).log]));
     const parallel = parallelPlot(p.parallel, p.dimensions, name, { minimize: reversed(), logs });

@@ -213,12 +213,21 @@ export function studyHeatmapTrace(heatmap, reversed = false) {
   };
 }
 
+// Where a numeric parallel-coordinates axis is labelled: both ends and three values between
+const PARALLEL_TICKS = [0, 0.25, 0.5, 0.75, 1];
+
+/** A tick value to 3 significant digits (0.0316227766 → 0.0316), so that labels stay short. */
+function roundTick(v) {
+  return Number.isFinite(v) && v !== 0 ? Number(v.toPrecision(3)) : v;
+}
+
 const VIRIDIS = ['#440154', '#46327e', '#365c8d', '#277f8e', '#1fa187', '#4ac16d', '#a0da39', '#fde725'];
 
 /**
  * Parallel coordinates drawn as SVG lines (no WebGL, which Plotly's parcoords needs): one axis per
  * dimension and a last one for the objective, each scaled to [0, 1] (log dimensions on a log
- * scale, choices as evenly spaced ticks); the trials in 8 colour bands of the objective (the best
+ * scale, choices as evenly spaced ticks, numbers labelled at both ends and three points between);
+ * the trials in 8 colour bands of the objective (the best
  * band brightest), each band one trace with gaps between trials. Returns {traces, layout}.
  */
 export function parallelPlot(parallel, dimensions, objectiveName, { minimize = false, logs = {} } = {}) {
@@ -237,7 +246,8 @@ export function parallelPlot(parallel, dimensions, objectiveName, { minimize = f
     const hi = finite.length ? Math.max(...finite) : 1;
     const at = (v) => (hi > lo ? (f(v) - lo) / (hi - lo) : 0.5);
     const inv = (t) => (axis.log ? 10 ** (lo + t * (hi - lo)) : lo + t * (hi - lo));
-    return { y: axis.values.map((v) => (isFiniteNumber(v) ? at(v) : null)), ticks: [[0, fmtParam(inv(0))], [1, fmtParam(inv(1))]] };
+    const ticks = hi > lo ? PARALLEL_TICKS.map((t) => [t, fmtParam(roundTick(inv(t)))]) : [[0.5, fmtParam(inv(0.5))]];
+    return { y: axis.values.map((v) => (isFiniteNumber(v) ? at(v) : null)), ticks };
   });
   const objective = parallel.value;
   const finite = objective.filter(isFiniteNumber);
@@ -266,7 +276,8 @@ export function parallelPlot(parallel, dimensions, objectiveName, { minimize = f
   axes.forEach((axis, a) => {
     annotations.push({ x: a, y: 1.08, text: `<b>${axis.name}</b>`, showarrow: false, xanchor: 'center' });
     for (const [t, label] of scaled[a].ticks) {
-      annotations.push({ x: a, y: t, text: label, showarrow: false, xanchor: 'left', xshift: 4, font: { size: 11, color: '#5a6473' } });
+      annotations.push({ x: a, y: t, text: label, showarrow: false, xanchor: 'left', xshift: 4, font: { size: 11, color: '#5a6473' },
+        bgcolor: 'rgba(255, 255, 255, 0.85)', borderpad: 1 }); // readable where trials' lines cross it
     }
   });
   const layout = {

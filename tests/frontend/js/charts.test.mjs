@@ -12,3 +12,21 @@ test('indexAxis labels every index while they fit, then every 2nd, 5th, 10th… 
     assert.ok(Math.ceil(n / dtick) <= Math.max(1, Math.floor(px / 16)), `${n} on ${px} px: ${dtick}`);
   }
 });
+
+test('bands: light enough to read the lines through, under every line, and left out on request', async () => {
+  const { meanBandTraces, bandsBelow, BAND_FILL_ALPHA, bandAlpha } = await import('../../../frontend/js/charts.js');
+  const s = { episode: [0, 1], mean: [1, 2], low: [0, 1], high: [2, 3] };
+  const a = meanBandTraces('a', s, '#0072B2');
+  const b = meanBandTraces('b', s, '#D55E00');
+  assert.ok(BAND_FILL_ALPHA <= 0.1);
+  assert.match(a[0].fillcolor, /, 0\.07\)$/);
+  assert.equal(bandAlpha(3), 0.07);
+  assert.equal(bandAlpha(50), 0.007); // fifty overlapping bands cover about 30%, not a slab
+  assert.ok(1 - (1 - bandAlpha(50)) ** 50 < 0.32 && 1 - (1 - bandAlpha(5)) ** 5 < 0.32);
+  assert.match(meanBandTraces('a', s, '#0072B2', 1, 'a', 'solid', { fillAlpha: bandAlpha(50) })[0].fillcolor, /, 0\.007\)$/);
+  assert.deepEqual(bandsBelow([...a, ...b]).map((t) => `${t.meta.kind} ${t.meta.config}`), ['band a', 'band b', 'mean a', 'mean b']);
+  assert.deepEqual(meanBandTraces('a', s, '#0072B2', 1, 'a', 'solid', { bands: false }).map((t) => t.meta.kind), ['mean']);
+  const marked = meanBandTraces('a', s, '#0072B2', 1, 'a', 'dash', { symbol: 'square' })[1];
+  assert.equal(marked.mode, 'lines+markers');
+  assert.equal(marked.marker.symbol, 'square');
+});

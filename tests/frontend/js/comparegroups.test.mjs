@@ -1,7 +1,7 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { configurations, differingParams, groupLabels, diffTable, facets, lineStyles } from '../../../frontend/js/comparegroups.js';
-import { algorithmColour } from '../../../frontend/js/colours.js';
+import { configurations, differingParams, groupLabels, diffTable, facets, lineStyles, legendLayout, legendRows, barsLayout, MAX_LEGEND_ROWS } from '../../../frontend/js/comparegroups.js';
+import { algorithmStyles, PALETTE } from '../../../frontend/js/colours.js';
 
 const jobs = [
   { config_hash: 'aaaaaaaa1', system: 'single', episodes: 100, params: { learning_rate: 0.1, trace_decay: 0.9 } },
@@ -37,12 +37,42 @@ test('diffTable: one row per differing parameter, one column per configuration, 
   assert.deepEqual(diffTable(['aaaaaaaa1'], configs).rows, []);
 });
 
-test('facets and line styles: a chart per system, a colour per algorithm, a dash per variant', () => {
+test('facets and line styles: a chart per system, each group of a chart its own colour, job by job', () => {
   const groups = [g('aaaaaaaa1', 'mgrao-max'), g('bbbbbbbb2', 'mgrao-max'), g('cccccccc3', 'mgrao-max'), g('aaaaaaaa1', 'uniform')];
   assert.deepEqual(facets(groups), ['single', 'large']);
-  const styles = lineStyles(groups);
-  assert.deepEqual(styles.map((s) => s.dash), ['solid', 'dash', 'solid', 'solid']);
-  assert.equal(styles[0].color, algorithmColour('mgrao-max'));
-  assert.equal(styles[2].color, styles[0].color);  // the same algorithm, the same colour, in every system
-  assert.notEqual(styles[3].color, styles[0].color);
+  const jobs = [{ config_hash: 'aaaaaaaa1' }, { config_hash: 'bbbbbbbb2' }, { config_hash: 'cccccccc3' }];
+  const styles = lineStyles(groups, jobs);
+  const single = [0, 1, 3].map((i) => styles[i].color);
+  assert.equal(new Set(single).size, 3); // every configuration drawn together its own colour
+  // the first job's configurations keep their job page's colours (uniform, then max)
+  const page = algorithmStyles(['mgrao-max', 'uniform']);
+  assert.equal(styles[3].color, page.uniform.color);
+  assert.equal(styles[0].color, page['mgrao-max'].color);
+  assert.equal(styles[1].color, PALETTE[2]); // the second job's next
+  assert.equal(styles[2].color, PALETTE[0]); // the large chart starts over
+});
+
+test('legendLayout keeps the plot area and puts the legend below the axis title, a row at a time', () => {
+  const few = legendLayout(['a', 'b'], 600);
+  const many = legendLayout(Array.from({ length: 14 }, (_, i) => `single · mgrao-max · learning_rate 0.${i}, trace_decay 0.85`), 600);
+  for (const fit of [few, many]) {
+    assert.equal(fit.height - fit.margin.t - fit.margin.b, 300); // the plot area's height, whatever the legend
+    assert.ok(fit.legend.y * 300 <= -68); // below the tick labels and the "Episode" title
+    assert.ok(fit.legend.maxheight >= (fit.margin.b - 68 - 8)); // no scroll bar
+  }
+  assert.equal(legendRows(['a', 'b'], 520), 1);
+  assert.equal(legendRows(Array(14).fill('x'.repeat(60)), 520), 14);
+  assert.ok(many.height > few.height);
+  // seventy configurations: no 2,000 px chart, the legend is left out (the group list is the key)
+  const seventy = legendLayout(Array.from({ length: 70 }, (_, i) => `single · mgrao-max · learning_rate 0.${i}`), 600);
+  assert.equal(seventy.showlegend, false);
+  assert.equal(seventy.height - seventy.margin.t - seventy.margin.b, 300);
+  assert.ok(many.showlegend && 14 <= MAX_LEGEND_ROWS); // fourteen long labels, one a row, still shown
+});
+
+test('barsLayout: long labels deepen the bottom margin, not squeeze the bars', () => {
+  const short = barsLayout(['a', 'b']);
+  const long = barsLayout(['single · mgrao-max · episodes 20, learning_rate 0.2, trace_decay 0.85']);
+  for (const fit of [short, long]) assert.equal(fit.height - fit.margin.t - fit.margin.b, 260);
+  assert.ok(long.margin.b > 200 && long.margin.b > short.margin.b);
 });

@@ -174,3 +174,21 @@ test('waitingMessage says what a queued job really waits for once workers are re
     assert.doesNotMatch(waitingMessage(ready, 0, queue), /queued before/);
   }
 });
+
+test('bandCaution: too few seeds, or bands wider than the spread of the means, say so; else nothing', async () => {
+  const { bandCaution, MIN_BAND_RUNS } = await import('../../../frontend/js/stats.js');
+  const series = (mean, half) => ({ mean, low: mean.map((m) => m - half), high: mean.map((m) => m + half) });
+  // 3 seeds: uniform's band spans -0.2 to 1.7 around means 0.75 and 0.9
+  const wide = bandCaution([{ runs: 3, episodes: series([0.75, 0.75, 0.75], 0.95) },
+    { runs: 3, episodes: series([0.9, 0.92, 0.93], 0.95) }]);
+  assert.match(wide, /3 seeds per configuration \(fewer than 10\)/);
+  assert.match(wide, /median band width of 1\.900, more than the 0\.170/);
+  // 100 seeds, narrow bands, means far apart: the bands mean something
+  assert.equal(bandCaution([{ runs: 100, episodes: series([1, 1, 1], 0.02) }, { runs: 100, episodes: series([2, 2, 2], 0.02) }]), '');
+  // many seeds but bands wider than the gap between the lines
+  assert.match(bandCaution([{ runs: 50, episodes: series([1, 1], 0.5) }, { runs: 50, episodes: series([1.1, 1.1], 0.5) }]),
+    /^The 95% bands are too wide to mean much: a median band width of 1\.000/);
+  // one configuration: only its seeds count
+  assert.equal(bandCaution([{ runs: MIN_BAND_RUNS, episodes: series([1, 2], 3) }]), '');
+  assert.match(bandCaution([{ runs: 1, episodes: series([1, 2], 0) }]), /one seed per configuration/);
+});

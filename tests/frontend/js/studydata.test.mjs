@@ -132,6 +132,10 @@ test('parallelPlot: axes scaled to [0, 1], choices as ticks, one trace per colou
   assert.deepEqual(byValue[1][1], [1, 0, 1]);
   assert.ok(byValue[1][0] > byValue[0][0]); // the best band is the brightest
   assert.equal(layout.shapes.length, 3);
+  // a numeric axis is labelled at both ends and three points between (log: evenly in log), not only its ends
+  const lrTicks = layout.annotations.filter((a) => a.x === 0 && !a.text.startsWith('<b>'));
+  assert.deepEqual(lrTicks.map((a) => a.y), [0, 0.25, 0.5, 0.75, 1]);
+  assert.deepEqual(lrTicks.map((a) => a.text), ['0.01', '0.0316', '0.1', '0.316', '1']);
   const minimized = parallelPlot({ number: [0, 1], value: [1, 2], params: { lr: [1, 2] } }, ['lr'], 'obj', { minimize: true });
   const bands = Object.fromEntries(minimized.traces.map((t) => [t.y[1], t.meta.band]));
   assert.ok(bands[0] > bands[1]); // minimizing: the lowest objective is the brightest
