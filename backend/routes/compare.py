@@ -10,7 +10,7 @@ from fastapi.responses import Response
 from backend import analysis
 from backend.deps import SessionDep
 from backend.errors import BadQuery
-from backend.schemas import MAX_COMPARE_JOBS, MAX_JOB_ID
+from backend.schemas import MAX_COMPARE_JOBS, MAX_JOB_ID, Text
 from mgrao_core import MAX_EPISODES
 
 router = APIRouter(prefix="/api", tags=["compare"])
@@ -35,7 +35,7 @@ def parse_ids(text: str) -> list[int]:
 @router.get("/compare")
 def compare(
     session: SessionDep,
-    jobs: Annotated[str, Query(max_length=1000, description="Comma-separated job ids.")],
+    jobs: Annotated[Text, Query(max_length=1000, description="Comma-separated job ids.")],
     points: Annotated[int | None, Query(ge=1, le=MAX_EPISODES)] = None,
 ) -> Response:
     """Configurations (config_hash, algorithm) of succeeded jobs, seeds pooled across jobs."""

@@ -16,7 +16,7 @@ from backend.deps import Authorized, DatabaseDep, SessionDep, SettingsDep
 from backend.errors import InvalidSpec
 from backend.job_order import SORT_HELP
 from backend.models import Job
-from backend.schemas import MAX_JOB_ID, JobCreate, JobOut, JobPage, JobPatch, Status
+from backend.schemas import MAX_JOB_ID, JobCreate, JobOut, JobPage, JobPatch, Status, Text
 from mgrao_core import MAX_EPISODES, ConfigError, make_spec
 from mgrao_core.spec import MAX_SEED_VALUE
 
@@ -48,12 +48,12 @@ def submit_job(body: JobCreate, db: DatabaseDep, settings: SettingsDep, response
 def list_jobs(
     session: SessionDep,
     status: Status | None = None,
-    system: Annotated[str | None, Query(max_length=32)] = None,
-    tag: Annotated[str | None, Query(max_length=50)] = None,
-    q: Annotated[str | None, Query(max_length=200, description="Text in name, notes or tags.")] = None,
-    sort: Annotated[str, Query(max_length=80, description=SORT_HELP)] = "-created_at",
+    system: Annotated[Text | None, Query(max_length=32)] = None,
+    tag: Annotated[Text | None, Query(max_length=50)] = None,
+    q: Annotated[Text | None, Query(max_length=200, description="Text in name, notes or tags.")] = None,
+    sort: Annotated[Text, Query(max_length=80, description=SORT_HELP)] = "-created_at",
     limit: Annotated[int, Query(ge=1, le=200)] = 50,
-    cursor: Annotated[str | None, Query(max_length=500)] = None,
+    cursor: Annotated[Text | None, Query(max_length=500)] = None,
 ) -> JSONResponse:
     """Jobs matching the filters, one page at a time (keyset pagination), each with its stored summaries."""
     jobs, next_cursor, total = crud.list_jobs(

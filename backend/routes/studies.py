@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from fastapi import APIRouter, Body, Path, Query, Response, status
+from fastapi import APIRouter, Path, Query, Response, status
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
@@ -14,7 +14,7 @@ from backend.deps import Authorized, DatabaseDep, SessionDep
 from backend.errors import InvalidSpec
 from backend.keyset import Keyset
 from backend.models import Study
-from backend.schemas import MAX_JOB_ID
+from backend.schemas import MAX_JOB_ID, StudyCreate, Text
 from backend.study_plots import study_plots
 from mgrao_core import ConfigError
 from mgrao_core.search import make_plan
@@ -32,10 +32,10 @@ def _json(data: Any, code: int = 200) -> Response:
 
 
 @router.post("", status_code=status.HTTP_202_ACCEPTED, dependencies=[Authorized])
-def submit_study(db: DatabaseDep, body: Annotated[dict[str, Any], Body()]) -> Response:
+def submit_study(db: DatabaseDep, body: StudyCreate) -> Response:
     """Validate a study (docs/studies.md), store it and queue its first trials."""
     try:
-        plan = make_plan(body)
+        plan = make_plan(body.model_dump(exclude_unset=True))
     except ConfigError as error:
         raise InvalidSpec(_location(error.field), error.field, str(error)) from None
     study_id = studies.create_study(db, plan=plan)
@@ -61,10 +61,10 @@ def list_studies(
     session: SessionDep,
     status_: Annotated[Literal["running", "finished", "cancelled"] | None, Query(alias="status")] = None,
     method: Literal["grid", "random", "tpe"] | None = None,
-    q: Annotated[str | None, Query(max_length=200, description="Text in the name.")] = None,
+    q: Annotated[Text | None, Query(max_length=200, description="Text in the name.")] = None,
     sort: StudySort = "-created_at",
     limit: Annotated[int, Query(ge=1, le=200)] = 50,
-    cursor: Annotated[str | None, Query(max_length=500)] = None,
+    cursor: Annotated[Text | None, Query(max_length=500)] = None,
 ) -> Response:
     """Studies matching the filters, one page at a time (keyset pagination), with trials per status."""
     column = _COLUMNS[sort.lstrip("-")]
@@ -106,8 +106,8 @@ def read_study(study_id: StudyId, session: SessionDep,
 
 @router.get("/{study_id:int}/plots")
 def plot_study(study_id: StudyId, session: SessionDep,
-               x: Annotated[str | None, Query(max_length=64)] = None,
-               y: Annotated[str | None, Query(max_length=64)] = None) -> Response:
+               x: Annotated[Text | None, Query(max_length=64)] = None,
+               y: Annotated[Text | None, Query(max_length=64)] = None) -> Response:
     """Best so far, importance, slices, a heatmap of two dimensions and parallel coordinates, aggregated."""
     body = ANSWERS.get_or_build(("plots", *_version(session, study_id), x, y),
                                 lambda: analysis.dumps(study_plots(session, study_id, x, y)))
