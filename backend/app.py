@@ -12,6 +12,7 @@ from fastapi.responses import JSONResponse
 
 import mgrao_core
 from backend import faults
+from backend.api_methods import ApiMethods
 from backend.apidocs import install_api_docs
 from backend.db import Database
 from backend.errors import BadQuery, Conflict, InvalidSpec, NotFound
@@ -149,18 +150,21 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.db = db
     _install_error_handlers(app)
     faults.install(app)  # first of the middlewares: the innermost
-    for module in (jobs, studies, compare, systems, health):
-        app.include_router(module.router)
+    routers = [module.router for module in (jobs, studies, compare, systems, health)]
+    for router in routers:
+        app.include_router(router)
 
     install_api_docs(app)
     install_static(app)  # last: the dashboard is mounted at "/"
 
     # add_middleware wraps: the last added runs first. Order of a request: security headers on
-    # whatever answers, Host check (400), same-origin writes (403/415), body limit (413), gzip of
-    # browser files when the client accepts it (text of 1000 bytes or more, not /api), the app.
+    # whatever answers, Host check (400), an /api path or method no route takes (404/405, before
+    # the dashboard's mount at "/" would answer it), same-origin writes (403/415), body limit (413),
+    # gzip of browser files when the client accepts it (text of 1000 bytes or more, not /api), the app.
     app.add_middleware(CompressAssets, minimum_size=1000, compresslevel=6)
     app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
     app.add_middleware(SameOriginWrites)
+    app.add_middleware(ApiMethods, routes=[route for router in routers for route in router.routes])
     app.add_middleware(AllowedHosts, hosts=allowed_hosts(settings.allowed_hosts, settings.host))
     app.add_middleware(SecurityHeaders)
     return app
