@@ -37,9 +37,9 @@ def validation_details(errors: Sequence[Any], body: Any = None) -> list[dict[str
 
     Union branches (seeds as a count or a list, parameter values) are folded into the field, and a
     bad key of an object (``params``) is named by the object; of several errors on a field, a rule of
-    ours beats a limit, which beats a type mismatch. Inside an object of the ``body`` other than a job's ``params`` (a study's
-    ``base``, ``space``, ``objective``) the location follows the body all the way down and the field
-    is named as the core names it (``space.learning_rate.values[2]``).
+    ours beats a limit, which beats a type mismatch. Inside an object of the ``body`` other than a
+    job's ``params`` (a study's ``base``, ``space``, ``objective``) the location follows the body all
+    the way down and the field is named as the core names it (``space.learning_rate.values[2]``).
     """
     best: dict[tuple, dict[str, Any]] = {}
     loc: list[str | int]
@@ -126,6 +126,25 @@ def _install_error_handlers(app: FastAPI) -> None:
         return JSONResponse({"detail": str(error)}, status_code=409)
 
 
+def _describe_token(app: FastAPI, required: bool) -> None:
+    """The OpenAPI document's writes ask for the bearer token only when the service has one.
+
+    Without ``MGRAO_API_TOKEN`` a write needs none (its security lists no requirement, ``{}``, first).
+    """
+    generate = app.openapi
+
+    def openapi() -> dict[str, Any]:
+        if app.openapi_schema is None:
+            document = generate()
+            for operations in document["paths"].values():
+                for operation in operations.values():
+                    if "security" in operation and not required:
+                        operation["security"] = [{}, *operation["security"]]
+        return app.openapi_schema
+
+    app.openapi = openapi  # type: ignore[method-assign]
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     """Build the service: API routers first, then the API docs, libraries and the dashboard at ``/``."""
     settings = settings or Settings()
@@ -154,6 +173,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     for router in routers:
         app.include_router(router)
 
+    _describe_token(app, required=bool(settings.api_token))
     install_api_docs(app)
     install_static(app)  # last: the dashboard is mounted at "/"
 

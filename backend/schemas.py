@@ -76,6 +76,35 @@ def text_keys(schema: JsonSchemaValue) -> None:
         schema["propertyNames"] = schema.get("propertyNames", {}) | {"pattern": pattern}
 
 
+def _parameter_schema(parameter: Any) -> JsonSchemaValue:
+    """One parameter's value as the core reads it: its kind and limits, or text (``"0.5"``, ``"on"``)."""
+    text = {"type": "string", "maxLength": 64, "pattern": NO_NUL_PATTERN}
+    if parameter.kind == "choice":
+        branches: list[JsonSchemaValue] = [{"type": "string", "enum": list(parameter.choices)}]
+    elif parameter.kind == "bool":
+        branches = [{"type": "boolean"}, {"type": "integer", "enum": [0, 1]}, text]
+    else:
+        low = "exclusiveMinimum" if parameter.exclusive_minimum else "minimum"
+        branches = [{"type": "integer" if parameter.kind == "int" else "number", low: parameter.minimum,
+                     "maximum": parameter.maximum}, text]
+    if parameter.nullable:
+        branches += [{"type": "null"}] + ([text] if text not in branches else [])
+    return {"anyOf": branches, "description": parameter.help} if len(branches) > 1 else branches[0]
+
+
+def parameters_schema(schema: JsonSchemaValue) -> None:
+    """``params`` in the OpenAPI document: every parameter of the schema (``GET /api/systems``) by name.
+
+    Numbers may come as text too, as on the command line; text that is not one answers 422 (the
+    core's check, naming the parameter), like a value another parameter's limit refuses (e.g.
+    ``types_per_composite`` above ``n_types``).
+    """
+    described = {key: schema[key] for key in ("title", "description") if key in schema}
+    schema.clear()
+    schema.update(described, type="object", additionalProperties=False,
+                  properties={p.name: _parameter_schema(p) for p in PARAMETERS})
+
+
 Text = Annotated[str, NoNul()]
 """Any text that comes in (a query parameter, a key or a string of a body)."""
 Tag = Annotated[str, StringConstraints(strip_whitespace=True, min_length=1, max_length=MAX_TAG), NoNul()]
@@ -85,6 +114,7 @@ Seed = Annotated[StrictInt, Field(ge=0, le=MAX_SEED_VALUE)]
 SeedCount = Annotated[StrictInt, Field(ge=1, le=MAX_SEEDS)]
 SeedList = Annotated[list[Seed], Field(min_length=1, max_length=MAX_SEEDS)]
 ParamValue = StrictBool | StrictInt | float | ParamName | None
+Params = Annotated[dict[ParamName, ParamValue], Field(max_length=len(PARAMETERS), json_schema_extra=parameters_schema)]
 Status = Literal["queued", "running", "succeeded", "failed", "cancelled"]
 Sort = Literal["-created_at", "created_at", "name", "-name", "status", "-status"]
 
@@ -98,8 +128,7 @@ class JobCreate(BaseModel):
     algorithms: Annotated[list[Label], Field(min_length=1, max_length=MAX_ALGORITHMS)] | None = None
     seeds: SeedCount | SeedList = 30
     episodes: Annotated[StrictInt, Field(ge=1, le=MAX_EPISODES)] = 100
-    params: Annotated[dict[ParamName, ParamValue],
-                      Field(max_length=len(PARAMETERS), json_schema_extra=text_keys)] = Field(default_factory=dict)
+    params: Params = Field(default_factory=dict)
     name: Annotated[str, StringConstraints(strip_whitespace=True, max_length=MAX_NAME), NoNul()] = ""
     tags: Annotated[list[Tag], Field(max_length=MAX_TAGS)] = Field(default_factory=list)
     notes: Annotated[str, StringConstraints(max_length=MAX_NOTES), NoNul()] = ""
@@ -189,8 +218,7 @@ class StudyBase(BaseModel):
     seeds: SeedCount | SeedList = 10
     first_seed: Seed = 0
     episodes: Annotated[StrictInt, Field(ge=1, le=MAX_EPISODES)] = 100
-    params: Annotated[dict[ParamName, ParamValue],
-                      Field(max_length=len(PARAMETERS), json_schema_extra=text_keys)] = Field(default_factory=dict)
+    params: Params = Field(default_factory=dict)
 
 
 class StudyDimension(BaseModel):

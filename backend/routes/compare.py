@@ -10,6 +10,7 @@ from fastapi.responses import Response
 from backend import analysis
 from backend.deps import SessionDep
 from backend.errors import BadQuery
+from backend.responses import Comparison, answers
 from backend.schemas import MAX_COMPARE_JOBS, MAX_JOB_ID, Text
 from mgrao_core import MAX_EPISODES
 
@@ -32,7 +33,7 @@ def parse_ids(text: str) -> list[int]:
     return ids
 
 
-@router.get("/compare")
+@router.get("/compare", response_model=Comparison, responses=answers(found=True))
 def compare(
     session: SessionDep,
     jobs: Annotated[Text, Query(max_length=1000, description="Comma-separated job ids.")],

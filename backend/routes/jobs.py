@@ -16,6 +16,7 @@ from backend.deps import Authorized, DatabaseDep, SessionDep, SettingsDep
 from backend.errors import InvalidSpec
 from backend.job_order import SORT_HELP
 from backend.models import Job
+from backend.responses import LOCATION, EpisodeRow, Results, Weights, answers, links
 from backend.schemas import MAX_JOB_ID, JobCreate, JobOut, JobPage, JobPatch, Status, Text
 from mgrao_core import MAX_EPISODES, ConfigError, make_spec
 from mgrao_core.spec import MAX_SEED_VALUE
@@ -24,11 +25,18 @@ router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 
 JobId = Annotated[int, Path(ge=1, le=MAX_JOB_ID, description="A job's id.")]
 Points = Annotated[int | None, Query(ge=1, le=MAX_EPISODES, description="Downsample to at most this many points.")]
+JOB_LINKS = links("job_id", "/id", {
+    "read": "read_job_api_jobs__job_id__get", "patch": "patch_job_api_jobs__job_id__patch",
+    "cancel": "cancel_job_api_jobs__job_id__cancel_post", "delete": "delete_job_api_jobs__job_id__delete",
+    "results": "job_results_api_jobs__job_id__results_get", "weights": "job_weights_api_jobs__job_id__weights_get",
+    "episodes": "job_episodes_api_jobs__job_id__episodes_get"})
 Seed = Annotated[int | None, Query(ge=0, le=MAX_SEED_VALUE,
                                    description="One of the job's seeds (default: its first stored).")]
 
 
-@router.post("", status_code=status.HTTP_202_ACCEPTED, response_model=JobOut, dependencies=[Authorized])
+@router.post("", status_code=status.HTTP_202_ACCEPTED, response_model=JobOut, dependencies=[Authorized],
+             responses=answers(write=True, extra={202: {"description": "Queued.", "headers": LOCATION,
+                                                        "links": JOB_LINKS}}))
 def submit_job(body: JobCreate, db: DatabaseDep, settings: SettingsDep, response: Response) -> dict:
     """Queue an experiment; answers once the job is committed."""
     try:
@@ -44,7 +52,7 @@ def submit_job(body: JobCreate, db: DatabaseDep, settings: SettingsDep, response
     return out
 
 
-@router.get("", response_model=JobPage)
+@router.get("", response_model=JobPage, responses=answers())
 def list_jobs(
     session: SessionDep,
     status: Status | None = None,
@@ -64,14 +72,15 @@ def list_jobs(
     return JSONResponse({"data": data, "next_cursor": next_cursor, "count": total})
 
 
-@router.get("/{job_id:int}", response_model=JobOut)
+@router.get("/{job_id:int}", response_model=JobOut, responses=answers(found=True))
 def read_job(job_id: JobId, session: SessionDep) -> dict:
     """One job, with its stored summaries once it succeeded."""
     job = crud.job_dict(crud.get_job(session, job_id=job_id))
     return job | {"summaries": summaries.of_jobs(session, [job_id]).get(job_id, {})}
 
 
-@router.patch("/{job_id:int}", response_model=JobOut, dependencies=[Authorized])
+@router.patch("/{job_id:int}", response_model=JobOut, dependencies=[Authorized],
+              responses=answers(write=True, found=True))
 def patch_job(job_id: JobId, body: JobPatch, db: DatabaseDep) -> dict:
     """Change a job's name, tags or notes."""
     with db.write() as session:
@@ -80,7 +89,8 @@ def patch_job(job_id: JobId, body: JobPatch, db: DatabaseDep) -> dict:
         return crud.job_dict(job)
 
 
-@router.post("/{job_id:int}/cancel", response_model=JobOut, dependencies=[Authorized])
+@router.post("/{job_id:int}/cancel", response_model=JobOut, dependencies=[Authorized],
+             responses=answers(write=True, found=True, conflict=True))
 def cancel_job(job_id: JobId, db: DatabaseDep) -> dict:
     """Cancel a queued or running job (409 otherwise)."""
     with db.write() as session:
@@ -92,7 +102,8 @@ def cancel_job(job_id: JobId, db: DatabaseDep) -> dict:
     return answer
 
 
-@router.delete("/{job_id:int}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[Authorized])
+@router.delete("/{job_id:int}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[Authorized],
+               responses=answers(write=True, found=True, conflict=True))
 def delete_job(job_id: JobId, db: DatabaseDep) -> Response:
     """Delete a job that is not running, with its results (409 if running)."""
     with db.write() as session:
@@ -103,7 +114,7 @@ def delete_job(job_id: JobId, db: DatabaseDep) -> Response:
     return Response(status_code=status.HTTP_204_NO_CONTENT)
 
 
-@router.get("/{job_id:int}/results")
+@router.get("/{job_id:int}/results", response_model=Results, responses=answers(found=True, conflict=True))
 def job_results(job_id: JobId, session: SessionDep, points: Points = None, include_seeds: bool = False) -> Response:
     """Per configuration: summary, episode band, mean final weights (and each seed's curve)."""
     head, body = analysis.job_results_parts(session, job_id=job_id, points=points, include_seeds=include_seeds)
@@ -111,13 +122,22 @@ def job_results(job_id: JobId, session: SessionDep, points: Points = None, inclu
                              headers={"Content-Length": str(len(head) + len(body) - 1)})
 
 
-@router.get("/{job_id:int}/weights")
+@router.get("/{job_id:int}/weights", response_model=Weights, responses=answers(found=True, conflict=True))
 def job_weights(job_id: JobId, session: SessionDep, seed: Seed = None) -> Response:
     """Every configuration's final weights for one seed (the oracle's allocation among them where it ran)."""
     return Response(analysis.dumps(weights.of_seed(session, job_id=job_id, seed=seed)), media_type="application/json")
 
 
 SLICE_BYTES = 1024**2
+EPISODES = {
+    "description": "Every stored episode: CSV (the default) or, with format=json, a JSON array.",
+    "content": {"text/csv": {"schema": {"type": "string", "description": "job_id,algorithm,seed,episode,utility"}},
+                "application/json": {"schema": {"type": "array", "items": EpisodeRow.model_json_schema()}}},
+    "headers": {"X-MGRAO-Partial": {"description": "true while the job is not complete (the runs stored so far).",
+                                    "schema": {"type": "string", "enum": ["true", "false"]}, "required": True},
+                "Content-Disposition": {"description": "attachment; filename=job-ID-episodes.csv or .json",
+                                        "schema": {"type": "string"}}},
+}
 
 
 def _slices(head: bytes, body: bytes) -> Iterator[bytes | memoryview]:
@@ -131,7 +151,8 @@ def _slices(head: bytes, body: bytes) -> Iterator[bytes | memoryview]:
         yield view[start : start + SLICE_BYTES]
 
 
-@router.get("/{job_id:int}/episodes")
+@router.get("/{job_id:int}/episodes", response_class=StreamingResponse,
+            responses=answers(found=True, conflict=True, extra={200: EPISODES}))
 def job_episodes(job_id: JobId, db: DatabaseDep, format: Literal["csv", "json"] = "csv") -> StreamingResponse:
     """Every stored episode utility of the job, streamed as CSV or JSON (partial while it runs)."""
     with db.session() as session:

@@ -14,6 +14,7 @@ from backend.deps import Authorized, DatabaseDep, SessionDep
 from backend.errors import InvalidSpec
 from backend.keyset import Keyset
 from backend.models import Study
+from backend.responses import LOCATION, StudyDetail, StudyPage, StudyPlots, answers, links
 from backend.schemas import MAX_JOB_ID, StudyCreate, Text
 from backend.study_plots import study_plots
 from mgrao_core import ConfigError
@@ -24,6 +25,11 @@ router = APIRouter(prefix="/api/studies", tags=["studies"])
 StudyId = Annotated[int, Path(ge=1, le=MAX_JOB_ID)]
 StudySort = Literal["-created_at", "created_at", "name", "-name", "status", "-status"]
 ANSWERS = AnswerCache(max_bytes=64 * 1024**2)
+STUDY_LINKS = links("study_id", "/study/id", {
+    "read": "read_study_api_studies__study_id__get", "plots": "plot_study_api_studies__study_id__plots_get",
+    "cancel": "cancel_study_api_studies__study_id__cancel_post",
+    "rerun_failed": "rerun_failed_api_studies__study_id__rerun_failed_post",
+    "delete": "delete_study_api_studies__study_id__delete"})
 _COLUMNS = {"created_at": Study.created_at, "name": Study.name, "status": Study.status}
 
 
@@ -31,7 +37,9 @@ def _json(data: Any, code: int = 200) -> Response:
     return Response(analysis.dumps(data), media_type="application/json", status_code=code)
 
 
-@router.post("", status_code=status.HTTP_202_ACCEPTED, dependencies=[Authorized])
+@router.post("", status_code=status.HTTP_202_ACCEPTED, response_model=StudyDetail, dependencies=[Authorized],
+             responses=answers(write=True, extra={202: {"description": "Stored.", "headers": LOCATION,
+                                                        "links": STUDY_LINKS}}))
 def submit_study(db: DatabaseDep, body: StudyCreate) -> Response:
     """Validate a study (docs/studies.md), store it and queue its first trials."""
     try:
@@ -56,7 +64,7 @@ def _location(field: str) -> list[str | int]:
     return loc
 
 
-@router.get("")
+@router.get("", response_model=StudyPage, responses=answers())
 def list_studies(
     session: SessionDep,
     status_: Annotated[Literal["running", "finished", "cancelled"] | None, Query(alias="status")] = None,
@@ -94,7 +102,7 @@ def _version(session: Session, study_id: int) -> tuple:
     return str(session.get_bind().url), study_id, study.created_at, study.revision
 
 
-@router.get("/{study_id:int}")
+@router.get("/{study_id:int}", response_model=StudyDetail, responses=answers(found=True))
 def read_study(study_id: StudyId, session: SessionDep,
                trials: Annotated[bool, Query(description="false: the study and its definition only (for polling).")]
                = True) -> Response:
@@ -104,7 +112,7 @@ def read_study(study_id: StudyId, session: SessionDep,
     return Response(body, media_type="application/json")
 
 
-@router.get("/{study_id:int}/plots")
+@router.get("/{study_id:int}/plots", response_model=StudyPlots, responses=answers(found=True))
 def plot_study(study_id: StudyId, session: SessionDep,
                x: Annotated[Text | None, Query(max_length=64)] = None,
                y: Annotated[Text | None, Query(max_length=64)] = None) -> Response:
@@ -114,7 +122,8 @@ def plot_study(study_id: StudyId, session: SessionDep,
     return Response(body, media_type="application/json")
 
 
-@router.post("/{study_id:int}/cancel", dependencies=[Authorized])
+@router.post("/{study_id:int}/cancel", response_model=StudyDetail, dependencies=[Authorized],
+             responses=answers(write=True, found=True, conflict=True))
 def cancel_study(study_id: StudyId, db: DatabaseDep) -> Response:
     """Cancel a running study with its queued and running trials (409 otherwise)."""
     studies.cancel_study(db, study_id=study_id)
@@ -122,7 +131,8 @@ def cancel_study(study_id: StudyId, db: DatabaseDep) -> Response:
         return _json(studies.study_detail(session, study_id))
 
 
-@router.post("/{study_id:int}/rerun-failed", dependencies=[Authorized])
+@router.post("/{study_id:int}/rerun-failed", response_model=StudyDetail, dependencies=[Authorized],
+             responses=answers(write=True, found=True, conflict=True))
 def rerun_failed(study_id: StudyId, db: DatabaseDep) -> Response:
     """Run the failed and cancelled trials again (same parameters, same numbers; no cell twice)."""
     count = studies.rerun_failed(db, study_id=study_id)
@@ -130,7 +140,8 @@ def rerun_failed(study_id: StudyId, db: DatabaseDep) -> Response:
         return _json(studies.study_detail(session, study_id) | {"rerun": count})
 
 
-@router.delete("/{study_id:int}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[Authorized])
+@router.delete("/{study_id:int}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[Authorized],
+               responses=answers(write=True, found=True, conflict=True))
 def delete_study(study_id: StudyId, db: DatabaseDep) -> Response:
     """Delete a study with its trials and their jobs (409 while one of its jobs runs)."""
     studies.delete_study(db, study_id=study_id)

@@ -5,12 +5,13 @@ from __future__ import annotations
 from fastapi import APIRouter
 
 from backend.deps import SettingsDep
+from backend.responses import Systems, answers
 from mgrao_core import MAX_ALGORITHMS, MAX_EPISODES, MAX_SEEDS, MAX_WORK, PARAMETERS, PRESETS, search
 
 router = APIRouter(prefix="/api", tags=["systems"])
 
 
-@router.get("/systems")
+@router.get("/systems", response_model=Systems, responses=answers(invalid=False))
 def systems(settings: SettingsDep) -> dict:
     """What can be submitted: systems, parameters, algorithm labels, limits and the studies' limits."""
     return {
