@@ -11,7 +11,7 @@ methods they do take (all of them, over the several routes one path may have).
 from __future__ import annotations
 
 import json
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 
 from starlette.routing import BaseRoute, Route
 from starlette.types import ASGIApp, Receive, Scope, Send
@@ -22,14 +22,15 @@ class ApiMethods:
 
     Args:
         app: the application (or middleware) to call for every other request.
-        routes: the API's routes (those of its routers, full paths).
+        routes: the routes (full paths) at the time of a request: those of the API's routers and
+            any added to the application since (other routes are skipped: the mount at ``/``,
+            included routers).
         prefix: the API's path prefix.
     """
 
-    def __init__(self, app: ASGIApp, routes: Iterable[BaseRoute], prefix: str = "/api") -> None:
+    def __init__(self, app: ASGIApp, routes: Callable[[], Iterable[BaseRoute]], prefix: str = "/api") -> None:
         self.app = app
-        self.routes = [(route.path_regex, frozenset(route.methods or ())) for route in routes
-                       if isinstance(route, Route)]
+        self.routes = routes
         self.prefix = prefix
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
@@ -38,7 +39,8 @@ class ApiMethods:
         if scope["type"] != "http" or not (path == self.prefix or path.startswith(self.prefix + "/")):
             await self.app(scope, receive, send)
             return
-        allowed = {method for regex, methods in self.routes if regex.match(path) for method in methods}
+        allowed = {method for route in self.routes() if isinstance(route, Route) and route.path_regex.match(path)
+                   for method in route.methods or ()}
         if scope.get("method") in allowed:
             await self.app(scope, receive, send)
         elif allowed:

@@ -184,7 +184,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.add_middleware(CompressAssets, minimum_size=1000, compresslevel=6)
     app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
     app.add_middleware(SameOriginWrites)
-    app.add_middleware(ApiMethods, routes=[route for router in routers for route in router.routes])
+    app.add_middleware(ApiMethods, routes=lambda: [*app.routes, *(route for r in routers for route in r.routes)])
     app.add_middleware(AllowedHosts, hosts=allowed_hosts(settings.allowed_hosts, settings.host))
     app.add_middleware(SecurityHeaders)
     return app
