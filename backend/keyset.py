@@ -18,7 +18,7 @@ from typing import Any
 from sqlalchemy import ColumnElement, Select, and_, literal, or_
 
 from backend.errors import BadQuery
-from backend.schemas import MAX_JOB_ID
+from backend.schemas import MAX_JOB_ID, has_nul
 
 NOT_A_CURSOR = "is not a cursor of this listing (use next_cursor as given, same sort)"
 
@@ -87,7 +87,7 @@ def _key_fits(kind: str, key: Any) -> bool:
     if key is None:
         return kind in ("string", "number", "boolean")
     if kind in ("datetime", "text", "string"):
-        return isinstance(key, str)
+        return isinstance(key, str) and not has_nul(key)  # a NUL: no stored text has one, PostgreSQL refuses it
     if kind == "boolean":
         return isinstance(key, bool) or key in (0, 1)  # SQLite reads a JSON boolean as 0 or 1
     return isinstance(key, int | float) and not isinstance(key, bool)

@@ -20,6 +20,7 @@ from backend import crud, presence
 from backend.deps import SessionDep, SettingsDep
 from backend.errors import InvalidSpec
 from backend.models import QUEUED, RUNNING, Job, Run
+from backend.responses import JobChanges, JobCheck, JobStatus, answers
 from backend.schemas import MAX_JOB_ID, JobCreate
 from mgrao_core import MAX_WORK, ConfigError, make_spec
 
@@ -49,7 +50,7 @@ def jobs_token(session: Session) -> tuple[str, dict[str, int]]:
     return token, {status: count for status, count, _ in per_status}
 
 
-@router.get("/changes")
+@router.get("/changes", response_model=JobChanges, responses=answers())
 def job_changes(session: SessionDep, since: Since = None) -> JSONResponse:
     """``{"changed": false}`` while the jobs' token equals ``since``; else the new token and the queue's counts.
 
@@ -64,7 +65,7 @@ def job_changes(session: SessionDep, since: Since = None) -> JSONResponse:
                          "running": counts.get(RUNNING, 0)}, headers=headers)
 
 
-@router.get("/{job_id:int}/status")
+@router.get("/{job_id:int}/status", response_model=JobStatus, responses=answers(found=True))
 def job_status(job_id: Annotated[int, Path(ge=1, le=MAX_JOB_ID, description="A job's id.")], session: SessionDep,
                settings: SettingsDep) -> dict:
     """Where a job stands: its status and progress, the runs stored so far, and what a queued job waits for.
@@ -87,7 +88,7 @@ def job_status(job_id: Annotated[int, Path(ge=1, le=MAX_JOB_ID, description="A j
     }
 
 
-@router.post("/check")
+@router.post("/check", response_model=JobCheck, response_model_exclude_unset=True, responses=answers(write=True))
 def check_job(body: Annotated[dict[str, Any], Body()], settings: SettingsDep) -> dict:
     """Validate a ``POST /api/jobs`` body without queuing it; 200 either way.
 

@@ -10,7 +10,8 @@ from fastapi.responses import Response
 from backend import analysis
 from backend.deps import SessionDep
 from backend.errors import BadQuery
-from backend.schemas import MAX_COMPARE_JOBS, MAX_JOB_ID
+from backend.responses import Comparison, answers
+from backend.schemas import MAX_COMPARE_JOBS, MAX_JOB_ID, Text
 from mgrao_core import MAX_EPISODES
 
 router = APIRouter(prefix="/api", tags=["compare"])
@@ -32,10 +33,10 @@ def parse_ids(text: str) -> list[int]:
     return ids
 
 
-@router.get("/compare")
+@router.get("/compare", response_model=Comparison, responses=answers(found=True))
 def compare(
     session: SessionDep,
-    jobs: Annotated[str, Query(max_length=1000, description="Comma-separated job ids.")],
+    jobs: Annotated[Text, Query(max_length=1000, description="Comma-separated job ids.")],
     points: Annotated[int | None, Query(ge=1, le=MAX_EPISODES)] = None,
 ) -> Response:
     """Configurations (config_hash, algorithm) of succeeded jobs, seeds pooled across jobs."""

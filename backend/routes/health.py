@@ -12,12 +12,15 @@ from backend.deps import DatabaseDep, SettingsDep
 from backend.dialect import DatabaseUnavailable, reason
 from backend.faults import RETRY_AFTER_S
 from backend.models import QUEUED, RUNNING
+from backend.responses import UNAVAILABLE, answers
 from backend.schemas import Health
 
 router = APIRouter(prefix="/api", tags=["health"])
 
 
-@router.get("/health", response_model=Health)
+@router.get("/health", response_model=Health, responses=answers(invalid=False, extra={503: {
+    "description": "The database cannot be written now: status error, the reason in database.", "model": Health,
+    "headers": UNAVAILABLE["headers"]}}))
 def health(db: DatabaseDep, settings: SettingsDep) -> JSONResponse:
     """Service status, version, whether the database can be written now, queue depth and workers.
 

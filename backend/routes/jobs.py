@@ -17,7 +17,8 @@ from backend.deps import Authorized, DatabaseDep, SessionDep, SettingsDep
 from backend.errors import BadQuery, InvalidSpec
 from backend.job_order import SORT_HELP
 from backend.models import Job
-from backend.schemas import MAX_JOB_ID, JobCreate, JobOut, JobPage, JobPatch, Status
+from backend.responses import LOCATION, EpisodeRow, Results, Weights, answers, links
+from backend.schemas import MAX_JOB_ID, JobCreate, JobOut, JobPage, JobPatch, Status, Text
 from mgrao_core import MAX_EPISODES, ConfigError, make_spec
 from mgrao_core.spec import MAX_SEED_VALUE
 
@@ -28,11 +29,18 @@ CONFIG_HASH_HELP = "Only the jobs of this configuration: a job's config_hash (64
 JobId = Annotated[int, Path(ge=1, le=MAX_JOB_ID, description="A job's id.")]
 Points = Annotated[int | None, Query(ge=1, le=MAX_EPISODES, description="Downsample to at most this many points.")]
 PctBySeed = Annotated[bool, Query(description="Add each seed's paired % from uniform (pct_by_seed).")]
+JOB_LINKS = links("job_id", "/id", {
+    "read": "read_job_api_jobs__job_id__get", "patch": "patch_job_api_jobs__job_id__patch",
+    "cancel": "cancel_job_api_jobs__job_id__cancel_post", "delete": "delete_job_api_jobs__job_id__delete",
+    "results": "job_results_api_jobs__job_id__results_get", "weights": "job_weights_api_jobs__job_id__weights_get",
+    "episodes": "job_episodes_api_jobs__job_id__episodes_get"})
 Seed = Annotated[int | None, Query(ge=0, le=MAX_SEED_VALUE,
                                    description="One of the job's seeds (default: its first stored).")]
 
 
-@router.post("", status_code=status.HTTP_202_ACCEPTED, response_model=JobOut, dependencies=[Authorized])
+@router.post("", status_code=status.HTTP_202_ACCEPTED, response_model=JobOut, dependencies=[Authorized],
+             responses=answers(write=True, extra={202: {"description": "Queued.", "headers": LOCATION,
+                                                        "links": JOB_LINKS}}))
 def submit_job(body: JobCreate, db: DatabaseDep, settings: SettingsDep, response: Response) -> dict:
     """Queue an experiment; answers once the job is committed."""
     try:
@@ -49,17 +57,17 @@ def submit_job(body: JobCreate, db: DatabaseDep, settings: SettingsDep, response
     return out
 
 
-@router.get("", response_model=JobPage)
+@router.get("", response_model=JobPage, responses=answers())
 def list_jobs(
     session: SessionDep,
     status: Status | None = None,
-    system: Annotated[str | None, Query(max_length=32)] = None,
-    tag: Annotated[str | None, Query(max_length=50)] = None,
-    q: Annotated[str | None, Query(max_length=200, description="Text in name, notes or tags.")] = None,
-    config_hash: Annotated[str | None, Query(max_length=64, description=CONFIG_HASH_HELP)] = None,
-    sort: Annotated[str, Query(max_length=80, description=SORT_HELP)] = "-created_at",
+    system: Annotated[Text | None, Query(max_length=32)] = None,
+    tag: Annotated[Text | None, Query(max_length=50)] = None,
+    q: Annotated[Text | None, Query(max_length=200, description="Text in name, notes or tags.")] = None,
+    config_hash: Annotated[Text | None, Query(max_length=64, description=CONFIG_HASH_HELP)] = None,
+    sort: Annotated[Text, Query(max_length=80, description=SORT_HELP)] = "-created_at",
     limit: Annotated[int, Query(ge=1, le=200)] = 50,
-    cursor: Annotated[str | None, Query(max_length=500)] = None,
+    cursor: Annotated[Text | None, Query(max_length=500)] = None,
 ) -> JSONResponse:
     """Jobs matching the filters, one page at a time (keyset pagination), each with its stored summaries."""
     if config_hash is not None and not CONFIG_HASH.fullmatch(config_hash):
@@ -75,14 +83,15 @@ def list_jobs(
     return JSONResponse({"data": data, "next_cursor": next_cursor, "count": total})
 
 
-@router.get("/{job_id:int}", response_model=JobOut)
+@router.get("/{job_id:int}", response_model=JobOut, responses=answers(found=True))
 def read_job(job_id: JobId, session: SessionDep) -> dict:
     """One job, with its stored summaries once it succeeded."""
     job = crud.job_dict(crud.get_job(session, job_id=job_id))
     return job | {"summaries": summaries.of_jobs(session, [job_id]).get(job_id, {})}
 
 
-@router.patch("/{job_id:int}", response_model=JobOut, dependencies=[Authorized])
+@router.patch("/{job_id:int}", response_model=JobOut, dependencies=[Authorized],
+              responses=answers(write=True, found=True))
 def patch_job(job_id: JobId, body: JobPatch, db: DatabaseDep) -> dict:
     """Change a job's name, tags or notes."""
     with db.write() as session:
@@ -91,7 +100,8 @@ def patch_job(job_id: JobId, body: JobPatch, db: DatabaseDep) -> dict:
         return crud.job_dict(job)
 
 
-@router.post("/{job_id:int}/cancel", response_model=JobOut, dependencies=[Authorized])
+@router.post("/{job_id:int}/cancel", response_model=JobOut, dependencies=[Authorized],
+             responses=answers(write=True, found=True, conflict=True))
 def cancel_job(job_id: JobId, db: DatabaseDep) -> dict:
     """Cancel a queued or running job (409 otherwise)."""
     with db.write() as session:
@@ -103,7 +113,8 @@ def cancel_job(job_id: JobId, db: DatabaseDep) -> dict:
     return answer
 
 
-@router.delete("/{job_id:int}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[Authorized])
+@router.delete("/{job_id:int}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[Authorized],
+               responses=answers(write=True, found=True, conflict=True))
 def delete_job(job_id: JobId, db: DatabaseDep) -> Response:
     """Delete a job that is not running, with its results (409 if running)."""
     with db.write() as session:
@@ -114,7 +125,7 @@ def delete_job(job_id: JobId, db: DatabaseDep) -> Response:
     return Response(status_code=status.HTTP_204_NO_CONTENT)
 
 
-@router.get("/{job_id:int}/results")
+@router.get("/{job_id:int}/results", response_model=Results, responses=answers(found=True, conflict=True))
 def job_results(job_id: JobId, session: SessionDep, points: Points = None, include_seeds: bool = False,
                 pct_by_seed: PctBySeed = False) -> Response:
     """Per configuration: summary, episode band, mean final weights (and each seed's curve or % from uniform)."""
@@ -124,13 +135,22 @@ def job_results(job_id: JobId, session: SessionDep, points: Points = None, inclu
                              headers={"Content-Length": str(len(head) + len(body) - 1)})
 
 
-@router.get("/{job_id:int}/weights")
+@router.get("/{job_id:int}/weights", response_model=Weights, responses=answers(found=True, conflict=True))
 def job_weights(job_id: JobId, session: SessionDep, seed: Seed = None) -> Response:
     """Every configuration's final weights for one seed (the oracle's allocation among them where it ran)."""
     return Response(analysis.dumps(weights.of_seed(session, job_id=job_id, seed=seed)), media_type="application/json")
 
 
 SLICE_BYTES = 1024**2
+EPISODES = {
+    "description": "Every stored episode: CSV (the default) or, with format=json, a JSON array.",
+    "content": {"text/csv": {"schema": {"type": "string", "description": "job_id,algorithm,seed,episode,utility"}},
+                "application/json": {"schema": {"type": "array", "items": EpisodeRow.model_json_schema()}}},
+    "headers": {"X-MGRAO-Partial": {"description": "true while the job is not complete (the runs stored so far).",
+                                    "schema": {"type": "string", "enum": ["true", "false"]}, "required": True},
+                "Content-Disposition": {"description": "attachment; filename=job-ID-episodes.csv or .json",
+                                        "schema": {"type": "string"}}},
+}
 
 
 def _slices(head: bytes, body: bytes) -> Iterator[bytes | memoryview]:
@@ -144,7 +164,8 @@ def _slices(head: bytes, body: bytes) -> Iterator[bytes | memoryview]:
         yield view[start : start + SLICE_BYTES]
 
 
-@router.get("/{job_id:int}/episodes")
+@router.get("/{job_id:int}/episodes", response_class=StreamingResponse,
+            responses=answers(found=True, conflict=True, extra={200: EPISODES}))
 def job_episodes(job_id: JobId, db: DatabaseDep, format: Literal["csv", "json"] = "csv") -> StreamingResponse:
     """Every stored episode utility of the job, streamed as CSV or JSON (partial while it runs)."""
     with db.session() as session:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from fastapi import APIRouter, Body, Path, Query, Response, status
+from fastapi import APIRouter, Path, Query, Response, status
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
@@ -14,7 +14,8 @@ from backend.deps import Authorized, DatabaseDep, SessionDep
 from backend.errors import InvalidSpec
 from backend.keyset import Keyset
 from backend.models import Study
-from backend.schemas import MAX_JOB_ID
+from backend.responses import LOCATION, StudyDetail, StudyPage, StudyPlots, answers, links
+from backend.schemas import MAX_JOB_ID, StudyCreate, Text
 from backend.study_plots import study_plots
 from mgrao_core import ConfigError
 from mgrao_core.search import make_plan
@@ -24,6 +25,11 @@ router = APIRouter(prefix="/api/studies", tags=["studies"])
 StudyId = Annotated[int, Path(ge=1, le=MAX_JOB_ID)]
 StudySort = Literal["-created_at", "created_at", "name", "-name", "status", "-status"]
 ANSWERS = AnswerCache(max_bytes=64 * 1024**2)
+STUDY_LINKS = links("study_id", "/study/id", {
+    "read": "read_study_api_studies__study_id__get", "plots": "plot_study_api_studies__study_id__plots_get",
+    "cancel": "cancel_study_api_studies__study_id__cancel_post",
+    "rerun_failed": "rerun_failed_api_studies__study_id__rerun_failed_post",
+    "delete": "delete_study_api_studies__study_id__delete"})
 _COLUMNS = {"created_at": Study.created_at, "name": Study.name, "status": Study.status}
 
 
@@ -31,11 +37,13 @@ def _json(data: Any, code: int = 200) -> Response:
     return Response(analysis.dumps(data), media_type="application/json", status_code=code)
 
 
-@router.post("", status_code=status.HTTP_202_ACCEPTED, dependencies=[Authorized])
-def submit_study(db: DatabaseDep, body: Annotated[dict[str, Any], Body()]) -> Response:
+@router.post("", status_code=status.HTTP_202_ACCEPTED, response_model=StudyDetail, dependencies=[Authorized],
+             responses=answers(write=True, extra={202: {"description": "Stored.", "headers": LOCATION,
+                                                        "links": STUDY_LINKS}}))
+def submit_study(db: DatabaseDep, body: StudyCreate) -> Response:
     """Validate a study (docs/studies.md), store it and queue its first trials."""
     try:
-        plan = make_plan(body)
+        plan = make_plan(body.model_dump(exclude_unset=True))
     except ConfigError as error:
         raise InvalidSpec(_location(error.field), error.field, str(error)) from None
     db.require_room()
@@ -57,15 +65,15 @@ def _location(field: str) -> list[str | int]:
     return loc
 
 
-@router.get("")
+@router.get("", response_model=StudyPage, responses=answers())
 def list_studies(
     session: SessionDep,
     status_: Annotated[Literal["running", "finished", "cancelled"] | None, Query(alias="status")] = None,
     method: Literal["grid", "random", "tpe"] | None = None,
-    q: Annotated[str | None, Query(max_length=200, description="Text in the name.")] = None,
+    q: Annotated[Text | None, Query(max_length=200, description="Text in the name.")] = None,
     sort: StudySort = "-created_at",
     limit: Annotated[int, Query(ge=1, le=200)] = 50,
-    cursor: Annotated[str | None, Query(max_length=500)] = None,
+    cursor: Annotated[Text | None, Query(max_length=500)] = None,
 ) -> Response:
     """Studies matching the filters, one page at a time (keyset pagination), with trials per status."""
     column = _COLUMNS[sort.lstrip("-")]
@@ -95,7 +103,7 @@ def _version(session: Session, study_id: int) -> tuple:
     return str(session.get_bind().url), study_id, study.created_at, study.revision
 
 
-@router.get("/{study_id:int}")
+@router.get("/{study_id:int}", response_model=StudyDetail, responses=answers(found=True))
 def read_study(study_id: StudyId, session: SessionDep,
                trials: Annotated[bool, Query(description="false: the study and its definition only (for polling).")]
                = True) -> Response:
@@ -105,17 +113,18 @@ def read_study(study_id: StudyId, session: SessionDep,
     return Response(body, media_type="application/json")
 
 
-@router.get("/{study_id:int}/plots")
+@router.get("/{study_id:int}/plots", response_model=StudyPlots, responses=answers(found=True))
 def plot_study(study_id: StudyId, session: SessionDep,
-               x: Annotated[str | None, Query(max_length=64)] = None,
-               y: Annotated[str | None, Query(max_length=64)] = None) -> Response:
+               x: Annotated[Text | None, Query(max_length=64)] = None,
+               y: Annotated[Text | None, Query(max_length=64)] = None) -> Response:
     """Best so far, importance, slices, a heatmap of two dimensions and parallel coordinates, aggregated."""
     body = ANSWERS.get_or_build(("plots", *_version(session, study_id), x, y),
                                 lambda: analysis.dumps(study_plots(session, study_id, x, y)))
     return Response(body, media_type="application/json")
 
 
-@router.post("/{study_id:int}/cancel", dependencies=[Authorized])
+@router.post("/{study_id:int}/cancel", response_model=StudyDetail, dependencies=[Authorized],
+             responses=answers(write=True, found=True, conflict=True))
 def cancel_study(study_id: StudyId, db: DatabaseDep) -> Response:
     """Cancel a running study with its queued and running trials (409 otherwise)."""
     studies.cancel_study(db, study_id=study_id)
@@ -123,7 +132,8 @@ def cancel_study(study_id: StudyId, db: DatabaseDep) -> Response:
         return _json(studies.study_detail(session, study_id))
 
 
-@router.post("/{study_id:int}/rerun-failed", dependencies=[Authorized])
+@router.post("/{study_id:int}/rerun-failed", response_model=StudyDetail, dependencies=[Authorized],
+             responses=answers(write=True, found=True, conflict=True))
 def rerun_failed(study_id: StudyId, db: DatabaseDep) -> Response:
     """Run the failed and cancelled trials again (same parameters, same numbers; no cell twice)."""
     db.require_room()
@@ -132,7 +142,8 @@ def rerun_failed(study_id: StudyId, db: DatabaseDep) -> Response:
         return _json(studies.study_detail(session, study_id) | {"rerun": count})
 
 
-@router.delete("/{study_id:int}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[Authorized])
+@router.delete("/{study_id:int}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[Authorized],
+               responses=answers(write=True, found=True, conflict=True))
 def delete_study(study_id: StudyId, db: DatabaseDep) -> Response:
     """Delete a study with its trials and their jobs (409 while one of its jobs runs)."""
     studies.delete_study(db, study_id=study_id)

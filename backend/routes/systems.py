@@ -8,6 +8,7 @@ from fastapi import APIRouter
 
 from backend.crud import config_hash
 from backend.deps import SettingsDep
+from backend.responses import Systems, answers
 from mgrao_core import (
     MAX_ALGORITHMS,
     MAX_EPISODES,
@@ -34,7 +35,7 @@ def paper_config_hash(system: str) -> str:
 router = APIRouter(prefix="/api", tags=["systems"])
 
 
-@router.get("/systems")
+@router.get("/systems", response_model=Systems, responses=answers(invalid=False))
 def systems(settings: SettingsDep) -> dict:
     """What can be submitted: systems, parameters, algorithm labels, limits and the studies' limits.
 
