@@ -88,3 +88,26 @@ def test_the_docker_image_copies_everything_the_project_needs_to_build(tmp_path:
                            capture_output=True, text=True, timeout=300, check=False)
     assert build.returncode == 0, build.stdout + build.stderr[-3000:]
     assert list((tmp_path / "wheels").glob("mgrao-*.whl"))
+
+
+def shell_blocks(markdown: str) -> list[list[str]]:
+    """The indented code blocks of a Markdown text, as lists of their lines (indentation removed)."""
+    blocks, current = [], []
+    for line in [*markdown.splitlines(), ""]:
+        if line.startswith("    "):
+            current.append(line[4:])
+        elif current and line.strip():
+            blocks.append(current)
+            current = []
+    return blocks
+
+
+def test_the_readmes_shell_examples_run_the_commands_the_quick_start_installed():
+    # the quick start installs into .venv: a bare `mgrao` is "command not found" until it is activated
+    activate = ". .venv/bin/activate"
+    bare = [block for block in shell_blocks(README)
+            if any(line.split()[0] in ("mgrao", "dask") for line in block if line.strip())]
+    assert bare, "no shell example of mgrao found in README.md"
+    for block in bare:
+        first = next(i for i, line in enumerate(block) if line.split() and line.split()[0] in ("mgrao", "dask"))
+        assert activate in block[:first], f"README.md runs {block[first]!r} without `{activate}` before it"

@@ -146,6 +146,12 @@ def compile_engine(clone: Clone) -> None:
 def assert_both_commands_work(clone: Clone) -> None:
     reproduce = clone.mgrao("reproduce", "--seeds", "2")
     assert "2 seeds x 100 episodes" in reproduce.stdout
+    # the README's shell examples: a bare `mgrao` after activating the virtualenv (not on PATH before)
+    activated = subprocess.run(["bash", "-c", ". .venv/bin/activate && command -v mgrao && mgrao --help"],
+                               cwd=clone.root, env=clone.environment() | {"PATH": "/usr/bin:/bin"},
+                               capture_output=True, text=True, timeout=STEP_TIMEOUT_S, check=False)
+    assert activated.returncode == 0, activated.stdout + activated.stderr
+    assert activated.stdout.startswith(str(clone.root / ".venv" / "bin" / "mgrao")) and "reproduce" in activated.stdout
     port = free_port()
     with open(clone.root / "serve.log", "wb") as log:
         server = subprocess.Popen([str(clone.root / ".venv" / "bin" / "mgrao"), "serve", "--host", "127.0.0.1",
