@@ -3,6 +3,7 @@
 FROM python:3.11-slim
 WORKDIR /app
 COPY pyproject.toml README.md ./
+COPY docs/reproduction.md ./docs/
 COPY mgrao_core ./mgrao_core
 COPY mgrao_cli ./mgrao_cli
 COPY backend ./backend

@@ -1,15 +1,25 @@
-"""Where numba keeps the compiled engine when it cannot write next to the installed package.
+"""Where numba keeps the compiled engine: in the user's cache, never inside the installed package.
 
-numba caches a ``cache=True`` function in the ``__pycache__`` beside its source file, else in
-``NUMBA_CACHE_DIR``, else in ``~/.cache/numba``, and when none of them is writable (a read-only
-install run by a service user without a writable home) it refuses to compile at all: "cannot cache
-function ...: no locator available". :mod:`mgrao_core.engine` imports this module before numba:
+numba caches a ``cache=True`` function in ``NUMBA_CACHE_DIR`` when it is set, else in the
+``__pycache__`` beside its source file, else in ``~/.cache/numba``, and when none of them is writable
+(a read-only install run by a service user without a writable home) it refuses to compile at all:
+"cannot cache function ...: no locator available". Its files beside the source outlive the
+package: ``pip uninstall`` (and the uninstall before any reinstall) removes only the files it
+installed, and the ``mgrao_core/engine/__pycache__`` left behind makes ``mgrao_core`` a namespace
+package that hides the next install, an editable one among them ("cannot import name ... from
+'mgrao_core' (unknown location)"). :mod:`mgrao_core.engine` therefore imports this module before
+numba:
 
-* when the user set ``NUMBA_CACHE_DIR`` or the engine's ``__pycache__`` is writable, nothing changes;
+* a ``NUMBA_CACHE_DIR`` the user set stands when it is usable;
 * otherwise ``NUMBA_CACHE_DIR`` is set to the first usable of ``$XDG_CACHE_HOME/mgrao/numba``
-  (``~/.cache/mgrao/numba`` without it) and ``<temporary directory>/mgrao-numba-<uid>``;
-* when no directory is usable, numba compiles without a cache (once per process, with a
-  ``RuntimeWarning``) instead of failing the import and with it every job.
+  (``~/.cache/mgrao/numba`` without it) and ``<temporary directory>/mgrao-numba-<uid>``, for this
+  process and the ones it starts; numba names its files there by the source's directory (its name
+  and a hash of its absolute path), so installs in different places keep apart, and an install
+  that replaces another in the same place finds the old files stale (numba stamps them with the
+  source, :mod:`mgrao_core.engine.cache` with every engine source) and overwrites them;
+* when no directory is usable, the engine is compiled without a cache (once per process, with a
+  ``RuntimeWarning``) instead of failing the import and with it every job, and instead of caching
+  beside its source.
 
 A usable directory is one this process can create, owns and can create a file in; the one in the
 shared temporary directory must also be private (mode 0700), so that no other user can plant
@@ -25,9 +35,13 @@ import tempfile
 import warnings
 from collections.abc import Mapping, MutableMapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-ENGINE_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "engine")
-"""The directory of the ``cache=True`` functions (numba's own cache is its ``__pycache__``)."""
+if TYPE_CHECKING:
+    from numba.core.dispatcher import Dispatcher
+
+ENGINE_PACKAGE = "mgrao_core.engine"
+"""The package of the ``cache=True`` functions (numba's own place for their cache is its ``__pycache__``)."""
 
 
 def _creatable(path: str) -> bool:
@@ -79,21 +93,18 @@ class CacheChoice:
     set_env: bool = False
 
 
-def choose_cache_dir(environ: Mapping[str, str], engine_dir: str = ENGINE_DIR,
-                     temp_dir: str | None = None) -> CacheChoice:
-    """The user's ``NUMBA_CACHE_DIR``, numba's own ``__pycache__``, or the first usable fallback.
+def choose_cache_dir(environ: Mapping[str, str], temp_dir: str | None = None) -> CacheChoice:
+    """The user's ``NUMBA_CACHE_DIR`` if usable, else the first usable of the user's cache and a private temp dir.
+
+    Never the package's own ``__pycache__`` (see the module): None when nothing else is usable.
 
     Args:
         environ: the environment (``NUMBA_CACHE_DIR``, ``XDG_CACHE_HOME``, ``HOME``).
-        engine_dir: the directory of the ``cache=True`` functions.
         temp_dir: the temporary directory (default :func:`tempfile.gettempdir`).
     """
-    in_tree = os.path.join(engine_dir, "__pycache__")
     chosen = environ.get("NUMBA_CACHE_DIR")
-    if chosen:  # the user's choice stands; numba falls back to its other places when it is unusable
-        return CacheChoice(chosen if _creatable(chosen) else in_tree if _creatable(in_tree) else None)
-    if _creatable(in_tree):
-        return CacheChoice(in_tree)
+    if chosen and _creatable(chosen):  # the user's choice stands
+        return CacheChoice(chosen)
     root = _user_cache_root(environ)
     temp = temp_dir or _system_temp_dir()
     owner = os.getuid() if hasattr(os, "getuid") else "user"
@@ -105,8 +116,18 @@ def choose_cache_dir(environ: Mapping[str, str], engine_dir: str = ENGINE_DIR,
     return CacheChoice(None)
 
 
+def _is_engine(dispatcher: Dispatcher) -> bool:
+    """A function of :mod:`mgrao_core.engine` (wherever the package is installed or copied)."""
+    module = getattr(dispatcher.py_func, "__module__", None) or ""
+    return module == ENGINE_PACKAGE or module.startswith(ENGINE_PACKAGE + ".")
+
+
 def _compile_without_cache() -> None:
-    """Make a ``cache=True`` function that numba finds no cache directory for compile uncached."""
+    """Compile the engine's ``cache=True`` functions, and any others numba finds no cache for, uncached.
+
+    numba would still cache the engine beside its source when that is writable; it is kept out
+    of there (see the module) and compiled in every process instead.
+    """
     from numba.core.dispatcher import Dispatcher
 
     enable_caching = Dispatcher.enable_caching
@@ -114,17 +135,24 @@ def _compile_without_cache() -> None:
         return
     warned = []
 
+    def warn_once(reason: str) -> None:
+        if not warned:
+            warned.append(True)
+            warnings.warn(f"numba finds no writable cache directory ({reason}); the engine is compiled in every "
+                          "process. Set NUMBA_CACHE_DIR to a writable directory to keep it.",
+                          RuntimeWarning, stacklevel=3)
+
     def enable_caching_where_possible(self: Dispatcher) -> None:
+        if _is_engine(self):  # the dispatcher keeps the NullCache it was made with
+            warn_once("neither the user's cache directory nor a private temporary one is usable, and the "
+                      "engine is not cached beside its source")
+            return
         try:
             enable_caching(self)
         except RuntimeError as error:
             if "no locator available" not in str(error):
                 raise
-            if not warned:
-                warned.append(True)
-                warnings.warn(f"numba finds no writable cache directory ({error}); the engine is compiled in "
-                              "every process. Set NUMBA_CACHE_DIR to a writable directory to keep it.",
-                              RuntimeWarning, stacklevel=2)
+            warn_once(str(error))
 
     enable_caching_where_possible.mgrao_uncached = True  # type: ignore[attr-defined]
     Dispatcher.enable_caching = enable_caching_where_possible
@@ -134,6 +162,9 @@ def configure(environ: MutableMapping[str, str] = os.environ) -> CacheChoice:
     """Apply :func:`choose_cache_dir` to this process and to the processes it starts."""
     choice = choose_cache_dir(environ)
     if choice.set_env and choice.path is not None:
+        if environ.get("NUMBA_CACHE_DIR"):
+            warnings.warn(f"NUMBA_CACHE_DIR={environ['NUMBA_CACHE_DIR']} is not a writable directory; the engine "
+                          f"is cached in {choice.path} instead", RuntimeWarning, stacklevel=2)
         environ["NUMBA_CACHE_DIR"] = choice.path
         config = sys.modules.get("numba.core.config")
         if config is not None:  # numba was imported first and has read its environment already

@@ -44,7 +44,9 @@ def bind_to_sources(dispatchers: Iterable[Any], digest: str | None = None) -> No
         cache_file = getattr(cache, "_cache_file", None)
         stamp = getattr(cache_file, "_source_stamp", None)
         if stamp is None:
-            if cache is not None and hasattr(cache, "flush"):
+            if getattr(cache, "cache_path", None) is None:  # not cached at all (see mgrao_core._numba_cache)
+                continue
+            if hasattr(cache, "flush"):
                 warnings.warn("numba's cache layout is unknown: the kernel is recompiled in every process",
                               RuntimeWarning, stacklevel=2)
                 cache.flush()

@@ -6,15 +6,18 @@ import os
 import re
 import signal
 import subprocess
-import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import TypeVar
 
 import httpx
 
 from backend.worker import Worker
 from mgrao_cli.supervisor import stop_processes
 from tests.support.local_service import free_port, mgrao_command, serve_command, wait_healthy
+from tests.support.waiting import wait_until
+
+T = TypeVar("T")
 
 TOKEN = "s3cret-token"
 JSON = {"Content-Type": "application/json"}  # what a write without a body must still say
@@ -23,11 +26,12 @@ JSON = {"Content-Type": "application/json"}  # what a write without a body must 
 BASE_URL = "http://127.0.0.1"
 
 
-def drain(worker: Worker) -> int:
-    """Run queued jobs until the queue is empty; the number run."""
+def drain(worker: Worker, most: int = 1000) -> int:
+    """Run queued jobs until the queue is empty; the number run (more than ``most`` fails: it never empties)."""
     count = 0
     while worker.run_once():
         count += 1
+        assert count <= most, f"the queue did not empty after {most} jobs run in a row"
     return count
 
 
@@ -80,7 +84,7 @@ class Service:
         try:
             wait_healthy(self.base, self.server)
         except RuntimeError as error:
-            raise AssertionError(f"server did not start: {error}\n{self.logs()}") from None
+            raise AssertionError(f"server did not start: {error}\n{self.logs(tail=3000)}") from None
 
     def start_worker(self) -> subprocess.Popen:
         process = self._spawn(mgrao_command("worker", "--database-url", self.db_url))
@@ -97,8 +101,12 @@ class Service:
         for log in self._logs:
             log.close()
 
-    def logs(self) -> str:
-        return "\n".join(p.read_text(errors="replace")[-3000:] for p in sorted(self.tmp_path.glob("proc-*.log")))
+    def logs(self, tail: int | None = None) -> str:
+        """Every process's log, whole: a check must not miss a line that later ones pushed out of a tail
+        (the access log of a health poll every 50 ms fills kilobytes a second). ``tail``: only each
+        log's last ``tail`` characters, for a failure's message."""
+        texts = (p.read_text(errors="replace") for p in sorted(self.tmp_path.glob("proc-*.log")))
+        return "\n".join(text if tail is None else text[-tail:] for text in texts)
 
     def get(self, path: str, **kwargs: object) -> httpx.Response:
         return httpx.get(self.base + path, timeout=30, **kwargs)
@@ -106,11 +114,8 @@ class Service:
     def post(self, path: str, **kwargs: object) -> httpx.Response:
         return httpx.post(self.base + path, timeout=30, **kwargs)
 
-    def wait_for(self, predicate: Callable[[], bool], timeout: float = 90, what: str = "condition") -> None:
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            if predicate():
-                return
-            time.sleep(0.1)
-        raise AssertionError(f"timed out waiting for {what}\n" + self.logs())
+    def wait_for(self, predicate: Callable[[], T], timeout: float = 90, what: str = "condition", *,
+                 step: float = 0.1) -> T:
+        """:func:`~tests.support.waiting.wait_until`, with the tail of each log if it times out."""
+        return wait_until(predicate, timeout, what, step=step, details=lambda: self.logs(tail=3000))
 

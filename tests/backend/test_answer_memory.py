@@ -15,6 +15,8 @@ import httpx
 import pytest
 from backend_helpers import Service
 
+from tests.support.waiting import join_all
+
 pytestmark = [pytest.mark.slow,
               pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="reads memory from /proc")]
 
@@ -38,11 +40,10 @@ def _burst(service: Service, job_id: int, queries: list[str]) -> list[int]:
             codes.append(response.status_code)
             assert len(response.content) > 5_000_000
 
-    threads = [threading.Thread(target=one, args=(q,)) for q in queries]
+    threads = [threading.Thread(target=one, args=(q,), daemon=True) for q in queries]
     for thread in threads:
         thread.start()
-    for thread in threads:
-        thread.join()
+    join_all(threads, 600, f"{len(queries)} concurrent results requests")
     return codes
 
 

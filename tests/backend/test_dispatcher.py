@@ -27,6 +27,7 @@ from backend.models import Job, Run
 from mgrao_core import ExperimentSpec, make_spec, run_experiment
 from tests.support.dask_cluster import DaskCluster
 from tests.support.local_service import free_port, mgrao_command, serve_command, stop, wait_healthy
+from tests.support.waiting import wait_until
 
 pytestmark = pytest.mark.slow
 
@@ -87,13 +88,15 @@ class Topology:
             time.sleep(0.2)
         raise AssertionError(f"job {job_id} is {self.job(job_id).status} after {timeout} s\n{self.logs()}")
 
-    def wait_for(self, predicate, what: str, timeout: float = 120) -> None:
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            if predicate():
-                return
-            time.sleep(0.1)
-        raise AssertionError(f"timed out waiting for {what}\n{self.logs()}")
+    def wait_for(self, predicate, what: str, timeout: float = 120, step: float = 0.1):
+        return wait_until(predicate, timeout, what, step=step, details=self.logs)
+
+    def finished(self, job_id: int) -> bool:
+        """The job succeeded (False while it is queued or running; any other end fails the test)."""
+        job = self.job(job_id)
+        if job.status in ("failed", "cancelled"):
+            raise AssertionError(f"job {job_id} is {job.status}: {job.error}\n{self.logs()}")
+        return job.status == "succeeded"
 
     def stored_seeds(self, job_id: int) -> int:
         with self.db.session() as session:
@@ -174,11 +177,15 @@ def test_at_most_threads_plus_margin_chunks_in_flight(topology: Topology) -> Non
     job_ids = [topology.submit(make_spec("large", seeds=30, episodes=300)) for _ in range(2)]
     most = 0
     with Client(topology.cluster.address, timeout=30, set_as_default=False) as client:
-        while topology.job(job_ids[-1]).status != "succeeded":
+        def both_done() -> bool:
+            nonlocal most
             keys = client.run_on_scheduler(lambda dask_scheduler: [
                 k for k, t in dask_scheduler.tasks.items() if str(k).startswith("mgrao-") and t.state != "memory"])
             most = max(most, len(keys))
-            time.sleep(0.05)
+            return all(topology.finished(job_id) for job_id in job_ids)
+
+        topology.wait_for(both_done, "both jobs to succeed (chunks in flight sampled meanwhile)", timeout=300,
+                          step=0.05)
     assert 0 < most <= 2 + IN_FLIGHT_MARGIN
     for job_id in job_ids:
         topology.assert_stored_exactly_once(job_id, make_spec("large", seeds=30, episodes=300))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import select
 import signal
 import subprocess
 import sys
@@ -42,8 +43,14 @@ class Family:
     def __init__(self, child_argv: list[str], *, supervised: bool, env: dict[str, str]) -> None:
         self.parent = subprocess.Popen([sys.executable, "-c", PARENT % (SUPERVISOR_ENV, supervised), *child_argv],
                                        env=env, stdout=subprocess.PIPE, text=True)
+        self.child = int(self.read_line("the child's pid"))
+
+    def read_line(self, what: str, timeout: float = 60) -> str:
+        """The next line the parent (or the child, on the same pipe) prints, within ``timeout`` seconds."""
         assert self.parent.stdout is not None
-        self.child = int(self.parent.stdout.readline())
+        ready, _, _ = select.select([self.parent.stdout], [], [], timeout)
+        assert ready, f"timed out after {timeout} s waiting for {what}"
+        return self.parent.stdout.readline()
 
     def kill_parent(self) -> float:
         self.parent.send_signal(signal.SIGKILL)
@@ -78,10 +85,9 @@ def wait_gone(pid: int, timeout: float) -> bool:
 def test_a_supervised_process_that_ignores_sigterm_exits_hard_after_the_grace(families: list[Family]) -> None:
     family = Family([sys.executable, "-c", STUCK_CHILD], supervised=True, env=dict(os.environ))
     families.append(family)
-    assert family.parent.stdout is not None
-    assert family.parent.stdout.readline().strip() == "bound"
+    assert family.read_line("the child to bind to its supervisor").strip() == "bound"
     killed = family.kill_parent()
-    assert wait_gone(family.child, timeout=10), "the child outlived its supervisor"
+    assert wait_gone(family.child, timeout=30), "the child outlived its supervisor"
     assert time.monotonic() - killed >= 0.9  # not before the grace: SIGTERM alone did nothing
 
 
@@ -96,4 +102,4 @@ def test_a_worker_started_by_hand_outlives_the_shell_that_started_it(families: l
     time.sleep(2.0)  # four times the lifeline's poll interval
     assert alive(family.child), "a worker without a supervisor stopped when its parent died"
     os.kill(family.child, signal.SIGTERM)
-    assert wait_gone(family.child, timeout=30)
+    assert wait_gone(family.child, timeout=30), "the worker did not stop within 30 s of SIGTERM"

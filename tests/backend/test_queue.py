@@ -15,6 +15,7 @@ from backend.models import Job, Run, utcnow
 from backend.settings import Settings
 from backend.worker import Worker
 from mgrao_core import make_spec, run_chunk, run_experiment
+from tests.support.waiting import join_all
 
 SPEC = make_spec("single", seeds=4, episodes=12)
 
@@ -213,7 +214,7 @@ def test_cancel_racing_finish_has_exactly_one_winner(db: Database) -> None:
         rows_of[job_id] = queue.run_rows(job_id, run_chunk(spec, spec.seeds))
         assert queue.store_runs(db, claim=claim, rows=rows_of[job_id], progress=1.0)
         result: dict[str, object] = {}
-        barrier = threading.Barrier(2)
+        barrier = threading.Barrier(2, timeout=60)
 
         def finish(claim=claim, result=result, barrier=barrier) -> None:
             barrier.wait()
@@ -228,11 +229,10 @@ def test_cancel_racing_finish_has_exactly_one_winner(db: Database) -> None:
             except Conflict:
                 result["cancelled"] = False
 
-        threads = [threading.Thread(target=finish), threading.Thread(target=cancel)]
+        threads = [threading.Thread(target=finish, daemon=True), threading.Thread(target=cancel, daemon=True)]
         for thread in threads:
             thread.start()
-        for thread in threads:
-            thread.join()
+        join_all(threads, 60, f"the finish and the cancel of job {job_id}")
         with db.session() as session:
             status = session.get(Job, job_id).status
         assert result["finished"] != result["cancelled"], result

@@ -17,6 +17,7 @@ from backend.db import Database
 from backend.models import Job, Run
 from backend.worker import Worker
 from mgrao_core import make_spec, run_chunk
+from tests.support.waiting import join_all
 
 
 def submit(client: TestClient, **body: object) -> dict:
@@ -83,12 +84,11 @@ def test_concurrent_requests_build_a_cached_entry_once() -> None:
         return b"x" * 100
 
     answers: list[bytes] = []
-    threads = [threading.Thread(target=lambda: answers.append(cache.get_or_build(("k",), slow_build)))
+    threads = [threading.Thread(target=lambda: answers.append(cache.get_or_build(("k",), slow_build)), daemon=True)
                for _ in range(20)]
     for thread in threads:
         thread.start()
-    for thread in threads:
-        thread.join()
+    join_all(threads, 60, "20 requests of one cache entry")
     assert answers == [b"x" * 100] * 20
     assert cache.builds == 1
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import signal
 import site
 import socket
@@ -70,23 +71,26 @@ def test_a_worker_that_keeps_dying_is_restarted_after_growing_delays_while_the_a
         service: Service) -> None:
     service.start_server(workers=1)
     (pid,) = workers_of(service, 1)
-    gaps = []
+    killed_pids, gaps = [], []
     for _ in range(3):
         os.kill(pid, signal.SIGKILL)
         killed = time.monotonic()
-        while True:
+
+        def restarted(dead: int = pid) -> list[int]:
             assert service.get("/api/health").status_code == 200  # the API serves during the backoff
-            pids = [p for p in children(service.server.pid) if alive(p) and p != pid]
-            if pids:
-                break
-            assert time.monotonic() - killed < 30, service.logs()
-            time.sleep(0.05)
+            return [p for p in children(service.server.pid) if alive(p) and p != dead]
+
+        pids = service.wait_for(restarted, timeout=60, what=f"a worker in place of {pid}", step=0.05)
         gaps.append(time.monotonic() - killed)
+        killed_pids.append(pid)
         (pid,) = pids
-    # delays of 1, 2 and 4 s (plus up to one check interval to notice the death)
+    # delays of 1, 2 and 4 s: each restart waited at least its delay, and the supervisor says which
+    # delay it chose (how much longer a restart took depends on the machine's load, not on the backoff)
     assert gaps[0] >= 0.9 and gaps[1] >= 1.9 and gaps[2] >= 3.9, gaps
-    assert gaps[2] < 10, gaps
-    assert "restarting it in 4 s" in service.logs()
+    logs = service.logs()
+    for dead, delay in zip(killed_pids, [1, 2, 4], strict=True):
+        assert re.search(rf"worker {dead} was killed by SIGKILL after [0-9.]+ s; restarting it in {delay} s\n", logs), \
+            f"no restart of {dead} after {delay} s in the log\n{service.logs(tail=3000)}"
     run_a_job(service)
 
 
@@ -131,11 +135,9 @@ def test_workers_exit_when_serve_is_killed_and_a_restart_starts_exactly_n(servic
     pids = workers_of(service, 2)
     service.wait_for(lambda: ready_workers(service.logs()) >= set(pids), what="both workers ready")
     service.kill_server()
-    deadline = time.monotonic() + 5
-    try:
-        while any(alive(p) for p in pids) and time.monotonic() < deadline:
-            time.sleep(0.1)
-        assert not [p for p in pids if alive(p)], f"orphaned workers of a killed serve\n{service.logs()}"
+    try:  # each notices within half a second and stops; the deadline is for a loaded machine
+        service.wait_for(lambda: not any(alive(p) for p in pids), timeout=30,
+                         what="the workers of a killed serve to exit (orphans otherwise)")
     finally:
         for pid in pids:  # whatever happened, leave no orphan behind
             if alive(pid):

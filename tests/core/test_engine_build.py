@@ -1,9 +1,10 @@
-"""The compiled engine as built: the on-disk cache follows every engine source and loads without numba's compiler,
-and no index is out of bounds.
+"""The compiled engine as built: the on-disk cache (in the user's cache, by the engine's path) follows every engine
+source and loads without numba's compiler, and no index is out of bounds.
 
 Each compiles the kernel afresh in a copy of the package (about 15 s each).
 """
 
+import hashlib
 import os
 import shutil
 import subprocess
@@ -36,7 +37,7 @@ def _copy_package(tmp_path: Path) -> Path:
 
 def _run(root: Path, systems: str, **env: str) -> str:
     environment = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")} | env
-    environment["PYTHONPATH"] = str(root)
+    environment |= {"PYTHONPATH": str(root), "XDG_CACHE_HOME": str(root / "cache")}  # the copy's own cache
     done = subprocess.run([sys.executable, "run.py", systems], cwd=root, env=environment, capture_output=True,
                           text=True, timeout=300)
     assert done.returncode == 0, done.stderr
@@ -46,7 +47,13 @@ def _run(root: Path, systems: str, **env: str) -> str:
 def test_editing_an_inlined_engine_file_recompiles_the_kernel(tmp_path: Path) -> None:
     root = _copy_package(tmp_path)
     before = _run(root, "single")
-    assert list((root / "mgrao_core" / "engine" / "__pycache__").glob("kernel.run_block*.nbi"))
+    # in the user's cache (never beside the package, where an uninstall would leave it), in numba's
+    # directory for this copy of the engine: named by its absolute path, so that copies keep apart
+    engine = root / "mgrao_core" / "engine"
+    mine = root / "cache" / "mgrao" / "numba" / f"engine_{hashlib.sha1(str(engine).encode()).hexdigest()}"
+    assert list(mine.glob("kernel.run_block*.nbi"))
+    assert [p.parent for p in (root / "cache").rglob("*.nbi")] == [mine] * len(list(mine.glob("*.nbi")))
+    assert not list(root.joinpath("mgrao_core").rglob("*.nb[ci]"))
     environment = root / "mgrao_core" / "engine" / "environment.py"
     source = environment.read_text()
     assert "quality = x / (x + env.half_saturation)" in source

@@ -1,9 +1,10 @@
-"""numba's cache on a read-only install: a writable fallback directory, or no cache, never a failure.
+"""numba's cache: in the user's cache or a private temp dir, never in the package, never a failure.
 
 The first tests call :func:`mgrao_core._numba_cache.choose_cache_dir` on real directories (made
 unusable in ways that hold even for root: a file where a directory should be, a directory owned by
-someone else). The last ones install the project non-editably into a temporary directory, make it
-read-only and run simulations as ``nobody`` with a missing home, in fresh interpreters.
+someone else). The last ones run simulations in fresh interpreters: a writable copy of the package
+without a usable cache directory, and a non-editable install into a temporary directory made
+read-only, run as ``nobody`` with a missing home.
 """
 
 from __future__ import annotations
@@ -27,38 +28,31 @@ from tests.support.local_service import free_port, stop, wait_healthy
 ROOT = Path(__file__).resolve().parents[2]
 
 
-@pytest.fixture
-def blocked_engine(tmp_path: Path) -> Path:
-    """An engine directory whose ``__pycache__`` cannot be created (a file has its name)."""
-    engine = tmp_path / "site" / "engine"
-    engine.mkdir(parents=True)
-    (engine / "__pycache__").write_text("not a directory")
-    return engine
-
-
-def test_the_users_numba_cache_dir_and_a_writable_package_are_left_alone(tmp_path: Path) -> None:
-    engine = tmp_path / "engine"
-    engine.mkdir()
+def test_the_users_usable_numba_cache_dir_stands(tmp_path: Path) -> None:
     mine = tmp_path / "mine"
-    assert choose_cache_dir({"NUMBA_CACHE_DIR": str(mine)}, str(engine)).path == str(mine)
-    assert not choose_cache_dir({"NUMBA_CACHE_DIR": str(mine)}, str(engine)).set_env
-    choice = choose_cache_dir({"HOME": str(tmp_path / "home")}, str(engine))
-    assert choice.path == str(engine / "__pycache__") and not choice.set_env
+    choice = choose_cache_dir({"NUMBA_CACHE_DIR": str(mine), "HOME": str(tmp_path / "home")})
+    assert choice.path == str(mine) and not choice.set_env
     assert not (tmp_path / "home").exists()
 
 
-def test_a_read_only_package_caches_under_xdg_cache_home_then_home(tmp_path: Path, blocked_engine: Path) -> None:
+def test_without_numba_cache_dir_the_engine_caches_under_xdg_cache_home_then_home(tmp_path: Path) -> None:
+    # whether or not the package's own __pycache__ is writable: files there would outlive an uninstall
     xdg = tmp_path / "xdg"
-    choice = choose_cache_dir({"XDG_CACHE_HOME": str(xdg), "HOME": str(tmp_path / "home")}, str(blocked_engine))
+    choice = choose_cache_dir({"XDG_CACHE_HOME": str(xdg), "HOME": str(tmp_path / "home")})
     assert choice.set_env and choice.path == str(xdg / "mgrao" / "numba")
     assert (xdg / "mgrao" / "numba").is_dir()
-    choice = choose_cache_dir({"XDG_CACHE_HOME": "relative/ignored", "HOME": str(tmp_path / "home")},
-                              str(blocked_engine))
+    choice = choose_cache_dir({"XDG_CACHE_HOME": "relative/ignored", "HOME": str(tmp_path / "home")})
     assert choice.path == str(tmp_path / "home" / ".cache" / "mgrao" / "numba")
 
 
-def test_without_a_writable_home_the_cache_is_a_private_directory_under_the_temp_dir(
-        tmp_path: Path, blocked_engine: Path) -> None:
+def test_an_unusable_numba_cache_dir_is_replaced_by_the_users_cache(tmp_path: Path) -> None:
+    blocked = tmp_path / "a-file"
+    blocked.write_text("")
+    choice = choose_cache_dir({"NUMBA_CACHE_DIR": str(blocked), "HOME": str(tmp_path / "home")})
+    assert choice.set_env and choice.path == str(tmp_path / "home" / ".cache" / "mgrao" / "numba")
+
+
+def test_without_a_writable_home_the_cache_is_a_private_directory_under_the_temp_dir(tmp_path: Path) -> None:
     home = tmp_path / "home-is-a-file"
     home.write_text("")
     temp = tmp_path / "tmp"
@@ -66,13 +60,13 @@ def test_without_a_writable_home_the_cache_is_a_private_directory_under_the_temp
     own = temp / f"mgrao-numba-{os.getuid()}"
     own.mkdir(mode=0o755)
     own.chmod(0o755)
-    choice = choose_cache_dir({"HOME": str(home)}, str(blocked_engine), temp_dir=str(temp))
+    choice = choose_cache_dir({"HOME": str(home)}, temp_dir=str(temp))
     assert choice.set_env and choice.path == str(own)
     assert own.stat().st_mode & 0o777 == 0o700  # tightened: other users cannot plant code in it
 
 
 @pytest.mark.skipif(not hasattr(os, "chown") or os.geteuid() != 0, reason="needs root to give a directory away")
-def test_a_temp_dir_owned_by_someone_else_or_a_symlink_is_not_used(tmp_path: Path, blocked_engine: Path) -> None:
+def test_a_temp_dir_owned_by_someone_else_or_a_symlink_is_not_used(tmp_path: Path) -> None:
     home = tmp_path / "home-is-a-file"
     home.write_text("")
     temp = tmp_path / "tmp"
@@ -80,12 +74,33 @@ def test_a_temp_dir_owned_by_someone_else_or_a_symlink_is_not_used(tmp_path: Pat
     squatted = temp / f"mgrao-numba-{os.getuid()}"
     squatted.mkdir(mode=0o700)
     os.chown(squatted, 65534, 65534)
-    assert choose_cache_dir({"HOME": str(home)}, str(blocked_engine), temp_dir=str(temp)).path is None
+    assert choose_cache_dir({"HOME": str(home)}, temp_dir=str(temp)).path is None
     squatted.rmdir()
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir(mode=0o700)
     squatted.symlink_to(elsewhere)
-    assert choose_cache_dir({"HOME": str(home)}, str(blocked_engine), temp_dir=str(temp)).path is None
+    assert choose_cache_dir({"HOME": str(home)}, temp_dir=str(temp)).path is None
+
+
+@pytest.mark.slow
+def test_a_writable_package_without_a_usable_cache_dir_compiles_uncached_and_writes_nothing_beside_it(
+        tmp_path: Path) -> None:
+    copy = tmp_path / "site"
+    shutil.copytree(ROOT / "mgrao_core", copy / "mgrao_core", ignore=shutil.ignore_patterns("__pycache__"))
+    home = tmp_path / "home-is-a-file"
+    home.write_text("")
+    temp = tmp_path / "tmp"
+    temp.mkdir()
+    (temp / f"mgrao-numba-{os.getuid()}").write_text("")  # a file where the private directory would be
+    environment = {k: v for k, v in os.environ.items() if not k.startswith(("NUMBA_", "XDG_"))}
+    environment |= {"PYTHONPATH": str(copy), "HOME": str(home), "TMPDIR": str(temp), "NUMBA_NUM_THREADS": "1"}
+    done = subprocess.run([sys.executable, "-c", SIMULATION], cwd=tmp_path, env=environment, capture_output=True,
+                          text=True, timeout=300, check=False)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert f"MGRAO_CORE {copy}" in done.stdout
+    assert "no writable cache directory" in done.stderr and "not cached beside its source" in done.stderr
+    assert "cache layout is unknown" not in done.stderr
+    assert not list(copy.rglob("*.nb[ci]")), "numba cached the engine beside its source"
 
 
 # ---- a real read-only install, run as an unprivileged user ---------------------------------------

@@ -12,6 +12,9 @@ import pytest
 
 from tests.support.local_service import free_port, serve_command, stop, wait_healthy
 
+# expect()'s own default is 5 s, which a busy machine's render can take; a wait ends as soon as it holds
+EXPECT_TIMEOUT_MS = 30_000
+
 ROOT = Path(__file__).resolve().parents[2]
 CHROMIUM = os.environ.get("MGRAO_CHROMIUM", "/usr/bin/chromium")
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"]
@@ -71,8 +74,9 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
 def browser():
     if not Path(CHROMIUM).exists():
         pytest.skip(f"{CHROMIUM} is absent: install Debian's chromium (apt-get install chromium) for browser tests")
-    from playwright.sync_api import sync_playwright
+    from playwright.sync_api import expect, sync_playwright
 
+    expect.set_options(timeout=EXPECT_TIMEOUT_MS)
     with sync_playwright() as p:
         b = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
         yield b

@@ -65,6 +65,6 @@ def test_bulk_tag_cancel_and_delete(page, server, screenshots):
     page.get_by_role("button", name="Delete selected").click()
     page.get_by_role("dialog").get_by_role("button", name="Delete them").click()
     page.wait_for_function("() => document.getElementById('bulk-status').textContent.startsWith('Deleted: 3 of 3')")
-    with urllib.request.urlopen(f"{server}/api/jobs?tag=bulk", timeout=10) as answer:
+    with urllib.request.urlopen(f"{server}/api/jobs?tag=bulk", timeout=30) as answer:
         assert json.loads(answer.read())["count"] == 0
     assert page.locator("table.runs tbody tr").count() == 0

@@ -5,8 +5,6 @@ the summary columns defined where they are shown."""
 
 from __future__ import annotations
 
-import time
-
 from tests.frontend.test_compare_view import wait_succeeded
 from tests.frontend.test_dashboard import api
 from tests.frontend.test_job_view import post_job, wait_for
@@ -65,7 +63,10 @@ def test_header_counts_follow_an_action_at_once(page, server):
     page.locator("#health.ok").wait_for()
     before = page.inner_text("#health")
     queued_before = int(before.split("·")[2].split()[0])
-    started = time.monotonic()
+    # the page's timers stopped, its 10 s poll of the header among them (their ids count up from 1): the
+    # header can follow now only through the action itself, however long a loaded machine takes
+    page.evaluate("() => { const last = setTimeout(() => {}, 0); "
+                  "for (let id = 1; id <= last; id++) clearInterval(id); }")
     # submitted through the dashboard's own client: the header refreshes after the answer
     page.evaluate("""() => import('/js/api.js').then(({ api }) => api.createJob(
         { system: 'large', seeds: 1, episodes: 3000, params: { n_parents: 1000 }, name: 'header counts' }))""")
@@ -73,8 +74,7 @@ def test_header_counts_follow_an_action_at_once(page, server):
         """(before) => { const t = document.getElementById('health').textContent;
             const [, running, queued] = t.split('·').map((x) => parseInt(x, 10));
             return running + queued > before; }""", arg=queued_before + int(before.split("·")[1].split()[0]),
-        timeout=5000)
-    assert time.monotonic() - started < 5  # not the 10 s poll
+        timeout=60000)
     listed = page.evaluate("() => import('/js/api.js').then(({ api }) => api.listJobs({ q: 'header counts' }))")
     job_id = listed["data"][0]["id"]
     page.evaluate(f"() => import('/js/api.js').then(({{ api }}) => api.cancelJob({job_id}))")

@@ -12,7 +12,6 @@ import os
 import re
 import signal
 import sqlite3
-import time
 import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
@@ -20,28 +19,23 @@ from pathlib import Path
 import pytest
 
 from tests.frontend.conftest import page_at, running_service
+from tests.support.waiting import wait_until
 
 
 def post_job(base: str, body: dict) -> dict:
     request = urllib.request.Request(f"{base}/api/jobs", data=json.dumps(body).encode(), method="POST",
                                      headers={"Content-Type": "application/json"})
-    with urllib.request.urlopen(request, timeout=10) as response:
+    with urllib.request.urlopen(request, timeout=30) as response:
         return json.loads(response.read())
 
 
 def get_job(base: str, job_id: int) -> dict:
-    with urllib.request.urlopen(f"{base}/api/jobs/{job_id}", timeout=10) as response:
+    with urllib.request.urlopen(f"{base}/api/jobs/{job_id}", timeout=30) as response:
         return json.loads(response.read())
 
 
 def wait_for(predicate, timeout: float, what: str, step: float = 0.2):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = predicate()
-        if value:
-            return value
-        time.sleep(step)
-    raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+    return wait_until(predicate, timeout, what, step=step)
 
 
 def test_job_shows_its_configuration_against_the_preset(page, server, screenshots):

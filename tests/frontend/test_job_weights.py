@@ -35,13 +35,13 @@ def test_weights_of_one_seed_beside_the_oracle(page, server, screenshots):
     page.locator("#weights-bars .main-svg").first.wait_for(timeout=60000)
     seed = page.get_by_label("Seed", exact=True)
     configuration = page.get_by_label("Configuration", exact=True).and_(page.locator("select"))
-    wait_for(lambda: seed.locator("option").count() == 4, 10, "the stored seeds in the selector")
+    wait_for(lambda: seed.locator("option").count() == 4, 30, "the stored seeds in the selector")
     assert seed.locator("option").all_inner_texts() == ["seed 4", "seed 8", "seed 15", "mean over 3 seeds"]
     assert seed.input_value() == "4"  # one seed by default, not the mean
     assert configuration.input_value() == "mgrao-max"  # the most parent groups: 50
 
     # the learner's combined weights beside the oracle's allocation, both for seed 4, as stored
-    wait_for(lambda: set(bars(page)) == {"mgrao-max", "oracle"}, 10, "the learner and the oracle in the bars")
+    wait_for(lambda: set(bars(page)) == {"mgrao-max", "oracle"}, 30, "the learner and the oracle in the bars")
     assert bars(page)["oracle"] == one[4]["oracle"]["combined"][0]
     assert bars(page)["mgrao-max"] == one[4]["mgrao-max"]["combined"][0]
     heat = page.eval_on_selector("#weights-heatmap", "el => ({z: el.data[0].z, dtick: el.layout.yaxis.dtick, "
@@ -54,7 +54,7 @@ def test_weights_of_one_seed_beside_the_oracle(page, server, screenshots):
 
     # another seed: its own structure (the oracle's allocation differs), as stored
     seed.select_option("8")
-    wait_for(lambda: bars(page).get("oracle") == one[8]["oracle"]["combined"][0], 10, "seed 8's oracle")
+    wait_for(lambda: bars(page).get("oracle") == one[8]["oracle"]["combined"][0], 30, "seed 8's oracle")
     assert one[8]["oracle"]["combined"] != one[4]["oracle"]["combined"]
     assert bars(page)["mgrao-max"] == one[8]["mgrao-max"]["combined"][0]
 
@@ -62,12 +62,12 @@ def test_weights_of_one_seed_beside_the_oracle(page, server, screenshots):
     results = get(server, f"/api/jobs/{job['id']}/results")
     mean = {c["algorithm"]: c["weights"]["combined"][0] for c in results["configurations"]}
     seed.select_option("mean")
-    wait_for(lambda: bars(page).get("oracle") == mean["oracle"], 10, "the mean over seeds")
+    wait_for(lambda: bars(page).get("oracle") == mean["oracle"], 30, "the mean over seeds")
     assert "washes out" in page.locator("#weights-seed-note").inner_text()
 
     # a learner without groups shows its combined weights only; the choice of seed holds
     configuration.select_option("uniform")
-    wait_for(lambda: "learns no group weights" in page.locator("#weights-heat-note").inner_text(), 10, "the note")
+    wait_for(lambda: "learns no group weights" in page.locator("#weights-heat-note").inner_text(), 30, "the note")
     assert page.locator("#weights-heatmap").is_hidden()
 
 
@@ -76,5 +76,5 @@ def test_a_job_without_the_oracle_says_so(page, server):
     wait_for(lambda: get(server, f"/api/jobs/{job['id']}")["status"] == "succeeded", 120, "the job to finish")
     page.goto(f"/#/jobs/{job['id']}")
     page.locator("#weights-bars .main-svg").first.wait_for(timeout=60000)
-    wait_for(lambda: "did not run the oracle" in page.locator("#weights-seed-note").inner_text(), 10, "the note")
+    wait_for(lambda: "did not run the oracle" in page.locator("#weights-seed-note").inner_text(), 30, "the note")
     assert set(bars(page)) == {"mgrao-max"}

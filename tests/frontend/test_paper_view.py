@@ -12,7 +12,7 @@ from tests.frontend.test_job_view import post_job
 
 
 def test_ours_against_the_paper(browser, server, screenshots):
-    with urllib.request.urlopen(f"{server}/api/systems", timeout=10) as answer:
+    with urllib.request.urlopen(f"{server}/api/systems", timeout=30) as answer:
         systems = json.loads(answer.read())["systems"]
     jobs = [post_job(server, {"system": s["name"], "algorithms": s["algorithms"], "seeds": 8, "episodes": 100,
                               "tags": ["paper"], "name": f"paper {s['name']}"}) for s in systems]
@@ -33,7 +33,7 @@ def test_ours_against_the_paper(browser, server, screenshots):
         assert first.get_attribute("data-system") == systems[0]["name"]
         assert first.locator("a").get_attribute("href").startswith("#/jobs/")
         doc = page.get_attribute("#reproduction-doc", "href")
-        with urllib.request.urlopen(f"{server}{doc}", timeout=10) as answer:
+        with urllib.request.urlopen(f"{server}{doc}", timeout=30) as answer:
             assert answer.status == 200 and b"reproduc" in answer.read().lower()
         page.screenshot(path=str(screenshots / "paper.png"), full_page=True)
         assert not errors
