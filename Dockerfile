@@ -3,7 +3,6 @@
 FROM python:3.11-slim
 WORKDIR /app
 COPY pyproject.toml README.md ./
-COPY docs/reproduction.md ./docs/
 COPY mgrao_core ./mgrao_core
 COPY mgrao_cli ./mgrao_cli
 COPY backend ./backend
