@@ -26,17 +26,23 @@ class ApiMethods:
             any added to the application since (other routes are skipped: the mount at ``/``,
             included routers).
         prefix: the API's path prefix.
+        authorised: whether a request may learn which paths and methods exist; one that may not is
+            passed on unanswered (with ``MGRAO_PROTECT_READS``, the token check after this answers it
+            401, like any ``/api`` request without the token).
     """
 
-    def __init__(self, app: ASGIApp, routes: Callable[[], Iterable[BaseRoute]], prefix: str = "/api") -> None:
+    def __init__(self, app: ASGIApp, routes: Callable[[], Iterable[BaseRoute]], prefix: str = "/api",
+                 authorised: Callable[[Scope], bool] | None = None) -> None:
         self.app = app
         self.routes = routes
         self.prefix = prefix
+        self.authorised = authorised
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         """Answer 404/405 for ``/api`` requests no route takes; pass everything else on."""
         path = scope.get("path", "")
-        if scope["type"] != "http" or not (path == self.prefix or path.startswith(self.prefix + "/")):
+        if (scope["type"] != "http" or not (path == self.prefix or path.startswith(self.prefix + "/"))
+                or (self.authorised is not None and not self.authorised(scope))):
             await self.app(scope, receive, send)
             return
         allowed = {method for route in self.routes() if isinstance(route, Route) and route.path_regex.match(path)

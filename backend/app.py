@@ -20,7 +20,14 @@ from backend.errors import BadQuery, Conflict, InvalidSpec, NotFound
 from backend.limits import BodyLimit
 from backend.memory import return_large_blocks
 from backend.routes import changes, compare, health, jobs, studies, systems
-from backend.security import AllowedHosts, SameOriginWrites, SecurityHeaders, TokenRequired, allowed_hosts
+from backend.security import (
+    AllowedHosts,
+    SameOriginWrites,
+    SecurityHeaders,
+    TokenRequired,
+    allowed_hosts,
+    token_sent,
+)
 from backend.settings import Settings
 from backend.static import CompressAssets, frontend_dir, install_static, plotly_js
 from backend.studies import StudyDriver
@@ -190,7 +197,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                            paths=(app.openapi_url or "/openapi.json", "/docs", "/redoc"))
     app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
     app.add_middleware(SameOriginWrites)
-    app.add_middleware(ApiMethods, routes=lambda: [*app.routes, *(route for r in routers for route in r.routes)])
+    app.add_middleware(ApiMethods, routes=lambda: [*app.routes, *(route for r in routers for route in r.routes)],
+                       authorised=token_sent(settings.api_token) if settings.protect_reads else None)
     app.add_middleware(AllowedHosts, hosts=allowed_hosts(settings.allowed_hosts, settings.host))
     app.add_middleware(SecurityHeaders)
     return app

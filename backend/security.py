@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import json
 import secrets
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from urllib.parse import urlsplit
 
 from fastapi.security.utils import get_authorization_scheme_param
@@ -214,6 +214,11 @@ def bearer_matches(authorization: str | None, token: str) -> bool:
     if not (authorization and scheme and given) or scheme.lower() != "bearer":
         return False
     return secrets.compare_digest(given.encode(), token.encode())
+
+
+def token_sent(token: str) -> Callable[[Scope], bool]:
+    """Whether a request carries ``Authorization: Bearer <token>``."""
+    return lambda scope: bearer_matches(Headers(scope=scope).get("authorization"), token)
 
 
 class TokenRequired:

@@ -31,7 +31,7 @@ from tests.test_packaging import quick_start_commands
 pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parent.parent
-PACKAGES = ["mgrao_core", "mgrao_cli", "backend", "frontend"]
+PACKAGES = ["mgrao_core", "mgrao_cli", "backend", "frontend", "mgrao_docs"]
 NOT_A_DEPENDENCY = [*PACKAGES, "mgrao-*", "mgrao.egg-link", "__editable__*", "*.pth", "pip", "pip-*", "__pycache__"]
 """What of this run's site-packages the fresh virtualenv must not see: the project itself (an
 editable install's finder and metadata among it), ``.pth`` files, and pip (the virtualenv has its own)."""
@@ -115,11 +115,11 @@ def project(tmp_path_factory: pytest.TempPathFactory, dependencies: Path) -> Clo
     tmp_path = tmp_path_factory.mktemp("quick-start")
     root = tmp_path / "mgrao"
     root.mkdir()
-    (root / "docs").mkdir()
-    for name in ["pyproject.toml", "README.md", "docs/reproduction.md"]:  # what pyproject.toml installs
-        shutil.copy2(ROOT / name, root / name)
-    for package in PACKAGES:
-        shutil.copytree(ROOT / package, root / package, ignore=shutil.ignore_patterns("__pycache__"))
+    listed = subprocess.run(["git", "-C", str(ROOT), "ls-files", "-z"], capture_output=True, check=True, timeout=60)
+    for name in listed.stdout.decode().split("\0"):  # every tracked file as the work tree has it, links as links
+        if name and (ROOT / name).exists():
+            (root / name).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(ROOT / name, root / name, follow_symlinks=False)
     home = tmp_path / "home"
     home.mkdir()
     return Clone(root, home, dependencies)

@@ -52,7 +52,9 @@ def test_jobs_submitted_elsewhere_appear_and_move_under_the_filters(browser, ser
         page.screenshot(path=str(screenshots / "runs-live.png"))
         print(f"submitted through the API -> row shown in {appeared:.2f} s")
         # One light poll, no request per row: the rows were read again by whole listings only.
-        assert requests_to(page, r"/api/jobs/changes\?") >= 2
+        # (page.evaluate lets Playwright deliver the request events that arrived while the test slept)
+        wait_for(lambda: page.evaluate("1") and requests_to(page, r"/api/jobs/changes\?") >= 2, 20,
+                 "the light poll to ask again with its token")
         assert requests_to(page, r"/api/jobs/\d+(\?|$)") == 0, "rows were polled one by one"
 
         # Leaving the view stops its listings; a hidden tab stops the poll itself.
@@ -70,4 +72,5 @@ def test_jobs_submitted_elsewhere_appear_and_move_under_the_filters(browser, ser
         assert requests_to(page, r"/api/jobs/changes") == polls, "the poll went on in a hidden tab"
         page.evaluate("""() => { Object.defineProperty(document, 'hidden', { value: false, configurable: true });
                                   document.dispatchEvent(new Event('visibilitychange')); }""")
-        wait_for(lambda: requests_to(page, r"/api/jobs/changes") > polls, 10, "the poll to resume on a visible tab")
+        wait_for(lambda: page.evaluate("1") and requests_to(page, r"/api/jobs/changes") > polls, 10,
+                 "the poll to resume on a visible tab")

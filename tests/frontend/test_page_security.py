@@ -58,7 +58,7 @@ def test_dashboard_needs_nothing_the_csp_blocks(watched, server, finished_job):
 
     # plotly.js came from its versioned address (cached for a year), named by index.html.
     src = page.get_attribute("#plotly-src", "href")
-    assert re.fullmatch(r"/vendor/plotly-\d+\.\d+\.\d+\.min\.js", src)
+    assert re.fullmatch(r"/vendor/plotly-dashboard-\d+\.\d+\.\d+-[0-9a-f]{12}\.min\.js", src)  # the partial bundle
     assert page.get_attribute("#plotly-js", "src") == src
     assert server + src in page.requests and server + "/vendor/plotly.min.js" not in page.requests
 
