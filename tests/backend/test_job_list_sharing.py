@@ -19,7 +19,7 @@ from backend.models import SUCCEEDED, Job
 from tests.backend.backend_helpers import JSON
 
 CLIENTS = 8
-VERSIONS = 12
+VERSIONS = 150
 
 
 class Poller(threading.Thread):
@@ -59,7 +59,7 @@ def stop_all(pollers: list[Poller]) -> None:
 
 
 def test_every_answer_holds_what_other_processes_committed_before_its_request(service, db_url):
-    """Eight clients poll the list while this process (not the server) renames a job twelve times and
+    """Eight clients poll the list while this process (not the server) renames a job 150 times and
     a real worker process runs another: every GET sent after a commit shows it."""
     service.start_server(workers=0)
     small = {"system": "single", "algorithms": ["uniform", "mgrao-max"], "seeds": 2, "episodes": 10}
@@ -76,7 +76,7 @@ def test_every_answer_holds_what_other_processes_committed_before_its_request(se
             with db.write() as session:
                 crud.update_job(session, job_id=renamed, name=f"v{version}")
             commits.append(time.monotonic())
-            time.sleep(0.15)
+            time.sleep(0.01)
         service.start_worker()  # another process: claims, runs and finishes the job
 
         def succeeded() -> bool:
