@@ -318,6 +318,7 @@ def load(args: argparse.Namespace, backend: str) -> dict:
     server = None
     try:
         server = Server(db_url, workers=args.workers, log=log)
+        print(f"{backend}: mgrao serve pid {server.process.pid}", flush=True)  # e.g. for py-spy
         _wait_workers_ready(server.client, args.workers)
         page = server.client.get("/api/jobs")
         single = sorted(asyncio.run(_single_gets(server.port, args.single)))
