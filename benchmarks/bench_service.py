@@ -12,10 +12,11 @@ on its own keep-alive connection, sending back to back the shuffled mix of ``--g
 ``/api/jobs`` (2,000: the first page of 50, the dashboard's default) and ``--posts`` POSTs of small
 jobs (200: single, 2 seeds x 20 episodes, which the worker runs meanwhile). It prints the
 single-request p50 of that GET (one client alone, workers idle) and, per round, p50 and p99 of each
-kind, errors (anything but 200/202, or a broken connection) and requests per second; then the
-medians over ``--repeat`` rounds. The clients are raw asyncio HTTP/1.1, so that the client's own
-cost, on the same cores, stays small. PostgreSQL runs on a throwaway server
-(tests/support/postgres.py).
+kind, errors (anything but 200/202, or a broken connection), requests per second and the CPU time
+the API process used per request (its cost, which other load on the machine changes little, where
+the latencies depend on what else runs); then the medians over ``--repeat`` rounds. The clients
+are raw asyncio HTTP/1.1, so that the client's own cost, on the same cores, stays small.
+PostgreSQL runs on a throwaway server (tests/support/postgres.py).
 """
 
 from __future__ import annotations
@@ -278,6 +279,12 @@ async def _load(port: int, clients: int, gets: int, posts: int, seed: int) -> di
     return {"times": times, "errors": errors, "elapsed": time.perf_counter() - t0}
 
 
+def _cpu_seconds(pid: int) -> float:
+    """CPU time (user + system, every thread) a process has used: its cost, whatever else runs."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
 def _wait_queue_empty(client: httpx.Client, timeout: float = 600) -> None:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
@@ -328,18 +335,21 @@ def load(args: argparse.Namespace, backend: str) -> dict:
         rounds = []
         for i in range(args.repeat):
             _wait_queue_empty(server.client)
+            cpu = _cpu_seconds(server.process.pid)
             result = asyncio.run(_load(server.port, args.clients, args.gets, args.posts, seed=i))
+            cpu = _cpu_seconds(server.process.pid) - cpu
             figures = {kind: percentiles(samples) for kind, samples in result["times"].items() if samples}
             row = {
                 "get_p50": figures["GET"][0], "get_p99": figures["GET"][1],
                 "post_p50": figures["POST"][0] if "POST" in figures else float("nan"),
                 "post_p99": figures["POST"][1] if "POST" in figures else float("nan"),
                 "errors": len(result["errors"]), "rps": (args.gets + args.posts) / result["elapsed"],
+                "cpu_ms": 1000 * cpu / (args.gets + args.posts),
             }
             rounds.append(row)
             print(f"{backend} round {i + 1}: GET p50 {row['get_p50']:.0f} ms p99 {row['get_p99']:.0f} ms, "
                   f"POST p50 {row['post_p50']:.0f} ms p99 {row['post_p99']:.0f} ms, {row['errors']} errors, "
-                  f"{row['rps']:.0f} requests/s", flush=True)
+                  f"{row['rps']:.0f} requests/s, API process CPU {row['cpu_ms']:.2f} ms/request", flush=True)
             for error in result["errors"][:5]:
                 print(f"    {error}", flush=True)
         medians = {key: statistics.median(r[key] for r in rounds) for key in rounds[0]}
@@ -358,11 +368,11 @@ def load_main(args: argparse.Namespace) -> None:
     print(f"{args.clients} clients, {args.gets} GET /api/jobs + {args.posts} POST /api/jobs per round, "
           f"{args.jobs:,} stored jobs, {args.workers} worker(s); medians of {args.repeat} rounds")
     print(f"{'database':<11} {'page':>7} {'single p50':>11} {'GET p50':>8} {'GET p99':>8} {'POST p50':>9} "
-          f"{'POST p99':>9} {'errors':>7} {'req/s':>6}")
+          f"{'POST p99':>9} {'errors':>7} {'req/s':>6} {'API CPU/request':>16}")
     for backend, r in results.items():
         print(f"{backend:<11} {r['page_kb']:>5.0f}kB {r['single_p50']:>8.1f} ms {r['get_p50']:>5.0f} ms "
               f"{r['get_p99']:>5.0f} ms {r['post_p50']:>6.0f} ms {r['post_p99']:>6.0f} ms {r['errors']:>7.0f} "
-              f"{r['rps']:>6.0f}")
+              f"{r['rps']:>6.0f} {r['cpu_ms']:>13.2f} ms")
     print("targets at 50 clients: GET p99 < 300 ms, POST p99 < 500 ms, 0 errors")
 
 
