@@ -14,7 +14,7 @@ from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
-from sqlalchemy import delete, insert, select
+from sqlalchemy import Row, delete, insert, select
 from sqlalchemy.orm import Session
 
 from backend.models import JobSummary, Run
@@ -56,8 +56,8 @@ def store(session: Session, job_id: int) -> dict[str, ConfigSummary]:
     return summaries
 
 
-def as_dict(row: JobSummary) -> dict[str, Any]:
-    """A stored summary as the API shows it (the shape of ``ConfigSummary.as_dict``)."""
+def as_dict(row: JobSummary | Row) -> dict[str, Any]:
+    """A stored summary, a model or a row of its columns, as the API shows it (``ConfigSummary.as_dict``)."""
     pct_ci = None if row.pct_low is None and row.pct_high is None else [row.pct_low, row.pct_high]
     return {
         "algorithm": row.algorithm, "n_runs": row.n_runs, "final_mean": row.final_mean,
@@ -70,7 +70,7 @@ def of_jobs(session: Session, job_ids: Iterable[int]) -> dict[int, dict[str, dic
     """The stored summaries of the given jobs: ``{job_id: {algorithm: summary}}`` (absent: none stored)."""
     ids = list(job_ids)
     out: dict[int, dict[str, dict[str, Any]]] = defaultdict(dict)
-    if ids:
-        for row in session.scalars(select(JobSummary).where(JobSummary.job_id.in_(ids))):
+    if ids:  # rows of columns, not models: a page's 150 summaries cost no ORM objects
+        for row in session.execute(select(*JobSummary.__table__.columns).where(JobSummary.job_id.in_(ids))):
             out[row.job_id][row.algorithm] = as_dict(row)
     return out

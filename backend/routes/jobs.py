@@ -8,11 +8,13 @@ import re
 from collections.abc import Iterator
 from typing import Annotated, Literal
 
+import orjson
 from fastapi import APIRouter, Path, Query, Response, status
-from fastapi.responses import JSONResponse, StreamingResponse
+from fastapi.responses import StreamingResponse
 from sqlalchemy import select
 
 from backend import analysis, crud, studies, summaries, weights
+from backend.cache import SharedBuilds
 from backend.deps import Authorized, DatabaseDep, SessionDep, SettingsDep
 from backend.errors import BadQuery, InvalidSpec
 from backend.job_order import SORT_HELP
@@ -23,6 +25,7 @@ from mgrao_core import MAX_EPISODES, ConfigError, make_spec
 from mgrao_core.spec import MAX_SEED_VALUE
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
+LIST_BUILDS = SharedBuilds()
 
 CONFIG_HASH = re.compile(r"[0-9a-f]{64}")
 CONFIG_HASH_HELP = "Only the jobs of this configuration: a job's config_hash (64 lowercase hex digits)."
@@ -58,8 +61,8 @@ def submit_job(body: JobCreate, db: DatabaseDep, settings: SettingsDep, response
 
 
 @router.get("", response_model=JobPage, responses=answers())
-def list_jobs(
-    session: SessionDep,
+async def list_jobs(
+    db: DatabaseDep,
     status: Status | None = None,
     system: Annotated[Text | None, Query(max_length=32)] = None,
     tag: Annotated[Text | None, Query(max_length=50)] = None,
@@ -68,19 +71,31 @@ def list_jobs(
     sort: Annotated[Text, Query(max_length=80, description=SORT_HELP)] = "-created_at",
     limit: Annotated[int, Query(ge=1, le=200)] = 50,
     cursor: Annotated[Text | None, Query(max_length=500)] = None,
-) -> JSONResponse:
-    """Jobs matching the filters, one page at a time (keyset pagination), each with its stored summaries."""
+) -> Response:
+    """Jobs matching the filters, one page at a time (keyset pagination), each with its stored summaries.
+
+    Requests for the same page at the same time share one reading of the database that began after
+    each of them arrived (:class:`backend.cache.SharedBuilds`): 50 clients polling the list cost a
+    build or two, not 50, and no answer is older than its request.
+    """
     if config_hash is not None and not CONFIG_HASH.fullmatch(config_hash):
         raise BadQuery("config_hash", f"must be 64 lowercase hexadecimal digits (a job's config_hash, e.g. a "
                                       f"system's paper_config_hash in GET /api/systems), got {len(config_hash)} "
                                       "characters" + ("" if len(config_hash) != 64 else " that are not all 0-9a-f"))
-    jobs, next_cursor, total = crud.list_jobs(
-        session, status=status, system=system, tag=tag, q=q, sort=sort, limit=limit, cursor=cursor,
-        config_hash=config_hash,
-    )
-    stored = summaries.of_jobs(session, [job.id for job in jobs])
-    data = [crud.job_dict(job) | {"summaries": stored.get(job.id, {})} for job in jobs]
-    return JSONResponse({"data": data, "next_cursor": next_cursor, "count": total})
+    listing = {"status": status, "system": system, "tag": tag, "q": q, "sort": sort, "limit": limit, "cursor": cursor,
+               "config_hash": config_hash}
+
+    def build() -> bytes:
+        with db.session() as session:
+            jobs, next_cursor, total = crud.list_jobs(session, **listing)
+            stored = summaries.of_jobs(session, [job["id"] for job in jobs])
+        for job in jobs:
+            job["summaries"] = stored.get(job["id"], {})
+        # orjson: a page's JSON in a tenth of json.dumps's time
+        return orjson.dumps({"data": jobs, "next_cursor": next_cursor, "count": total})
+
+    answer = await LIST_BUILDS.get((db, *listing.values()), build)
+    return Response(answer, media_type="application/json")
 
 
 @router.get("/{job_id:int}", response_model=JobOut, responses=answers(found=True))

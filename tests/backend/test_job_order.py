@@ -7,9 +7,9 @@ import base64
 import json
 
 import pytest
-from sqlalchemy import delete, func, select
+from sqlalchemy import delete, event, func, select
 
-from backend import summaries
+from backend import crud, summaries
 from backend.db import Database
 from backend.models import JobSummary
 from mgrao_core import make_spec, run_experiment
@@ -132,3 +132,57 @@ def test_summaries_are_written_once_and_backfilled(settings, finished_jobs):
         assert after["mgrao-max"].final_mean == pytest.approx(direct["mgrao-max"].final_mean, rel=1e-12)
     finally:
         db.dispose()
+
+
+# ---- the plan of a page -----------------------------------------------------------------------
+
+def page_query(db: Database, **listing) -> tuple[str, object]:
+    """The SQL and parameters with which crud.list_jobs reads a page (the statement with ORDER BY)."""
+    seen: list[tuple[str, object]] = []
+
+    def capture(_conn, _cursor, statement, parameters, _context, _executemany) -> None:
+        if "ORDER BY" in statement:
+            seen.append((statement, parameters))
+
+    event.listen(db.engine, "before_cursor_execute", capture)
+    try:
+        with db.session() as session:
+            crud.list_jobs(session, **listing)
+    finally:
+        event.remove(db.engine, "before_cursor_execute", capture)
+    assert len(seen) == 1, seen
+    return seen[0]
+
+
+def plan(db: Database, statement: str, parameters: object) -> str:
+    """The database's plan of the statement; on PostgreSQL with sorting and whole-table scans priced out,
+    so that an index that can give the order is taken whatever the table's size."""
+    with db.engine.connect() as connection:
+        if db.engine.dialect.name == "sqlite":
+            rows = connection.exec_driver_sql(f"EXPLAIN QUERY PLAN {statement}", parameters).all()
+            return "\n".join(str(row[-1]) for row in rows)
+        connection.exec_driver_sql("SET enable_sort = off")
+        connection.exec_driver_sql("SET enable_seqscan = off")
+        rows = connection.exec_driver_sql(f"EXPLAIN {statement}", parameters).all()
+        return "\n".join(row[0] for row in rows)
+
+
+@pytest.mark.parametrize(("sort", "status"), [("-created_at", None), ("created_at", None), ("name", None),
+                                              ("-name", None), ("-created_at", "queued")])
+def test_a_page_by_a_column_reads_an_index_in_order_and_sorts_nothing(db, sort, status):
+    """A page sorted by a column that has an index with the id (never null) reads that index from the
+    cursor and stops: no sort of every matching job for each page (100 ms a page at 10,000 jobs)."""
+    spec = make_spec("single", seeds=1, episodes=5)
+    with db.write() as session:
+        for i in range(30):
+            crud.create_job(session, spec=spec, name=f"job {i % 7}")
+    listing = {"sort": sort, "limit": 5} | ({"status": status} if status else {})
+    with db.session() as session:
+        _first, cursor, _total = crud.list_jobs(session, **listing)
+    assert cursor is not None
+    for where in (listing, listing | {"cursor": cursor}):
+        text = plan(db, *page_query(db, **where))
+        if db.engine.dialect.name == "sqlite":
+            assert "TEMP B-TREE" not in text and "INDEX ix_jobs_" in text, (where, text)
+        else:
+            assert "Sort" not in text and "ix_jobs_" in text, (where, text)
