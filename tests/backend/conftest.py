@@ -22,17 +22,13 @@ from backend.db import Database
 from backend.settings import Settings
 from backend.worker import Worker
 from tests.support.local_service import free_port, serve_command, stop, wait_healthy
-from tests.support.postgres import PostgresServer, why_unavailable
+from tests.support.postgres import PostgresServer, throwaway_server
 
 
 @pytest.fixture(scope="session")
 def postgres_server() -> Iterator[PostgresServer]:
-    reason = why_unavailable()
-    if reason is not None:
-        pytest.skip(reason)
-    server = PostgresServer().start()
-    yield server
-    server.stop()
+    with throwaway_server() as server:
+        yield server
 
 
 @pytest.fixture(params=["sqlite", "postgresql"])

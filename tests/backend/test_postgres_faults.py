@@ -15,7 +15,7 @@ import pytest
 from backend_helpers import Service, ready_workers
 
 from backend.retry import RETRY_CAP_S
-from tests.support.postgres import PostgresServer, why_unavailable
+from tests.support.postgres import PostgresServer, throwaway_server
 
 pytestmark = pytest.mark.slow
 SMALL = {"system": "single", "seeds": 2, "episodes": 10}
@@ -25,12 +25,8 @@ OUTAGE_S = 6.0
 @pytest.fixture
 def own_postgres():
     """A PostgreSQL server of this test's own, since the test stops it."""
-    reason = why_unavailable()
-    if reason is not None:
-        pytest.skip(reason)
-    server = PostgresServer().start()
-    yield server
-    server.stop()
+    with throwaway_server() as server:
+        yield server
 
 
 def _status(service: Service, job_id: int) -> str:

@@ -16,6 +16,8 @@ import signal
 import subprocess
 import tempfile
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from tests.support.local_service import free_port
@@ -144,3 +146,18 @@ class PostgresServer:
                 pass
             self.pid = None
         shutil.rmtree(self.root, ignore_errors=True)
+
+
+@contextmanager
+def throwaway_server() -> Iterator[PostgresServer]:
+    """A started server for a test or a session, stopped on leaving; a skip saying why where none can start."""
+    import pytest
+
+    reason = why_unavailable()
+    if reason is not None:
+        pytest.skip(reason)
+    server = PostgresServer().start()
+    try:
+        yield server
+    finally:
+        server.stop()
