@@ -195,8 +195,22 @@ class CompressAssets(GZipMiddleware):
         await super().__call__(scope, receive, send)
 
 
+MODULES_PLACEHOLDER = "<!-- modulepreload -->"
+
+
+def _module_preloads(static: Path) -> str:
+    """A ``modulepreload`` link for every ES module of the dashboard.
+
+    The modules import each other three levels deep; without these links the browser finds each
+    level only when the one above has arrived, and every module is revalidated (``no-cache``), so a
+    full reload waits for three round trips in a row. With them all are asked for at once.
+    """
+    return "".join(f'<link rel="modulepreload" href="/js/{path.name}">' for path in sorted((static / "js").glob("*.js")))
+
+
 def _dashboard_index(static: Path) -> Response:
-    html = (static / "index.html").read_text(encoding="utf-8").replace(HTML_PLACEHOLDER, f'href="{plotly_url()}"')
+    html = ((static / "index.html").read_text(encoding="utf-8").replace(HTML_PLACEHOLDER, f'href="{plotly_url()}"')
+            .replace(MODULES_PLACEHOLDER, _module_preloads(static)))
     body = html.encode()
     etag = '"' + hashlib.sha256(body).hexdigest()[:32] + '"'
     return Response(body, media_type="text/html", headers={"cache-control": REVALIDATE, "etag": etag})

@@ -135,3 +135,12 @@ def test_real_server_head_and_gzip(live_server: str) -> None:
 def test_gzip_refused_with_q_zero_is_not_sent(client) -> None:
     response = client.get("/js/app.js", headers={"Accept-Encoding": "gzip;q=0"})
     assert response.status_code == 200 and "content-encoding" not in response.headers
+
+
+def test_index_preloads_every_module_of_the_dashboard(client: TestClient) -> None:
+    # all at once, instead of a level of imports at a time, each revalidated before the next is found
+    html = client.get("/").text
+    preloaded = re.findall(r'<link rel="modulepreload" href="/js/([^"]+)">', html)
+    assert preloaded and sorted(preloaded) == sorted(p.name for p in (frontend_dir() / "js").glob("*.js"))
+    for name in preloaded:
+        assert client.get(f"/js/{name}").status_code == 200
