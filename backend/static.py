@@ -205,7 +205,8 @@ def _module_preloads(static: Path) -> str:
     level only when the one above has arrived, and every module is revalidated (``no-cache``), so a
     full reload waits for three round trips in a row. With them all are asked for at once.
     """
-    return "".join(f'<link rel="modulepreload" href="/js/{path.name}">' for path in sorted((static / "js").glob("*.js")))
+    modules = sorted((static / "js").glob("*.js"))
+    return "".join(f'<link rel="modulepreload" href="/js/{path.name}">' for path in modules)
 
 
 def _dashboard_index(static: Path) -> Response:
