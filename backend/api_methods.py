@@ -10,11 +10,12 @@ methods they do take (all of them, over the several routes one path may have).
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable, Iterable
 
 from starlette.routing import BaseRoute, Route
 from starlette.types import ASGIApp, Receive, Scope, Send
+
+from backend.security import refuse
 
 
 class ApiMethods:
@@ -51,15 +52,8 @@ class ApiMethods:
             await self.app(scope, receive, send)
         elif allowed:
             allow = ", ".join(sorted(allowed))
-            await _answer(send, 405, f"method {scope.get('method')} not allowed here: use {allow}",
+            await refuse(send, 405, f"method {scope.get('method')} not allowed here: use {allow}",
                           [(b"allow", allow.encode())])
         else:
-            await _answer(send, 404, "no such API path (see /docs)")
+            await refuse(send, 404, "no such API path (see /docs)")
 
-
-async def _answer(send: Send, status: int, detail: str, headers: list[tuple[bytes, bytes]] | None = None) -> None:
-    body = json.dumps({"detail": detail}).encode()
-    await send({"type": "http.response.start", "status": status,
-                "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode()),
-                            *(headers or [])]})
-    await send({"type": "http.response.body", "body": body})

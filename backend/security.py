@@ -88,7 +88,8 @@ def allowed_hosts(configured: Iterable[str], bind_host: str = "") -> frozenset[s
     return frozenset(hosts)
 
 
-async def _refuse(send: Send, status: int, detail: str, headers: Iterable[tuple[bytes, bytes]] = ()) -> None:
+async def refuse(send: Send, status: int, detail: str, headers: Iterable[tuple[bytes, bytes]] = ()) -> None:
+    """Answer ``{"detail": detail}`` as JSON with ``status`` (and ``headers``), without calling the app."""
     body = json.dumps({"detail": detail}).encode()
     await send({"type": "http.response.start", "status": status,
                 "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode()),
@@ -116,7 +117,7 @@ class AllowedHosts:
             name = ""
         if name not in self.hosts:
             shown = value[:100]
-            await _refuse(send, 400, f"Host header {shown!r} is not allowed: this server answers only to the "
+            await refuse(send, 400, f"Host header {shown!r} is not allowed: this server answers only to the "
                                      "hosts in MGRAO_ALLOWED_HOSTS")
             return
         await self.app(scope, receive, send)
@@ -167,14 +168,14 @@ class SameOriginWrites:
         if origin is not None:
             mine = own_origin(scope)
             if mine is None or parse_origin(origin) != mine:
-                await _refuse(send, 403, f"cross-origin request refused: Origin {origin[:100]!r} is not this "
+                await refuse(send, 403, f"cross-origin request refused: Origin {origin[:100]!r} is not this "
                                          "server's origin")
                 return
         else:
             media_type = headers.get("content-type", "").partition(";")[0].strip().lower()
             if media_type != "application/json":
                 shown = headers.get("content-type", "none")[:100]
-                await _refuse(send, 415, "requests that change data need Content-Type: application/json, even "
+                await refuse(send, 415, "requests that change data need Content-Type: application/json, even "
                                          f"without a body (got {shown!r})")
                 return
         await self.app(scope, receive, send)
@@ -255,7 +256,7 @@ class TokenRequired:
         if path == self.health and scope.get("method") == "GET":
             await self.app(scope, receive, _status_only(send))
             return
-        await _refuse(send, 401, "missing or wrong bearer token: this server's data, reads included, needs "
+        await refuse(send, 401, "missing or wrong bearer token: this server's data, reads included, needs "
                                  "Authorization: Bearer <MGRAO_API_TOKEN>", headers=[(b"www-authenticate", b"Bearer")])
 
 
