@@ -1,0 +1,70 @@
+"""The runs whose every bit is kept in ``tests/fixtures/golden_runs.npz`` (see test_golden.py).
+
+Every paper system with its algorithms and the oracle, and every reading of the environment and
+of the learner that changes which floating-point operations run: quality models, load sharing,
+per-task routing, tie breaks, rejoining profiles, counted absent tasks, the paper-literal
+temperature, and children with more than ``MIN_BOUNDED_GROUPS`` groups (the bounded lazy update).
+
+Regenerate the fixture only for an intended change of numbers:
+``python -m tests.core.golden_cases`` (and say why in the commit).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+FIXTURE = Path(__file__).resolve().parent.parent / "fixtures" / "golden_runs.npz"
+
+CASES: dict[str, dict] = {
+    "single": {"system": "single", "algorithms": ["uniform", "oracle", "mgrao-1:1", "mgrao-2:1", "mgrao-max"]},
+    "multi": {"system": "multi", "algorithms": ["uniform", "oracle", "mgrao-1:1", "mgrao-5:1", "mgrao-max"]},
+    "volatile": {"system": "volatile", "algorithms": ["uniform", "oracle", "mgrao-1:1", "mgrao-max"]},
+    "large": {"system": "large", "algorithms": ["uniform", "oracle", "mgrao-1:1", "mgrao-5:1", "mgrao-25:1",
+                                                "mgrao-max"]},
+    "exponential": {"system": "single", "overrides": {"quality_model": "exponential"}},
+    "relative-linear": {"system": "multi", "overrides": {"quality_model": "relative-linear"},
+                        "algorithms": ["uniform", "oracle", "mgrao-1:1", "mgrao-max"]},
+    "load-sharing": {"system": "multi", "overrides": {"load_sharing": True},
+                     "algorithms": ["uniform", "oracle", "mgrao-2:1", "mgrao-max"]},
+    "per-task": {"system": "multi", "overrides": {"routing": "per-task", "tie_break": "first"}},
+    "rejoin-new-counted": {"system": "volatile", "overrides": {"rejoin_profile": "new", "absent_tasks": "counted"},
+                           "algorithms": ["uniform", "oracle", "mgrao-1:1", "mgrao-max"]},
+    "paper-temperature": {"system": "single", "overrides": {"temperature": 1.0, "learning_rate": 0.3,
+                                                            "trace_decay": 0.5}},
+    "bounded": {"system": "single", "overrides": {"n_parents": 150, "types_per_composite": 3},
+                "algorithms": ["uniform", "mgrao-75:1", "mgrao-max"], "episodes": 30},
+    "bounded-multi": {"system": "multi", "overrides": {"n_parents": 90, "routing": "per-task"},
+                      "algorithms": ["uniform", "mgrao-90:1"], "episodes": 25},
+}
+SEEDS = (0, 7, 123)
+EPISODES = 40
+
+
+def compute(name: str) -> dict[str, np.ndarray]:
+    """The runs of case ``name``: ``{"<case>|<algorithm>|<seed>|<what>": array}``."""
+    from mgrao_core import make_spec, run_experiment
+
+    case = CASES[name]
+    spec = make_spec(case["system"], case.get("algorithms"), list(SEEDS), case.get("episodes", EPISODES),
+                     case.get("overrides"))
+    out = {}
+    for run in run_experiment(spec).runs:
+        key = f"{name}|{run.algorithm}|{run.seed}"
+        out[f"{key}|utilities"] = run.utilities
+        out[f"{key}|group_weights"] = run.group_weights
+        out[f"{key}|combined_weights"] = run.combined_weights
+    return out
+
+
+def main() -> None:
+    arrays = {}
+    for name in CASES:
+        arrays |= compute(name)
+    np.savez_compressed(FIXTURE, **arrays)
+    print(f"{len(arrays)} arrays written to {FIXTURE}")
+
+
+if __name__ == "__main__":
+    main()
