@@ -26,20 +26,22 @@ import socket
 import threading
 import time
 from collections import deque
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 from distributed import Client, Future, KilledWorker, wait
 
-from backend import queue, studies
+from backend import queue
 from backend.dask_tasks import PLUGIN_NAME, WarmUp, simulate_chunk
 from backend.db import Database
 from backend.heartbeats import Heartbeats
+from backend.lifecycle import Ended, Failure, Lifecycle, Plan, failure
 from backend.lifeline import stop_on_signals
 from backend.presence import Presence, refresh_interval
-from backend.retry import Backoff, HealthClock, OutageLog, Stopping, persist
+from backend.retry import Backoff, HealthClock, OutageLog, Stopping
 from backend.settings import Settings
-from mgrao_core import ExperimentSpec, MgraoError, NumericalError, plan_chunks, spec_from_dict
+from mgrao_core import MgraoError
 
 log = logging.getLogger("mgrao.dispatcher")
 
@@ -58,23 +60,24 @@ class _Chunk:
 @dataclass
 class _Job:
     claim: queue.Claim
-    spec: ExperimentSpec
+    plan: Plan
     done_seeds: int
     pending: deque[_Chunk]
     running: dict[str, _Chunk] = field(default_factory=dict)
 
     @property
     def progress(self) -> float:
-        return self.done_seeds / len(self.spec.seeds)
+        return self.done_seeds / len(self.plan.spec.seeds)
 
     def key(self, chunk: _Chunk) -> str:
         return f"mgrao-{self.claim.job_id}-{self.claim.attempt}-{chunk.index}"
 
 
 class Dispatcher:
-    """Runs the queue's jobs on a Dask cluster (see the module docstring)."""
+    """Runs the queue's jobs on a Dask cluster (see the module docstring); tells ``on_ended`` when one ends."""
 
-    def __init__(self, settings: Settings, address: str, *, dispatcher_id: str | None = None) -> None:
+    def __init__(self, settings: Settings, address: str, *, dispatcher_id: str | None = None,
+                 on_ended: Sequence[Ended] = ()) -> None:
         self.settings = settings
         self.address = address
         self.db = Database(settings.database_url, settings.db_busy_timeout_s)
@@ -83,6 +86,8 @@ class Dispatcher:
         self.client: Client | None = None
         self.jobs: dict[int, _Job] = {}
         self.health = HealthClock()
+        self.lifecycle = Lifecycle(self.db, settings, owner_id=self.dispatcher_id, shutdown=self.shutdown,
+                                   health=self.health, on_ended=on_ended)
         self.beats = Heartbeats(self.db, heartbeat_s=settings.heartbeat_s, progress_s=settings.progress_s,
                                 health=self.health)
         self._threads = (0, 0.0)
@@ -172,7 +177,7 @@ class Dispatcher:
     # ---- jobs ------------------------------------------------------------------------------------
 
     def _persist(self, call: Any, what: str) -> Any:
-        return persist(call, what, self.shutdown, self.health)
+        return self.lifecycle.persist(call, what)
 
     def _in_flight(self) -> int:
         return sum(len(job.running) for job in self.jobs.values())
@@ -191,34 +196,23 @@ class Dispatcher:
             job.running[job.key(chunk)] = chunk
 
     def _claim(self) -> bool:
-        requeue = self.health.steady_for(self.settings.stale_after_s)
-        claim = self._persist(lambda: queue.claim(self.db, worker_id=self.dispatcher_id,
-                                                  stale_after_s=self.settings.stale_after_s,
-                                                  max_attempts=self.settings.max_attempts, requeue=requeue),
-                              "claiming a job")
+        requeue = self.lifecycle.may_requeue()
+        claim = self._persist(lambda: self.lifecycle.claim(requeue=requeue), "claiming a job")
         if claim is None:
             return False
         log.info("dispatching job %s (attempt %s)", claim.job_id, claim.attempt)
         try:
-            spec = spec_from_dict(claim.config, memory_budget=self.settings.job_memory_bytes)
+            plan = self.lifecycle.plan(claim)
         except MgraoError as error:
-            self._fail(claim, str(error))
+            self._fail(claim, failure(error))
             return True
-        done = self._persist(lambda: self._stored_seeds(claim.job_id, len(spec.algorithms)), "reading stored runs")
-        missing = tuple(seed for seed in spec.seeds if seed not in done)
-        chunks = plan_chunks(spec, missing, budget=self.settings.job_memory_bytes)
-        job = _Job(claim, spec, len(spec.seeds) - len(missing),
-                   deque(_Chunk(i, chunk) for i, chunk in enumerate(chunks)))
+        job = _Job(claim, plan, plan.done_seeds, deque(_Chunk(i, chunk) for i, chunk in enumerate(plan.chunks)))
         self.jobs[claim.job_id] = job
         self.beats.add(claim)
         self.beats.set_progress(claim.job_id, job.progress)
-        if not chunks:
+        if not plan.chunks:
             self._finish(job)
         return True
-
-    def _stored_seeds(self, job_id: int, algorithms: int) -> set[int]:
-        with self.db.session() as session:
-            return queue.stored_seeds(session, job_id=job_id, algorithms=algorithms)
 
     def _collect(self) -> None:
         futures = [c.future for job in self.jobs.values() for c in job.running.values() if c.future is not None]
@@ -241,9 +235,8 @@ class Dispatcher:
             future.release()
             del job.running[key]
             rows = queue.run_rows(job.claim.job_id, runs)
-            progress = (job.done_seeds + len(chunk.seeds)) / len(job.spec.seeds)
-            stored = self._persist(lambda: queue.store_runs(self.db, claim=job.claim, rows=rows, progress=progress),
-                                   f"storing runs of job {job.claim.job_id}")
+            progress = (job.done_seeds + len(chunk.seeds)) / len(job.plan.spec.seeds)
+            stored = self.lifecycle.store(job.claim, rows, progress)
             if not stored:
                 log.info("job %s was cancelled or taken over; its futures are cancelled", job.claim.job_id)
                 self._drop(job)
@@ -260,30 +253,23 @@ class Dispatcher:
             job.pending.appendleft(chunk)
             return
         error = future.exception()
-        seeds = f"seeds {chunk.seeds[0]}..{chunk.seeds[-1]}"
+        where = f"chunk {chunk.index} (seeds {chunk.seeds[0]}..{chunk.seeds[-1]})"
         if isinstance(error, KilledWorker):
-            self._fail(job.claim, f"chunk {chunk.index} ({seeds}) killed every Dask worker that ran it: {error}")
-        elif isinstance(error, NumericalError):
-            self._fail(job.claim, str(error), discard_runs=True)
-        elif isinstance(error, MgraoError):
-            self._fail(job.claim, str(error))
+            self._fail(job.claim, Failure(f"{where} killed every Dask worker that ran it: {error}"))
         else:
-            self._fail(job.claim, f"chunk {chunk.index} ({seeds}) failed: {type(error).__name__}: {error}")
+            self._fail(job.claim, failure(error, where=f"{where} failed: "))
         self._drop(job)
 
     def _finish(self, job: _Job) -> None:
-        expected = len(job.spec.seeds) * len(job.spec.algorithms)
-        finished = self._persist(lambda: queue.finish(self.db, claim=job.claim, expected_runs=expected),
-                                 f"finishing job {job.claim.job_id}")
+        finished = self.lifecycle.finish(job.claim, job.plan)
         log.info("job %s %s", job.claim.job_id, "succeeded" if finished else "was cancelled or taken over")
         self._drop(job)
-        studies.advance_after(self.db, job.claim.job_id)
+        self.lifecycle.ended(job.claim.job_id)
 
-    def _fail(self, claim: queue.Claim, message: str, discard_runs: bool = False) -> None:
-        log.warning("job %s failed: %s", claim.job_id, message)
-        self._persist(lambda: queue.fail(self.db, claim=claim, error=message, discard_runs=discard_runs),
-                      f"failing job {claim.job_id}")
-        studies.advance_after(self.db, claim.job_id)
+    def _fail(self, claim: queue.Claim, ending: Failure) -> None:
+        log.warning("job %s failed: %s", claim.job_id, ending.message)
+        self.lifecycle.fail(claim, ending)
+        self.lifecycle.ended(claim.job_id)
 
     def _drop(self, job: _Job) -> None:
         """Forget a job: cancel what it has in flight, stop its heartbeats."""
@@ -313,13 +299,13 @@ class Dispatcher:
             self._drop(job)
 
 
-def main(settings: Settings | None = None, address: str | None = None) -> None:
-    """Entry point of ``mgrao dispatcher``."""
+def main(settings: Settings | None = None, address: str | None = None, *, on_ended: Sequence[Ended] = ()) -> None:
+    """The dispatcher process (``mgrao dispatcher``): see :mod:`backend.processes`."""
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
     settings = settings or Settings()
     address = address or settings.dask_address
     if not address:
         raise SystemExit("mgrao dispatcher: give the Dask scheduler's address (--dask or MGRAO_DASK_ADDRESS)")
-    dispatcher = Dispatcher(settings, address)
+    dispatcher = Dispatcher(settings, address, on_ended=on_ended)
     dispatcher.install_signal_handlers()
     dispatcher.serve_forever()

@@ -13,15 +13,16 @@ import logging
 import os
 import socket
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import TypeVar
 
-from backend import queue, studies
+from backend import queue
 from backend.db import Database
 from backend.heartbeats import Heartbeats
+from backend.lifecycle import Ended, Lifecycle
 from backend.lifeline import stop_on_signals
 from backend.presence import Presence, refresh_interval
-from backend.retry import Backoff, HealthClock, OutageLog, Stopping, persist
+from backend.retry import Backoff, HealthClock, OutageLog, Stopping
 from backend.settings import Settings
 
 log = logging.getLogger("mgrao.worker")
@@ -33,15 +34,18 @@ class Worker:
 
     No database error stops a worker: every call is retried with a capped backoff until it goes
     through or the worker is told to stop; a job whose lease lapses meanwhile is taken over by
-    another worker, which resumes it from the chunks already stored.
+    another worker, which resumes it from the chunks already stored. Whenever a job ends, each of
+    ``on_ended`` is told (see :mod:`backend.lifecycle`).
     """
 
-    def __init__(self, settings: Settings, *, worker_id: str | None = None) -> None:
+    def __init__(self, settings: Settings, *, worker_id: str | None = None, on_ended: Sequence[Ended] = ()) -> None:
         self.settings = settings
         self.db = Database(settings.database_url, settings.db_busy_timeout_s)
         self.worker_id = worker_id or f"{socket.gethostname()}:{os.getpid()}"
         self.shutdown = threading.Event()
         self.health = HealthClock()
+        self.lifecycle = Lifecycle(self.db, settings, owner_id=self.worker_id, shutdown=self.shutdown,
+                                   health=self.health, on_ended=on_ended)
 
     def stop(self, *_: object) -> None:
         """Ask the worker to stop (the running job is handed back to the queue)."""
@@ -59,15 +63,12 @@ class Worker:
 
     def persist(self, call: Callable[[], T], what: str) -> T:
         """``call()``, retried on database errors until it succeeds (see :mod:`backend.retry`)."""
-        return persist(call, what, self.shutdown, self.health)
+        return self.lifecycle.persist(call, what)
 
     def run_once(self) -> bool:
         """Claim and run one job; False when the queue was empty."""
         try:
-            claim = queue.claim(
-                self.db, worker_id=self.worker_id, stale_after_s=self.settings.stale_after_s,
-                max_attempts=self.settings.max_attempts, requeue=self.health.steady_for(self.settings.stale_after_s),
-            )
+            claim = self.lifecycle.claim(requeue=self.lifecycle.may_requeue())
         except Exception:
             self.health.failure()
             raise
@@ -82,10 +83,10 @@ class Worker:
 
     def execute(self, claim: queue.Claim) -> None:
         """Run a claimed job to its end: succeeded, failed, cancelled or handed back."""
-        from mgrao_core import Cancelled, MgraoError, NumericalError, plan_chunks, run_chunk, spec_from_dict
+        from mgrao_core import Cancelled, MgraoError, run_chunk
 
         log.info("worker %s runs job %s (attempt %s)", self.worker_id, claim.job_id, claim.attempt)
-        budget = self.settings.job_memory_bytes
+        lifecycle = self.lifecycle
         beats = Heartbeats(self.db, heartbeat_s=self.settings.heartbeat_s, progress_s=self.settings.progress_s,
                            name=f"heartbeat-{claim.job_id}", health=self.health)
         beats.add(claim)
@@ -95,54 +96,35 @@ class Worker:
             return beats.lost(claim.job_id) or self.shutdown.is_set()
 
         try:
-            spec = spec_from_dict(claim.config, memory_budget=budget)
-            done = self.persist(lambda: self._stored_seeds(claim.job_id, len(spec.algorithms)), "reading stored runs")
-            missing = tuple(seed for seed in spec.seeds if seed not in done)
-            finished = len(spec.seeds) - len(missing)
-            for chunk in plan_chunks(spec, missing, budget=budget):
+            plan = lifecycle.plan(claim)
+            seeds, finished = len(plan.spec.seeds), plan.done_seeds
+            for chunk in plan.chunks:
                 def progress(fraction: float, chunk: tuple[int, ...] = chunk, finished: int = finished) -> None:
-                    beats.set_progress(claim.job_id, (finished + fraction * len(chunk)) / len(spec.seeds))
+                    beats.set_progress(claim.job_id, (finished + fraction * len(chunk)) / seeds)
 
-                runs = run_chunk(spec, chunk, on_progress=progress, should_stop=should_stop)
+                runs = run_chunk(plan.spec, chunk, on_progress=progress, should_stop=should_stop)
                 rows = queue.run_rows(claim.job_id, runs)
                 del runs
                 finished += len(chunk)
-                stored = self.persist(
-                    lambda rows=rows, finished=finished: queue.store_runs(
-                        self.db, claim=claim, rows=rows, progress=finished / len(spec.seeds)),
-                    f"storing runs of job {claim.job_id}",
-                )
+                stored = lifecycle.store(claim, rows, finished / seeds)
                 del rows
                 if not stored:
                     log.info("job %s was cancelled or taken over; stopped", claim.job_id)
                     return
-            expected = len(spec.seeds) * len(spec.algorithms)
-            if not self.persist(lambda: queue.finish(self.db, claim=claim, expected_runs=expected),
-                                f"finishing job {claim.job_id}"):
+            if not lifecycle.finish(claim, plan):
                 log.info("job %s was cancelled or taken over before it finished", claim.job_id)
         except Cancelled:
             if not beats.lost(claim.job_id):
-                self.persist(lambda: queue.release(self.db, claim=claim), f"handing back job {claim.job_id}")
-        except NumericalError as error:
-            self._fail(claim, str(error), discard_runs=True)
-        except MgraoError as error:
-            self._fail(claim, str(error))
+                lifecycle.release(claim)
         except Stopping:
             raise
         except Exception as error:
-            log.exception("job %s failed", claim.job_id)
-            self._fail(claim, f"{type(error).__name__}: {error}")
+            if not isinstance(error, MgraoError):  # a bug: its traceback goes to the log
+                log.exception("job %s failed", claim.job_id)
+            lifecycle.fail(claim, error)
         finally:
             beats.close()
-        studies.advance_after(self.db, claim.job_id)
-
-    def _fail(self, claim: queue.Claim, message: str, discard_runs: bool = False) -> None:
-        self.persist(lambda: queue.fail(self.db, claim=claim, error=message, discard_runs=discard_runs),
-                     f"failing job {claim.job_id}")
-
-    def _stored_seeds(self, job_id: int, algorithms: int) -> set[int]:
-        with self.db.session() as session:
-            return queue.stored_seeds(session, job_id=job_id, algorithms=algorithms)
+        lifecycle.ended(claim.job_id)
 
     def serve_forever(self, *, warm_up: bool = True) -> None:
         """Migrate, warm up, then run jobs until :meth:`stop`; database errors are waited out.
@@ -182,15 +164,12 @@ class Worker:
                 self.shutdown.wait(self.settings.poll_s)
 
 
-def main(settings: Settings | None = None) -> None:
-    """Entry point of a worker process (``mgrao worker``, or started by ``mgrao serve``)."""
+def main(settings: Settings | None = None, *, on_ended: Sequence[Ended] = ()) -> None:
+    """A worker process (``mgrao worker``, or started by ``mgrao serve``): see :mod:`backend.processes`."""
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
     from backend.lifeline import bind_to_supervisor  # started by `mgrao serve`: stop when it dies
     bind_to_supervisor()
-    worker = Worker(settings or Settings())
+    worker = Worker(settings or Settings(), on_ended=on_ended)
     worker.install_signal_handlers()
     worker.serve_forever()
 
-
-if __name__ == "__main__":
-    main()

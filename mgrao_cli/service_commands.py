@@ -121,10 +121,10 @@ def serve(host: str | None, port: int | None, workers: int | None, database_url:
 @click.option("--database-url", default=None, help="SQLAlchemy URL (default MGRAO_DATABASE_URL).")
 def worker(database_url: str | None) -> None:
     """Run one worker against the database until Ctrl-C or SIGTERM."""
+    from backend.processes import run_worker
     from backend.settings import Settings
-    from backend.worker import main
 
-    main(Settings(database_url=database_url) if database_url else Settings())
+    run_worker(Settings(database_url=database_url) if database_url else Settings())
 
 
 @click.command()
@@ -133,13 +133,13 @@ def worker(database_url: str | None) -> None:
 @click.option("--database-url", default=None, help="SQLAlchemy URL (default MGRAO_DATABASE_URL).")
 def dispatcher(address: str | None, database_url: str | None) -> None:
     """Claim queued jobs and run their chunks on a Dask cluster until Ctrl-C or SIGTERM."""
-    from backend.dispatcher import main
+    from backend.processes import run_dispatcher
     from backend.settings import Settings
 
     settings = Settings(database_url=database_url) if database_url else Settings()
     if not (address or settings.dask_address):
         raise click.UsageError("give the Dask scheduler's address with --dask or MGRAO_DASK_ADDRESS")
-    main(settings, address)
+    run_dispatcher(settings, address)
 
 
 @click.command()

@@ -7,7 +7,7 @@ a delay that doubles with each quick death in a row (``Backoff``); a worker that
 (a failed start, a closed stderr) ends the thread: it logs what it can and keeps watching, and the
 API goes on serving throughout.
 
-Workers run ``python -P -m backend.worker`` (no current directory on ``sys.path``) with the
+Workers run ``python -P -m backend.processes`` (no current directory on ``sys.path``) with the
 directories that hold the serving process's ``backend`` and ``mgrao_core`` on ``PYTHONPATH``, so
 that they run exactly the code ``serve`` imported, never a source tree that happens to be in the
 working directory.
@@ -99,7 +99,7 @@ def _package_roots() -> list[str]:
 
 def worker_command() -> list[str]:
     """The argv of one local worker (``-P``: the working directory is not on its ``sys.path``)."""
-    return [sys.executable, "-P", "-m", "backend.worker"]
+    return [sys.executable, "-P", "-m", "backend.processes"]
 
 
 def worker_env(database_url: str, workers: int) -> dict[str, str]:

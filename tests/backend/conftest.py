@@ -19,6 +19,7 @@ from fastapi.testclient import TestClient
 
 from backend.app import create_app
 from backend.db import Database
+from backend.processes import local_worker
 from backend.settings import Settings
 from backend.worker import Worker
 from tests.support.local_service import free_port, serve_command, stop, wait_healthy
@@ -62,7 +63,7 @@ def auth_client(settings: Settings) -> Iterator[TestClient]:
 @pytest.fixture
 def worker(settings: Settings) -> Iterator[Worker]:
     """A real worker, driven in-process with ``run_once``."""
-    w = Worker(settings, worker_id="test-worker")
+    w = local_worker(settings, worker_id="test-worker")
     yield w
     w.db.dispose()
 

@@ -150,7 +150,7 @@ def test_workers_exit_when_serve_is_killed_and_a_restart_starts_exactly_n(servic
 
 
 def worker_processes_on(database_url: str) -> list[int]:
-    """Every live ``backend.worker`` process on this machine whose database is ``database_url``."""
+    """Every live ``backend.processes`` process on this machine whose database is ``database_url``."""
     found = []
     for entry in Path("/proc").iterdir():
         if not entry.name.isdigit():
@@ -160,7 +160,7 @@ def worker_processes_on(database_url: str) -> list[int]:
             environ = (entry / "environ").read_bytes().split(b"\0")
         except OSError:
             continue
-        if b"backend.worker" in argv and f"MGRAO_DATABASE_URL={database_url}".encode() in environ:
+        if b"backend.processes" in argv and f"MGRAO_DATABASE_URL={database_url}".encode() in environ:
             if alive(int(entry.name)):
                 found.append(int(entry.name))
     return found
