@@ -18,7 +18,7 @@ from typing import Any
 from sqlalchemy import ColumnElement, Select, and_, literal, or_, tuple_
 
 from backend.errors import BadQuery
-from backend.schemas import MAX_JOB_ID, has_nul
+from backend.models import MAX_JOB_ID, has_nul
 
 NEVER_NULL = frozenset({"datetime", "text"})
 """Kinds of value that are columns declared NOT NULL."""

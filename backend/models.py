@@ -29,6 +29,16 @@ def utcnow() -> datetime:
     return datetime.now(UTC).replace(tzinfo=None)
 
 
+MAX_JOB_ID = 2**63 - 1  # SQLite INTEGER is a signed 64-bit integer
+NUL = "\x00"
+"""The character no stored text holds: PostgreSQL's text and JSON columns cannot store it."""
+
+
+def has_nul(text: str) -> bool:
+    """Whether ``text`` holds the NUL character, which no text that comes in may hold."""
+    return NUL in text
+
+
 ID = BigInteger().with_variant(Integer, "sqlite")
 """64-bit ids; SQLite's INTEGER PRIMARY KEY is 64-bit and must stay INTEGER to be the rowid."""
 

@@ -18,6 +18,7 @@ from pydantic import (
 from pydantic.json_schema import JsonSchemaValue, SkipJsonSchema
 from pydantic_core import PydanticCustomError, core_schema
 
+from backend.models import has_nul
 from mgrao_core import MAX_ALGORITHMS, MAX_EPISODES, MAX_SEEDS, PARAMETERS, PRESETS, search
 from mgrao_core.spec import MAX_SEED_VALUE
 
@@ -27,17 +28,10 @@ MAX_TAGS = 20
 MAX_NOTES = 10_000
 MAX_LABEL = 32
 MAX_COMPARE_JOBS = 50
-MAX_JOB_ID = 2**63 - 1  # SQLite INTEGER is a signed 64-bit integer
 
-NUL = "\x00"
 NO_NUL_PATTERN = "^[^\\x00]*$"
 """JSON Schema of text that comes in: no NUL character (PostgreSQL's text cannot hold it)."""
 NO_NUL_MESSAGE = "must not contain the NUL character (0x00)"
-
-
-def has_nul(text: str) -> bool:
-    """Whether ``text`` holds the NUL character, which no text that comes in may hold (see :class:`NoNul`)."""
-    return NUL in text
 
 
 @dataclass(frozen=True)

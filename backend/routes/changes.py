@@ -19,9 +19,10 @@ from sqlalchemy.orm import Session
 from backend import crud, presence
 from backend.deps import SessionDep, SettingsDep
 from backend.errors import InvalidSpec
-from backend.models import QUEUED, RUNNING, Job, Run
+from backend.models import MAX_JOB_ID, QUEUED, RUNNING, Job, Run
 from backend.responses import JobChanges, JobCheck, JobStatus, answers
-from backend.schemas import MAX_JOB_ID, JobCreate
+from backend.schemas import JobCreate
+from backend.validation import validation_details
 from mgrao_core import MAX_WORK, ConfigError, make_spec
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
@@ -95,8 +96,6 @@ def check_job(body: Annotated[dict[str, Any], Body()], settings: SettingsDep) ->
     ``{"valid": true, "work", "max_work"}``, or ``{"valid": false, "detail": [...]}`` with the very
     ``detail`` the submission would be refused with (422, docs/api.md's validation shape).
     """
-    from backend.app import validation_details  # the app imports this module
-
     try:
         job = JobCreate.model_validate(body)
     except ValidationError as error:

@@ -10,8 +10,9 @@ from fastapi.responses import Response
 from backend import analysis
 from backend.deps import SessionDep
 from backend.errors import BadQuery
+from backend.models import MAX_JOB_ID
 from backend.responses import Comparison, answers
-from backend.schemas import MAX_COMPARE_JOBS, MAX_JOB_ID, Text
+from backend.schemas import MAX_COMPARE_JOBS, Text
 from mgrao_core import MAX_EPISODES
 
 router = APIRouter(prefix="/api", tags=["compare"])

@@ -18,9 +18,9 @@ from backend.cache import SharedBuilds
 from backend.deps import Authorized, DatabaseDep, SessionDep, SettingsDep
 from backend.errors import BadQuery, InvalidSpec
 from backend.job_order import SORT_HELP
-from backend.models import Job
+from backend.models import MAX_JOB_ID, Job
 from backend.responses import LOCATION, EpisodeRow, Results, Weights, answers, links
-from backend.schemas import MAX_JOB_ID, JobCreate, JobOut, JobPage, JobPatch, Status, Text
+from backend.schemas import JobCreate, JobOut, JobPage, JobPatch, Status, Text
 from mgrao_core import MAX_EPISODES, ConfigError, make_spec
 from mgrao_core.spec import MAX_SEED_VALUE
 

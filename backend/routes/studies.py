@@ -13,9 +13,9 @@ from backend.cache import AnswerCache
 from backend.deps import Authorized, DatabaseDep, SessionDep
 from backend.errors import InvalidSpec
 from backend.keyset import Keyset
-from backend.models import Study
+from backend.models import MAX_JOB_ID, Study
 from backend.responses import LOCATION, StudyDetail, StudyPage, StudyPlots, answers, links
-from backend.schemas import MAX_JOB_ID, StudyCreate, Text
+from backend.schemas import StudyCreate, Text
 from backend.study_plots import study_plots
 from mgrao_core import ConfigError
 from mgrao_core.search import make_plan
