@@ -1,16 +1,17 @@
 """The processes that run jobs, wired to the studies: a local worker and the Dask dispatcher.
 
-Job execution (:mod:`backend.worker`, :mod:`backend.dispatcher`, through :mod:`backend.lifecycle`)
-knows nothing of studies: here the studies subscribe to the end of every job (:data:`ON_ENDED`), so
-that a study advances as soon as one of its trials' jobs ends. ``mgrao worker`` runs
+Job execution (:mod:`backend.execution.worker` and :mod:`backend.execution.dispatcher`, through
+:mod:`backend.execution.lifecycle`) knows nothing of studies: here the studies subscribe to the end
+of every job (:data:`ON_ENDED`), so that a study advances as soon as one of its trials' jobs ends. ``mgrao worker`` runs
 :func:`run_worker`, ``mgrao serve`` starts its workers as ``python -P -m backend.processes``, and
 ``mgrao dispatcher`` runs :func:`run_dispatcher`.
 """
 
 from __future__ import annotations
 
-from backend import studies, worker
-from backend.lifecycle import Ended
+from backend.execution import worker
+from backend.execution.lifecycle import Ended
+from backend.services import studies
 from backend.settings import Settings
 
 ON_ENDED: tuple[Ended, ...] = (studies.advance_after,)
@@ -29,7 +30,7 @@ def run_worker(settings: Settings | None = None) -> None:
 
 def run_dispatcher(settings: Settings | None = None, address: str | None = None) -> None:
     """The Dask dispatcher process until it is stopped."""
-    from backend import dispatcher  # Dask is imported by the dispatcher only, not by every worker
+    from backend.execution import dispatcher  # Dask is imported by the dispatcher only, not by every worker
 
     dispatcher.main(settings, address, on_ended=ON_ENDED)
 

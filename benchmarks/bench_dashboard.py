@@ -1,6 +1,6 @@
 """Dashboard rendering benchmark (not a test): prints figures.
 
-1. 10,000 stored jobs (inserted straight into the database through backend.models): time from
+1. 10,000 stored jobs (inserted straight into the database through backend.store.models): time from
    navigation to the runs table being rendered and interactive, and the latency of a filter change.
 2. A comparison of 10 jobs x 7 configurations x 30 seeds x 1,000 episodes (the large preset, really
    simulated by `mgrao serve`'s workers; each job gets its own 30 seeds so the pooled groups hold 300
@@ -51,9 +51,9 @@ def call(base: str, method: str, path: str, body: dict | None = None, timeout: f
 def insert_jobs(url: str, n: int) -> float:
     """Insert n finished jobs (no runs) through the backend's models; returns seconds taken."""
     import mgrao_core
-    from backend import crud
-    from backend.db import Database
-    from backend.models import Job, JobSummary, JobTag, utcnow
+    from backend.store import crud
+    from backend.store.db import Database
+    from backend.store.models import Job, JobSummary, JobTag, utcnow
     from mgrao_core.spec import make_spec
 
     t0 = time.perf_counter()
@@ -125,8 +125,8 @@ def live_runs(base: str, url: str, ctx, repeat: int) -> None:
     client on 127.0.0.1 (median of 50), and the server's query alone (``jobs_token`` in this process on
     the same database file); beside it the listing a poll used to need, ``GET /api/jobs?limit=50``.
     """
-    from backend.db import Database
-    from backend.routes.changes import jobs_token
+    from backend.api.routes.changes import jobs_token
+    from backend.store.db import Database
 
     def get(path: str) -> tuple[bytes, float]:
         t = time.perf_counter()
@@ -188,7 +188,7 @@ def main() -> None:
     print(f"database: {url}")
     if not args.reuse:
         took = insert_jobs(url, args.jobs)
-        print(f"inserted {args.jobs} jobs through backend.models in {took:.1f} s")
+        print(f"inserted {args.jobs} jobs through backend.store.models in {took:.1f} s")
 
     port = free_port()
     base = f"http://127.0.0.1:{port}"

@@ -36,9 +36,9 @@ from pathlib import Path
 
 import httpx
 
-from backend import crud, queue
-from backend.db import Database
-from backend.models import CANCELLED, SUCCEEDED, Job
+from backend.store import crud, queue
+from backend.store.db import Database
+from backend.store.models import CANCELLED, SUCCEEDED, Job
 from mgrao_core import make_spec, run_experiment
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run as a script: find tests.support

@@ -83,9 +83,9 @@ def serve(host: str | None, port: int | None, workers: int | None, database_url:
     """Serve the REST API and the dashboard, with local workers running the queued jobs."""
     import uvicorn
 
-    from backend.app import create_app
-    from backend.db import Database
+    from backend.api.app import create_app
     from backend.settings import Settings
+    from backend.store.db import Database
 
     overrides = {k: v for k, v in
                  {"host": host, "port": port, "workers": workers, "database_url": database_url}.items()
@@ -146,8 +146,8 @@ def dispatcher(address: str | None, database_url: str | None) -> None:
 @click.option("--database-url", default=None, help="SQLAlchemy URL (default MGRAO_DATABASE_URL).")
 def migrate(database_url: str | None) -> None:
     """Create or upgrade the database schema, then exit (a deployment's one-shot step)."""
-    from backend.db import Database
     from backend.settings import Settings
+    from backend.store.db import Database
 
     settings = Settings(database_url=database_url) if database_url else Settings()
     db = Database(settings.database_url, settings.db_busy_timeout_s)

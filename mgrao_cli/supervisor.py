@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import click
 
-from backend.lifeline import SUPERVISOR_ENV
+from backend.execution.lifeline import SUPERVISOR_ENV
 
 CHECK_S = 0.5
 STOP_TIMEOUT_S = 30.0
@@ -136,7 +136,7 @@ class WorkerPool:
         self._slots = [_Slot() for _ in range(count)]
         with self._lock:
             for slot in self._slots:
-                self._try_start(slot, time.monotonic())  # from the main thread (see backend/lifeline.py)
+                self._try_start(slot, time.monotonic())  # from the main thread (see backend/execution/lifeline.py)
         self._watcher = threading.Thread(target=self._watch, name="worker-watch", daemon=True)
         self._watcher.start()
 

@@ -2,7 +2,7 @@
 
 ``mgrao_docs/docs`` is a link to the checkout's ``docs/`` directory; building the package copies
 the files it links to, so an installed (not editable) service has every page too. The service
-renders them as HTML under ``/project-docs/`` (:mod:`backend.docpages`).
+renders them as HTML under ``/project-docs/`` (:mod:`backend.api.docpages`).
 """
 
 from __future__ import annotations

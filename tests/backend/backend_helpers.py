@@ -12,7 +12,7 @@ from typing import TypeVar
 
 import httpx
 
-from backend.worker import Worker
+from backend.execution.worker import Worker
 from mgrao_cli.supervisor import stop_processes
 from tests.support.local_service import free_port, mgrao_command, serve_command, wait_healthy
 from tests.support.waiting import wait_until

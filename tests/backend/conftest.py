@@ -17,11 +17,11 @@ import pytest
 from backend_helpers import BASE_URL, TOKEN, Service
 from fastapi.testclient import TestClient
 
-from backend.app import create_app
-from backend.db import Database
+from backend.api.app import create_app
+from backend.execution.worker import Worker
 from backend.processes import local_worker
 from backend.settings import Settings
-from backend.worker import Worker
+from backend.store.db import Database
 from tests.support.local_service import free_port, serve_command, stop, wait_healthy
 from tests.support.postgres import PostgresServer, throwaway_server
 

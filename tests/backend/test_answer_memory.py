@@ -3,7 +3,7 @@
 A real ``mgrao serve`` answers 20 concurrent requests for the results of a job with 1,000 runs of
 10,000 episodes, with every seed's curve: each answer is about 20 MB. The API builds at most two at
 a time, sends cached answers without copying them, and returns the memory afterwards
-(backend/memory.py). The peak and the resident memory after are read from /proc.
+(backend/services/memory.py). The peak and the resident memory after are read from /proc.
 """
 
 from __future__ import annotations

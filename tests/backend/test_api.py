@@ -11,11 +11,11 @@ from backend_helpers import JSON, TOKEN, drain
 from fastapi.testclient import TestClient
 from sqlalchemy import func, select
 
-from backend import queue
-from backend.app import frontend_dir
-from backend.db import Database
-from backend.models import Run
-from backend.worker import Worker
+from backend.api.app import frontend_dir
+from backend.execution.worker import Worker
+from backend.store import queue
+from backend.store.db import Database
+from backend.store.models import Run
 from mgrao_core import MAX_EPISODES, PRESETS, make_spec, run_experiment
 
 SMALL = {"system": "single", "seeds": 3, "episodes": 15}
@@ -335,7 +335,7 @@ def test_a_number_of_hundreds_of_digits_is_422_not_500(client: TestClient) -> No
 
 
 def test_an_unexpected_error_is_a_json_500_with_the_security_headers(settings) -> None:
-    from backend.app import create_app
+    from backend.api.app import create_app
 
     app = create_app(settings)
 

@@ -12,7 +12,7 @@ import httpx
 import pytest
 from fastapi.testclient import TestClient
 
-from backend.limits import DRAIN_BYTES, BodyLimit
+from backend.api.limits import DRAIN_BYTES, BodyLimit
 
 LIMIT = 65536
 TEN_MB = 10 * 1024 * 1024
@@ -127,7 +127,7 @@ def test_expect_100_continue_is_refused_before_the_body(live_server: str, expect
 
 
 def test_a_refused_body_that_stalls_is_answered_within_the_drain_time(live_server: str) -> None:
-    """Reading a refused body is bounded in time (backend.limits.DRAIN_S): a client that declares a large
+    """Reading a refused body is bounded in time (backend.api.limits.DRAIN_S): a client that declares a large
     body and stops sending gets its 413 all the same."""
     url = urlparse(live_server)
     head = (f"POST /api/jobs HTTP/1.1\r\nHost: {url.netloc}\r\nContent-Type: application/json\r\n"

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from fastapi.testclient import TestClient
 
-from backend.worker import Worker
+from backend.execution.worker import Worker
 from tests.backend.backend_helpers import drain
 
 SMALL = {"system": "single", "seeds": 2, "episodes": 5}

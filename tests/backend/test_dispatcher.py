@@ -21,9 +21,9 @@ import numpy as np
 import pytest
 from sqlalchemy import func, select
 
-from backend import crud
-from backend.db import Database
-from backend.models import Job, Run
+from backend.store import crud
+from backend.store.db import Database
+from backend.store.models import Job, Run
 from mgrao_core import ExperimentSpec, make_spec, run_experiment
 from tests.support.dask_cluster import DaskCluster
 from tests.support.local_service import free_port, mgrao_command, serve_command, stop, wait_healthy
@@ -170,7 +170,7 @@ def test_the_cluster_topology_end_to_end_over_rest(tmp_path: Path, topology: Top
 def test_at_most_threads_plus_margin_chunks_in_flight(topology: Topology) -> None:
     from distributed import Client
 
-    from backend.dispatcher import IN_FLIGHT_MARGIN
+    from backend.execution.dispatcher import IN_FLIGHT_MARGIN
 
     topology.start_cluster(workers=2)
     topology.start_dispatcher(MGRAO_JOB_MEMORY_MIB="16")  # many small chunks

@@ -6,7 +6,7 @@ from __future__ import annotations
 import urllib.request
 from pathlib import Path
 
-from backend.docpages import page, render
+from backend.api.docpages import page, render
 from tests.support.docs_crawl import crawl_docs
 
 ROOT = Path(__file__).resolve().parents[2]

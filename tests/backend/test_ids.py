@@ -8,7 +8,7 @@ import json
 import pytest
 from fastapi.testclient import TestClient
 
-from backend.models import MAX_JOB_ID
+from backend.store.models import MAX_JOB_ID
 
 JSON = {"Content-Type": "application/json"}
 TOO_BIG = 2**63

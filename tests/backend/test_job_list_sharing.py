@@ -1,5 +1,5 @@
 """The job list under many concurrent clients, against a real ``mgrao serve``: requests for the same
-page at the same time share one reading of the database (backend.cache.SharedBuilds), and yet every
+page at the same time share one reading of the database (backend.services.cache.SharedBuilds), and yet every
 answer holds every change committed, by any process, before its request was sent."""
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ from urllib.parse import urlsplit
 import psycopg
 import pytest
 
-from backend import crud
-from backend.db import Database
-from backend.models import SUCCEEDED, Job
+from backend.store import crud
+from backend.store.db import Database
+from backend.store.models import SUCCEEDED, Job
 from tests.backend.backend_helpers import JSON
 
 CLIENTS = 8

@@ -9,9 +9,9 @@ import json
 import pytest
 from sqlalchemy import delete, event, func, select
 
-from backend import crud, summaries
-from backend.db import Database
-from backend.models import JobSummary
+from backend.store import crud, summaries
+from backend.store.db import Database
+from backend.store.models import JobSummary
 from mgrao_core import make_spec, run_experiment
 from tests.backend.backend_helpers import drain
 

@@ -16,12 +16,13 @@ from pathlib import Path
 import pytest
 from sqlalchemy import select, update
 
-from backend import crud, studies
-from backend.db import Database
-from backend.lifecycle import Failure, failure
-from backend.models import FAILED, Job, Study
+from backend.execution.lifecycle import Failure, failure
+from backend.execution.worker import Worker
+from backend.services import studies
 from backend.settings import Settings
-from backend.worker import Worker
+from backend.store import crud
+from backend.store.db import Database
+from backend.store.models import FAILED, Job, Study
 from mgrao_core import ConfigError, MgraoError, NumericalError, make_spec, spec_from_dict
 from mgrao_core.search import make_plan
 from tests.support.dask_cluster import DaskCluster
@@ -80,8 +81,8 @@ def test_one_mapping_turns_what_a_job_raised_into_its_failure() -> None:
 
 
 def test_job_execution_imports_no_study() -> None:
-    code = ("import sys, backend.worker, backend.dispatcher, backend.lifecycle; "
-            "assert 'backend.studies' not in sys.modules, sorted(m for m in sys.modules if m.startswith('backend'))")
+    code = ("import sys, backend.execution.worker, backend.execution.dispatcher, backend.execution.lifecycle; "
+            "assert not [m for m in sys.modules if m.startswith('backend.services')], sorted(sys.modules)")
     subprocess.run([sys.executable, "-c", code], check=True)
 
 

@@ -1,4 +1,4 @@
-"""backend/lifeline.py with real processes: a parent that starts a child, then dies by SIGKILL."""
+"""backend/execution/lifeline.py with real processes: a parent that starts a child, then dies by SIGKILL."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 from backend_helpers import alive
 
-from backend.lifeline import SUPERVISOR_ENV
+from backend.execution.lifeline import SUPERVISOR_ENV
 from tests.support.local_service import mgrao_command
 
 pytestmark = pytest.mark.slow
@@ -28,7 +28,7 @@ time.sleep(120)
 
 STUCK_CHILD = """
 import signal, time
-from backend import lifeline
+from backend.execution import lifeline
 lifeline.GRACE_S = 1.0
 signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a worker that cannot stop (stuck in a long compile, say)
 assert lifeline.bind_to_supervisor() is not None

@@ -20,9 +20,9 @@ from pathlib import Path
 
 import pytest
 
-from backend import crud
-from backend.db import Database
-from backend.models import Job
+from backend.store import crud
+from backend.store.db import Database
+from backend.store.models import Job
 from mgrao_core import ConfigError, ExperimentSpec, WorkLimitError, make_spec
 from mgrao_core.budget import chunk_cost, plan_chunks
 from tests.support.local_service import mgrao_command

@@ -18,11 +18,11 @@ from alembic import command
 from alembic.script import ScriptDirectory
 from sqlalchemy import create_engine, select, text
 
-from backend import crud
-from backend.crud import config_hash
-from backend.db import Database, alembic_config
-from backend.models import Job, Run
-from backend.worker import Worker
+from backend.execution.worker import Worker
+from backend.store import crud
+from backend.store.crud import config_hash
+from backend.store.db import Database, alembic_config
+from backend.store.models import Job, Run
 from mgrao_core import make_spec
 from tests.backend.backend_helpers import drain
 
@@ -161,7 +161,7 @@ def test_processes_that_start_together_migrate_a_new_database_once(db_url: str) 
 
     # (SQLite once raced here about one time in ten: Alembic committed step by step; three rounds of
     # six processes each, on fresh files)
-    code = "import sys; from backend.db import Database; d = Database(sys.argv[1]); d.migrate(); d.dispose()"
+    code = "import sys; from backend.store.db import Database; d = Database(sys.argv[1]); d.migrate(); d.dispose()"
     urls = [db_url] + ([db_url.replace(".db", f"-{i}.db") for i in range(2)] if db_url.startswith("sqlite") else [])
     for url in urls:
         processes = [subprocess.Popen([sys.executable, "-c", code, url], stderr=subprocess.PIPE) for _ in range(6)]
@@ -212,8 +212,8 @@ def test_rebuilding_jobs_for_ids_keeps_every_run_and_tag_and_their_cascades(sett
 
 
 def test_jobs_that_succeeded_before_summaries_were_stored_get_them_from_their_runs(settings, db_url, client, worker):
-    from backend import summaries
-    from backend.models import JobSummary
+    from backend.store import summaries
+    from backend.store.models import JobSummary
 
     for rate in (0.1, 0.3):
         body = {"system": "single", "algorithms": ["uniform", "mgrao-max"], "seeds": 3, "episodes": 12,

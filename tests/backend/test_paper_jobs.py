@@ -10,7 +10,7 @@ import pytest
 from backend_helpers import drain
 from fastapi.testclient import TestClient
 
-from backend.worker import Worker
+from backend.execution.worker import Worker
 from mgrao_core import PRESETS, final_utilities
 
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 from backend_helpers import Service, ready_workers
 
-from backend.retry import RETRY_CAP_S
+from backend.store.retry import RETRY_CAP_S
 from tests.support.postgres import PostgresServer, throwaway_server
 
 pytestmark = pytest.mark.slow

@@ -11,11 +11,11 @@ from backend_helpers import Service
 from fastapi.testclient import TestClient
 from sqlalchemy import insert, select
 
-from backend import presence
-from backend.db import Database
-from backend.dialect import db_now
-from backend.models import WorkerPresence
-from backend.presence import Presence
+from backend.execution import presence
+from backend.execution.presence import Presence
+from backend.store.db import Database
+from backend.store.dialect import db_now
+from backend.store.models import WorkerPresence
 from tests.support.waiting import wait_until
 
 

@@ -17,7 +17,7 @@ from backend_helpers import BASE_URL, JSON, TOKEN, Service
 from fastapi.testclient import TestClient
 from pydantic import ValidationError
 
-from backend.app import create_app
+from backend.api.app import create_app
 from backend.settings import Settings
 from tests.support.local_service import free_port, mgrao_command, serve_command
 

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 from sqlalchemy import event, func, select, update
 
-from backend import crud, queue
-from backend.db import Database
-from backend.models import Job, Run, utcnow
+from backend.execution.worker import Worker
 from backend.settings import Settings
-from backend.worker import Worker
+from backend.store import crud, queue
+from backend.store.db import Database
+from backend.store.models import Job, Run, utcnow
 from mgrao_core import make_spec, run_chunk, run_experiment
 from tests.support.waiting import join_all
 

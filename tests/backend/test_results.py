@@ -11,11 +11,12 @@ from backend_helpers import JSON, drain
 from fastapi.testclient import TestClient
 from sqlalchemy import update
 
-from backend import analysis, crud, queue
-from backend.cache import AnswerCache
-from backend.db import Database
-from backend.models import Job, Run
-from backend.worker import Worker
+from backend.execution.worker import Worker
+from backend.services import analysis
+from backend.services.cache import AnswerCache
+from backend.store import crud, queue
+from backend.store.db import Database
+from backend.store.models import Job, Run
 from mgrao_core import make_spec, run_chunk
 from tests.support.waiting import join_all
 

@@ -10,8 +10,8 @@ import pytest
 from backend_helpers import BASE_URL, JSON
 from fastapi.testclient import TestClient
 
-from backend.app import create_app
-from backend.security import CONTENT_SECURITY_POLICY, split_host
+from backend.api.app import create_app
+from backend.api.security import CONTENT_SECURITY_POLICY, split_host
 from backend.settings import Settings
 
 SMALL = {"system": "single", "seeds": 1, "episodes": 5}

@@ -13,7 +13,7 @@ import pytest
 from backend_helpers import JSON, Service
 from sqlalchemy import text
 
-from backend.db import Database
+from backend.store.db import Database
 from mgrao_core import make_spec, run_experiment
 
 pytestmark = pytest.mark.slow

@@ -1,4 +1,4 @@
-"""backend.cache.SharedBuilds on its own: who shares which build, errors, and what is left behind."""
+"""backend.services.cache.SharedBuilds on its own: who shares which build, errors, and what is left behind."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import threading
 
 import pytest
 
-from backend.cache import SharedBuilds
+from backend.services.cache import SharedBuilds
 
 DEADLINE_S = 30
 

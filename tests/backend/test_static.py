@@ -9,7 +9,7 @@ import httpx
 import pytest
 from fastapi.testclient import TestClient
 
-from backend.static import docs_asset_url, docs_assets_dir, frontend_dir, plotly_js, plotly_url
+from backend.api.static import docs_asset_url, docs_assets_dir, frontend_dir, plotly_js, plotly_url
 
 IDENTITY = {"Accept-Encoding": "identity"}
 GZIP = {"Accept-Encoding": "gzip"}

@@ -16,10 +16,10 @@ from backend_helpers import JSON, TOKEN, Service, drain
 from fastapi.testclient import TestClient
 from sqlalchemy import func, select
 
-from backend import queue
-from backend.db import Database
-from backend.models import Job, Run, Trial
-from backend.worker import Worker
+from backend.execution.worker import Worker
+from backend.store import queue
+from backend.store.db import Database
+from backend.store.models import Job, Run, Trial
 from mgrao_core import run_experiment
 from mgrao_core.search import make_plan
 

@@ -6,7 +6,7 @@ import numpy as np
 from backend_helpers import drain
 from fastapi.testclient import TestClient
 
-from backend.worker import Worker
+from backend.execution.worker import Worker
 from mgrao_core import make_spec, run_experiment
 
 ALGORITHMS = ["uniform", "oracle", "mgrao-1:1", "mgrao-max"]

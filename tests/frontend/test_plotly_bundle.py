@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from backend.static import frontend_dir, full_plotly_js, plotly_build
+from backend.api.static import frontend_dir, full_plotly_js, plotly_build
 from tests.frontend.test_dashboard import api, wait_job
 from tests.frontend.test_job_view import wait_for
 from tests.frontend.test_studies_view import wait_study
@@ -91,7 +91,7 @@ def test_the_served_plotly_is_the_partial_bundle_built_from_the_installed_plotly
 
 
 def test_a_bundle_of_another_plotly_js_version_or_altered_falls_back_to_the_full_bundle(tmp_path, monkeypatch):
-    from backend import static
+    from backend.api import static
 
     vendor = tmp_path / "vendor"
     shutil.copytree(ROOT / "frontend" / "vendor", vendor)

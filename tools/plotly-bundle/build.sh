@@ -4,7 +4,7 @@
 # npm ci installs exactly the versions in package-lock.json (plotly.js at the version that the pinned plotly
 # Python package ships, and esbuild); esbuild bundles index.js, minified, as the global `Plotly`. Writes
 # plotly-dashboard.min.js and its manifest plotly-dashboard.json (plotly.js version, trace types, sha256),
-# which backend/static.py reads, into OUTPUT_DIR (default frontend/vendor). Node is needed here only, never
+# which backend/api/static.py reads, into OUTPUT_DIR (default frontend/vendor). Node is needed here only, never
 # at install. The one style sheet plotly.js imports is maplibre's, for map subplots, which the dashboard
 # has none of: CSS imports are left out (plotly.js injects its own styles from its JavaScript).
 set -euo pipefail

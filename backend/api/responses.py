@@ -1,0 +1,321 @@
+"""What the API answers, for its OpenAPI document: response models of the JSON answers, and every status.
+
+The routes build most answers as bytes themselves (streamed or cached), so these models document
+them without being applied. Every route can answer 400 (a ``Host`` the server does not answer to),
+413 (a body over ``MGRAO_MAX_BODY_BYTES``) and 503 (the database unavailable, with ``Retry-After``);
+every write 401 (the bearer token, when ``MGRAO_API_TOKEN`` is set), 403 (a foreign ``Origin``) and
+415 (no ``Origin`` and no ``Content-Type: application/json``, even without a body): docs/api.md,
+"Errors" and "Cross-site requests". :func:`answers` gives a route's ``responses``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pydantic import BaseModel, Field
+
+from backend.api.schemas import JobOut, Status
+
+
+class Problem(BaseModel):
+    """Every error but a validation error: ``{"detail": "what went wrong"}``."""
+
+    detail: str
+
+
+class FieldError(BaseModel):
+    """One refused field: ``loc`` (where), ``field`` (its name), ``msg`` (starts with the field, states the limit)."""
+
+    loc: list[str | int]
+    field: str
+    msg: str
+    type: str
+
+
+class Invalid(BaseModel):
+    """422: ``{"detail": [{"loc", "field", "msg", "type"}]}``, one entry per refused field."""
+
+    detail: list[FieldError]
+
+
+def _error(description: str, model: type[BaseModel] = Problem, headers: dict[str, Any] | None = None) -> dict:
+    answer: dict[str, Any] = {"description": description, "model": model}
+    if headers:
+        answer["headers"] = headers
+    return answer
+
+
+HOST = _error("The Host header names no host the server answers to (MGRAO_ALLOWED_HOSTS).")
+TOO_LARGE = _error("The request body is over MGRAO_MAX_BODY_BYTES (see max_body_bytes in GET /api/systems).")
+UNAVAILABLE = _error(
+    "The database cannot be written or read now (read-only, moved, deleted, locked past the busy timeout); "
+    "nothing of the request was changed: retry after Retry-After seconds.",
+    headers={"Retry-After": {"description": "Seconds to wait before retrying.", "schema": {"type": "integer"}}})
+TOKEN = _error("Missing or wrong bearer token (only when the service has MGRAO_API_TOKEN).",
+               headers={"WWW-Authenticate": {"description": "Bearer", "schema": {"type": "string"}}})
+FOREIGN = _error("Cross-origin write refused: the Origin header is not this server's own origin.")
+NOT_JSON = _error("A write without an Origin header needs Content-Type: application/json, even without a body.")
+INVALID = _error("A field is refused: its name, where it is and the limit. Some rules are not in this "
+                 "document's schemas (the work limit, an x of mgrao-x:1 that must divide n_parents, "
+                 "types_per_composite at most n_types, a parameter's own limits, GET /api/systems): "
+                 "schema-valid data can still be refused here.", Invalid)
+NOT_FOUND = _error("No such job or study (a well-formed id that does not exist).")
+CONFLICT = _error("The job's or study's state does not allow this (e.g. nothing stored yet, or still running).")
+
+
+def answers(*, write: bool = False, found: bool = False, conflict: bool = False, invalid: bool = True,
+            extra: dict[int, dict] | None = None) -> dict[int | str, dict[str, Any]]:
+    """A route's ``responses``: the errors it can answer, and ``extra``.
+
+    Always 400, 413 and 503; 401, 403 and 415 for a write; 404 for an id (``found``); 409 for a
+    state change (``conflict``); 422 unless the route takes no input at all (``invalid``).
+    """
+    out: dict[int | str, dict[str, Any]] = {400: HOST, 413: TOO_LARGE, 503: UNAVAILABLE}
+    if write:
+        out |= {401: TOKEN, 403: FOREIGN, 415: NOT_JSON}
+    if found:
+        out[404] = NOT_FOUND
+    if conflict:
+        out[409] = CONFLICT
+    if invalid:
+        out[422] = INVALID
+    return out | (extra or {})
+
+
+LOCATION = {"Location": {"description": "The new resource's address.", "schema": {"type": "string"}, "required": True}}
+
+
+def links(parameter: str, pointer: str, operations: dict[str, str]) -> dict[str, dict[str, Any]]:
+    """OpenAPI links from a created resource (its id at JSON ``pointer``) to the operations on it.
+
+    Args:
+        parameter: the path parameter the id fills (``job_id``).
+        pointer: where the answer holds the id (``/id``).
+        operations: link name -> operationId.
+    """
+    return {name: {"operationId": operation, "parameters": {parameter: f"$response.body#{pointer}"}}
+            for name, operation in operations.items()}
+
+
+# ---- answers of the JSON routes --------------------------------------------------------------
+
+Number = float | None
+"""A number of the results: null where the stored value is not finite."""
+
+
+class Summary(BaseModel):
+    """A configuration's summary over its seeds."""
+
+    algorithm: str
+    n_runs: int
+    final_mean: Number
+    ci95: list[Number] | None
+    pct_from_uniform: Number
+    pct_ci95: list[Number] | None
+    pct_of_max: Number
+
+
+class Band(BaseModel):
+    """A curve over episodes (downsampled): mean and 95% band."""
+
+    episode: list[int]
+    mean: list[Number]
+    low: list[Number]
+    high: list[Number]
+
+
+class SeedCurve(BaseModel):
+    """One seed's curve (``include_seeds=true``)."""
+
+    seed: int
+    episode: list[int]
+    utility: list[Number]
+
+
+class MeanWeights(BaseModel):
+    """Final weights: combined per child, and per parent group.
+
+    ``groups`` is empty for uniform and oracle, or null when omitted beyond the size limit (with the reason).
+    """
+
+    combined: list[Any]
+    groups: list[Any] | None
+    groups_omitted: str | None = None
+
+
+class SeedPct(BaseModel):
+    """One seed's paired % from uniform."""
+
+    seed: int
+    pct_from_uniform: Number
+
+
+class ResultConfiguration(BaseModel):
+    """One configuration of a job's results."""
+
+    algorithm: str
+    config_hash: str
+    seeds_done: int
+    summary: Summary
+    episodes: Band
+    weights: MeanWeights
+    seeds: list[SeedCurve] | None = None
+    pct_by_seed: list[SeedPct] | None = None
+    """With ``?pct_by_seed=true``: each seed's paired % from uniform, in the job's seed order."""
+
+
+class Results(BaseModel):
+    """``GET /api/jobs/{id}/results``."""
+
+    job: JobOut
+    paper: dict[str, float] | None
+    partial: bool
+    points: int
+    configurations: list[ResultConfiguration]
+
+
+class SeedWeights(MeanWeights):
+    """One configuration's final weights for one seed."""
+
+    algorithm: str
+
+
+class Weights(BaseModel):
+    """``GET /api/jobs/{id}/weights``."""
+
+    job_id: int
+    seed: int
+    seeds: list[int]
+    configurations: list[SeedWeights]
+
+
+class EpisodeRow(BaseModel):
+    """One stored episode of ``GET /api/jobs/{id}/episodes?format=json``."""
+
+    job_id: int
+    algorithm: str
+    seed: int
+    episode: int
+    utility: Number
+
+
+class CompareGroup(BaseModel):
+    """A configuration pooled over the compared jobs."""
+
+    config_hash: str
+    algorithm: str
+    system: str
+    episodes_per_run: int
+    job_ids: list[int]
+    summary: Summary
+    episodes: Band
+
+
+class Comparison(BaseModel):
+    """``GET /api/compare``."""
+
+    jobs: list[JobOut]
+    groups: list[CompareGroup]
+
+
+class Systems(BaseModel):
+    """``GET /api/systems``: presets, the parameter schema, algorithm labels, limits, the studies' limits."""
+
+    systems: list[dict[str, Any]]
+    parameters: list[dict[str, Any]]
+    algorithms: dict[str, Any]
+    limits: dict[str, Any] = Field(description="max_seeds, max_episodes, max_algorithms, max_work, work_factors "
+                                               "(the factors whose product max_work bounds), max_body_bytes.")
+    studies: dict[str, Any]
+
+
+class StudyOut(BaseModel):
+    """A study as listed."""
+
+    id: int
+    name: str
+    method: str
+    status: str
+    planned: int
+    trials: dict[str, int] = Field(description="Trials per status.")
+    best_trial: int | None
+    best_value: Number
+    objective: dict[str, Any]
+    space: dict[str, Any]
+    created_at: str
+    finished_at: str | None
+    revision: int
+    version: str
+
+
+class StudyPage(BaseModel):
+    """One page of ``GET /api/studies``."""
+
+    data: list[StudyOut]
+    next_cursor: str | None
+    count: int
+
+
+class TrialOut(BaseModel):
+    """One trial of a study."""
+
+    number: int
+    params: dict[str, Any]
+    status: Status | str
+    value: Number
+    ci95: list[Number] | None
+    error: str | None
+    runs: int
+    job_ids: list[int]
+
+
+class StudyDetail(BaseModel):
+    """``GET /api/studies/{id}``: the study, its definition, and its trials (left out with ``trials=false``)."""
+
+    study: StudyOut
+    definition: dict[str, Any]
+    trials: list[TrialOut] | None = None
+    rerun: int | None = Field(None, description="POST .../rerun-failed: how many trials got new jobs.")
+
+
+class StudyPlots(BaseModel):
+    """``GET /api/studies/{id}/plots``: the aggregates the study view draws (docs/studies.md)."""
+
+    dimensions: list[str]
+    direction: str
+    trials: int
+    history: dict[str, Any]
+    importance: dict[str, Any]
+    slices: dict[str, Any]
+    heatmap: dict[str, Any]
+    parallel: dict[str, Any]
+
+
+class JobChanges(BaseModel):
+    """``GET /api/jobs/changes``: ``changed`` false alone, or the new token and the queue's counts."""
+
+    changed: bool
+    token: str | None = None
+    queued: int | None = None
+    running: int | None = None
+
+
+class JobStatus(BaseModel):
+    """``GET /api/jobs/{id}/status``: where a job stands and what a queued job waits for."""
+
+    id: int
+    status: str
+    progress: float
+    ahead: int
+    running: int
+    workers: dict[str, int]
+    stored_runs: int
+
+
+class JobCheck(BaseModel):
+    """``POST /api/jobs/check``: whether the body would be queued (its work), or the 422 ``detail`` it would get."""
+
+    valid: bool
+    work: int | None = None
+    max_work: int | None = None
+    detail: list[dict[str, Any]] | None = None

@@ -1,0 +1,257 @@
+"""Request and response models; their bounds mirror the core library's limits."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Annotated, Any, Literal
+
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    GetCoreSchemaHandler,
+    GetJsonSchemaHandler,
+    StrictBool,
+    StrictInt,
+    StringConstraints,
+)
+from pydantic.json_schema import JsonSchemaValue, SkipJsonSchema
+from pydantic_core import PydanticCustomError, core_schema
+
+from backend.store.models import has_nul
+from mgrao_core import MAX_ALGORITHMS, MAX_EPISODES, MAX_SEEDS, PARAMETERS, PRESETS, search
+from mgrao_core.spec import MAX_SEED_VALUE
+
+MAX_NAME = 200
+MAX_TAG = 50
+MAX_TAGS = 20
+MAX_NOTES = 10_000
+MAX_LABEL = 32
+MAX_COMPARE_JOBS = 50
+
+NO_NUL_PATTERN = "^[^\\x00]*$"
+"""JSON Schema of text that comes in: no NUL character (PostgreSQL's text cannot hold it)."""
+NO_NUL_MESSAGE = "must not contain the NUL character (0x00)"
+
+
+@dataclass(frozen=True)
+class NoNul:
+    """The rule for every text that comes in, body or query: no NUL character (422 naming the field).
+
+    PostgreSQL's text and JSON columns cannot store it (it answered 500) while SQLite did, and a NUL
+    in ``q`` matched every job there; refused alike on both. Annotate a ``str`` with it: the
+    OpenAPI document shows the rule as the pattern :data:`NO_NUL_PATTERN`.
+    """
+
+    def __get_pydantic_core_schema__(self, source: Any, handler: GetCoreSchemaHandler) -> core_schema.CoreSchema:
+        """The string's own schema, then the check."""
+        return core_schema.no_info_after_validator_function(_refuse_nul, handler(source))
+
+    def __get_pydantic_json_schema__(self, schema: core_schema.CoreSchema,
+                                     handler: GetJsonSchemaHandler) -> JsonSchemaValue:
+        """The string's JSON Schema with the pattern."""
+        return handler(schema) | {"pattern": NO_NUL_PATTERN}
+
+
+def _refuse_nul(value: str) -> str:
+    if has_nul(value):
+        raise PydanticCustomError("value_error", NO_NUL_MESSAGE)
+    return value
+
+
+def text_keys(schema: JsonSchemaValue) -> None:
+    """The JSON Schema of an object whose keys are :class:`NoNul` text: the pattern under ``propertyNames``.
+
+    (Pydantic writes a key's pattern as ``patternProperties``, which leaves other keys unconstrained.)
+    """
+    if "patternProperties" in schema:
+        ((pattern, values),) = schema.pop("patternProperties").items()
+        schema["additionalProperties"] = values
+        schema["propertyNames"] = schema.get("propertyNames", {}) | {"pattern": pattern}
+
+
+def _parameter_schema(parameter: Any) -> JsonSchemaValue:
+    """One parameter's value as the core reads it: its kind and limits, or text (``"0.5"``, ``"on"``)."""
+    text = {"type": "string", "maxLength": 64, "pattern": NO_NUL_PATTERN}
+    if parameter.kind == "choice":
+        branches: list[JsonSchemaValue] = [{"type": "string", "enum": list(parameter.choices)}]
+    elif parameter.kind == "bool":
+        branches = [{"type": "boolean"}, {"type": "integer", "enum": [0, 1]}, text]
+    else:
+        low = "exclusiveMinimum" if parameter.exclusive_minimum else "minimum"
+        branches = [{"type": "integer" if parameter.kind == "int" else "number", low: parameter.minimum,
+                     "maximum": parameter.maximum}, text]
+    if parameter.nullable:
+        branches += [{"type": "null"}] + ([text] if text not in branches else [])
+    return {"anyOf": branches, "description": parameter.help} if len(branches) > 1 else branches[0]
+
+
+def parameters_schema(schema: JsonSchemaValue) -> None:
+    """``params`` in the OpenAPI document: every parameter of the schema (``GET /api/systems``) by name.
+
+    Numbers may come as text too, as on the command line; text that is not one answers 422 (the
+    core's check, naming the parameter), like a value another parameter's limit refuses (e.g.
+    ``types_per_composite`` above ``n_types``).
+    """
+    described = {key: schema[key] for key in ("title", "description") if key in schema}
+    schema.clear()
+    schema.update(described, type="object", additionalProperties=False,
+                  properties={p.name: _parameter_schema(p) for p in PARAMETERS})
+
+
+Text = Annotated[str, NoNul()]
+"""Any text that comes in (a query parameter, a key or a string of a body)."""
+Tag = Annotated[str, StringConstraints(strip_whitespace=True, min_length=1, max_length=MAX_TAG), NoNul()]
+Label = Annotated[str, StringConstraints(min_length=1, max_length=MAX_LABEL), NoNul()]
+ParamName = Annotated[str, StringConstraints(max_length=64), NoNul()]
+Seed = Annotated[StrictInt, Field(ge=0, le=MAX_SEED_VALUE)]
+SeedCount = Annotated[StrictInt, Field(ge=1, le=MAX_SEEDS)]
+SeedList = Annotated[list[Seed], Field(min_length=1, max_length=MAX_SEEDS)]
+ParamValue = StrictBool | StrictInt | float | ParamName | None
+Params = Annotated[dict[ParamName, ParamValue], Field(max_length=len(PARAMETERS), json_schema_extra=parameters_schema)]
+Status = Literal["queued", "running", "succeeded", "failed", "cancelled"]
+Sort = Literal["-created_at", "created_at", "name", "-name", "status", "-status"]
+
+
+class JobCreate(BaseModel):
+    """Body of ``POST /api/jobs``: what to run (validated again by the core) and how to label it."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    system: Label
+    algorithms: Annotated[list[Label], Field(min_length=1, max_length=MAX_ALGORITHMS)] | None = None
+    seeds: SeedCount | SeedList = 30
+    episodes: Annotated[StrictInt, Field(ge=1, le=MAX_EPISODES)] = 100
+    params: Params = Field(default_factory=dict)
+    name: Annotated[str, StringConstraints(strip_whitespace=True, max_length=MAX_NAME), NoNul()] = ""
+    tags: Annotated[list[Tag], Field(max_length=MAX_TAGS)] = Field(default_factory=list)
+    notes: Annotated[str, StringConstraints(max_length=MAX_NOTES), NoNul()] = ""
+
+
+class JobPatch(BaseModel):
+    """Body of ``PATCH /api/jobs/{id}``: any of the labels."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    name: Annotated[str, StringConstraints(strip_whitespace=True, max_length=MAX_NAME), NoNul()] | None = None
+    tags: Annotated[list[Tag], Field(max_length=MAX_TAGS)] | None = None
+    notes: Annotated[str, StringConstraints(max_length=MAX_NOTES), NoNul()] | None = None
+
+
+class JobOut(BaseModel):
+    """A job as the API shows it."""
+
+    id: int
+    name: str
+    tags: list[str]
+    notes: str
+    system: str
+    algorithms: list[str]
+    seeds: list[int]
+    episodes: int
+    params: dict[str, Any]
+    config_hash: str
+    status: Status
+    progress: float
+    attempts: int
+    error: str | None
+    requeue_reason: str | None = None
+    """Why the job was last put back in the queue (its worker stopped sending heartbeats), or null."""
+    created_at: str
+    started_at: str | None
+    finished_at: str | None
+    duration_s: float | None
+    version: str
+    study_id: int | None = None
+    trial_id: int | None = None
+    summaries: dict[str, dict[str, Any]] = {}
+    """Per configuration, once the job succeeded (``GET /api/jobs`` and ``GET /api/jobs/{id}``): n_runs,
+    final_mean, ci95, pct_from_uniform, pct_ci95, pct_of_max."""
+
+
+class JobPage(BaseModel):
+    """One page of ``GET /api/jobs``."""
+
+    data: list[JobOut]
+    next_cursor: str | None
+    count: int
+
+
+class Health(BaseModel):
+    """``GET /api/health``."""
+
+    status: str
+    version: str
+    database: str
+    queued: int | None
+    """Jobs queued; null when the database cannot be read (a 503)."""
+    running: int | None
+    """Jobs running; null when the database cannot be read (a 503)."""
+    workers: dict[str, int] | None = None
+
+
+# ---- studies (docs/studies.md): the shape and the bounds; mgrao_core.search.make_plan checks the rest ----------
+
+Preset = Literal[tuple(PRESETS)]  # type: ignore[valid-type]
+Unset = Field(default=None, json_schema_extra=lambda schema: schema.pop("default", None))
+"""An optional field without a default of its own: left out, the core's default applies (null is refused)."""
+SpaceName = Annotated[str, StringConstraints(max_length=64), NoNul()]
+
+
+def _space_names(schema: JsonSchemaValue) -> None:
+    """A study's space: keyed by a parameter of the schema or ``groups`` (the core names an unknown one)."""
+    text_keys(schema)
+    schema["propertyNames"] = {"enum": [p.name for p in PARAMETERS] + [search.GROUPS]}
+
+
+class StudyBase(BaseModel):
+    """``base`` of a study: the experiment every trial runs (``first_seed``: seeds F, F+1, ... for a count)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    system: Preset | Annotated[list[Preset], Field(min_length=1, max_length=len(PRESETS))] = "single"
+    algorithms: Annotated[list[Label], Field(min_length=1, max_length=MAX_ALGORITHMS)] | None = None
+    seeds: SeedCount | SeedList = 10
+    first_seed: Seed = 0
+    episodes: Annotated[StrictInt, Field(ge=1, le=MAX_EPISODES)] = 100
+    params: Params = Field(default_factory=dict)
+
+
+class StudyDimension(BaseModel):
+    """One dimension of a study's space: ``values``, or a range ``low``, ``high`` (``steps`` on a grid, ``log``)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    values: Annotated[list[ParamValue], Field(min_length=1, max_length=search.MAX_VALUES)] | SkipJsonSchema[None] \
+        = Unset
+    low: float | SkipJsonSchema[None] = Unset
+    high: float | SkipJsonSchema[None] = Unset
+    steps: Annotated[StrictInt, Field(ge=2, le=search.MAX_STEPS)] | SkipJsonSchema[None] = Unset
+    log: StrictBool = False
+
+
+class StudyObjective(BaseModel):
+    """``objective`` of a study: the metric of a configuration (of a system), and its direction."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    metric: Literal[search.METRICS]  # type: ignore[valid-type]
+    configuration: Label | SkipJsonSchema[None] = Unset
+    direction: Literal[search.DIRECTIONS] | SkipJsonSchema[None] = Unset  # type: ignore[valid-type]
+    system: Preset | SkipJsonSchema[None] = Unset
+
+
+class StudyCreate(BaseModel):
+    """Body of ``POST /api/studies`` (docs/studies.md, "The format")."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    name: Annotated[str, StringConstraints(max_length=MAX_NAME), NoNul()] = ""
+    method: Literal[search.METHODS] = "grid"  # type: ignore[valid-type]
+    base: StudyBase
+    space: Annotated[dict[SpaceName, StudyDimension],
+                     Field(min_length=1, max_length=search.MAX_DIMENSIONS, json_schema_extra=_space_names)]
+    objective: StudyObjective
+    max_trials: Annotated[StrictInt, Field(ge=1, le=search.MAX_TRIALS)] = 100
+    max_in_flight: Annotated[StrictInt, Field(ge=1, le=search.MAX_IN_FLIGHT)] = 4
+    seed: Annotated[StrictInt, Field(ge=0, le=2**32 - 1)] = 0

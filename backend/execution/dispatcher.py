@@ -1,0 +1,311 @@
+"""The dispatcher: claims jobs like a local worker and hands their chunks to a Dask cluster.
+
+It holds each job exactly as a worker does (a lease, heartbeats, cancel), but simulates nothing
+itself: each chunk (every algorithm over a block of seeds, :func:`mgrao_core.plan_chunks`) becomes
+one Dask task keyed ``mgrao-<job>-<attempt>-<chunk>``, and each chunk's runs are stored, in one
+conditional transaction, as soon as its future completes. It keeps as many chunks in flight as the
+cluster has threads, plus a small margin, claiming another job whenever the ones it holds have no
+chunk left to send. Dask workers need no database access; the numba kernel is loaded once per
+Dask worker by a plugin (:class:`backend.execution.dask_tasks.WarmUp`).
+
+What it survives, with every episode stored exactly once:
+
+* a Dask worker that dies or freezes: Dask reruns its chunks elsewhere;
+* a chunk that kills its worker every time: after Dask's allowed failures the future raises
+  ``KilledWorker`` and that job fails with the reason; the others go on;
+* the scheduler restarting: lost futures are resubmitted once the dispatcher has reconnected;
+* the dispatcher itself dying: its leases lapse, the jobs are re-queued, and whoever claims them
+  next resumes from the stored chunks.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import socket
+import threading
+import time
+from collections import deque
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from distributed import Client, Future, KilledWorker, wait
+
+from backend.execution.dask_tasks import PLUGIN_NAME, WarmUp, simulate_chunk
+from backend.execution.heartbeats import Heartbeats
+from backend.execution.lifecycle import Ended, Failure, Lifecycle, Plan, failure
+from backend.execution.lifeline import stop_on_signals
+from backend.execution.presence import Presence, refresh_interval
+from backend.settings import Settings
+from backend.store import queue
+from backend.store.db import Database
+from backend.store.retry import Backoff, HealthClock, OutageLog, Stopping
+from mgrao_core import MgraoError
+
+log = logging.getLogger("mgrao.dispatcher")
+
+IN_FLIGHT_MARGIN = 2
+"""Chunks in flight beyond the cluster's threads, so that a thread finishing a chunk finds the next."""
+CONNECT_TIMEOUT_S = 10.0
+
+
+@dataclass
+class _Chunk:
+    index: int
+    seeds: tuple[int, ...]
+    future: Future | None = None
+
+
+@dataclass
+class _Job:
+    claim: queue.Claim
+    plan: Plan
+    done_seeds: int
+    pending: deque[_Chunk]
+    running: dict[str, _Chunk] = field(default_factory=dict)
+
+    @property
+    def progress(self) -> float:
+        return self.done_seeds / len(self.plan.spec.seeds)
+
+    def key(self, chunk: _Chunk) -> str:
+        return f"mgrao-{self.claim.job_id}-{self.claim.attempt}-{chunk.index}"
+
+
+class Dispatcher:
+    """Runs the queue's jobs on a Dask cluster (see the module docstring); tells ``on_ended`` when one ends."""
+
+    def __init__(self, settings: Settings, address: str, *, dispatcher_id: str | None = None,
+                 on_ended: Sequence[Ended] = ()) -> None:
+        self.settings = settings
+        self.address = address
+        self.db = Database(settings.database_url, settings.db_busy_timeout_s)
+        self.dispatcher_id = dispatcher_id or f"dispatcher:{socket.gethostname()}:{os.getpid()}"
+        self.shutdown = threading.Event()
+        self.client: Client | None = None
+        self.jobs: dict[int, _Job] = {}
+        self.health = HealthClock()
+        self.lifecycle = Lifecycle(self.db, settings, owner_id=self.dispatcher_id, shutdown=self.shutdown,
+                                   health=self.health, on_ended=on_ended)
+        self.beats = Heartbeats(self.db, heartbeat_s=settings.heartbeat_s, progress_s=settings.progress_s,
+                                health=self.health)
+        self._threads = (0, 0.0)
+
+    # ---- life cycle ------------------------------------------------------------------------------
+
+    def stop(self, *_: object) -> None:
+        """Ask the dispatcher to stop: it cancels its futures and hands its jobs back."""
+        self.shutdown.set()
+
+    def install_signal_handlers(self) -> None:
+        """Stop cleanly on SIGTERM and SIGINT."""
+        stop_on_signals(self.stop)
+
+    def serve_forever(self) -> None:
+        """Migrate, connect, then dispatch until :meth:`stop`; database and cluster faults are waited out."""
+        try:
+            self._persist(lambda: self.db.migrate(create_missing=False), "migrating the database")
+        except Stopping:
+            return
+        self.beats.start()
+        presence = Presence(self.db, self.dispatcher_id, kind="dask", interval_s=refresh_interval(self.settings))
+        presence.start()
+        backoff = Backoff(first=0.5)
+        outage = OutageLog(log, f"dispatcher {self.dispatcher_id} dispatching")
+        try:
+            while not self.shutdown.is_set():
+                try:
+                    self._ensure_connected()
+                    presence.ready()  # connected: every Dask worker has run the kernel warm-up
+                    self._drop_lost_jobs()
+                    self._fill()
+                    self._collect()
+                    backoff.reset()
+                    outage.succeeded()
+                except Stopping:
+                    break
+                except Exception as error:  # noqa: BLE001 - the dispatcher outlives every fault of one round
+                    outage.failed(error)
+                    self._disconnect()
+                    self.shutdown.wait(backoff.next())
+        finally:
+            self._hand_back()
+            self._disconnect()
+            self.beats.close()
+            presence.close()
+            self.db.dispose()
+
+    # ---- the cluster -----------------------------------------------------------------------------
+
+    def _ensure_connected(self) -> None:
+        if self.client is not None and self.client.status == "running":
+            return
+        self._disconnect()
+        log.info("connecting to the Dask scheduler at %s", self.address)
+        client = Client(self.address, timeout=CONNECT_TIMEOUT_S)  # the default client: distributed.wait needs one
+        client.register_plugin(WarmUp(), name=PLUGIN_NAME)
+        self.client = client
+        self._threads = (0, 0.0)
+        for job in self.jobs.values():  # whatever was in flight on the old connection is gone
+            for chunk in sorted(job.running.values(), key=lambda c: c.index, reverse=True):
+                chunk.future = None
+                job.pending.appendleft(chunk)
+            job.running.clear()
+        log.info("connected: %s threads", self._cluster_threads())
+
+    def _disconnect(self) -> None:
+        client, self.client = self.client, None
+        if client is not None:
+            try:
+                client.close(timeout=5)
+            except Exception:  # noqa: BLE001 - a dead scheduler may not answer the goodbye
+                log.debug("closing the Dask client failed", exc_info=True)
+
+    def _cluster_threads(self) -> int:
+        count, when = self._threads
+        if time.monotonic() - when > 5.0:
+            assert self.client is not None
+            count = sum(self.client.nthreads().values())
+            self._threads = (count, time.monotonic())
+        return count
+
+    def capacity(self) -> int:
+        """Chunks in flight at most: the cluster's threads plus :data:`IN_FLIGHT_MARGIN`."""
+        return max(1, self._cluster_threads()) + IN_FLIGHT_MARGIN
+
+    # ---- jobs ------------------------------------------------------------------------------------
+
+    def _persist(self, call: Any, what: str) -> Any:
+        return self.lifecycle.persist(call, what)
+
+    def _in_flight(self) -> int:
+        return sum(len(job.running) for job in self.jobs.values())
+
+    def _fill(self) -> None:
+        while not self.shutdown.is_set() and self._in_flight() < self.capacity():
+            job = next((j for j in self.jobs.values() if j.pending), None)
+            if job is None:
+                if not self._claim():
+                    return
+                continue
+            chunk = job.pending.popleft()
+            assert self.client is not None
+            chunk.future = self.client.submit(simulate_chunk, job.claim.config, list(chunk.seeds),
+                                              self.settings.job_memory_bytes, key=job.key(chunk))
+            job.running[job.key(chunk)] = chunk
+
+    def _claim(self) -> bool:
+        requeue = self.lifecycle.may_requeue()
+        claim = self._persist(lambda: self.lifecycle.claim(requeue=requeue), "claiming a job")
+        if claim is None:
+            return False
+        log.info("dispatching job %s (attempt %s)", claim.job_id, claim.attempt)
+        try:
+            plan = self.lifecycle.plan(claim)
+        except MgraoError as error:
+            self._fail(claim, failure(error))
+            return True
+        job = _Job(claim, plan, plan.done_seeds, deque(_Chunk(i, chunk) for i, chunk in enumerate(plan.chunks)))
+        self.jobs[claim.job_id] = job
+        self.beats.add(claim)
+        self.beats.set_progress(claim.job_id, job.progress)
+        if not plan.chunks:
+            self._finish(job)
+        return True
+
+    def _collect(self) -> None:
+        futures = [c.future for job in self.jobs.values() for c in job.running.values() if c.future is not None]
+        if not futures:
+            self.shutdown.wait(self.settings.poll_s)
+            return
+        try:
+            done, _ = wait(futures, timeout=self.settings.poll_s, return_when="FIRST_COMPLETED")
+        except TimeoutError:  # nothing completed within the poll
+            return
+        for future in done:
+            job = next((j for j in self.jobs.values() if future.key in j.running), None)
+            if job is not None:
+                self._completed(job, job.running[future.key], future)
+
+    def _completed(self, job: _Job, chunk: _Chunk, future: Future) -> None:
+        key = job.key(chunk)
+        if future.status == "finished":
+            runs = future.result()
+            future.release()
+            del job.running[key]
+            rows = queue.run_rows(job.claim.job_id, runs)
+            progress = (job.done_seeds + len(chunk.seeds)) / len(job.plan.spec.seeds)
+            stored = self.lifecycle.store(job.claim, rows, progress)
+            if not stored:
+                log.info("job %s was cancelled or taken over; its futures are cancelled", job.claim.job_id)
+                self._drop(job)
+                return
+            job.done_seeds += len(chunk.seeds)
+            self.beats.set_progress(job.claim.job_id, job.progress)
+            if not job.pending and not job.running:
+                self._finish(job)
+            return
+        if future.status in ("cancelled", "lost"):  # not by us: the scheduler went away
+            log.warning("chunk %s was lost (%s); it is sent again", key, future.status)
+            del job.running[key]
+            chunk.future = None
+            job.pending.appendleft(chunk)
+            return
+        error = future.exception()
+        where = f"chunk {chunk.index} (seeds {chunk.seeds[0]}..{chunk.seeds[-1]})"
+        if isinstance(error, KilledWorker):
+            self._fail(job.claim, Failure(f"{where} killed every Dask worker that ran it: {error}"))
+        else:
+            self._fail(job.claim, failure(error, where=f"{where} failed: "))
+        self._drop(job)
+
+    def _finish(self, job: _Job) -> None:
+        finished = self.lifecycle.finish(job.claim, job.plan)
+        log.info("job %s %s", job.claim.job_id, "succeeded" if finished else "was cancelled or taken over")
+        self._drop(job)
+        self.lifecycle.ended(job.claim.job_id)
+
+    def _fail(self, claim: queue.Claim, ending: Failure) -> None:
+        log.warning("job %s failed: %s", claim.job_id, ending.message)
+        self.lifecycle.fail(claim, ending)
+        self.lifecycle.ended(claim.job_id)
+
+    def _drop(self, job: _Job) -> None:
+        """Forget a job: cancel what it has in flight, stop its heartbeats."""
+        futures = [c.future for c in job.running.values() if c.future is not None]
+        job.running.clear()
+        job.pending.clear()
+        if futures and self.client is not None:
+            try:
+                self.client.cancel(futures)
+            except Exception:  # noqa: BLE001 - a lost scheduler has forgotten them anyway
+                log.debug("cancelling futures failed", exc_info=True)
+        self.beats.remove(job.claim.job_id)
+        self.jobs.pop(job.claim.job_id, None)
+
+    def _drop_lost_jobs(self) -> None:
+        for job in [j for j in self.jobs.values() if self.beats.lost(j.claim.job_id)]:
+            log.info("job %s was cancelled or taken over; its futures are cancelled", job.claim.job_id)
+            self._drop(job)
+
+    def _hand_back(self) -> None:
+        """On a clean stop: every job goes back to the queue, its stored chunks kept."""
+        for job in list(self.jobs.values()):
+            try:
+                queue.release(self.db, claim=job.claim)
+            except Exception:  # noqa: BLE001 - its lease will lapse instead
+                log.warning("handing back job %s failed; its lease will lapse", job.claim.job_id)
+            self._drop(job)
+
+
+def main(settings: Settings | None = None, address: str | None = None, *, on_ended: Sequence[Ended] = ()) -> None:
+    """The dispatcher process (``mgrao dispatcher``): see :mod:`backend.processes`."""
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
+    settings = settings or Settings()
+    address = address or settings.dask_address
+    if not address:
+        raise SystemExit("mgrao dispatcher: give the Dask scheduler's address (--dask or MGRAO_DASK_ADDRESS)")
+    dispatcher = Dispatcher(settings, address, on_ended=on_ended)
+    dispatcher.install_signal_handlers()
+    dispatcher.serve_forever()

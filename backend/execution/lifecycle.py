@@ -1,0 +1,132 @@
+"""One job's way through a process that runs jobs: claimed, planned in chunks, stored, finished or failed, ended.
+
+A local worker (:mod:`backend.execution.worker`) and the Dask dispatcher (:mod:`backend.execution.dispatcher`) differ
+only in where a chunk is simulated; both hold their jobs through a :class:`Lifecycle`. Every database
+call of it is retried until it goes through (:func:`backend.store.retry.persist`), and an error that ends a
+job is turned into its stored message by one mapping, :func:`failure`. When a job ends, whatever
+subscribed to ``on_ended`` is told (the studies: a study advances as soon as one of its trials'
+jobs ends); job execution itself knows nothing of what listens.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import TypeVar
+
+from backend.settings import Settings
+from backend.store import queue
+from backend.store.db import Database
+from backend.store.retry import HealthClock, persist
+from mgrao_core import ExperimentSpec, MgraoError, NumericalError, plan_chunks, spec_from_dict
+
+log = logging.getLogger("mgrao.lifecycle")
+T = TypeVar("T")
+
+Ended = Callable[[Database, int], None]
+"""Told that a job ended (succeeded, failed, cancelled or taken over): the database and the job's id."""
+
+
+@dataclass(frozen=True)
+class Failure:
+    """How a job that raised ends: its stored error message, and whether its stored runs are dropped."""
+
+    message: str
+    discard_runs: bool = False
+
+
+def failure(error: BaseException, *, where: str = "") -> Failure:
+    """The one mapping from an error that ends a job to its failure.
+
+    A numerical error drops the stored runs (their numbers are suspect), an error of the core is
+    its own message, anything else (a bug) names its type, after ``where`` (the chunk it came from).
+    """
+    if isinstance(error, NumericalError):
+        return Failure(str(error), discard_runs=True)
+    if isinstance(error, MgraoError):
+        return Failure(str(error))
+    return Failure(f"{where}{type(error).__name__}: {error}")
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A claimed job's validated configuration and the chunks of seeds it still has to run."""
+
+    spec: ExperimentSpec
+    done_seeds: int
+    chunks: list[tuple[int, ...]]
+
+    @property
+    def expected_runs(self) -> int:
+        """The runs the finished job stores: every algorithm over every seed."""
+        return len(self.spec.seeds) * len(self.spec.algorithms)
+
+
+class Lifecycle:
+    """Claims, plans, stores, finishes, fails and hands back the jobs of one process (``owner_id``)."""
+
+    def __init__(self, db: Database, settings: Settings, *, owner_id: str, shutdown: threading.Event,
+                 health: HealthClock, on_ended: Sequence[Ended] = ()) -> None:
+        self.db, self.settings, self.owner_id = db, settings, owner_id
+        self.shutdown, self.health = shutdown, health
+        self.on_ended = tuple(on_ended)
+
+    def persist(self, call: Callable[[], T], what: str) -> T:
+        """``call()``, retried on database errors until it succeeds (see :mod:`backend.store.retry`)."""
+        return persist(call, what, self.shutdown, self.health)
+
+    def may_requeue(self) -> bool:
+        """Whether stale jobs may be re-queued: the database answered for a whole staleness period."""
+        return self.health.steady_for(self.settings.stale_after_s)
+
+    def claim(self, *, requeue: bool) -> queue.Claim | None:
+        """Take the oldest queued job (re-queueing stale ones first if ``requeue``), or None; not retried."""
+        return queue.claim(self.db, worker_id=self.owner_id, stale_after_s=self.settings.stale_after_s,
+                           max_attempts=self.settings.max_attempts, requeue=requeue)
+
+    def plan(self, claim: queue.Claim) -> Plan:
+        """The job's configuration, validated again, and its seeds not yet stored, in chunks the job budget holds.
+
+        Raises:
+            MgraoError: the stored configuration is no longer valid.
+        """
+        budget = self.settings.job_memory_bytes
+        spec = spec_from_dict(claim.config, memory_budget=budget)
+        done = self.persist(lambda: self.stored_seeds(claim.job_id, len(spec.algorithms)), "reading stored runs")
+        missing = tuple(seed for seed in spec.seeds if seed not in done)
+        return Plan(spec, len(spec.seeds) - len(missing), plan_chunks(spec, missing, budget=budget))
+
+    def stored_seeds(self, job_id: int, algorithms: int) -> set[int]:
+        """The seeds of which every algorithm's run is stored: a retried job runs only the others."""
+        with self.db.session() as session:
+            return queue.stored_seeds(session, job_id=job_id, algorithms=algorithms)
+
+    def store(self, claim: queue.Claim, rows: list[dict], progress: float) -> bool:
+        """Store a chunk's runs (:func:`~backend.store.queue.run_rows`) and the progress; False when not ours."""
+        return self.persist(lambda: queue.store_runs(self.db, claim=claim, rows=rows, progress=progress),
+                            f"storing runs of job {claim.job_id}")
+
+    def finish(self, claim: queue.Claim, plan: Plan) -> bool:
+        """Mark the job succeeded; False when it was cancelled or taken over meanwhile."""
+        return self.persist(lambda: queue.finish(self.db, claim=claim, expected_runs=plan.expected_runs),
+                            f"finishing job {claim.job_id}")
+
+    def fail(self, claim: queue.Claim, error: BaseException | Failure, *, where: str = "") -> None:
+        """Mark the job failed, with ``error`` mapped by :func:`failure` (a :class:`Failure` as it is)."""
+        ending = error if isinstance(error, Failure) else failure(error, where=where)
+        self.persist(lambda: queue.fail(self.db, claim=claim, error=ending.message, discard_runs=ending.discard_runs),
+                     f"failing job {claim.job_id}")
+
+    def release(self, claim: queue.Claim) -> None:
+        """Hand the job back to the queue (the process is stopping); its stored runs stay."""
+        self.persist(lambda: queue.release(self.db, claim=claim), f"handing back job {claim.job_id}")
+
+    def ended(self, job_id: int) -> None:
+        """Tell every subscriber that the job ended; a subscriber's failure is logged, never raised."""
+        for subscriber in self.on_ended:
+            try:
+                subscriber(self.db, job_id)
+            except Exception:  # noqa: BLE001 - a subscriber never stops a process that runs jobs
+                log.warning("a subscriber to the end of job %s failed", job_id, exc_info=True)

@@ -1,0 +1,175 @@
+"""A local worker process: warm up the engine, then claim and run jobs until told to stop.
+
+A job runs chunk by chunk (every algorithm over a block of seeds, sized by the job memory
+budget); each chunk's runs are stored as soon as it completes, so a retried job computes only
+what is missing. While a job runs, a heartbeat thread records that the worker is alive and the
+job's progress, and notices a cancel (the job's lease is gone), which makes the run's
+``should_stop`` True.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import socket
+import threading
+from collections.abc import Callable, Sequence
+from typing import TypeVar
+
+from backend.execution.heartbeats import Heartbeats
+from backend.execution.lifecycle import Ended, Lifecycle
+from backend.execution.lifeline import stop_on_signals
+from backend.execution.presence import Presence, refresh_interval
+from backend.settings import Settings
+from backend.store import queue
+from backend.store.db import Database
+from backend.store.retry import Backoff, HealthClock, OutageLog, Stopping
+
+log = logging.getLogger("mgrao.worker")
+T = TypeVar("T")
+
+
+class Worker:
+    """Claims queued jobs one at a time and runs them chunk by chunk with :func:`mgrao_core.run_chunk`.
+
+    No database error stops a worker: every call is retried with a capped backoff until it goes
+    through or the worker is told to stop; a job whose lease lapses meanwhile is taken over by
+    another worker, which resumes it from the chunks already stored. Whenever a job ends, each of
+    ``on_ended`` is told (see :mod:`backend.execution.lifecycle`).
+    """
+
+    def __init__(self, settings: Settings, *, worker_id: str | None = None, on_ended: Sequence[Ended] = ()) -> None:
+        self.settings = settings
+        self.db = Database(settings.database_url, settings.db_busy_timeout_s)
+        self.worker_id = worker_id or f"{socket.gethostname()}:{os.getpid()}"
+        self.shutdown = threading.Event()
+        self.health = HealthClock()
+        self.lifecycle = Lifecycle(self.db, settings, owner_id=self.worker_id, shutdown=self.shutdown,
+                                   health=self.health, on_ended=on_ended)
+
+    def stop(self, *_: object) -> None:
+        """Ask the worker to stop (the running job is handed back to the queue)."""
+        self.shutdown.set()
+
+    def install_signal_handlers(self) -> None:
+        """Stop cleanly on SIGTERM and SIGINT."""
+        stop_on_signals(self.stop)
+
+    def warm_up(self) -> None:
+        """Load (or compile) the numba engine before claiming jobs."""
+        from mgrao_core import make_spec, run_experiment
+
+        run_experiment(make_spec("single", seeds=1, episodes=2))
+
+    def persist(self, call: Callable[[], T], what: str) -> T:
+        """``call()``, retried on database errors until it succeeds (see :mod:`backend.store.retry`)."""
+        return self.lifecycle.persist(call, what)
+
+    def run_once(self) -> bool:
+        """Claim and run one job; False when the queue was empty."""
+        try:
+            claim = self.lifecycle.claim(requeue=self.lifecycle.may_requeue())
+        except Exception:
+            self.health.failure()
+            raise
+        self.health.success()
+        if claim is None:
+            return False
+        try:
+            self.execute(claim)
+        except Stopping as error:
+            log.warning("job %s left to its lease: %s", claim.job_id, error)
+        return True
+
+    def execute(self, claim: queue.Claim) -> None:
+        """Run a claimed job to its end: succeeded, failed, cancelled or handed back."""
+        from mgrao_core import Cancelled, MgraoError, run_chunk
+
+        log.info("worker %s runs job %s (attempt %s)", self.worker_id, claim.job_id, claim.attempt)
+        lifecycle = self.lifecycle
+        beats = Heartbeats(self.db, heartbeat_s=self.settings.heartbeat_s, progress_s=self.settings.progress_s,
+                           name=f"heartbeat-{claim.job_id}", health=self.health)
+        beats.add(claim)
+        beats.start()
+
+        def should_stop() -> bool:  # the job was taken from us (cancel) or the worker is stopping
+            return beats.lost(claim.job_id) or self.shutdown.is_set()
+
+        try:
+            plan = lifecycle.plan(claim)
+            seeds, finished = len(plan.spec.seeds), plan.done_seeds
+            for chunk in plan.chunks:
+                def progress(fraction: float, chunk: tuple[int, ...] = chunk, finished: int = finished) -> None:
+                    beats.set_progress(claim.job_id, (finished + fraction * len(chunk)) / seeds)
+
+                runs = run_chunk(plan.spec, chunk, on_progress=progress, should_stop=should_stop)
+                rows = queue.run_rows(claim.job_id, runs)
+                del runs
+                finished += len(chunk)
+                stored = lifecycle.store(claim, rows, finished / seeds)
+                del rows
+                if not stored:
+                    log.info("job %s was cancelled or taken over; stopped", claim.job_id)
+                    return
+            if not lifecycle.finish(claim, plan):
+                log.info("job %s was cancelled or taken over before it finished", claim.job_id)
+        except Cancelled:
+            if not beats.lost(claim.job_id):
+                lifecycle.release(claim)
+        except Stopping:
+            raise
+        except Exception as error:
+            if not isinstance(error, MgraoError):  # a bug: its traceback goes to the log
+                log.exception("job %s failed", claim.job_id)
+            lifecycle.fail(claim, error)
+        finally:
+            beats.close()
+        lifecycle.ended(claim.job_id)
+
+    def serve_forever(self, *, warm_up: bool = True) -> None:
+        """Migrate, warm up, then run jobs until :meth:`stop`; database errors are waited out.
+
+        The ``workers`` table says meanwhile that this process is alive, warming up, then ready.
+        """
+        try:
+            self.persist(lambda: self.db.migrate(create_missing=False), "migrating the database")
+        except Stopping:
+            return
+        presence = Presence(self.db, self.worker_id, kind="local", interval_s=refresh_interval(self.settings))
+        presence.start()
+        try:
+            if warm_up:
+                self.warm_up()
+            presence.ready()
+            log.info("worker %s ready", self.worker_id)
+            self._poll()
+        finally:
+            presence.close()
+            self.db.dispose()
+
+    def _poll(self) -> None:
+        """Claim and run jobs until :meth:`stop`; a failing poll is retried with a capped backoff."""
+        backoff = Backoff()
+        outage = OutageLog(log, f"worker {self.worker_id} polling the queue")
+        while not self.shutdown.is_set():
+            try:
+                ran = self.run_once()
+                backoff.reset()
+                outage.succeeded()
+            except Exception as error:  # noqa: BLE001 - a worker outlives every failure of one poll
+                outage.failed(error)
+                self.shutdown.wait(backoff.next())
+                continue
+            if not ran:
+                self.shutdown.wait(self.settings.poll_s)
+
+
+def main(settings: Settings | None = None, *, on_ended: Sequence[Ended] = ()) -> None:
+    """A worker process (``mgrao worker``, or started by ``mgrao serve``): see :mod:`backend.processes`."""
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
+    from backend.execution.lifeline import bind_to_supervisor  # started by `mgrao serve`: stop when it dies
+    bind_to_supervisor()
+    worker = Worker(settings or Settings(), on_ended=on_ended)
+    worker.install_signal_handlers()
+    worker.serve_forever()
+

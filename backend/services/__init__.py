@@ -1,0 +1,1 @@
+"""What the API computes from stored jobs: results and comparisons, weights, studies and their plots."""

@@ -1,0 +1,414 @@
+"""Studies in the database: made, advanced trial by trial, cancelled, re-run and read.
+
+A study's trials are ordinary jobs (one per system of the base), linked by ``Job.trial_id``; they
+run on local workers or the Dask dispatcher like any job. :func:`advance` moves a study on: it
+reads the trials whose jobs ended, computes their objectives from the stored runs, then, in one
+write transaction holding the study, records them and makes new trials up to the in-flight cap.
+Anyone may call it at any time, as often as they like: the API when a study is made, a worker or
+the dispatcher when one of its jobs ends, and the API's :class:`StudyDriver` every few seconds (so a
+study resumes after any restart). A trial's number is unique per study, so a grid's cell is made
+exactly once whoever advances it; a job re-run after a lost worker is still the same trial.
+
+Trial states: ``pending`` (no job yet: waiting for a place in flight), ``queued``, ``running``,
+``succeeded``, ``failed``, ``cancelled``.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import threading
+from collections import defaultdict
+from collections.abc import Sequence
+from typing import Any
+
+from sqlalchemy import delete, func, select, update
+from sqlalchemy.orm import Session
+
+import mgrao_core
+from backend.errors import Conflict, NotFound
+from backend.store import crud
+from backend.store import summaries as job_results
+from backend.store.db import Database
+from backend.store.models import (
+    CANCELLED,
+    FAILED,
+    QUEUED,
+    RUNNING,
+    STUDY_FINISHED,
+    STUDY_RUNNING,
+    SUCCEEDED,
+    Job,
+    Study,
+    Trial,
+    utcnow,
+)
+from backend.store.retry import OutageLog
+from mgrao_core import ConfigError
+from mgrao_core.search import StudyPlan, evaluate, make_plan
+
+log = logging.getLogger("mgrao.studies")
+
+PENDING = "pending"
+OPEN = (PENDING, QUEUED, RUNNING)
+ENDED = (SUCCEEDED, FAILED, CANCELLED)
+
+
+def plan_of(study: Study) -> StudyPlan:
+    """The study's validated definition."""
+    return make_plan(study.definition)
+
+
+def get_study(session: Session, study_id: int) -> Study:
+    """The study, or :class:`NotFound`."""
+    study = session.get(Study, study_id)
+    if study is None:
+        raise NotFound(f"study {study_id} not found")
+    return study
+
+
+def create_study(db: Database, *, plan: StudyPlan) -> int:
+    """Store a validated study and make its first trials; its id."""
+    with db.write() as session:
+        study = Study(name=plan.name, method=plan.method, definition=plan.as_dict(), status=STUDY_RUNNING,
+                      planned=plan.planned_trials, revision=0, version=mgrao_core.__version__, created_at=utcnow())
+        session.add(study)
+        session.flush()
+        study_id = study.id
+    advance(db, study_id)
+    return study_id
+
+
+# ---- advancing -------------------------------------------------------------------------------
+
+
+def _outcomes(session: Session, study: Study, plan: StudyPlan) -> dict[int, dict[str, Any]]:
+    """What became of the open trials' jobs: status, and the objective of those that succeeded."""
+    trials = session.execute(select(Trial.id, Trial.params).where(Trial.study_id == study.id,
+                                                                 Trial.status.in_((QUEUED, RUNNING)))).all()
+    if not trials:
+        return {}
+    jobs: dict[int, list[Any]] = defaultdict(list)
+    for row in session.execute(select(Job.id, Job.trial_id, Job.system, Job.status, Job.error)
+                               .where(Job.trial_id.in_([t.id for t in trials]))):
+        jobs[row.trial_id].append(row)
+    outcomes = {}
+    for trial in trials:
+        statuses = {j.status for j in jobs[trial.id]}
+        if not statuses:  # its jobs were deleted (a trial always gets its jobs in the transaction that makes it)
+            outcomes[trial.id] = {"status": FAILED, "error": "its jobs were deleted"}
+            continue
+        if statuses == {SUCCEEDED}:
+            summaries = {j.system: job_results.compute(session, j.id) for j in jobs[trial.id]}
+            value, interval = evaluate(plan, trial.params, summaries)
+            runs = sum(s.n_runs for summary in summaries.values() for s in summary.values())
+            outcomes[trial.id] = {"status": SUCCEEDED, "value": _finite(value),
+                                  "low": _finite(interval[0]) if interval else None,
+                                  "high": _finite(interval[1]) if interval else None, "runs": runs}
+        elif FAILED in statuses:
+            error = next(j.error for j in jobs[trial.id] if j.status == FAILED)
+            outcomes[trial.id] = {"status": FAILED, "error": f"a job failed: {error}"}
+        elif CANCELLED in statuses:
+            outcomes[trial.id] = {"status": CANCELLED, "error": "a job was cancelled"}
+        elif RUNNING in statuses:
+            outcomes[trial.id] = {"status": RUNNING}
+    return outcomes
+
+
+def _finite(value: float | None) -> float | None:
+    return value if value is not None and math.isfinite(value) else None
+
+
+def _hold(session: Session, study_id: int) -> Study | None:
+    """The study, locked for this transaction (PostgreSQL: its row; SQLite: the write transaction)."""
+    statement = select(Study).where(Study.id == study_id)
+    if session.get_bind().dialect.name != "sqlite":
+        statement = statement.with_for_update()
+    return session.scalars(statement).first()
+
+
+def advance(db: Database, study_id: int) -> None:
+    """Record the ended trials and make new ones up to the in-flight cap (see the module docstring).
+
+    The slow parts, reading the ended trials' runs and asking TPE for new points, happen before the
+    write transaction; it then records what is still true, and makes the suggested trials only if
+    no one made trials meanwhile (else whoever did has filled the room).
+    """
+    with db.session() as session:
+        study = session.get(Study, study_id)
+        if study is None or study.status != STUDY_RUNNING:
+            return
+        plan = plan_of(study)
+        outcomes = _outcomes(session, study, plan)
+        made, suggestions = _suggestions(session, study, plan, outcomes)
+    with db.write() as session:
+        study = _hold(session, study_id)
+        if study is None or study.status != STUDY_RUNNING:
+            return
+        changed = False
+        for trial_id, outcome in outcomes.items():
+            ended = outcome["status"] in ENDED
+            values = dict(outcome) | ({"finished_at": utcnow()} if ended else {})
+            result = session.execute(update(Trial).where(Trial.id == trial_id, Trial.status.in_((QUEUED, RUNNING)),
+                                                         Trial.status != outcome["status"]).values(**values))
+            changed |= result.rowcount == 1
+            if result.rowcount == 1 and outcome["status"] in (FAILED, CANCELLED):
+                # a trial over several systems that lost one job: its other jobs have nothing to add
+                session.execute(update(Job).where(Job.trial_id == trial_id, Job.status.in_((QUEUED, RUNNING)))
+                                .values(status=CANCELLED, lease=None, finished_at=utcnow()))
+        changed |= _fill(session, study, plan, made, suggestions)
+        open_trials = session.scalar(select(func.count()).select_from(Trial).where(
+            Trial.study_id == study_id, Trial.status.in_(OPEN))) or 0
+        if open_trials == 0 and _made(session, study_id) >= study.planned:
+            study.status, study.finished_at = STUDY_FINISHED, utcnow()
+            changed = True
+        if changed:
+            _update_best(session, study, plan)
+            study.revision += 1
+
+
+def _made(session: Session, study_id: int) -> int:
+    return session.scalar(select(func.count()).select_from(Trial).where(Trial.study_id == study_id)) or 0
+
+
+def _count(session: Session, study_id: int, statuses: tuple[str, ...]) -> int:
+    return session.scalar(select(func.count()).select_from(Trial).where(
+        Trial.study_id == study_id, Trial.status.in_(statuses))) or 0
+
+
+def _suggestions(session: Session, study: Study, plan: StudyPlan,
+                 outcomes: dict[int, dict[str, Any]]) -> tuple[int, list[dict[str, Any]]]:
+    """How many trials exist, and the parameters of the new trials there will be room for."""
+    made = _made(session, study.id)
+    ending = sum(1 for o in outcomes.values() if o["status"] in ENDED)
+    busy = _count(session, study.id, (QUEUED, RUNNING)) - ending + _count(session, study.id, (PENDING,))
+    room = min(plan.max_in_flight - busy, study.planned - made)
+    if room <= 0:
+        return made, []
+    finished: list[tuple[dict[str, Any], float]] = []
+    running: list[dict[str, Any]] = []
+    if plan.method == "tpe":
+        ended = {trial_id: o for trial_id, o in outcomes.items() if o["status"] in ENDED}
+        for trial_id, params, status, value in session.execute(
+                select(Trial.id, Trial.params, Trial.status, Trial.value).where(Trial.study_id == study.id)
+                .order_by(Trial.number)):
+            if trial_id in ended:
+                status, value = ended[trial_id]["status"], ended[trial_id].get("value")
+            if status == SUCCEEDED and value is not None:
+                finished.append((params, value))
+            elif status in OPEN:
+                running.append(params)
+    return made, plan.suggest(made, room, finished, running)
+
+
+def _fill(session: Session, study: Study, plan: StudyPlan, made: int, suggestions: list[dict[str, Any]]) -> bool:
+    """Give pending trials, then the suggested new trials, their jobs while the in-flight cap allows."""
+    room = plan.max_in_flight - _count(session, study.id, (QUEUED, RUNNING))
+    if room <= 0:
+        return False
+    changed = False
+    pending = session.scalars(select(Trial).where(Trial.study_id == study.id, Trial.status == PENDING)
+                              .order_by(Trial.number).limit(room)).all()
+    for trial in pending:
+        _submit(session, study, plan, trial)
+        room -= 1
+        changed = True
+    if room <= 0 or _made(session, study.id) != made:  # someone made trials since the suggestions
+        return changed
+    for number, params in enumerate(suggestions[:room], start=made):
+        trial = Trial(study_id=study.id, number=number, params=params, status=PENDING, runs=0, created_at=utcnow())
+        session.add(trial)
+        session.flush()
+        _submit(session, study, plan, trial)
+        changed = True
+    return changed
+
+
+def _submit(session: Session, study: Study, plan: StudyPlan, trial: Trial) -> None:
+    """The trial's jobs, one per system (or its failure, when its parameters make no valid experiment)."""
+    try:
+        specs = plan.specs(trial.params)
+    except ConfigError as error:
+        trial.status, trial.error, trial.finished_at = FAILED, f"not a valid experiment: {error}", utcnow()
+        return
+    done = set(session.scalars(select(Job.system).where(Job.trial_id == trial.id, Job.status == SUCCEEDED)))
+    for spec in specs:
+        if spec.system in done:  # re-run after a failure elsewhere: the system that succeeded stands
+            continue
+        crud.create_job(session, spec=spec, name=f"{study.name or 'study'} #{trial.number}",
+                        tags=[f"study-{study.id}"], study_id=study.id, trial_id=trial.id)
+    trial.status, trial.error = QUEUED, None
+
+
+def _update_best(session: Session, study: Study, plan: StudyPlan) -> None:
+    order = Trial.value.desc() if plan.objective.direction == "maximize" else Trial.value.asc()
+    best = session.execute(select(Trial.number, Trial.value).where(
+        Trial.study_id == study.id, Trial.status == SUCCEEDED, Trial.value.is_not(None))
+        .order_by(order, Trial.number).limit(1)).first()
+    study.best_trial, study.best_value = (best.number, best.value) if best else (None, None)
+
+
+def advance_for_job(db: Database, job_id: int) -> None:
+    """Advance the study of a job, if it has one (called when the job ended)."""
+    with db.session() as session:
+        study_id = session.scalar(select(Job.study_id).where(Job.id == job_id))
+    if study_id is not None:
+        advance(db, study_id)
+
+
+def advance_after(db: Database, job_id: int) -> None:
+    """Advance the study of a job that just ended; a failure here is left to the :class:`StudyDriver`."""
+    try:
+        advance_for_job(db, job_id)
+    except Exception:  # noqa: BLE001 - the driver advances the study on its next round
+        log.warning("advancing the study of job %s failed; the study driver will", job_id, exc_info=True)
+
+
+def advance_study_quietly(db: Database, study_id: int) -> None:
+    """:func:`advance`, leaving a failure to the :class:`StudyDriver`."""
+    try:
+        advance(db, study_id)
+    except Exception:  # noqa: BLE001 - the driver advances the study on its next round
+        log.warning("advancing study %s failed; the study driver will", study_id, exc_info=True)
+
+
+def running_studies(db: Database) -> list[int]:
+    """The ids of the studies still running."""
+    with db.session() as session:
+        return list(session.scalars(select(Study.id).where(Study.status == STUDY_RUNNING).order_by(Study.id)))
+
+
+# ---- cancel, re-run, delete ------------------------------------------------------------------
+
+
+def cancel_study(db: Database, *, study_id: int) -> None:
+    """Cancel a running study: its open trials and their queued or running jobs, in one transaction."""
+    with db.write() as session:
+        study = _hold(session, study_id)
+        if study is None:
+            raise NotFound(f"study {study_id} not found")
+        if study.status != STUDY_RUNNING:
+            raise Conflict(f"study {study_id} is {study.status}: only a running study can be cancelled")
+        now = utcnow()
+        session.execute(update(Job).where(Job.study_id == study_id, Job.status.in_((QUEUED, RUNNING)))
+                        .values(status=CANCELLED, lease=None, finished_at=now))
+        session.execute(update(Trial).where(Trial.study_id == study_id, Trial.status.in_(OPEN))
+                        .values(status=CANCELLED, error="the study was cancelled", finished_at=now))
+        study.status, study.finished_at = CANCELLED, now
+        study.revision += 1
+
+
+def rerun_failed(db: Database, *, study_id: int) -> int:
+    """Give every failed or cancelled trial a new go (new jobs, same parameters, same number); how many.
+
+    The study runs again if it had ended. No cell is duplicated: a trial keeps its number, and its
+    old jobs stay listed but no longer count for it.
+    """
+    with db.write() as session:
+        study = _hold(session, study_id)
+        if study is None:
+            raise NotFound(f"study {study_id} not found")
+        holes = list(session.scalars(select(Trial.id).where(Trial.study_id == study_id,
+                                                            Trial.status.in_((FAILED, CANCELLED)))))
+        if holes:
+            session.execute(update(Job).where(Job.trial_id.in_(holes), Job.status.in_((FAILED, CANCELLED)))
+                            .values(trial_id=None))
+            session.execute(update(Trial).where(Trial.id.in_(holes)).values(
+                status=PENDING, value=None, low=None, high=None, error=None, runs=0, finished_at=None))
+            study.status, study.finished_at = STUDY_RUNNING, None
+            study.revision += 1
+    if holes:
+        advance(db, study_id)
+    return len(holes)
+
+
+def delete_study(db: Database, *, study_id: int) -> None:
+    """Delete a study with its trials and their jobs (409 while one of its jobs runs)."""
+    with db.write() as session:
+        study = _hold(session, study_id)
+        if study is None:
+            raise NotFound(f"study {study_id} not found")
+        running = session.scalar(select(func.count()).select_from(Job).where(Job.study_id == study_id,
+                                                                           Job.status == RUNNING)) or 0
+        if running:
+            raise Conflict(f"study {study_id} has {running} running jobs: cancel it first")
+        session.execute(delete(Job).where(Job.study_id == study_id))
+        session.execute(delete(Study).where(Study.id == study_id))
+
+
+# ---- reads -----------------------------------------------------------------------------------
+
+
+def study_dict(study: Study, counts: dict[str, int] | None = None) -> dict[str, Any]:
+    """A study as the API lists it."""
+    return {
+        "id": study.id, "name": study.name, "method": study.method, "status": study.status,
+        "planned": study.planned, "trials": counts or {}, "best_trial": study.best_trial,
+        "best_value": study.best_value, "objective": study.definition["objective"],
+        "space": study.definition["space"], "created_at": crud.iso(study.created_at),
+        "finished_at": crud.iso(study.finished_at), "revision": study.revision, "version": study.version,
+    }
+
+
+def trial_counts(session: Session, study_ids: Sequence[int]) -> dict[int, dict[str, int]]:
+    """Trials per status of each study."""
+    counts: dict[int, dict[str, int]] = {sid: {} for sid in study_ids}
+    for study_id, status, count in session.execute(
+            select(Trial.study_id, Trial.status, func.count()).where(Trial.study_id.in_(list(study_ids)))
+            .group_by(Trial.study_id, Trial.status)):
+        counts[study_id][status] = count
+    return counts
+
+
+def study_detail(session: Session, study_id: int, *, trials: bool = True) -> dict[str, Any]:
+    """``GET /api/studies/{id}``: the study, its definition and (unless ``trials`` is false) every trial."""
+    study = get_study(session, study_id)
+    if not trials:
+        counts = trial_counts(session, [study_id])[study_id]
+        return {"study": study_dict(study, counts), "definition": study.definition}
+    jobs: dict[int, list[int]] = defaultdict(list)
+    for trial_id, job_id in session.execute(select(Job.trial_id, Job.id).where(Job.study_id == study_id,
+                                                                              Job.trial_id.is_not(None))
+                                            .order_by(Job.id)):
+        jobs[trial_id].append(job_id)
+    rows = session.execute(select(Trial.id, Trial.number, Trial.params, Trial.status, Trial.value, Trial.low,
+                                  Trial.high, Trial.error, Trial.runs).where(Trial.study_id == study_id)
+                           .order_by(Trial.number)).all()
+    listed = [{"number": r.number, "params": r.params, "status": r.status, "value": r.value,
+               "ci95": [r.low, r.high] if r.low is not None else None, "error": r.error, "runs": r.runs,
+               "job_ids": jobs.get(r.id, [])} for r in rows]
+    counts: dict[str, int] = defaultdict(int)
+    for trial in listed:
+        counts[trial["status"]] += 1
+    return {"study": study_dict(study, dict(counts)), "definition": study.definition, "trials": listed}
+
+
+class StudyDriver(threading.Thread):
+    """Advances every running study every few seconds, in the API process.
+
+    Studies then move on whatever happened to the processes that would otherwise advance them, and
+    resume after a restart.
+    """
+
+    def __init__(self, db: Database, period_s: float) -> None:
+        super().__init__(name="study-driver", daemon=True)
+        self.db, self.period_s = db, period_s
+        self.stopping = threading.Event()
+
+    def run(self) -> None:
+        """Advance until stopped; a failing database only delays the next round (logged once per outage)."""
+        outage = OutageLog(log, "advancing studies")
+        while not self.stopping.wait(self.period_s):
+            try:
+                for study_id in running_studies(self.db):
+                    advance(self.db, study_id)
+            except Exception as error:  # noqa: BLE001 - the next round retries
+                outage.failed(error)
+            else:
+                outage.succeeded()
+
+    def stop(self) -> None:
+        """End the thread after its current round."""
+        self.stopping.set()
+        if self.is_alive():
+            self.join(timeout=30)

@@ -1,0 +1,100 @@
+"""Final learned weights of a job's runs: the mean over its seeds, or one seed's own.
+
+Every seed draws its own composite types and value profiles, so the mean over seeds washes out
+the structure a learner found; one seed's weights show it, and the ``oracle``'s allocation for the
+same seed (where the job ran the oracle) shows what the best fixed allocation would be. Each run
+is read once; parent-group weights beyond :data:`MAX_WEIGHT_VALUES` per run are left out with
+the reason, so an answer holds at most that many per configuration.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from backend.errors import BadQuery, Conflict
+from backend.store.crud import get_job
+from backend.store.models import RUN_READ_BATCH, Run
+
+MAX_WEIGHT_VALUES = 200_000
+"""Learned weights shown per configuration (children x groups x types); larger PW are left out."""
+
+
+def _shown(shape: list[int]) -> bool:
+    return bool(shape) and shape[1] > 0 and math.prod(shape) <= MAX_WEIGHT_VALUES
+
+
+def _answer(combined: np.ndarray, groups: np.ndarray | None, shape: list[int]) -> dict[str, Any]:
+    """``combined`` per child, ``groups`` per child and group ([] when the algorithm learns none)."""
+    n_children = shape[0] if shape else 1
+    out: dict[str, Any] = {"combined": combined.reshape(n_children, -1).tolist(), "groups": []}
+    if groups is not None:
+        out["groups"] = groups.reshape(shape).tolist()
+    elif shape and shape[1] > 0:
+        out["groups"] = None
+        out["groups_omitted"] = (f"{math.prod(shape):,} parent-group weights per run exceed the "
+                                 f"{MAX_WEIGHT_VALUES:,} shown")
+    return out
+
+
+def mean_over_seeds(session: Session, job_id: int, algorithm: str) -> dict[str, Any]:
+    """The mean over the stored seeds of a configuration's final weights (see :func:`_answer`).
+
+    Every run of a configuration has the same shape: PW too large to show are never read.
+    """
+    of_config = (Run.job_id == job_id, Run.algorithm == algorithm)
+    first = session.scalar(select(Run.group_shape).where(*of_config).limit(1))
+    if first is None:
+        return {"combined": [], "groups": []}
+    shape = list(first)
+    columns = (Run.combined_weights, Run.group_weights) if _shown(shape) else (Run.combined_weights,)
+    combined: np.ndarray | None = None
+    groups: np.ndarray | None = None
+    count = 0
+    for blobs in session.execute(select(*columns).where(*of_config).execution_options(yield_per=RUN_READ_BATCH)):
+        values = np.frombuffer(blobs[0], dtype="<f8")
+        combined = values.copy() if combined is None else combined + values
+        if len(blobs) > 1:
+            values = np.frombuffer(blobs[1], dtype="<f8")
+            groups = values.copy() if groups is None else groups + values
+        count += 1
+    if combined is None:  # deleted meanwhile
+        return {"combined": [], "groups": []}
+    return _answer(combined / count, None if groups is None else groups / count, shape)
+
+
+def of_seed(session: Session, *, job_id: int, seed: int | None = None) -> dict[str, Any]:
+    """``GET /api/jobs/{id}/weights`` (docs/api.md "Weights"): every configuration's final weights for one seed.
+
+    ``seed`` None: the job's first seed that has stored runs. A seed that is not the job's is
+    refused (422 naming ``seed``); one of its seeds with no run stored yet is a conflict (409).
+    """
+    job = get_job(session, job_id=job_id)
+    order = {s: i for i, s in enumerate(job.config["seeds"])}
+    stored = sorted(session.scalars(select(Run.seed).where(Run.job_id == job_id).distinct()), key=order.__getitem__)
+    if seed is not None and seed not in order:
+        seeds = job.config["seeds"]
+        listed = ", ".join(map(str, seeds[:5])) + (f", … ({len(seeds):,} seeds)" if len(seeds) > 5 else "")
+        raise BadQuery("seed", f"{seed} is not a seed of job {job_id} (its seeds: {listed})")
+    if not stored:
+        raise Conflict(f"job {job_id} is {job.status} and has no stored runs yet")
+    chosen = stored[0] if seed is None else seed
+    if chosen not in stored:
+        raise Conflict(f"seed {chosen} of job {job_id} has no stored runs yet ({len(stored):,} seeds stored)")
+    rows = session.execute(select(Run.id, Run.algorithm, Run.combined_weights, Run.group_shape)
+                           .where(Run.job_id == job_id, Run.seed == chosen)).all()
+    rank = {a: i for i, a in enumerate(job.config["algorithms"])}
+    configurations = []
+    for run_id, algorithm, combined_blob, group_shape in sorted(rows, key=lambda r: rank.get(r[1], len(rank))):
+        shape = list(group_shape)
+        groups = None
+        if _shown(shape):  # a PW too large to show is never read
+            blob = session.scalar(select(Run.group_weights).where(Run.id == run_id))
+            groups = np.frombuffer(blob, dtype="<f8")
+        configurations.append({"algorithm": algorithm}
+                              | _answer(np.frombuffer(combined_blob, dtype="<f8"), groups, shape))
+    return {"job_id": job_id, "seed": chosen, "seeds": stored, "configurations": configurations}

@@ -1,0 +1,200 @@
+"""Data functions on jobs: create, read, list (filters, keyset pagination), update, cancel, delete."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Sequence
+from datetime import datetime
+from typing import Any
+
+import orjson
+from sqlalchemy import ColumnElement, Row, Text, cast, delete, func, or_, select, update
+from sqlalchemy.orm import Session
+
+import mgrao_core
+from backend.errors import Conflict, NotFound
+from backend.store.job_order import parse_sort
+from backend.store.models import CANCELLED, QUEUED, RUNNING, Job, JobTag, utcnow
+from mgrao_core import ExperimentSpec
+
+
+def config_hash(config: dict[str, Any]) -> str:
+    """sha256 of the canonical JSON of a configuration without its seeds and algorithms.
+
+    A *configuration* in comparisons is ``(config_hash, algorithm)``: system, resolved
+    parameters and episodes; lanes are independent, so seeds and the other algorithms of a
+    job never change a run's numbers.
+    """
+    core = {k: v for k, v in config.items() if k not in ("seeds", "algorithms")}
+    canonical = json.dumps(core, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(canonical.encode()).hexdigest()
+
+
+def iso(moment: datetime | None) -> str | None:
+    """ISO 8601 UTC text of a stored (naive UTC) time."""
+    return None if moment is None else moment.isoformat(timespec="milliseconds") + "Z"
+
+
+def job_dict(job: Job | Row, config: dict[str, Any] | None = None) -> dict[str, Any]:
+    """A job as the API shows it (docs/api.md "Job"): a model, or a row of :data:`LISTED` with its ``config``."""
+    config = job.config if config is None else config
+    duration = None
+    if job.started_at is not None and job.finished_at is not None:
+        duration = round((job.finished_at - job.started_at).total_seconds(), 3)
+    return {
+        "id": job.id, "name": job.name, "tags": list(job.tags), "notes": job.notes,
+        "system": job.system, "algorithms": config["algorithms"], "seeds": config["seeds"],
+        "episodes": config["episodes"], "params": config["params"], "config_hash": job.config_hash,
+        "status": job.status, "progress": job.progress, "attempts": job.attempts, "error": job.error,
+        "requeue_reason": job.requeue_reason,
+        "created_at": iso(job.created_at), "started_at": iso(job.started_at),
+        "finished_at": iso(job.finished_at), "duration_s": duration, "version": job.version,
+        "study_id": job.study_id, "trial_id": job.trial_id,
+    }
+
+
+def _set_tags(session: Session, job: Job, tags: Sequence[str]) -> None:
+    unique = list(dict.fromkeys(tags))
+    job.tags = unique
+    job.tag_rows = [JobTag(tag=t) for t in unique]
+
+
+def create_job(
+    session: Session, *, spec: ExperimentSpec, name: str = "", tags: Sequence[str] = (), notes: str = "",
+    study_id: int | None = None, trial_id: int | None = None,
+) -> Job:
+    """Add a queued job for a validated spec (the caller commits); a study's trial names its study and trial."""
+    config = spec.as_dict()
+    job = Job(
+        name=name, notes=notes, system=spec.system, config=config, config_hash=config_hash(config),
+        status=QUEUED, progress=0.0, attempts=0, version=mgrao_core.__version__, created_at=utcnow(),
+        study_id=study_id, trial_id=trial_id,
+    )
+    _set_tags(session, job, tags)
+    session.add(job)
+    session.flush()
+    return job
+
+
+def get_job(session: Session, *, job_id: int) -> Job:
+    """The job, or :class:`NotFound`."""
+    job = session.get(Job, job_id)
+    if job is None:
+        raise NotFound(f"job {job_id} not found")
+    return job
+
+
+def update_job(
+    session: Session, *, job_id: int, name: str | None = None, tags: Sequence[str] | None = None,
+    notes: str | None = None,
+) -> Job:
+    """Change a job's labels (any status)."""
+    job = get_job(session, job_id=job_id)
+    if name is not None:
+        job.name = name
+    if notes is not None:
+        job.notes = notes
+    if tags is not None:
+        _set_tags(session, job, tags)
+    return job
+
+
+def cancel_job(session: Session, *, job_id: int) -> Job:
+    """Cancel a queued or running job in one conditional update.
+
+    A running job's worker notices at its next heartbeat (its lease is gone); the chunks it stored
+    stay (the job is partial).
+    """
+    result = session.execute(
+        update(Job).where(Job.id == job_id, Job.status.in_((QUEUED, RUNNING)))
+        .values(status=CANCELLED, lease=None, finished_at=utcnow())
+    )
+    job = get_job(session, job_id=job_id)
+    if result.rowcount != 1:
+        raise Conflict(f"job {job_id} is {job.status}: only queued or running jobs can be cancelled")
+    session.refresh(job)
+    return job
+
+
+def delete_job(session: Session, *, job_id: int) -> None:
+    """Delete a job that is not running, with its runs and tags, in one conditional delete."""
+    result = session.execute(delete(Job).where(Job.id == job_id, Job.status != RUNNING))
+    if result.rowcount != 1:
+        job = get_job(session, job_id=job_id)
+        raise Conflict(f"job {job_id} is {job.status}: cancel it first")
+
+
+def count_by_status(session: Session) -> dict[str, int]:
+    """Number of jobs per status."""
+    rows = session.execute(select(Job.status, func.count()).group_by(Job.status)).all()
+    return {status: count for status, count in rows}
+
+
+# ---- listing ---------------------------------------------------------------------------------
+
+def _escape_like(text: str) -> str:
+    return text.replace("\\", "\\\\").replace("%", "\\%").replace("_", "\\_")
+
+
+def _filters(*, status: str | None, system: str | None, tag: str | None, q: str | None,
+             config_hash: str | None = None) -> list[ColumnElement]:
+    clauses: list[ColumnElement] = []
+    if config_hash:
+        clauses.append(Job.config_hash == config_hash)
+    if status:
+        clauses.append(Job.status == status)
+    if system:
+        clauses.append(Job.system == system)
+    if tag:
+        clauses.append(Job.id.in_(select(JobTag.job_id).where(JobTag.tag == tag)))
+    if q:
+        pattern = f"%{_escape_like(q.lower())}%"
+        clauses.append(
+            or_(
+                func.lower(Job.name).like(pattern, escape="\\"),
+                func.lower(Job.notes).like(pattern, escape="\\"),
+                Job.id.in_(select(JobTag.job_id).where(func.lower(JobTag.tag).like(pattern, escape="\\"))),
+            )
+        )
+    return clauses
+
+
+LISTED = (Job.id, Job.name, Job.tags, Job.notes, Job.system, cast(Job.config, Text).label("config_json"),
+          Job.config_hash, Job.status, Job.progress, Job.attempts, Job.error, Job.requeue_reason, Job.created_at,
+          Job.started_at, Job.finished_at, Job.version, Job.study_id, Job.trial_id)
+"""The columns a listing shows: no ORM objects, and the configuration as its stored JSON text.
+
+orjson reads that text several times faster than the JSON type's ``json.loads`` (PostgreSQL's
+driver would parse it itself, hence the cast); the worker's lease and heartbeat are not read.
+"""
+
+
+def _config(text: str) -> dict[str, Any]:
+    try:
+        return orjson.loads(text)
+    except orjson.JSONDecodeError:  # what only the standard library reads (NaN): never written by the service
+        return json.loads(text)
+
+
+def list_jobs(
+    session: Session, *, status: str | None = None, system: str | None = None, tag: str | None = None,
+    q: str | None = None, sort: str = "-created_at", limit: int = 50, cursor: str | None = None,
+    config_hash: str | None = None,
+) -> tuple[list[dict[str, Any]], str | None, int]:
+    """One page of jobs as :func:`job_dict` shows them, the next page's cursor (None at the end), the total matching.
+
+    ``sort`` as :func:`backend.store.job_order.parse_sort` reads it (BadQuery naming ``sort`` or ``cursor``);
+    ``config_hash`` keeps the jobs of one configuration (system, resolved parameters, episodes).
+    """
+    order = parse_sort(sort)
+    clauses = _filters(status=status, system=system, tag=tag, q=q, config_hash=config_hash)
+    total = session.scalar(select(func.count()).select_from(Job).where(*clauses)) or 0
+    statement = order.apply(select(*LISTED, order.value.label("sort_key")).where(*clauses), cursor)
+    rows = session.execute(statement.limit(limit + 1)).all()
+    next_cursor = None
+    if len(rows) > limit:
+        rows = rows[:limit]
+        next_cursor = order.encode(rows[-1].sort_key, rows[-1].id)
+    return [job_dict(row, _config(row.config_json)) for row in rows], next_cursor, total
+

@@ -1,0 +1,87 @@
+"""How a listing of jobs may be ordered: by a column, by any parameter, or by a configuration's result.
+
+``sort`` is one of (each with an optional leading ``-`` for descending):
+
+* ``created_at``, ``name``, ``status``;
+* ``param.NAME`` for any parameter of the schema (``param.learning_rate``);
+* ``final_mean:CONFIGURATION``, ``pct_from_uniform:CONFIGURATION``, ``pct_of_max:CONFIGURATION``, a
+  configuration's stored summary (``-pct_from_uniform:mgrao-max``).
+
+Jobs without the value (not succeeded, without that configuration, a parameter that is null) come
+last in either direction; pages are :mod:`backend.store.keyset` pages.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from sqlalchemy import ColumnElement, Select, and_
+
+from backend.errors import BadQuery
+from backend.store.keyset import Keyset
+from backend.store.models import Job, JobSummary
+from backend.store.summaries import RESULT_FIELDS
+from mgrao_core import ConfigError, parse_algorithm
+from mgrao_core.params import PARAMETERS
+
+_COLUMNS = {"created_at": (Job.created_at, "datetime"), "name": (Job.name, "text"), "status": (Job.status, "text")}
+_PARAMETERS = {p.name: p for p in PARAMETERS}
+SORT_HELP = ("created_at, name, status, param.NAME (any parameter), or a configuration's result: "
+             "final_mean:CONFIGURATION, pct_from_uniform:CONFIGURATION, pct_of_max:CONFIGURATION (e.g. "
+             "-pct_from_uniform:mgrao-max); a leading '-' sorts descending; jobs without the value come last")
+_FORMS = ("created_at, name, status, param.NAME (a parameter), final_mean:CONFIGURATION, "
+          "pct_from_uniform:CONFIGURATION or pct_of_max:CONFIGURATION, each with an optional leading '-'")
+
+
+@dataclass(frozen=True)
+class JobOrder(Keyset):
+    """A parsed ``sort`` of jobs: a keyset order, and the join a configuration's result needs."""
+
+    configuration: str | None = None  # the summary's configuration, when ordering by a result
+
+    def apply(self, statement: Select, cursor: str | None) -> Select:
+        """``statement`` (a select of jobs) joined as needed, after ``cursor``, ordered."""
+        if self.configuration is not None:
+            statement = statement.outerjoin(
+                JobSummary, and_(JobSummary.job_id == Job.id, JobSummary.algorithm == self.configuration))
+        return super().apply(statement, cursor)
+
+
+def _order(text: str, descending: bool, value: ColumnElement, kind: str, configuration: str | None = None) -> JobOrder:
+    return JobOrder(text, descending, value, kind, Job.id, "job", configuration)
+
+
+def _configuration(label: str) -> str:
+    """The canonical label of a configuration (``MGRAO-05:1`` is ``mgrao-5:1``), or BadQuery naming ``sort``."""
+    match = re.fullmatch(r"mgrao-0*(\d{1,6}):\d{1,6}", label.strip().lower())
+    groups = int(match.group(1)) if match and int(match.group(1)) > 0 else 1
+    try:
+        return parse_algorithm(label, n_parents=groups, field="sort", hint_groups=False).label
+    except ConfigError as error:
+        raise BadQuery("sort", error.message) from None
+
+
+def parse_sort(text: str) -> JobOrder:
+    """A ``sort`` query value as an order, or :class:`BadQuery` naming ``sort``."""
+    descending = text.startswith("-")
+    name = text[1:] if descending else text
+    if name in _COLUMNS:
+        column, kind = _COLUMNS[name]
+        return _order(text, descending, column, kind)
+    if name.startswith("param."):
+        parameter = _PARAMETERS.get(name[len("param."):])
+        if parameter is None:
+            raise BadQuery("sort", f"{name[len('param.'):]!r} is not a parameter (see GET /api/systems)")
+        path = Job.config[("params", parameter.name)]
+        if parameter.kind in ("int", "float"):
+            return _order(text, descending, path.as_float(), "number")
+        if parameter.kind == "bool":
+            return _order(text, descending, path.as_boolean(), "boolean")
+        return _order(text, descending, path.as_string(), "string")
+    field, _, label = name.partition(":")
+    if field in RESULT_FIELDS:
+        if not label:
+            raise BadQuery("sort", f"{field} needs a configuration, e.g. {text}:mgrao-max")
+        return _order(text, descending, getattr(JobSummary, field), "number", _configuration(label))
+    raise BadQuery("sort", f"{text!r} is not an order: use {_FORMS}")

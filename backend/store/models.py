@@ -1,0 +1,212 @@
+"""SQLAlchemy 2.0 models: jobs (which are also the queue), their tags and their runs."""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime
+from typing import Any
+
+from sqlalchemy import (
+    JSON,
+    BigInteger,
+    DateTime,
+    Float,
+    ForeignKey,
+    Index,
+    Integer,
+    LargeBinary,
+    String,
+    Text,
+    UniqueConstraint,
+)
+from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column, relationship
+
+QUEUED, RUNNING, SUCCEEDED, FAILED, CANCELLED = "queued", "running", "succeeded", "failed", "cancelled"
+STATUSES = (QUEUED, RUNNING, SUCCEEDED, FAILED, CANCELLED)
+
+
+def utcnow() -> datetime:
+    """The current time, UTC, without tzinfo (what the database stores)."""
+    return datetime.now(UTC).replace(tzinfo=None)
+
+
+MAX_JOB_ID = 2**63 - 1  # SQLite INTEGER is a signed 64-bit integer
+NUL = "\x00"
+"""The character no stored text holds: PostgreSQL's text and JSON columns cannot store it."""
+
+
+def has_nul(text: str) -> bool:
+    """Whether ``text`` holds the NUL character, which no text that comes in may hold."""
+    return NUL in text
+
+
+ID = BigInteger().with_variant(Integer, "sqlite")
+"""64-bit ids; SQLite's INTEGER PRIMARY KEY is 64-bit and must stay INTEGER to be the rowid."""
+
+
+class Base(DeclarativeBase):
+    """Declarative base of the service's tables."""
+
+
+class Job(Base):
+    """A submitted experiment; the queue is this table (status ``queued``)."""
+
+    __tablename__ = "jobs"
+    __table_args__ = (
+        Index("ix_jobs_status_created", "status", "created_at", "id"),
+        Index("ix_jobs_created", "created_at", "id"),
+        Index("ix_jobs_name", "name", "id"),
+        {"sqlite_autoincrement": True},  # a deleted job's id is never reused (migration 0004)
+    )
+
+    id: Mapped[int] = mapped_column(ID, primary_key=True)
+    name: Mapped[str] = mapped_column(String(200), default="")
+    tags: Mapped[list[str]] = mapped_column(JSON, default=list)
+    notes: Mapped[str] = mapped_column(Text, default="")
+    system: Mapped[str] = mapped_column(String(32), index=True)
+    config: Mapped[dict[str, Any]] = mapped_column(JSON)
+    config_hash: Mapped[str] = mapped_column(String(64), index=True)
+    status: Mapped[str] = mapped_column(String(16), default=QUEUED)
+    progress: Mapped[float] = mapped_column(Float, default=0.0)
+    attempts: Mapped[int] = mapped_column(Integer, default=0)
+    error: Mapped[str | None] = mapped_column(Text, nullable=True)
+    version: Mapped[str] = mapped_column(String(32))
+    worker_id: Mapped[str | None] = mapped_column(String(100), nullable=True)
+    lease: Mapped[str | None] = mapped_column(String(36), nullable=True)
+    heartbeat_at: Mapped[datetime | None] = mapped_column(DateTime, nullable=True)
+    created_at: Mapped[datetime] = mapped_column(DateTime, default=utcnow)
+    started_at: Mapped[datetime | None] = mapped_column(DateTime, nullable=True)
+    finished_at: Mapped[datetime | None] = mapped_column(DateTime, nullable=True)
+    study_id: Mapped[int | None] = mapped_column(ID, ForeignKey("studies.id", ondelete="CASCADE"), nullable=True,
+                                                 index=True)
+    trial_id: Mapped[int | None] = mapped_column(ID, ForeignKey("trials.id", ondelete="SET NULL"), nullable=True,
+                                                 index=True)
+    requeue_reason: Mapped[str | None] = mapped_column(Text, nullable=True)
+    """Why the job was last put back in the queue (a lost worker, a database outage), or None."""
+
+    tag_rows: Mapped[list[JobTag]] = relationship(cascade="all, delete-orphan", passive_deletes=True)
+
+
+class JobTag(Base):
+    """One tag of a job (for the ``tag`` filter)."""
+
+    __tablename__ = "job_tags"
+
+    job_id: Mapped[int] = mapped_column(ID, ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
+    tag: Mapped[str] = mapped_column(String(50), primary_key=True, index=True)
+
+
+RUN_READ_BATCH = 16
+"""Runs fetched at a time where a job's runs are streamed (each holds a seed's utilities and weights)."""
+
+
+class Run(Base):
+    """One (algorithm, seed) run of a job: every episode utility and the final weights.
+
+    ``utilities`` holds the run's episodes as little-endian float64 bytes, episode ``e`` at
+    offset ``8 e``; one row per (job, algorithm, seed), so a retried write cannot duplicate.
+    """
+
+    __tablename__ = "runs"
+    __table_args__ = (UniqueConstraint("job_id", "algorithm", "seed", name="uq_runs_job_algorithm_seed"),)
+
+    id: Mapped[int] = mapped_column(ID, primary_key=True)
+    job_id: Mapped[int] = mapped_column(ID, ForeignKey("jobs.id", ondelete="CASCADE"))
+    algorithm: Mapped[str] = mapped_column(String(32))
+    seed: Mapped[int] = mapped_column(BigInteger)
+    episodes: Mapped[int] = mapped_column(Integer)
+    utilities: Mapped[bytes] = mapped_column(LargeBinary)
+    combined_weights: Mapped[bytes] = mapped_column(LargeBinary)
+    group_weights: Mapped[bytes] = mapped_column(LargeBinary)
+    group_shape: Mapped[list[int]] = mapped_column(JSON)
+
+
+class JobSummary(Base):
+    """One configuration's summary of a finished job (``mgrao_core.ConfigSummary``), for sorting and columns."""
+
+    __tablename__ = "job_summaries"
+    __table_args__ = (Index("ix_job_summaries_final", "algorithm", "final_mean", "job_id"),
+                      Index("ix_job_summaries_pct", "algorithm", "pct_from_uniform", "job_id"))
+
+    job_id: Mapped[int] = mapped_column(ID, ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
+    algorithm: Mapped[str] = mapped_column(String(32), primary_key=True)
+    n_runs: Mapped[int] = mapped_column(Integer)
+    final_mean: Mapped[float | None] = mapped_column(Float, nullable=True)
+    final_low: Mapped[float | None] = mapped_column(Float, nullable=True)
+    final_high: Mapped[float | None] = mapped_column(Float, nullable=True)
+    pct_from_uniform: Mapped[float | None] = mapped_column(Float, nullable=True)
+    pct_low: Mapped[float | None] = mapped_column(Float, nullable=True)
+    pct_high: Mapped[float | None] = mapped_column(Float, nullable=True)
+    pct_of_max: Mapped[float | None] = mapped_column(Float, nullable=True)
+
+
+STUDY_RUNNING, STUDY_FINISHED = "running", "finished"
+STUDY_STATUSES = (STUDY_RUNNING, STUDY_FINISHED, CANCELLED)
+
+
+class Study(Base):
+    """A search over parameters: its validated definition (:class:`mgrao_core.search.StudyPlan`) and state.
+
+    ``revision`` grows with every change of the study or its trials (answers are cached by it).
+    """
+
+    __tablename__ = "studies"
+    __table_args__ = (Index("ix_studies_created", "created_at", "id"), {"sqlite_autoincrement": True})
+
+    id: Mapped[int] = mapped_column(ID, primary_key=True)
+    name: Mapped[str] = mapped_column(String(200), default="")
+    method: Mapped[str] = mapped_column(String(16))
+    definition: Mapped[dict[str, Any]] = mapped_column(JSON)
+    status: Mapped[str] = mapped_column(String(16), default=STUDY_RUNNING, index=True)
+    planned: Mapped[int] = mapped_column(Integer)
+    best_trial: Mapped[int | None] = mapped_column(Integer, nullable=True)
+    best_value: Mapped[float | None] = mapped_column(Float, nullable=True)
+    revision: Mapped[int] = mapped_column(Integer, default=0)
+    version: Mapped[str] = mapped_column(String(32))
+    created_at: Mapped[datetime] = mapped_column(DateTime, default=utcnow)
+    finished_at: Mapped[datetime | None] = mapped_column(DateTime, nullable=True)
+
+
+class Trial(Base):
+    """One point of a study: its parameters, its jobs (one per system, ``Job.trial_id``) and its objective.
+
+    ``number`` is the trial's place in the study (a grid's cell); unique per study, so a cell is made
+    once however many processes advance the study.
+    """
+
+    __tablename__ = "trials"
+    __table_args__ = (UniqueConstraint("study_id", "number", name="uq_trials_study_number"),
+                      Index("ix_trials_study_status", "study_id", "status"))
+
+    id: Mapped[int] = mapped_column(ID, primary_key=True)
+    study_id: Mapped[int] = mapped_column(ID, ForeignKey("studies.id", ondelete="CASCADE"))
+    number: Mapped[int] = mapped_column(Integer)
+    params: Mapped[dict[str, Any]] = mapped_column(JSON)
+    status: Mapped[str] = mapped_column(String(16), default=QUEUED)
+    value: Mapped[float | None] = mapped_column(Float, nullable=True)
+    low: Mapped[float | None] = mapped_column(Float, nullable=True)
+    high: Mapped[float | None] = mapped_column(Float, nullable=True)
+    error: Mapped[str | None] = mapped_column(Text, nullable=True)
+    runs: Mapped[int] = mapped_column(Integer, default=0)
+    created_at: Mapped[datetime] = mapped_column(DateTime, default=utcnow)
+    finished_at: Mapped[datetime | None] = mapped_column(DateTime, nullable=True)
+
+
+WARMING, READY = "warming", "ready"
+WORKER_STATES = (WARMING, READY)
+
+
+class WorkerPresence(Base):
+    """A worker process (or the Dask dispatcher) that is alive: ``backend/execution/presence.py`` keeps the row.
+
+    ``state`` is ``warming`` while the process loads or compiles the simulation kernel and ``ready``
+    once it can run a job; ``seen_at`` is stamped by the database clock at every refresh
+    (:func:`backend.execution.presence.refresh_interval`).
+    """
+
+    __tablename__ = "workers"
+
+    worker_id: Mapped[str] = mapped_column(String(200), primary_key=True)
+    kind: Mapped[str] = mapped_column(String(16))
+    state: Mapped[str] = mapped_column(String(16))
+    started_at: Mapped[datetime] = mapped_column(DateTime)
+    seen_at: Mapped[datetime] = mapped_column(DateTime, index=True)

@@ -1,0 +1,199 @@
+"""The job queue: the ``jobs`` table, claimed atomically, leased, heartbeaten, re-queued when stale.
+
+Every state change of a claimed job is one conditional ``UPDATE`` on its id, its *lease* (a fresh
+uuid per claim) and its status, so a worker that lost its job (cancelled, or re-queued as stale
+and claimed by another worker) can neither heartbeat it, store runs for it nor finish it, on any
+database and under any interleaving. Heartbeats are stamped, and staleness judged, by the
+database's clock, never a worker's. A job's runs are stored chunk by chunk as they complete, each
+at most once (unique ``(job, algorithm, seed)``; a second write is a no-op), so a retried job
+computes only the runs still missing. An idle poll reads; it takes the write lock only when there
+is a queued or a stale job to take.
+"""
+
+from __future__ import annotations
+
+import uuid
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from sqlalchemy import delete, exists, func, or_, select, update
+from sqlalchemy.orm import Session
+
+from backend.store import dialect, summaries
+from backend.store.db import Database
+from backend.store.models import FAILED, QUEUED, RUNNING, SUCCEEDED, Job, Run, utcnow
+from mgrao_core import Run as SimulatedRun
+
+
+@dataclass(frozen=True)
+class Claim:
+    """A job a worker holds: its id, the lease that proves it, the configuration and the attempt."""
+
+    job_id: int
+    lease: str
+    config: dict[str, Any]
+    attempt: int
+
+
+def _stale(session: Session, stale_after_s: float) -> Any:
+    return Job.heartbeat_at < dialect.db_now(session, minus_seconds=stale_after_s)
+
+
+def _held(claim: Claim) -> tuple:
+    return Job.id == claim.job_id, Job.lease == claim.lease, Job.status == RUNNING
+
+
+def has_work(session: Session, *, stale_after_s: float, look_for_stale: bool = True) -> bool:
+    """Whether a job is queued, or (if asked) a running job's heartbeat is stale: a read, no lock."""
+    claimable = Job.status == QUEUED
+    if look_for_stale:
+        claimable = or_(claimable, (Job.status == RUNNING) & _stale(session, stale_after_s))
+    return bool(session.scalar(select(exists().where(claimable))))
+
+
+def requeue_stale(session: Session, *, stale_after_s: float, max_attempts: int) -> list[int]:
+    """Re-queue running jobs whose heartbeat is older than ``stale_after_s``; fail them after the last attempt.
+
+    Call it inside a write transaction. Each change is conditional on the lease seen, so a job
+    that beat or finished meanwhile is left alone. Returns the ids it changed.
+    """
+    stale = session.execute(
+        select(Job.id, Job.lease, Job.attempts, Job.worker_id)
+        .where(Job.status == RUNNING, _stale(session, stale_after_s))
+    ).all()
+    changed = []
+    for job_id, lease, attempts, worker_id in stale:
+        reason = f"worker {worker_id} stopped sending heartbeats (none for over {stale_after_s:g} s)"
+        if attempts >= max_attempts:
+            values: dict[str, Any] = {
+                "status": FAILED, "finished_at": utcnow(), "lease": None,
+                "error": f"{reason}; gave up after {attempts} attempts",
+            }
+        else:
+            values = {"status": QUEUED, "lease": None, "worker_id": None, "requeue_reason": reason}
+        result = session.execute(
+            update(Job).where(Job.id == job_id, Job.lease == lease, Job.status == RUNNING,
+                              _stale(session, stale_after_s)).values(**values)
+        )
+        if result.rowcount == 1:
+            changed.append(job_id)
+    return changed
+
+
+def claim(db: Database, *, worker_id: str, stale_after_s: float, max_attempts: int,
+          requeue: bool = True) -> Claim | None:
+    """Atomically take the oldest queued job, or None.
+
+    With ``requeue``, stale jobs are re-queued first; a process passes it only once it has seen
+    the database healthy for ``stale_after_s`` (see :class:`backend.store.retry.HealthClock`).
+    """
+    with db.session() as session:
+        if not has_work(session, stale_after_s=stale_after_s, look_for_stale=requeue):
+            return None
+    with db.write() as session:
+        if requeue:
+            requeue_stale(session, stale_after_s=stale_after_s, max_attempts=max_attempts)
+        oldest = dialect.skip_locked(
+            session, select(Job.id).where(Job.status == QUEUED).order_by(Job.created_at, Job.id).limit(1)
+        ).scalar_subquery()
+        lease = str(uuid.uuid4())
+        row = session.execute(
+            update(Job).where(Job.id == oldest, Job.status == QUEUED)
+            .values(status=RUNNING, lease=lease, worker_id=worker_id, attempts=Job.attempts + 1,
+                    started_at=utcnow(), heartbeat_at=dialect.db_now(session), finished_at=None)
+            .returning(Job.id, Job.config, Job.attempts)
+        ).first()
+        if row is None:
+            return None
+        return Claim(job_id=row.id, lease=lease, config=dict(row.config), attempt=row.attempts)
+
+
+def heartbeat(db: Database, *, claim: Claim, progress: float | None = None) -> bool:
+    """Record that the worker is alive (and its progress); False when the job is no longer ours."""
+    with db.write() as session:
+        return _beat(session, claim, progress)
+
+
+def _beat(session: Session, claim: Claim, progress: float | None) -> bool:
+    values: dict[str, Any] = {"heartbeat_at": dialect.db_now(session)}
+    if progress is not None:
+        values["progress"] = progress
+    return session.execute(update(Job).where(*_held(claim)).values(**values)).rowcount == 1
+
+
+def _blob(array: np.ndarray) -> bytes:
+    return np.ascontiguousarray(array, dtype="<f8").tobytes()
+
+
+def run_rows(job_id: int, runs: Iterable[SimulatedRun]) -> list[dict[str, Any]]:
+    """The ``runs`` table rows of simulated runs (utilities and weights as little-endian float64)."""
+    return [
+        {"job_id": job_id, "algorithm": run.algorithm, "seed": run.seed, "episodes": len(run.utilities),
+         "utilities": _blob(run.utilities), "combined_weights": _blob(run.combined_weights),
+         "group_weights": _blob(run.group_weights), "group_shape": list(run.group_weights.shape)}
+        for run in runs
+    ]
+
+
+def store_runs(db: Database, *, claim: Claim, rows: Sequence[dict[str, Any]], progress: float) -> bool:
+    """Store a chunk's runs and the job's progress in one transaction, if the job is still ours.
+
+    A run already stored (same job, algorithm and seed) is left as it is. Returns False, storing
+    nothing, when the job is no longer ours.
+    """
+    with db.write() as session:
+        if not _beat(session, claim, progress):
+            return False
+        dialect.insert_ignoring_duplicates(session, Run, rows)
+        return True
+
+
+def stored_seeds(session: Session, *, job_id: int, algorithms: int) -> set[int]:
+    """The seeds of which every algorithm's run is stored."""
+    rows = session.execute(
+        select(Run.seed).where(Run.job_id == job_id).group_by(Run.seed).having(func.count() == algorithms)
+    )
+    return {seed for (seed,) in rows}
+
+
+def finish(db: Database, *, claim: Claim, expected_runs: int) -> bool:
+    """Mark the job succeeded once every run is stored, with its summaries; False when the job is not ours.
+
+    Raises:
+        RuntimeError: the job is ours but runs are missing (a bug: nothing is changed).
+    """
+    with db.write() as session:
+        stored = session.scalar(select(func.count()).select_from(Run).where(Run.job_id == claim.job_id)) or 0
+        result = session.execute(
+            update(Job).where(*_held(claim))
+            .values(status=SUCCEEDED, progress=1.0, finished_at=utcnow(), lease=None, error=None)
+        )
+        if result.rowcount != 1:
+            return False
+        if stored != expected_runs:  # leaving the transaction on the exception rolls the update back
+            raise RuntimeError(f"job {claim.job_id} has {stored} of {expected_runs} runs stored")
+        summaries.store(session, claim.job_id)  # the runs table's result columns, in the same transaction
+        return True
+
+
+def fail(db: Database, *, claim: Claim, error: str, discard_runs: bool = False) -> bool:
+    """Mark the job failed with ``error`` (dropping its stored runs if asked); False when it is not ours."""
+    with db.write() as session:
+        result = session.execute(
+            update(Job).where(*_held(claim)).values(status=FAILED, error=error[:2000], finished_at=utcnow(), lease=None)
+        )
+        if result.rowcount == 1 and discard_runs:
+            session.execute(delete(Run).where(Run.job_id == claim.job_id))
+        return result.rowcount == 1
+
+
+def release(db: Database, *, claim: Claim) -> bool:
+    """Give a job back to the queue (worker shutting down); the attempt does not count; stored runs stay."""
+    with db.write() as session:
+        result = session.execute(
+            update(Job).where(*_held(claim))
+            .values(status=QUEUED, lease=None, worker_id=None, attempts=Job.attempts - 1)
+        )
+        return result.rowcount == 1

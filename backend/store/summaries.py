@@ -1,0 +1,76 @@
+"""Per-configuration summaries of finished jobs, stored once (``job_summaries``) and read by listings.
+
+A job's summary per configuration (final mean with its 95% interval, % from uniform with its
+interval, % of max: :func:`mgrao_core.summarise`) is computed from its stored runs in the
+transaction that marks it succeeded, so that the runs table can show and sort result columns, and
+studies read their trials' objectives, without reading any run again.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from collections.abc import Iterable
+from typing import Any
+
+import numpy as np
+from sqlalchemy import Row, delete, insert, select
+from sqlalchemy.orm import Session
+
+from backend.store.models import JobSummary, Run
+from mgrao_core import ConfigSummary, final_utilities, summarise
+
+RESULT_FIELDS = ("final_mean", "pct_from_uniform", "pct_of_max")
+"""The summary values a listing can sort by."""
+
+
+def compute(session: Session, job_id: int) -> dict[str, ConfigSummary]:
+    """The per-configuration summaries of a job's stored runs (final utilities only)."""
+    finals: dict[str, dict[int, float]] = defaultdict(dict)
+    statement = select(Run.algorithm, Run.seed, Run.utilities).where(Run.job_id == job_id).execution_options(
+        yield_per=32)
+    for algorithm, seed, blob in session.execute(statement):
+        finals[algorithm][seed] = float(final_utilities(np.frombuffer(blob, dtype="<f8"))[0])
+    return summarise(dict(finals))
+
+
+def _finite(value: float | None) -> float | None:
+    return value if value is not None and math.isfinite(value) else None
+
+
+def store(session: Session, job_id: int) -> dict[str, ConfigSummary]:
+    """Compute a job's summaries and write them (replacing any); call inside a write transaction."""
+    summaries = compute(session, job_id)
+    session.execute(delete(JobSummary).where(JobSummary.job_id == job_id))
+    rows = []
+    for algorithm, s in summaries.items():
+        low, high = s.ci95
+        pct_low, pct_high = s.pct_ci95 if s.pct_ci95 is not None else (None, None)
+        rows.append({
+            "job_id": job_id, "algorithm": algorithm, "n_runs": s.n_runs, "final_mean": _finite(s.final_mean),
+            "final_low": _finite(low), "final_high": _finite(high), "pct_from_uniform": _finite(s.pct_from_uniform),
+            "pct_low": _finite(pct_low), "pct_high": _finite(pct_high), "pct_of_max": _finite(s.pct_of_max),
+        })
+    if rows:
+        session.execute(insert(JobSummary), rows)
+    return summaries
+
+
+def as_dict(row: JobSummary | Row) -> dict[str, Any]:
+    """A stored summary, a model or a row of its columns, as the API shows it (``ConfigSummary.as_dict``)."""
+    pct_ci = None if row.pct_low is None and row.pct_high is None else [row.pct_low, row.pct_high]
+    return {
+        "algorithm": row.algorithm, "n_runs": row.n_runs, "final_mean": row.final_mean,
+        "ci95": [row.final_low, row.final_high], "pct_from_uniform": row.pct_from_uniform, "pct_ci95": pct_ci,
+        "pct_of_max": row.pct_of_max,
+    }
+
+
+def of_jobs(session: Session, job_ids: Iterable[int]) -> dict[int, dict[str, dict[str, Any]]]:
+    """The stored summaries of the given jobs: ``{job_id: {algorithm: summary}}`` (absent: none stored)."""
+    ids = list(job_ids)
+    out: dict[int, dict[str, dict[str, Any]]] = defaultdict(dict)
+    if ids:  # rows of columns, not models: a page's 150 summaries cost no ORM objects
+        for row in session.execute(select(*JobSummary.__table__.columns).where(JobSummary.job_id.in_(ids))):
+            out[row.job_id][row.algorithm] = as_dict(row)
+    return out
