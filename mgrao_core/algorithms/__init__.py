@@ -15,7 +15,7 @@ docs/algorithms.md shows how to add a family.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from mgrao_core.algorithms import mgrao, oracle, uniform
 from mgrao_core.algorithms.base import PALETTE_SLOTS, Algorithm, Family
@@ -24,6 +24,9 @@ from mgrao_core.algorithms.mgrao import divisors, parent_groups
 from mgrao_core.algorithms.oracle import LABEL as ORACLE
 from mgrao_core.algorithms.uniform import LABEL as UNIFORM
 from mgrao_core.errors import ConfigError
+
+if TYPE_CHECKING:
+    from mgrao_core.params import SystemParams
 
 FAMILIES: tuple[Family, ...] = (uniform.FAMILY, oracle.FAMILY, mgrao.FAMILY)
 """Every registered family. A new family is a module with a ``FAMILY`` and a line here."""
@@ -88,13 +91,15 @@ def sort_key(label: str) -> tuple[int, int, str]:
     return (*family_of(algorithm).sort_key(algorithm), algorithm.label)
 
 
-def describe_label(label: Any, n_parents: int | None = None, field: str = "label") -> dict[str, Any]:
-    """One label, canonical and described: what ``GET /api/algorithms?label=`` answers.
+def describe_label(label: Any, params: SystemParams | None = None, field: str = "label") -> dict[str, Any]:
+    """One label, canonical and described for a system (``params``; None: the grammar alone).
+
+    What ``GET /api/algorithms?label=`` answers.
 
     Raises:
         ConfigError: as :func:`parse_algorithm`.
     """
-    algorithm = parse_algorithm(label, n_parents, field)
+    algorithm = parse_algorithm(label, None if params is None else params.n_parents, field)
     family = family_of(algorithm)
     return {"label": algorithm.label, "family": family.name, "title": family.title,
             "groups": algorithm.n_groups if family.name == mgrao.FAMILY.name and algorithm.n_groups else None,
@@ -102,8 +107,12 @@ def describe_label(label: Any, n_parents: int | None = None, field: str = "label
             "sort_key": list(family.sort_key(algorithm))}
 
 
-def registry(n_parents: int | None = None) -> list[dict[str, Any]]:
-    """Every family for clients: name, description, label forms and examples valid for ``n_parents``."""
+def registry(params: SystemParams | None = None) -> list[dict[str, Any]]:
+    """Every family for clients: name, description, label forms and examples valid for a system.
+
+    ``params`` None describes the grammar alone (no system chosen yet).
+    """
+    n_parents = None if params is None else params.n_parents
     return [{"name": f.name, "title": f.title, "description": f.description, "rank": f.rank,
              "forms": f.forms(n_parents), "examples": f.examples(n_parents)} for f in FAMILIES]
 
