@@ -25,7 +25,7 @@ def divisors(n: int) -> list[int]:
 
 
 def parent_groups(n_parents: int, n_groups: int) -> np.ndarray:
-    """Group of each parent: parent ``p`` is in group ``floor(p * m / n_parents)`` (docs/model.md)."""
+    """Group of each parent: parent ``p`` is in group ``floor(p * m / n_parents)`` (docs/model.md, "MG-RAO")."""
     return (np.arange(n_parents) * n_groups) // n_parents
 
 
