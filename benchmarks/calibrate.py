@@ -5,7 +5,7 @@ run, ``--json FILE`` to keep every number).
 
 The paper gives no value for the quality model's half-saturation ``h``, nor for MG-RAO's
 softmax temperature, learning rate or trace decay. This script chooses them the way
-``shared/SIMULATION.md`` asks ("Calibration"):
+``docs/model.md`` sets ("Calibration"):
 
 1. ``h`` alone, over a grid of round values, minimising the worst absolute deviation from the
    paper over the ten figures of single, multi and large (% from uniform after 100 episodes),

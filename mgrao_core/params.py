@@ -1,6 +1,6 @@
 """Every parameter of the simulated system and of MG-RAO, with defaults, limits and help.
 
-The defaults are those of ``shared/SIMULATION.md``; the presets in :mod:`mgrao_core.presets`
+The defaults are those of ``docs/model.md``; the presets in :mod:`mgrao_core.presets`
 override a few of them per system. :data:`PARAMETERS` is the single schema that validation,
 the command line, the REST API and the dashboard's form all read.
 """
@@ -27,7 +27,7 @@ class Parameter:
     Attributes:
         name: field name in :class:`SystemParams`.
         kind: ``"int"``, ``"float"``, ``"bool"`` or ``"choice"``.
-        default: the SIMULATION.md default (``None`` only where ``nullable``).
+        default: the default docs/model.md documents (``None`` only where ``nullable``).
         minimum: smallest allowed value (numbers only).
         maximum: largest allowed value (numbers only).
         exclusive_minimum: whether ``minimum`` itself is excluded.
@@ -70,7 +70,7 @@ PARAMETERS: tuple[Parameter, ...] = (
     ),
     Parameter("resource_sd", "float", 0.2, "Standard deviation of each child's resource amount.",
               "system", 0.0, 1.0),
-    # Values and quality (SIMULATION.md "Value of atomic tasks", "Quality").
+    # Values and quality: docs/model.md ("Value of atomic tasks", "Quality").
     Parameter(
         "value_concentration", "float", 1.0,
         "Dirichlet concentration of each parent's fixed value profile.",
@@ -80,7 +80,7 @@ PARAMETERS: tuple[Parameter, ...] = (
         "value_noise", "float", 0.1,
         "Log-normal noise on each task instance's proportional values.", "values", 0.0, 5.0,
     ),
-    # Quality of an atomic task (SIMULATION.md "Environment readings").
+    # Quality of an atomic task: docs/model.md ("Quality", "Environment readings").
     Parameter(
         "quality_model", "choice", "hyperbolic",
         "Atomic task quality from the resource x = w[type] * ar given to the type: hyperbolic x/(x+h), "
@@ -287,7 +287,7 @@ def _coerce(param: Parameter, value: Any) -> Any:
 
 
 def make_params(overrides: Mapping[str, Any] | None = None, base: SystemParams | None = None) -> SystemParams:
-    """Validate ``overrides`` on top of ``base`` (the SIMULATION.md defaults when omitted).
+    """Validate ``overrides`` on top of ``base`` (the defaults of docs/model.md when omitted).
 
     Args:
         overrides: parameter names to values; values may be strings from a command line.

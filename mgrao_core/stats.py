@@ -1,4 +1,4 @@
-"""Aggregation of episode utilities: what a result is (SIMULATION.md "What a result is").
+"""Aggregation of episode utilities: what a result is, docs/model.md ("What a result is").
 
 Per configuration: the mean utility of the last :data:`FINAL_EPISODES` episodes of each run,
 averaged over seeds, with a 95% t-interval; "% from uniform" paired seed by seed with the uniform

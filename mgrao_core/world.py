@@ -24,7 +24,7 @@ def stream(seed: int, name: str) -> np.random.Generator:
 
 @dataclass(frozen=True)
 class World:
-    """What one seed draws once (SIMULATION.md "The system" and "Value of atomic tasks").
+    """What one seed draws once: docs/model.md ("The system", "Value of atomic tasks").
 
     Attributes:
         composite_types: ``(n_composite_types, types_per_composite)`` atomic types of each composite.

@@ -111,3 +111,27 @@ def test_the_readmes_shell_examples_run_the_commands_the_quick_start_installed()
     for block in bare:
         first = next(i for i, line in enumerate(block) if line.split() and line.split()[0] in ("mgrao", "dask"))
         assert activate in block[:first], f"README.md runs {block[first]!r} without `{activate}` before it"
+
+
+OUTSIDE_CITATION = re.compile(r"SIMULATION\.md|\.\./shared\b|\bshared/(?:paper|SIMULATION)|/work/shared\b")
+"""A citation of files outside the repository (the brief and paper the project began from): the
+repository stands on its own; docs/model.md documents the model, the paper is cited by its reference."""
+
+
+def test_no_tracked_file_cites_files_outside_the_repository():
+    try:
+        listed = subprocess.run(["git", "ls-files", "-z"], cwd=ROOT, capture_output=True, check=True, timeout=60)
+    except (OSError, subprocess.SubprocessError):
+        pytest.skip("not a git checkout (the tracked files are unknown)")
+    found = []
+    for name in listed.stdout.decode().split("\0"):
+        path = ROOT / name
+        if not name or name.startswith("tests/") or path.is_symlink() or not path.is_file():
+            continue
+        data = path.read_bytes()
+        if b"\0" in data:
+            continue  # binary
+        for number, line in enumerate(data.decode("utf-8", "replace").splitlines(), 1):
+            if OUTSIDE_CITATION.search(line):
+                found.append(f"{name}:{number}: {line.strip()}")
+    assert not found, "cite docs/model.md (and the paper by its reference) instead:\n" + "\n".join(found)

@@ -1,8 +1,13 @@
 """The browser files the service serves: the dashboard, and libraries from installed packages.
 
-* The dashboard (the ``frontend`` package) is revalidated on every use (``Cache-Control:
-  no-cache`` with ETag/Last-Modified), so an upgrade shows at the next load. ``index.html`` is
-  served with the versioned plotly.js address filled in.
+* The dashboard (the ``frontend`` package): ``index.html`` is revalidated on every use
+  (``Cache-Control: no-cache`` with an ETag), so an upgrade shows at the next load. It names the
+  dashboard's modules and style sheet under ``/v/<digest>/``, the digest being that of every file
+  they are built from (:func:`dashboard_digest`); there they are cached for a year (``immutable``),
+  so a full reload asks the server for the page and its data alone, while a changed file changes
+  the digest and so every address. Relative imports between modules stay inside ``/v/<digest>/``.
+  The same files stay at their plain addresses (``/js/app.js``), revalidated on every use.
+  ``index.html`` is served with the versioned plotly.js address filled in.
 * Libraries (plotly.js, Swagger UI from ``fastapi-offline``) live under addresses that carry
   their version and are cached for a year (``immutable``); each is gzip-compressed once, in memory,
   for the clients that accept gzip. Every file answers HEAD.
@@ -180,6 +185,44 @@ class DashboardFiles(StaticFiles):
         return response
 
 
+class VersionedDashboardFiles(StaticFiles):
+    """The dashboard's files under ``/v/<digest>/``: cached for a year when ``<digest>`` is the one served.
+
+    An address with another digest (a page loaded before the server was upgraded) still gets the
+    file as it is now, to be revalidated.
+    """
+
+    def __init__(self, *, directory: Path, digest: str) -> None:
+        super().__init__(directory=directory)
+        self.digest = digest
+
+    def get_path(self, scope: Scope) -> str:
+        """The file's path without the digest, which goes into the scope for :meth:`file_response`."""
+        digest, _, rest = super().get_path(scope).replace("\\", "/").partition("/")
+        scope["mgrao.digest"] = digest
+        return rest if rest else "\0"  # "\0": no file (StaticFiles answers 404)
+
+    def file_response(self, full_path: PathLike, stat_result: os.stat_result, scope: Scope,
+                      status_code: int = 200) -> Response:
+        """StaticFiles' answer (ETag, Last-Modified, 304), immutable under the served digest."""
+        response = super().file_response(full_path, stat_result, scope, status_code)
+        response.headers["cache-control"] = IMMUTABLE if scope.get("mgrao.digest") == self.digest else REVALIDATE
+        return response
+
+
+VERSIONED_FILES = ("js/*.js", "style.css", "favicon.svg")
+"""The dashboard's files that ``index.html`` names under ``/v/<digest>/``."""
+
+
+def dashboard_digest(static: Path) -> str:
+    """sha256 (first 16 hex digits) of :data:`VERSIONED_FILES`, by name and content."""
+    digest = hashlib.sha256()
+    for pattern in VERSIONED_FILES:
+        for path in sorted(static.glob(pattern)):
+            digest.update(path.relative_to(static).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
+    return digest.hexdigest()[:16]
+
+
 class CompressAssets(GZipMiddleware):
     """gzip for the browser files when the client accepts it; API answers go out as they are.
 
@@ -198,20 +241,25 @@ class CompressAssets(GZipMiddleware):
 MODULES_PLACEHOLDER = "<!-- modulepreload -->"
 
 
-def _module_preloads(static: Path) -> str:
+def _module_preloads(static: Path, prefix: str) -> str:
     """A ``modulepreload`` link for every ES module of the dashboard.
 
     The modules import each other three levels deep; without these links the browser finds each
-    level only when the one above has arrived, and every module is revalidated (``no-cache``), so a
-    full reload waits for three round trips in a row. With them all are asked for at once.
+    level only when the one above has arrived (three round trips in a row on a first load, or when
+    the versioned addresses are not in use). With them all are asked for at once.
     """
     modules = sorted((static / "js").glob("*.js"))
-    return "".join(f'<link rel="modulepreload" href="/js/{path.name}">' for path in modules)
+    return "".join(f'<link rel="modulepreload" href="{prefix}/js/{path.name}">' for path in modules)
 
 
-def _dashboard_index(static: Path) -> Response:
-    html = ((static / "index.html").read_text(encoding="utf-8").replace(HTML_PLACEHOLDER, f'href="{plotly_url()}"')
-            .replace(MODULES_PLACEHOLDER, _module_preloads(static)))
+def _dashboard_index(static: Path, versioned: str | None) -> Response:
+    """``index.html`` naming the files under ``/v/<versioned>/`` (plain addresses when None)."""
+    prefix = "" if versioned is None else f"/v/{versioned}"
+    html = (static / "index.html").read_text(encoding="utf-8").replace(HTML_PLACEHOLDER, f'href="{plotly_url()}"')
+    if prefix:
+        for name in ("/js/app.js", "/style.css", "/favicon.svg"):
+            html = html.replace(f'"{name}"', f'"{prefix}{name}"')
+    html = html.replace(MODULES_PLACEHOLDER, _module_preloads(static, prefix))
     body = html.encode()
     etag = '"' + hashlib.sha256(body).hexdigest()[:32] + '"'
     return Response(body, media_type="text/html", headers={"cache-control": REVALIDATE, "etag": etag})
@@ -240,12 +288,18 @@ def install_static(app: FastAPI) -> None:
     if static is None:
         return
 
+    # The digest of the files as this process found them: the versioned addresses serve these.
+    # Should a file change under a running server (a developer's edit), index.html falls back to
+    # the plain, revalidated addresses rather than pair new content with a cached old address.
+    served = dashboard_digest(static)
+
     @app.api_route("/", methods=["GET", "HEAD"], include_in_schema=False)
     @app.api_route("/index.html", methods=["GET", "HEAD"], include_in_schema=False)
     def dashboard_index(request: Request) -> Response:
-        response = _dashboard_index(static)
+        response = _dashboard_index(static, served if dashboard_digest(static) == served else None)
         if response.headers["etag"] in request.headers.get("if-none-match", ""):
             return Response(status_code=304, headers={"cache-control": REVALIDATE, "etag": response.headers["etag"]})
         return response
 
+    app.mount("/v", VersionedDashboardFiles(directory=static, digest=served), name="dashboard-versioned")
     app.mount("/", DashboardFiles(directory=static, html=True), name="dashboard")

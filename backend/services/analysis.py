@@ -192,22 +192,38 @@ def job_results(session: Session, *, job_id: int, points: int | None = None,
                                        pct_by_seed=pct_by_seed))
 
 
-def compare(session: Session, *, job_ids: Sequence[int], points: int | None = None) -> dict[str, Any]:
-    """``GET /api/compare``: configurations ``(config_hash, algorithm)`` pooled over the jobs' seeds.
+def compare_json(session: Session, *, job_ids: Sequence[int], points: int | None = None) -> bytes:
+    """``GET /api/compare`` as JSON: configurations ``(config_hash, algorithm)`` pooled over the jobs' seeds.
 
     Only succeeded jobs contribute groups; the others are listed in ``jobs`` and add nothing. A
     seed stored by two jobs of one configuration counts once (the first job's run). Groups are
     folded one at a time, so memory grows with a group's episodes, not with the jobs compared.
+
+    The groups are kept (:data:`RESULTS_CACHE`) under what they are made of: each job's id, state,
+    end and configuration, in the order asked, and ``points``. A job that ends, is run again or is
+    deleted changes that key (or answers 404), so a kept answer is never stale; the jobs' own
+    records (names, tags) are read afresh every time.
     """
-    with _BUILDS:
-        try:
-            return _compare(session, job_ids=job_ids, points=points)
-        finally:
-            trim()
-
-
-def _compare(session: Session, *, job_ids: Sequence[int], points: int | None) -> dict[str, Any]:
     jobs = [get_job(session, job_id=job_id) for job_id in dict.fromkeys(job_ids)]
+    key = ("compare", points, *((job.id, job.status, job.finished_at, job.config_hash) for job in jobs))
+
+    def build() -> bytes:
+        with _BUILDS:
+            try:
+                return dumps(_compare_groups(session, jobs, points))
+            finally:
+                trim()
+
+    groups = RESULTS_CACHE.get_or_build(key, build)
+    return dumps({"jobs": [job_dict(job) for job in jobs]})[:-1] + b',"groups":' + groups + b"}"
+
+
+def compare(session: Session, *, job_ids: Sequence[int], points: int | None = None) -> dict[str, Any]:
+    """``GET /api/compare`` as data (:func:`compare_json`)."""
+    return json.loads(compare_json(session, job_ids=job_ids, points=points))
+
+
+def _compare_groups(session: Session, jobs: list[Job], points: int | None) -> list[dict[str, Any]]:
     succeeded = [job for job in jobs if job.status == SUCCEEDED]
     keys = list(dict.fromkeys((job.config_hash, a) for job in succeeded for a in job.config["algorithms"]))
     finals: dict[tuple[str, str], dict[int, float]] = {}
@@ -246,7 +262,7 @@ def _compare(session: Session, *, job_ids: Sequence[int], points: int | None) ->
             "summary": summaries[config][algorithm].as_dict(),
             "episodes": bands[key],
         })
-    return {"jobs": [job_dict(job) for job in jobs], "groups": groups}
+    return groups
 
 
 def stored_runs(session: Session, *, job_id: int) -> Iterator[tuple[str, int, list[float]]]:

@@ -13,7 +13,6 @@ last in either direction; pages are :mod:`backend.store.keyset` pages.
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 
 from sqlalchemy import ColumnElement, Select, and_
@@ -54,10 +53,8 @@ def _order(text: str, descending: bool, value: ColumnElement, kind: str, configu
 
 def _configuration(label: str) -> str:
     """The canonical label of a configuration (``MGRAO-05:1`` is ``mgrao-5:1``), or BadQuery naming ``sort``."""
-    match = re.fullmatch(r"mgrao-0*(\d{1,6}):\d{1,6}", label.strip().lower())
-    groups = int(match.group(1)) if match and int(match.group(1)) > 0 else 1
     try:
-        return parse_algorithm(label, n_parents=groups, field="sort", hint_groups=False).label
+        return parse_algorithm(label, None, field="sort").label
     except ConfigError as error:
         raise BadQuery("sort", error.message) from None
 

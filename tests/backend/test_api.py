@@ -182,6 +182,29 @@ def test_compare_pools_seeds_by_configuration(client: TestClient, worker: Worker
     assert client.get("/api/compare?jobs=1,x").status_code == 422
 
 
+def test_compare_keeps_its_groups_until_a_job_changes(client: TestClient, worker: Worker) -> None:
+    from backend.services.analysis import RESULTS_CACHE
+
+    done = submit(client, seeds=[0, 1])
+    drain(worker)
+    pending = submit(client, seeds=[2, 3])
+    url = f"/api/compare?jobs={done['id']},{pending['id']}&points=5"
+    builds = RESULTS_CACHE.builds
+    first = client.get(url).json()
+    assert client.get(url).json() == first and RESULTS_CACHE.builds == builds + 1  # the second is the kept answer
+    assert [g["summary"]["n_runs"] for g in first["groups"]] == [2, 2, 2]
+    client.patch(f"/api/jobs/{done['id']}", json={"name": "renamed"})
+    renamed = client.get(url).json()
+    assert renamed["jobs"][0]["name"] == "renamed" and renamed["groups"] == first["groups"]  # records read afresh
+    assert RESULTS_CACHE.builds == builds + 1
+    drain(worker)  # the pending job succeeds: its state is part of the key, so its seeds join the groups
+    pooled = client.get(url).json()
+    assert RESULTS_CACHE.builds == builds + 2
+    assert [g["summary"]["n_runs"] for g in pooled["groups"]] == [4, 4, 4]
+    assert client.get(f"/api/compare?jobs={pending['id']},{done['id']}&points=5").json()["jobs"][0]["id"] == \
+        pending["id"]
+
+
 @pytest.mark.parametrize(
     ("body", "field", "text"),
     [

@@ -9,7 +9,7 @@ import httpx
 import pytest
 from fastapi.testclient import TestClient
 
-from backend.api.static import docs_asset_url, docs_assets_dir, frontend_dir, plotly_js, plotly_url
+from backend.api.static import dashboard_digest, docs_asset_url, docs_assets_dir, frontend_dir, plotly_js, plotly_url
 
 IDENTITY = {"Accept-Encoding": "identity"}
 GZIP = {"Accept-Encoding": "gzip"}
@@ -140,7 +140,39 @@ def test_gzip_refused_with_q_zero_is_not_sent(client) -> None:
 def test_index_preloads_every_module_of_the_dashboard(client: TestClient) -> None:
     # all at once, instead of a level of imports at a time, each revalidated before the next is found
     html = client.get("/").text
-    preloaded = re.findall(r'<link rel="modulepreload" href="/js/([^"]+)">', html)
+    preloaded = re.findall(r'<link rel="modulepreload" href="/v/[0-9a-f]{16}/js/([^"]+)">', html)
     assert preloaded and sorted(preloaded) == sorted(p.name for p in (frontend_dir() / "js").glob("*.js"))
+    prefix = re.search(r'href="(/v/[0-9a-f]{16})/js/', html).group(1)
     for name in preloaded:
-        assert client.get(f"/js/{name}").status_code == 200
+        assert client.get(f"{prefix}/js/{name}").status_code == 200
+
+
+def test_the_dashboard_is_named_under_its_digest_and_cached_there_for_a_year(client: TestClient) -> None:
+    # A full reload then asks for index.html (revalidated) and the data alone, not for 25 modules.
+    html = client.get("/").text
+    digest = dashboard_digest(frontend_dir())
+    for name in ("js/app.js", "style.css", "favicon.svg"):
+        assert f'"/v/{digest}/{name}"' in html
+        response = client.get(f"/v/{digest}/{name}", headers=IDENTITY)
+        assert response.status_code == 200
+        assert response.content == (frontend_dir() / name).read_bytes()
+        assert response.headers["cache-control"] == "public, max-age=31536000, immutable"
+    assert '"/js/app.js"' not in html and '"/style.css"' not in html
+    # Another digest (a page from before an upgrade) gets today's file, to be revalidated.
+    stale = client.get("/v/0000000000000000/js/app.js", headers=IDENTITY)
+    assert stale.status_code == 200 and stale.headers["cache-control"] == "no-cache"
+    for missing in (f"/v/{digest}/js/none.js", f"/v/{digest}", f"/v/{digest}/", f"/v/{digest}/../pyproject.toml"):
+        assert client.get(missing).status_code == 404, missing
+
+
+def test_the_digest_follows_every_versioned_file(tmp_path) -> None:
+    (tmp_path / "js").mkdir()
+    (tmp_path / "js" / "a.js").write_text("export const a = 1;")
+    (tmp_path / "style.css").write_text("body {}")
+    before = dashboard_digest(tmp_path)
+    (tmp_path / "js" / "a.js").write_text("export const a = 2;")
+    assert dashboard_digest(tmp_path) != before
+    (tmp_path / "js" / "a.js").write_text("export const a = 1;")
+    assert dashboard_digest(tmp_path) == before
+    (tmp_path / "js" / "b.js").write_text("")
+    assert dashboard_digest(tmp_path) != before

@@ -41,5 +41,5 @@ def compare(
     points: Annotated[int | None, Query(ge=1, le=MAX_EPISODES)] = None,
 ) -> Response:
     """Configurations (config_hash, algorithm) of succeeded jobs, seeds pooled across jobs."""
-    body = analysis.dumps(analysis.compare(session, job_ids=parse_ids(jobs), points=points))
-    return Response(body, media_type="application/json")
+    return Response(analysis.compare_json(session, job_ids=parse_ids(jobs), points=points),
+                    media_type="application/json")

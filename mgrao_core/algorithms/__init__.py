@@ -1,0 +1,137 @@
+"""Algorithms: one module per family, registered here; labels, parsing and the registry clients read.
+
+The families, in the order an unknown label's error lists them:
+
+* :mod:`~mgrao_core.algorithms.uniform`: the uniform allocation (the baseline);
+* :mod:`~mgrao_core.algorithms.oracle`: the best fixed allocation (an upper bound);
+* :mod:`~mgrao_core.algorithms.mgrao`: MG-RAO, ``mgrao-x:1`` and ``mgrao-max`` (paper table
+  "Summary of algorithm labels").
+
+:func:`parse_algorithm` turns a label into an :class:`Algorithm` by asking each family in turn;
+:func:`describe_label` and :func:`registry` are what the API's ``GET /api/algorithms`` and
+``mgrao algorithms`` serve, so that no client parses labels or lists algorithms of its own.
+docs/algorithms.md shows how to add a family.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from mgrao_core.algorithms import mgrao, oracle, uniform
+from mgrao_core.algorithms.base import PALETTE_SLOTS, Algorithm, Family
+from mgrao_core.algorithms.mgrao import MAX_LABEL as MGRAO_MAX
+from mgrao_core.algorithms.mgrao import divisors, parent_groups
+from mgrao_core.algorithms.oracle import LABEL as ORACLE
+from mgrao_core.algorithms.uniform import LABEL as UNIFORM
+from mgrao_core.errors import ConfigError
+
+if TYPE_CHECKING:
+    from mgrao_core.params import SystemParams
+
+FAMILIES: tuple[Family, ...] = (uniform.FAMILY, oracle.FAMILY, mgrao.FAMILY)
+"""Every registered family. A new family is a module with a ``FAMILY`` and a line here."""
+FAMILIES_BY_NAME: dict[str, Family] = {f.name: f for f in FAMILIES}
+
+
+def family_of(algorithm: Algorithm) -> Family:
+    """The family a parsed algorithm belongs to."""
+    return FAMILIES_BY_NAME[algorithm.kind]
+
+
+def parse_algorithm(label: Any, n_parents: int | None, field: str = "algorithm") -> Algorithm:
+    """Turn a label into an :class:`Algorithm` for a system with ``n_parents`` parents.
+
+    Labels are read without case or surrounding spaces (and ratios without leading zeros): the
+    returned ``label`` is the canonical spelling (``" MGRAO-05:1"`` is ``"mgrao-5:1"``). With
+    ``n_parents`` None only the grammar is checked (a caller without a system, such as a sort key).
+
+    Raises:
+        ConfigError: naming ``field``: an unknown label (the message says how labels are written),
+            or a label its family does not allow in this system.
+    """
+    text = label.strip().lower() if isinstance(label, str) else None
+    if text is not None:
+        for family in FAMILIES:
+            algorithm = family.parse(text, n_parents, field)
+            if algorithm is not None:
+                return algorithm
+    raise ConfigError(field, f"unknown algorithm {label!r}: use {', '.join(f.hint(n_parents) for f in FAMILIES)}")
+
+
+def parse_algorithms(labels: list[str] | tuple[str, ...], n_parents: int) -> tuple[Algorithm, ...]:
+    """Parse a non-empty list of distinct labels (field names ``algorithms[i]`` in errors).
+
+    Two spellings of one algorithm (``mgrao-1:1`` and ``mgrao-01:1``) are a repeat.
+    """
+    if not labels:
+        raise ConfigError("algorithms", "must name at least one algorithm")
+    parsed = []
+    seen: dict[str, int] = {}
+    for i, label in enumerate(labels):
+        algorithm = parse_algorithm(label, n_parents, f"algorithms[{i}]")
+        parsed.append(algorithm)
+        if algorithm.label in seen:
+            raise ConfigError(
+                f"algorithms[{i}]",
+                f"repeats algorithms[{seen[algorithm.label]}] ({labels[i]!r} is {algorithm.label!r})",
+            )
+        seen[algorithm.label] = i
+    return tuple(parsed)
+
+
+def sort_key(label: str) -> tuple[int, int, str]:
+    """Where a configuration comes in views: uniform, then x:1 by x, then max, then the oracle.
+
+    A label no family recognises comes last, by its spelling.
+    """
+    try:
+        algorithm = parse_algorithm(label, None)
+    except ConfigError:
+        return (len(FAMILIES) + 1, 0, str(label))
+    return (*family_of(algorithm).sort_key(algorithm), algorithm.label)
+
+
+def describe_label(label: Any, params: SystemParams | None = None, field: str = "label") -> dict[str, Any]:
+    """One label, canonical and described for a system (``params``; None: the grammar alone).
+
+    What ``GET /api/algorithms?label=`` answers.
+
+    Raises:
+        ConfigError: as :func:`parse_algorithm`.
+    """
+    algorithm = parse_algorithm(label, None if params is None else params.n_parents, field)
+    family = family_of(algorithm)
+    return {"label": algorithm.label, "family": family.name, "title": family.title,
+            "groups": algorithm.n_groups if family.name == mgrao.FAMILY.name and algorithm.n_groups else None,
+            "description": family.description, "colour_key": family.colour_key(algorithm),
+            "sort_key": list(family.sort_key(algorithm))}
+
+
+def registry(params: SystemParams | None = None) -> list[dict[str, Any]]:
+    """Every family for clients: name, description, label forms and examples valid for a system.
+
+    ``params`` None describes the grammar alone (no system chosen yet).
+    """
+    n_parents = None if params is None else params.n_parents
+    return [{"name": f.name, "title": f.title, "description": f.description, "rank": f.rank,
+             "forms": f.forms(n_parents), "examples": f.examples(n_parents)} for f in FAMILIES]
+
+
+__all__ = [
+    "FAMILIES",
+    "FAMILIES_BY_NAME",
+    "MGRAO_MAX",
+    "ORACLE",
+    "PALETTE_SLOTS",
+    "UNIFORM",
+    "Algorithm",
+    "Family",
+    "describe_label",
+    "divisors",
+    "family_of",
+    "parent_groups",
+    "parse_algorithm",
+    "parse_algorithms",
+    "registry",
+    "sort_key",
+]

@@ -1,0 +1,98 @@
+"""``mgrao-x:1`` and ``mgrao-max``: MG-RAO, the paper's multi-group learner (algorithms 1 and 2).
+
+Each child keeps one row of parent-group weights (PW) per group of parents: ``mgrao-x:1`` splits
+the parents into x groups of equal size (x divides ``n_parents``; the paper's "x:y ratio of
+parent-agent groups to each child-agent", y being 1), ``mgrao-max`` gives every parent its own
+group and ``mgrao-1:1`` pools them all.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+import numpy as np
+
+from mgrao_core.algorithms.base import Algorithm, Family, LabelForm, invalid
+
+MAX_LABEL = "mgrao-max"
+_RATIO = re.compile(r"^mgrao-0*(\d{1,9}):0*(\d{1,9})$")
+
+
+def divisors(n: int) -> list[int]:
+    """The positive divisors of ``n`` in increasing order."""
+    return [d for d in range(1, n + 1) if n % d == 0]
+
+
+def parent_groups(n_parents: int, n_groups: int) -> np.ndarray:
+    """Group of each parent: parent ``p`` is in group ``floor(p * m / n_parents)`` (docs/model.md, "MG-RAO")."""
+    return (np.arange(n_parents) * n_groups) // n_parents
+
+
+def ratio_label(groups: int) -> str:
+    """The canonical label of x groups per child, ``mgrao-x:1``."""
+    return f"mgrao-{groups}:1"
+
+
+class Mgrao(Family):
+    """MG-RAO with x parent groups per child (``mgrao-x:1``), or one group per parent (``mgrao-max``)."""
+
+    name = "mgrao"
+    title = "MG-RAO"
+    description = ("Each child learns a row of resource weights per group of parents from the values they "
+                   "return (algorithm 1) and blends the rows by how informative and how used each is "
+                   "(algorithm 2). More groups: a finer model that learns more slowly and needs more memory.")
+    rank = 1
+    _ratio = LabelForm("mgrao-{x}:1", r"^mgrao-0*(\d{1,9}):0*1$", "x parent groups per child",
+                       "x", "parent groups per child, a whole number dividing n_parents")
+    _max = LabelForm(MAX_LABEL, "^mgrao-max$", "one group per parent")
+
+    def parse(self, text: str, n_parents: int | None, field: str) -> Algorithm | None:
+        """This family's algorithm for ``text``, or None (see :meth:`Family.parse`)."""
+        if text == MAX_LABEL:
+            return Algorithm(MAX_LABEL, self.name, n_parents or 0)
+        match = _RATIO.match(text)
+        if match is None:
+            return None
+        groups, children = int(match.group(1)), int(match.group(2))
+        if children != 1:
+            raise invalid(field, f"{text}: only x:1 (groups per child) is supported, got y = {children}")
+        if n_parents is None:
+            if groups < 1:
+                raise invalid(field, f"{text}: x must be a whole number of at least 1")
+        elif groups < 1 or groups > n_parents or n_parents % groups:
+            raise invalid(field, f"{text}: x must be a divisor of n_parents = {n_parents} "
+                                 f"(valid: {', '.join(str(d) for d in divisors(n_parents))})")
+        return Algorithm(ratio_label(groups), self.name, groups)
+
+    def forms(self, n_parents: int | None) -> list[dict[str, Any]]:
+        """The family's label forms (see :meth:`Family.forms`)."""
+        return [self._ratio.as_dict(valid=None if n_parents is None else divisors(n_parents)), self._max.as_dict()]
+
+    def examples(self, n_parents: int | None) -> list[str]:
+        """Labels valid for the system (see :meth:`Family.examples`)."""
+        ratios = [1] if n_parents is None else [d for d in divisors(n_parents) if d < n_parents]
+        return [ratio_label(x) for x in ratios] + [MAX_LABEL]
+
+    def hint(self, n_parents: int | None) -> str:
+        """How the family's labels are written."""
+        ratio = self._ratio.template.format(x="x")
+        hint = f"{MAX_LABEL} or {ratio}, x being the parent groups per child, a whole number"
+        if n_parents is not None:
+            hint = f"{hint} dividing n_parents = {n_parents} ({', '.join(str(d) for d in divisors(n_parents))})"
+        return hint
+
+    def colour_key(self, algorithm: Algorithm) -> int:
+        """1:1 blue (slot 1), max vermillion (2); other x by magnitude: 2-3, 4-7, 8-15, 16 and more (4-7)."""
+        if algorithm.label == MAX_LABEL:
+            return 2
+        if algorithm.n_groups == 1:
+            return 1
+        return 4 + min(3, algorithm.n_groups.bit_length() - 2)
+
+    def order(self, algorithm: Algorithm) -> int:
+        """x:1 by increasing x, then max."""
+        return 2**62 if algorithm.label == MAX_LABEL else algorithm.n_groups
+
+
+FAMILY = Mgrao()
