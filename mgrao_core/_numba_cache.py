@@ -16,7 +16,7 @@ numba:
   process and the ones it starts; numba names its files there by the source's directory (its name
   and a hash of its absolute path), so installs in different places keep apart, and an install
   that replaces another in the same place finds the old files stale (numba stamps them with the
-  source, :mod:`mgrao_core.engine.cache` with every engine source) and overwrites them;
+  source, :mod:`mgrao_core.engine.cache` with every compiled source) and overwrites them;
 * when no directory is usable, the engine is compiled without a cache (once per process, with a
   ``RuntimeWarning``) instead of failing the import and with it every job, and instead of caching
   beside its source.

@@ -1,18 +1,22 @@
 """The paper's equations, one small pure function each, named after the paper's terms.
 
 These are the reference definitions: readable, dense and per child. The batched engine
-(:mod:`mgrao_core.engine`) computes the same quantities lazily and is tested against them.
+(:mod:`mgrao_core.engine`) computes the same quantities lazily and is tested against them. The
+resource allocation and the atomic task quality are defined in :mod:`mgrao_core.quality` (beside
+their compiled forms) and named here too.
 """
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from mgrao_core.params import SystemParams
+from mgrao_core.quality import atomic_quality as atomic_quality
+from mgrao_core.quality import exponential_quality as exponential_quality
+from mgrao_core.quality import hyperbolic_quality as hyperbolic_quality
+from mgrao_core.quality import relative_linear_quality as relative_linear_quality
+from mgrao_core.quality import resource_amount as resource_amount
 
 
 def sumnorm(x: np.ndarray, axis: int = -1) -> np.ndarray:
@@ -66,56 +70,6 @@ def blend_vector(weights: np.ndarray, counts: np.ndarray) -> np.ndarray:
 def combined_weights(weights: np.ndarray, counts: np.ndarray, temperature: float) -> np.ndarray:
     """Combined resource weights ``softmax(sumnorm(B) @ PW / temperature)`` (algorithm 2)."""
     return softmax(sumnorm(blend_vector(weights, counts)) @ weights, temperature)
-
-
-def resource_amount(weight: np.ndarray, resource: float, load: np.ndarray | float = 1.0) -> np.ndarray:
-    """Agent resource allocation ``x = w[tp] * ar[c]`` (paper definition), per instance of the type.
-
-    ``load`` is the number of instances of the type the child receives in the episode when
-    ``load_sharing`` is on (the resource is shared among them), 1 otherwise.
-    """
-    return np.asarray(weight, dtype=float) * resource / load
-
-
-def hyperbolic_quality(x: np.ndarray, half_saturation: float) -> np.ndarray:
-    """``q = x / (x + h)``: 0 without resource, 1/2 at ``x = h``, saturating towards 1."""
-    return x / (x + half_saturation)
-
-
-def exponential_quality(x: np.ndarray, half_saturation: float) -> np.ndarray:
-    """``q = 1 - exp(-x / h)`` (computed as ``-expm1(-x / h)``)."""
-    return -np.expm1(-x / half_saturation)
-
-
-def relative_linear_quality(weight: np.ndarray, n_types: int, quality_at_uniform: float,
-                            load: np.ndarray | float = 1.0) -> np.ndarray:
-    """``q = min(1, quality_at_uniform * x / (ar / n_types))``: the first reading.
-
-    That is ``quality_at_uniform * n_types * w[tp]`` capped at 1: the child's own resource ``ar``
-    cancels out.
-    """
-    return np.minimum(1.0, quality_at_uniform * n_types * (np.asarray(weight, dtype=float) / load))
-
-
-def atomic_quality(weight: np.ndarray, resource: float, params: SystemParams,
-                   load: np.ndarray | float = 1.0) -> np.ndarray:
-    """Atomic task quality under ``params.quality_model``, kept in ``[quality_floor, 1]``.
-
-    Args:
-        weight: ``w[tp]``, the share of the child's resource given to each task's type.
-        resource: ``ar[c]``, the child's resource amount.
-        params: the quality model, ``half_saturation``, ``quality_at_uniform`` and ``quality_floor``.
-        load: instances of each task's type the child receives this episode (load sharing), or 1.
-    """
-    if params.quality_model == "relative-linear":
-        quality = relative_linear_quality(weight, params.n_types, params.quality_at_uniform, load)
-    else:
-        x = resource_amount(weight, resource, load)
-        if params.quality_model == "hyperbolic":
-            quality = hyperbolic_quality(x, params.half_saturation)
-        else:
-            quality = exponential_quality(x, params.half_saturation)
-    return np.clip(quality, params.quality_floor, 1.0)
 
 
 def proportional_values(profile: np.ndarray, noise: np.ndarray, value_noise: float) -> np.ndarray:

@@ -12,6 +12,9 @@ sum over allocations (``w >= 0``, ``sum w = 1``):
   value ``V[t] * dq/dw`` of every type that gets resource (water-filling); the level is found by
   bisection.
 
+Each model's side of this (its full-quality share, or the inverse of its marginal value) is written
+beside the model in :mod:`mgrao_core.quality`.
+
 No fixed allocation does better, so in a system whose task stream is stationary (single, large)
 it bounds every algorithm from above in expectation. With several children each child gets the
 best allocation for its own resource were it to receive every task (the parents' routing is not
@@ -39,6 +42,7 @@ from mgrao_core.budget import ORACLE_BATCH, ORACLE_DRAWS
 from mgrao_core.engine.montecarlo import add_proportional_values, draw_scaled_normals
 from mgrao_core.errors import Cancelled
 from mgrao_core.params import SystemParams
+from mgrao_core.quality import QualityModel, quality_model
 from mgrao_core.world import World, stream
 
 EXPECTATION_SAMPLES = 1024
@@ -86,9 +90,9 @@ def type_loads(params: SystemParams, world: World) -> np.ndarray:
     return np.maximum(loads, 1.0)
 
 
-def _knapsack(params: SystemParams, values: np.ndarray, loads: np.ndarray) -> np.ndarray:
+def _knapsack(params: SystemParams, model: QualityModel, values: np.ndarray, loads: np.ndarray) -> np.ndarray:
     """relative-linear: fill types by value per unit weight up to their full-quality share."""
-    full_quality_share = loads / (params.quality_at_uniform * params.n_types)
+    full_quality_share = model.full_quality_share(loads, params.n_types, params.quality_at_uniform)
     weights = np.zeros(params.n_types)
     budget = 1.0
     for t in np.argsort(-(values / loads), kind="stable"):
@@ -101,42 +105,41 @@ def _knapsack(params: SystemParams, values: np.ndarray, loads: np.ndarray) -> np
     return weights
 
 
-def _weights_at_level(params: SystemParams, values: np.ndarray, per_weight: np.ndarray, level: float) -> np.ndarray:
+def _weights_at_level(params: SystemParams, model: QualityModel, values: np.ndarray, per_weight: np.ndarray,
+                      level: float) -> np.ndarray:
     """The weight of each type whose marginal value ``V * dq/dw`` equals ``level`` (0 if below)."""
-    h = params.half_saturation
     with np.errstate(divide="ignore", invalid="ignore"):
-        if params.quality_model == "hyperbolic":  # V a h / (a w + h)^2 = level
-            w = (np.sqrt(values * per_weight * h / level) - h) / per_weight
-        else:  # V a / h * exp(-a w / h) = level
-            w = h / per_weight * np.log(values * per_weight / (h * level))
+        w = model.weights_at_level(values, per_weight, params.half_saturation, level)
     return np.where(values > 0, np.maximum(w, 0.0), 0.0)
 
 
-def _water_filling(params: SystemParams, values: np.ndarray, per_weight: np.ndarray) -> np.ndarray:
+def _water_filling(params: SystemParams, model: QualityModel, values: np.ndarray,
+                   per_weight: np.ndarray) -> np.ndarray:
     """hyperbolic, exponential: the allocation that equalises the marginal values (bisection)."""
     if not (values > 0).any():
         return np.full(params.n_types, 1.0 / params.n_types)
     high = float(np.max(values * per_weight) / params.half_saturation)  # the largest marginal value at w = 0
     low = high
-    while _weights_at_level(params, values, per_weight, low).sum() < 1.0:
+    while _weights_at_level(params, model, values, per_weight, low).sum() < 1.0:
         low /= 2.0
     for _ in range(_BISECTIONS):
         middle = np.sqrt(low * high)
-        if _weights_at_level(params, values, per_weight, middle).sum() >= 1.0:
+        if _weights_at_level(params, model, values, per_weight, middle).sum() >= 1.0:
             low = middle
         else:
             high = middle
         if high - low <= 1e-15 * high:
             break
-    weights = _weights_at_level(params, values, per_weight, low)
+    weights = _weights_at_level(params, model, values, per_weight, low)
     return weights / weights.sum()
 
 
 def oracle_weights(params: SystemParams, world: World, seed: int,
                    should_stop: Callable[[], bool] | None = None) -> np.ndarray:
     """The optimal fixed resource weights, ``(n_children, n_types)``, each row summing to 1."""
+    model = quality_model(params.quality_model)
     values = expected_type_values(params, world, seed, should_stop)
     loads = type_loads(params, world)
-    if params.quality_model == "relative-linear":  # the child's resource cancels out
-        return np.tile(_knapsack(params, values, loads), (params.n_children, 1))
-    return np.stack([_water_filling(params, values, resource / loads) for resource in world.resources])
+    if model.full_quality_share is not None:  # linear: the child's resource cancels out
+        return np.tile(_knapsack(params, model, values, loads), (params.n_children, 1))
+    return np.stack([_water_filling(params, model, values, resource / loads) for resource in world.resources])

@@ -13,9 +13,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from mgrao_core import quality
 from mgrao_core.errors import ConfigError
 
-QUALITY_MODELS = ("hyperbolic", "exponential", "relative-linear")
+QUALITY_MODELS = tuple(quality.QUALITY_MODELS)
 ROUTINGS = ("per-composite", "per-task")
 ABSENT_TASKS = ("excluded", "counted")
 
@@ -223,9 +224,7 @@ class SystemParams:
         """
         if self.absent_quality is not None:
             return self.absent_quality
-        from mgrao_core.equations import atomic_quality
-
-        return float(atomic_quality(1.0 / self.n_types, self.resource_mean, self))
+        return float(quality.atomic_quality(1.0 / self.n_types, self.resource_mean, self))
 
     def as_dict(self) -> dict[str, Any]:
         """All parameters as plain JSON-ready data."""

@@ -1,4 +1,4 @@
-"""A plain per-agent simulator built from :mod:`mgrao_core.equations`: slow, dense, obvious.
+"""A plain per-agent simulator built from :mod:`mgrao_core.equations` and :mod:`mgrao_core.quality`: slow, dense.
 
 It reads the same world and random streams as the engine and applies algorithm 1 literally (a
 dense trace and weight update per returned value), so the tests can check that the batched
@@ -16,6 +16,7 @@ from mgrao_core import equations as eq
 from mgrao_core.algorithms import parent_groups, parse_algorithm
 from mgrao_core.oracle import oracle_weights
 from mgrao_core.params import SystemParams
+from mgrao_core.quality import atomic_quality
 from mgrao_core.world import EpisodeStreams, draw_world
 
 
@@ -150,8 +151,7 @@ def simulate(params: SystemParams, algorithm: str, seed: int, episodes: int) -> 
                 continue
             ctv = eq.proportional_values(parent.profile, draws.noise[e, p], params.value_noise)
             quality = np.array([
-                eq.atomic_quality(weights[c][t], world.resources[c], params,
-                                  load[c, t] if params.load_sharing else 1.0)
+                atomic_quality(weights[c][t], world.resources[c], params, load[c, t] if params.load_sharing else 1.0)
                 for c, t in zip(assigned[p], parent.task_types, strict=True)
             ])
             taqs[p] = eq.composite_quality(ctv, quality)

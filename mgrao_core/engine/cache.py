@@ -1,10 +1,11 @@
-"""Numba's on-disk cache of the kernel: stale after any change of the engine, loaded without the compiler.
+"""Numba's on-disk cache of the kernel: stale after any change of what it compiles, loaded without the compiler.
 
 Numba keys a cached function on its own source file alone. The kernel inlines functions from
-:mod:`~mgrao_core.engine.environment` and :mod:`~mgrao_core.engine.learning`, so after an edit of
-either (or a checkout that touches only them) numba would load the old kernel and compute old
-numbers. :func:`bind_to_sources` adds a digest of every engine source to the stamp numba checks,
-so any change recompiles the kernel.
+:mod:`~mgrao_core.engine.environment`, :mod:`~mgrao_core.engine.learning`, :mod:`mgrao_core.quality`
+and the algorithms' modules, so after an edit of any of them (or a checkout that touches only them)
+numba would load the old kernel and compute old numbers. :func:`bind_to_sources` adds a digest of
+every compiled source (:data:`COMPILED_SOURCES`) to the stamp numba checks, so any change
+recompiles the kernel.
 
 Before it loads a cached function, numba imports and registers every implementation it has (its
 target context's "refresh", about 0.15 s of a process that runs for under a second), which
@@ -21,19 +22,32 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-ENGINE_DIR = Path(__file__).resolve().parent
+PACKAGE_DIR = Path(__file__).resolve().parents[1]
+
+COMPILED_SOURCES = ("engine/*.py", "quality.py", "algorithms.py", "algorithms/**/*.py")
+"""Every place, as a glob under ``mgrao_core/``, whose code the kernel compiles or reads at compile time.
+
+The engine package; the quality models' compiled forms; the algorithms, a module or a package of
+modules (a place that does not exist matches nothing). A module that gives the kernel compiled code
+or constants belongs here: numba would not notice its edits.
+"""
 
 
-def sources_digest(directory: Path = ENGINE_DIR) -> str:
-    """sha256 of every ``.py`` file of the engine package, by name and content."""
+def compiled_sources(package: Path = PACKAGE_DIR) -> list[Path]:
+    """The files of :data:`COMPILED_SOURCES` under ``package`` (``mgrao_core/``), sorted."""
+    return sorted({path for pattern in COMPILED_SOURCES for path in package.glob(pattern) if path.is_file()})
+
+
+def sources_digest(package: Path = PACKAGE_DIR) -> str:
+    """sha256 of every compiled source (:func:`compiled_sources`), by its path under ``package`` and content."""
     digest = hashlib.sha256()
-    for path in sorted(directory.glob("*.py")):
-        digest.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
+    for path in compiled_sources(package):
+        digest.update(path.relative_to(package).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
     return digest.hexdigest()
 
 
 def bind_to_sources(dispatchers: Iterable[Any], digest: str | None = None) -> None:
-    """Make the cache of each numba dispatcher valid only for the current engine sources.
+    """Make the cache of each numba dispatcher valid only for the current compiled sources.
 
     Call it before the dispatchers first run. Should numba's internals not look as expected, the
     cached kernel is not trusted: its index is flushed (one compile per process) with a warning.

@@ -4,7 +4,8 @@ What a parent does with a composite task (absent parents, proportional values, c
 and what a child's resources make of an atomic task (its quality) live here; what a child learns
 from the values it gets back lives in :mod:`mgrao_core.engine.learning`. Each function is the
 compiled twin of a step of the dense reference (:mod:`mgrao_core.reference`), which is built from
-:mod:`mgrao_core.equations`, and performs the same floating-point operations in the same order.
+:mod:`mgrao_core.equations`, and performs the same floating-point operations in the same order. The
+quality models' compiled forms live with their other forms in :mod:`mgrao_core.quality`.
 """
 
 from __future__ import annotations
@@ -16,14 +17,10 @@ import numpy as np
 from numba import njit
 
 from mgrao_core.params import SystemParams
+from mgrao_core.quality import compiled_atomic_quality, quality_model
 
-# Literal codes: a compiled function must not depend on another file's values (numba's cache of
-# this file would not notice them change). tests/core/test_engine.py checks them against params.
-QUALITY_HYPERBOLIC = 0
-QUALITY_EXPONENTIAL = 1
-QUALITY_RELATIVE_LINEAR = 2
-QUALITY_CODES = {"hyperbolic": QUALITY_HYPERBOLIC, "exponential": QUALITY_EXPONENTIAL,
-                 "relative-linear": QUALITY_RELATIVE_LINEAR}
+atomic_task_quality = compiled_atomic_quality()
+"""Quality of an atomic task under the environment's quality model (see :mod:`mgrao_core.quality`)."""
 
 
 class Environment(NamedTuple):
@@ -51,7 +48,7 @@ def environment_of(params: SystemParams) -> Environment:
     """The kernel's view of a validated parameter set."""
     return Environment(
         n_types=params.n_types,
-        quality_model=QUALITY_CODES[params.quality_model],
+        quality_model=quality_model(params.quality_model).code,
         half_saturation=params.half_saturation,
         quality_at_uniform=params.quality_at_uniform,
         quality_floor=params.quality_floor,
@@ -163,24 +160,6 @@ def allocate_atomic_tasks(estimates, routing, env, child_of):
     else:
         for k in range(child_of.shape[0]):
             child_of[k] = choose_child(estimates[k], routing[k], env)
-
-
-@njit(cache=True, inline="always")
-def atomic_task_quality(weight, resource, load, env):
-    """Quality of an atomic task under the environment's quality model.
-
-    ``weight`` is the share of the child's resource ``resource`` given to the task's type, shared
-    among ``load`` instances (1 without load sharing).
-    """
-    if env.quality_model == QUALITY_RELATIVE_LINEAR:
-        quality = min(1.0, env.quality_at_uniform * env.n_types * (weight / load))
-    else:
-        x = weight * resource / load
-        if env.quality_model == QUALITY_HYPERBOLIC:
-            quality = x / (x + env.half_saturation)
-        else:
-            quality = -math.expm1(-x / env.half_saturation)
-    return max(quality, env.quality_floor)
 
 
 @njit(cache=True, inline="always")

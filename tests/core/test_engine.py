@@ -101,10 +101,10 @@ def test_result_shapes():
 
 
 def test_quality_codes_cover_the_schema():
-    from mgrao_core.engine.environment import QUALITY_CODES
+    from mgrao_core.quality import QUALITY_MODELS as REGISTERED
 
-    assert set(QUALITY_CODES) == set(QUALITY_MODELS)
-    assert len(set(QUALITY_CODES.values())) == len(QUALITY_MODELS)
+    assert set(REGISTERED) == set(QUALITY_MODELS)
+    assert len({model.code for model in REGISTERED.values()}) == len(QUALITY_MODELS)
 
 
 def test_compiled_estimates_per_composite_keep_one_running_mean_of_taq_per_child():

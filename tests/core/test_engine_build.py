@@ -1,5 +1,6 @@
-"""The compiled engine as built: the on-disk cache (in the user's cache, by the engine's path) follows every engine
-source and loads without numba's compiler, and no index is out of bounds.
+"""The compiled engine as built: the on-disk cache (in the user's cache, by the engine's path) follows every
+compiled source (the engine, the quality models, the algorithms) and loads without numba's compiler, and no index
+is out of bounds.
 
 Each compiles the kernel afresh in a copy of the package (about 15 s each).
 """
@@ -44,23 +45,57 @@ def _run(root: Path, systems: str, **env: str) -> str:
     return done.stdout
 
 
+def _engine_cache(root: Path) -> Path:
+    """numba's directory for this copy of the engine, in the copy's user cache: named by the engine's absolute path."""
+    engine = root / "mgrao_core" / "engine"
+    return root / "cache" / "mgrao" / "numba" / f"engine_{hashlib.sha1(str(engine).encode()).hexdigest()}"
+
+
+def _kernel_index(root: Path) -> bytes:
+    """The cache index of the kernel: numba rewrites it when it compiles the kernel, not when it loads it."""
+    (index,) = _engine_cache(root).glob("kernel.run_block*.nbi")
+    return index.read_bytes()
+
+
+def _edit(path: Path, old: str, new: str) -> None:
+    source = path.read_text()
+    assert source.count(old) == 1, f"{old!r} is not once in {path}"
+    path.write_text(source.replace(old, new))
+
+
 def test_editing_an_inlined_engine_file_recompiles_the_kernel(tmp_path: Path) -> None:
     root = _copy_package(tmp_path)
     before = _run(root, "single")
     # in the user's cache (never beside the package, where an uninstall would leave it), in numba's
     # directory for this copy of the engine: named by its absolute path, so that copies keep apart
-    engine = root / "mgrao_core" / "engine"
-    mine = root / "cache" / "mgrao" / "numba" / f"engine_{hashlib.sha1(str(engine).encode()).hexdigest()}"
+    mine = _engine_cache(root)
     assert list(mine.glob("kernel.run_block*.nbi"))
     assert [p.parent for p in (root / "cache").rglob("*.nbi")] == [mine] * len(list(mine.glob("*.nbi")))
     assert not list(root.joinpath("mgrao_core").rglob("*.nb[ci]"))
-    environment = root / "mgrao_core" / "engine" / "environment.py"
-    source = environment.read_text()
-    assert "quality = x / (x + env.half_saturation)" in source
-    environment.write_text(source.replace("quality = x / (x + env.half_saturation)", "quality = 0.5"))
+    _edit(root / "mgrao_core" / "engine" / "environment.py",
+          "taq += ctv[k] * atomic_task_quality(weights[c, t], resources[c], load[c, t], env)", "taq += ctv[k] * 0.5")
     after = _run(root, "single")
     assert after != before  # the kernel inlines environment.py: it must not come from the old cache
     assert '"single": [[5.0, 5.0, 5.0]' in after  # uniform, 10 parents at quality 0.5
+
+
+def test_editing_an_algorithm_module_or_the_quality_models_recompiles_the_kernel(tmp_path: Path) -> None:
+    root = _copy_package(tmp_path)
+    before = _run(root, "single")
+    compiled = _kernel_index(root)
+    assert _run(root, "single") == before and _kernel_index(root) == compiled  # unchanged: loaded, not compiled
+    package = root / "mgrao_core"
+    algorithms = sorted((package / "algorithms").rglob("*.py")) or [package / "algorithms.py"]
+    with algorithms[-1].open("a") as module:  # a package of algorithms, or the one module before it
+        module.write("\n# edited\n")
+    assert _run(root, "single") == before  # a comment: the same numbers, from a kernel compiled afresh
+    assert _kernel_index(root) != compiled
+    recompiled = _kernel_index(root)
+    _edit(package / "quality.py", "x = weight * resource / load\n    return x / (x + env.half_saturation)",
+          "return 0.5")
+    after = _run(root, "single")
+    assert _kernel_index(root) != recompiled  # the kernel inlines quality.py: it must not come from the old cache
+    assert '"single": [[5.0, 5.0, 5.0]' in after  # uniform, 10 parents at hyperbolic quality 0.5
 
 
 def test_no_index_is_out_of_bounds_in_any_system(tmp_path: Path) -> None:
