@@ -5,7 +5,7 @@ definition against the parameter schema and the experiment limits, and says what
 runs: a grid's cells in order, or points drawn at random or by Optuna's TPE sampler (driven by
 ask/tell on an in-memory Optuna study rebuilt from the finished trials, so that Optuna keeps no
 tables of its own). It holds no state and does no I/O; the service stores the trials and runs
-each as ordinary jobs (:mod:`backend.studies`).
+each as ordinary jobs (:mod:`backend.services.studies`).
 
 Dimensions: any numeric, boolean or choice parameter of :data:`mgrao_core.params.PARAMETERS`, and
 ``groups``, the x of an extra configuration ``mgrao-x:1``. A dimension is ``{"values": [...]}``, or a
