@@ -19,7 +19,7 @@ from backend.docpages import install_docs
 from backend.errors import BadQuery, Conflict, InvalidSpec, NotFound
 from backend.limits import BodyLimit
 from backend.memory import return_large_blocks
-from backend.routes import changes, compare, health, jobs, studies, systems
+from backend.routes import algorithms, changes, compare, health, jobs, studies, systems
 from backend.security import (
     AllowedHosts,
     SameOriginWrites,
@@ -177,7 +177,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.db = db
     _install_error_handlers(app)
     faults.install(app)  # first of the middlewares: the innermost
-    routers = [module.router for module in (jobs, changes, studies, compare, systems, health)]
+    routers = [module.router for module in (jobs, changes, studies, compare, systems, algorithms, health)]
     for router in routers:
         app.include_router(router)
 
