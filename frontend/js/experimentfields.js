@@ -68,7 +68,7 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
     const block = h('div', { class: 'field' },
       h('label', { for: input.id }, `Values of ${form.argument} in ${templateText(form)}`), input,
       h('small', { class: 'help', id: `${input.id}-help` },
-        `Comma separated; each adds a configuration ${templateText(form)} (${form.description}), ${form.argument} being the ${form.argument_help}.`),
+        `Comma separated; each adds a configuration ${templateText(form)}: ${form.description}.`),
       check);
     return { form, input, check, block };
   });
@@ -318,7 +318,7 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
     let first = null;
     for (const [apiPath, msg] of Object.entries(byField)) {
       const path = keyOf(apiPath);
-      const target = errorEls.get(path);
+      const target = errorEls.get(path) || errorEls.get(path.replace(/\[\d+\]$/, '')); // algorithms[3]: beside the list
       if (!target) { unplaced.push(msg); continue; }
       target.error.textContent = target.error.textContent ? `${target.error.textContent}; ${msg}` : msg;
       target.input.setAttribute('aria-invalid', 'true');
