@@ -91,3 +91,28 @@ def test_large_jobs_seven_configurations_keep_their_registry_colours_in_job_and_
         compared = {t["config"].split(" · ")[-1]: t["color"] for t in traces(page, "#compare-chart", "mean")}
         assert compared == colour  # the same configuration, the same colour
         page.screenshot(path=str(screenshots / "compare-large-seven-colours.png"), full_page=True)
+
+
+def test_new_study_takes_its_group_sweep_and_objective_from_the_registry(browser, server, screenshots):
+    systems = api(server, "GET", "/systems")
+    group_label, reference = systems["studies"]["group_label"], systems["algorithms"]["reference"]
+    single = api(server, "GET", "/algorithms?system=single")["data"]
+    [form] = [form for f in single for form in f["forms"] if form["argument"]]
+    with page_at(browser, server) as page:
+        page.goto("/#/studies/new")
+        page.locator("form.newstudy").wait_for()
+        page.get_by_label("System preset").select_option("single")
+        assert page.locator("select[name=configuration]").input_value() == reference  # the default objective
+        assert f"% of {reference}" in page.locator("select[name=metric]").inner_text()
+        tick = page.locator("fieldset.groups-sweep input[type=checkbox]")
+        template = form["template"].replace(f"{{{form['argument']}}}", f"<{form['argument']}>")
+        assert f"sweep {form['argument']} of {template}" in page.locator("fieldset.groups-sweep").inner_text()
+        tick.check()
+        values = page.get_by_label(f"Values of {form['argument']}", exact=True)
+        assert values.input_value() == ", ".join(map(str, form["valid"][1:-1]))
+        expect(page.locator("fieldset.groups-sweep")).to_contain_text(
+            f"Valid {form['argument']} here: {', '.join(map(str, form['valid']))}.")
+        options = page.locator("select[name=configuration] option").all_inner_texts()
+        assert group_label in options and reference in options
+        page.locator("fieldset.groups-sweep").scroll_into_view_if_needed()
+        page.screenshot(path=str(screenshots / "new-study-registry-groups.png"))
