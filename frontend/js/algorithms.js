@@ -165,3 +165,22 @@ export function argumentProblem(form, value) {
   return `${labelFor(form, value)} is not valid here: ${form.argument} is the ${form.argument_help} ` +
     `(valid: ${form.valid.join(', ')}).`;
 }
+
+/**
+ * Bytes of learning state per child of each label the registry gives it for (its families'
+ * `memory_per_child`, with a system): `{label: bytes}`, empty when the registry does not say.
+ */
+export function memoryPerChild(fams) {
+  return Object.assign({}, ...(fams || []).map((f) => (f.memory_per_child && typeof f.memory_per_child === 'object' ? f.memory_per_child : {})));
+}
+
+/** Bytes as people read them: 512 B, 2.0 kB, 3.4 MB. */
+export function fmtBytes(bytes) {
+  if (!Number.isFinite(bytes)) return '';
+  if (bytes < 1000) return `${bytes} B`;
+  const units = ['kB', 'MB', 'GB', 'TB'];
+  let v = bytes / 1000;
+  let i = 0;
+  while (v >= 1000 && i < units.length - 1) { v /= 1000; i += 1; }
+  return `${v.toFixed(1)} ${units[i]}`;
+}

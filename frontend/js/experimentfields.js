@@ -5,7 +5,7 @@
 import { h, nextId } from './ui.js';
 import { fieldErrors, changedParams, workBudget, workText } from './stats.js';
 import { fmtParam } from './studydata.js';
-import { argumentForms, argumentOf, argumentProblem, families, labelFor, literalLabels, readArguments, ready, sortLabels } from './algorithms.js';
+import { argumentForms, argumentOf, argumentProblem, families, fmtBytes, labelFor, literalLabels, memoryPerChild, readArguments, ready, sortLabels } from './algorithms.js';
 
 /** sessionStorage key of the experiment the new-experiment form hands to the new-study form. */
 export const STUDY_DRAFT = 'mgrao-study-draft';
@@ -75,7 +75,8 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
   errorEls.set('algorithms', { input: algoBoxes[0] || argumentFields[0]?.input, error: algoErr });
   const algoFieldset = h('fieldset', { class: 'algos', dataset: { for: 'algorithms' }, 'aria-describedby': algoErr.id },
     h('legend', {}, 'Configurations'),
-    h('div', { class: 'checks' }, algoBoxes.map((cb) => h('label', { class: 'check', for: cb.id }, cb, ' ', cb.value))),
+    h('div', { class: 'checks' }, algoBoxes.map((cb) => h('label', { class: 'check', for: cb.id }, cb, ' ', cb.value,
+      h('small', { class: 'memory', dataset: { label: cb.value } })))),
     argumentFields.map((f) => f.block),
     algoErr);
 
@@ -128,14 +129,20 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
       || argumentForms(fams).map((f) => f.form).find((form) => form.template === template) || null;
   }
   function refreshArgumentChecks() {
+    const memory = memoryPerChild(systemFams); // when the registry gives it (with a system)
+    const perChild = (label) => (Number.isFinite(memory[label]) ? `${fmtBytes(memory[label])} per child` : '');
+    for (const el of algoFieldset.querySelectorAll('small.memory')) {
+      el.textContent = perChild(el.dataset.label) ? ` (${perChild(el.dataset.label)})` : '';
+    }
     const labels = [];
     for (const f of argumentFields) {
       const form = currentForm(f.form.template);
       const { values } = readArguments(f.input.value, form);
       const problems = values.map((v) => argumentProblem(form, v)).filter(Boolean);
       labels.push(...values.filter((v) => !argumentProblem(form, v)).map((v) => labelFor(form, v)));
+      const sizes = values.map((v) => labelFor(form, v)).filter(perChild).map((l) => `${l} ${perChild(l)}`);
       f.check.textContent = (Array.isArray(form.valid) ? `Valid ${form.argument} here: ${form.valid.join(', ')}.` : '') +
-        (problems.length ? ` ${problems.join(' ')}` : '');
+        (sizes.length ? ` Memory: ${sizes.join(', ')}.` : '') + (problems.length ? ` ${problems.join(' ')}` : '');
       f.check.classList.toggle('warn', problems.length > 0);
     }
     described = ready(labels); // their order among the configurations

@@ -8,6 +8,8 @@ Real `mgrao serve` with real workers (the session's), headless Chromium.
 
 from __future__ import annotations
 
+import json
+
 import pytest
 from playwright.sync_api import expect
 
@@ -116,3 +118,23 @@ def test_new_study_takes_its_group_sweep_and_objective_from_the_registry(browser
         assert group_label in options and reference in options
         page.locator("fieldset.groups-sweep").scroll_into_view_if_needed()
         page.screenshot(path=str(screenshots / "new-study-registry-groups.png"))
+
+
+def test_memory_per_child_is_shown_when_the_registry_gives_it(browser, server):
+    # the core does not give it yet: the registry's answer is given one here, as it will carry it
+    def with_memory(route):
+        answer = route.fetch()
+        data = answer.json()
+        for family in data["data"]:
+            family["memory_per_child"] = {label: 2048 * (i + 1) for i, label in enumerate(family["examples"])}
+        route.fulfill(response=answer, body=json.dumps(data))
+
+    with page_at(browser, server) as page:
+        page.route("**/api/algorithms?system=*", with_memory)
+        page.goto("/#/new")
+        page.locator("form.newjob").wait_for()
+        page.get_by_label("System preset").select_option("large")
+        literal = page.locator("fieldset.algos small.memory").first
+        expect(literal).to_contain_text("kB per child")
+        page.locator("input.argument-values").fill("2")
+        expect(page.locator(".argument-check")).to_contain_text("Memory: mgrao-2:1 ")

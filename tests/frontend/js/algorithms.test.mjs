@@ -3,7 +3,7 @@ import assert from 'node:assert/strict';
 import { readFileSync } from 'node:fs';
 import {
   remember, forget, describe, compareLabels, sortLabels, colourKey, roleLabel, literalLabels, argumentForms, labelFor,
-  argumentOf, readArguments, argumentProblem,
+  argumentOf, readArguments, argumentProblem, memoryPerChild, fmtBytes,
 } from '../../../frontend/js/algorithms.js';
 
 // What GET /api/algorithms answers (tests/frontend/test_js_units.py checks it is the core's own).
@@ -44,4 +44,14 @@ test('a value the system does not allow is refused with the form\'s own words an
   const message = argumentProblem(form, 5);
   assert.ok(message.startsWith('mgrao-5:1 is not valid here'), message);
   assert.ok(message.includes(form.argument_help) && message.includes('(valid: 1, 2, 3, 4, 6, 12)'), message);
+});
+
+test('memory per child: shown when the registry gives it, nothing when it does not (yet)', () => {
+  assert.deepEqual(memoryPerChild(FIXTURE.families), {});
+  const withMemory = FIXTURE.families.map((f, i) => ({ ...f, memory_per_child: i ? { [f.examples[0]]: 1000 * i } : null }));
+  assert.deepEqual(memoryPerChild(withMemory), { [FIXTURE.families[1].examples[0]]: 1000, [FIXTURE.families[2].examples[0]]: 2000 });
+  assert.equal(fmtBytes(512), '512 B');
+  assert.equal(fmtBytes(2048), '2.0 kB');
+  assert.equal(fmtBytes(3_400_000), '3.4 MB');
+  assert.equal(fmtBytes(null), '');
 });
