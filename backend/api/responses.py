@@ -223,10 +223,60 @@ class Systems(BaseModel):
 
     systems: list[dict[str, Any]]
     parameters: list[dict[str, Any]]
-    algorithms: dict[str, Any]
+    algorithms: dict[str, Any] = Field(description="From the algorithm registry (GET /api/algorithms): fixed "
+                                                   "(labels for the form's boxes), pattern (labels with an "
+                                                   "argument), baseline, reference and best_fixed (the labels "
+                                                   "% from uniform, % of max and the oracle's allocation read).")
     limits: dict[str, Any] = Field(description="max_seeds, max_episodes, max_algorithms, max_work, work_factors "
                                                "(the factors whose product max_work bounds), max_body_bytes.")
     studies: dict[str, Any]
+
+
+class AlgorithmForm(BaseModel):
+    """One way of writing a family's labels: a literal label, or a ``template`` with an argument ``{x}``."""
+
+    template: str = Field(description="The label itself, or with {x} where the argument goes (mgrao-{x}:1).")
+    pattern: str = Field(description="A regular expression matching the lower-cased label, the argument its "
+                                     "first group.")
+    description: str
+    argument: str | None = Field(description="The argument's name, null for a literal label.")
+    argument_help: str
+    valid: list[int] | None = Field(None, description="An argument form's values valid for the system (null "
+                                                      "without one); absent for a literal label.")
+
+
+class AlgorithmFamily(BaseModel):
+    """One algorithm family of ``GET /api/algorithms``: what it does and how its labels are written."""
+
+    name: str
+    title: str
+    description: str
+    rank: int = Field(description="Where the family's configurations come in views (lower first).")
+    forms: list[AlgorithmForm]
+    examples: list[str] = Field(description="Labels valid for the system (the grammar's own without one).")
+    memory_per_child: dict[str, int] | None = Field(None, description="Bytes of learning state per child of each "
+                                                                      "example (with a system; null without one).")
+
+
+class AlgorithmLabel(BaseModel):
+    """One label of ``GET /api/algorithms?label=``, canonical and described."""
+
+    label: str = Field(description="The canonical spelling (what jobs store).")
+    family: str
+    title: str
+    groups: int | None = Field(description="Parent groups per child of a learner with groups, else null.")
+    description: str
+    colour_key: int = Field(ge=0, le=7, description="The palette slot (0-7) the configuration prefers in every view.")
+    sort_key: list[int] = Field(description="Views order configurations by this (family rank, then order), then "
+                                            "by label.")
+    memory_per_child: int | None = Field(None, description="Bytes of learning state per child (null without a "
+                                                           "system).")
+
+
+class Algorithms(BaseModel):
+    """``GET /api/algorithms``: every family, or with ``label`` the labels described, in the order asked."""
+
+    data: list[AlgorithmFamily] | list[AlgorithmLabel]
 
 
 class StudyOut(BaseModel):

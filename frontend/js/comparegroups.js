@@ -3,9 +3,10 @@
 // own colour, colours.js) and a legend that never crowds the axes. Pure functions (no DOM), checked
 // by node's test runner.
 
-import { configurationStyles } from './colours.js';
+import { slotStyles } from './colours.js';
+import { colourKey, compareLabels } from './algorithms.js';
 import { fmtParam } from './studydata.js';
-import { sameValue, algorithmRank } from './stats.js';
+import { sameValue } from './stats.js';
 
 /** Each configuration's resolved parameters (and its episodes), by config_hash, from the compared jobs. */
 export function configurations(jobs) {
@@ -62,9 +63,10 @@ export function facets(groups) {
 
 /**
  * Each group's line `{color, dash, symbol}`: the groups of one system (drawn together on its chart)
- * each their own (`configurationStyles`), handed out job by job in the order of `jobs` (the compared
- * jobs), within a job in the job page's order (uniform, x:1 by x, max, oracle): a compare of one
- * job draws it in its job page's colours, and the first job of several keeps them.
+ * each their own (`slotStyles`, each preferring its registry colour), handed out job by job in the
+ * order of `jobs` (the compared jobs), within a job in the job page's order (the registry's sort
+ * keys): a compare of one job draws it in its job page's colours, and the first job of several
+ * keeps them. The groups' labels must have been described first (algorithms.js `ready`).
  */
 export function lineStyles(groups, jobs = []) {
   const order = (jobs || []).map((j) => j.config_hash);
@@ -73,8 +75,8 @@ export function lineStyles(groups, jobs = []) {
   for (const system of facets(groups)) {
     const ranked = groups.map((_, i) => i).filter((i) => groups[i].system === system)
       .sort((a, b) => place(groups[a]) - place(groups[b])
-        || algorithmRank(groups[a].algorithm) - algorithmRank(groups[b].algorithm) || a - b);
-    const styles = configurationStyles(ranked);
+        || compareLabels(groups[a].algorithm, groups[b].algorithm) || a - b);
+    const styles = slotStyles(ranked.map((i) => colourKey(groups[i].algorithm)));
     ranked.forEach((g, k) => { out[g] = styles[k]; });
   }
   return out;

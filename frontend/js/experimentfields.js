@@ -3,8 +3,9 @@
 // validates; its 422 messages are shown beside the inputs named by each error's field path.
 
 import { h, nextId } from './ui.js';
-import { parseRatios, fieldErrors, changedParams, sortAlgorithms, workBudget, workText } from './stats.js';
-import { divisors, fmtParam } from './studydata.js';
+import { fieldErrors, changedParams, workBudget, workText } from './stats.js';
+import { fmtParam } from './studydata.js';
+import { argumentForms, argumentOf, argumentProblem, families, fmtBytes, labelFor, literalLabels, memoryPerChild, readArguments, ready, sortLabels } from './algorithms.js';
 
 /** sessionStorage key of the experiment the new-experiment form hands to the new-study form. */
 export const STUDY_DRAFT = 'mgrao-study-draft';
@@ -17,14 +18,23 @@ export function rangeText(p) {
   return `range ${p.exclusive_minimum ? '(' : '['}${lo}, ${hi}]`;
 }
 
+/** A form's template as people read it: `mgrao-<x>:1`. */
+export function templateText(form) {
+  return form.template.replace(`{${form.argument}}`, `<${form.argument}>`);
+}
+
 /**
- * The experiment's inputs. `decorate(p, block)` may add controls to each parameter's block (the
- * new-study form adds "sweep"). Returns the parts, `read()` → {system, algorithms, seeds,
- * episodes, params} or {invalidRatios}, and error display helpers keyed by field path.
+ * The experiment's inputs. The configurations' pickers are built from `fams`, the algorithm
+ * registry (GET /api/algorithms, algorithms.js `families()`, its literal labels described): a box
+ * per literal label, a field of values per form with an argument, checked against the values the
+ * registry gives for the chosen system and parent count. `decorate(p, block)` may add controls to
+ * each parameter's block (the new-study form adds "sweep"). Returns the parts, `read()` →
+ * {system, algorithms, seeds, episodes, params} or {invalidArguments}, and error display helpers
+ * keyed by field path.
  */
-export function experimentFields(schema, params, { decorate = null, seeds = 3 } = {}) {
+export function experimentFields(schema, params, { decorate = null, seeds = 3, fams = [] } = {}) {
   const knownParams = new Set(schema.parameters.map((p) => p.name));
-  const fixed = schema.algorithms.fixed;
+  const literals = sortLabels(literalLabels(fams));
   const errorEls = new Map(); // field path -> {input, error}
   const presetListeners = [];
 
@@ -47,21 +57,28 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3 } 
     h('option', { value: s.name, selected: s.name === (params.system || 'single') }, s.name)));
   const systemDesc = h('p', { class: 'help', id: nextId('sysdesc') });
 
-  // --- algorithms ---------------------------------------------------------------------------
-  const algoBoxes = fixed.map((a) => h('input', { type: 'checkbox', name: 'algorithms', value: a, id: nextId('algo') }));
-  const ratioIn = h('input', { type: 'text', name: 'ratios', placeholder: 'e.g. 2, 5, 10', id: nextId('ratios') });
-  const ratioHelp = h('small', { class: 'help ratio-help', id: nextId('ratiohelp'), 'aria-live': 'polite' });
+  // --- algorithms: a box per literal label, a field of values per form with an argument ------
+  const algoBoxes = literals.map((a) => h('input', { type: 'checkbox', name: 'algorithms', value: a, id: nextId('algo') }));
   const algoErr = h('span', { class: 'field-error', id: nextId('algoerr'), 'aria-live': 'polite' });
-  errorEls.set('algorithms', { input: algoBoxes[0], error: algoErr });
+  const argumentFields = argumentForms(fams).map(({ family, form }) => {
+    const input = h('input', { type: 'text', name: `${family}-${form.argument}`, class: 'argument-values',
+      placeholder: 'e.g. 2, 5', id: nextId('arg'), dataset: { template: form.template } });
+    const check = h('small', { class: 'help argument-check', id: nextId('argcheck'), 'aria-live': 'polite' });
+    input.setAttribute('aria-describedby', `${input.id}-help ${check.id} ${algoErr.id}`);
+    const block = h('div', { class: 'field' },
+      h('label', { for: input.id }, `Values of ${form.argument} in ${templateText(form)}`), input,
+      h('small', { class: 'help', id: `${input.id}-help` },
+        `Comma separated; each adds a configuration ${templateText(form)}: ${form.description}.`),
+      check);
+    return { form, input, check, block };
+  });
+  errorEls.set('algorithms', { input: algoBoxes[0] || argumentFields[0]?.input, error: algoErr });
   const algoFieldset = h('fieldset', { class: 'algos', dataset: { for: 'algorithms' }, 'aria-describedby': algoErr.id },
     h('legend', {}, 'Configurations'),
-    h('div', { class: 'checks' }, algoBoxes.map((cb) => h('label', { class: 'check', for: cb.id }, cb, ' ', cb.value))),
-    h('div', { class: 'field' },
-      h('label', { for: ratioIn.id }, `More ${schema.algorithms.pattern} ratios`), ratioIn,
-      h('small', { class: 'help', id: `${ratioIn.id}-help` }, 'Comma separated x values; each adds a configuration mgrao-x:1.'),
-      ratioHelp),
+    h('div', { class: 'checks' }, algoBoxes.map((cb) => h('label', { class: 'check', for: cb.id }, cb, ' ', cb.value,
+      h('small', { class: 'memory', dataset: { label: cb.value } })))),
+    argumentFields.map((f) => f.block),
     algoErr);
-  ratioIn.setAttribute('aria-describedby', `${ratioIn.id}-help ${ratioHelp.id} ${algoErr.id}`);
 
   const seedsIn = h('input', { type: 'number', name: 'seeds', min: 1, max: schema.limits.max_seeds, step: 1, value: seeds, inputmode: 'numeric' });
   const episodesIn = h('input', { type: 'number', name: 'episodes', min: 1, max: schema.limits.max_episodes, step: 1, value: 100, inputmode: 'numeric' });
@@ -94,23 +111,54 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3 } 
     return schema.systems.find((s) => s.name === systemSel.value) || schema.systems[0];
   }
 
-  // --- the valid group counts beside the ratio field, as n_parents changes ------------------
-  function parentsNow() {
+  // --- the values valid for the system beside each argument field, as n_parents changes -----
+  let described = Promise.resolve(); // the typed labels' descriptions, on their way
+  const validListeners = [];
+  let systemFams = fams; // the registry for the chosen system and parent count (the grammar's until it comes)
+  let asked = 0;
+  function parentsOverride() {
     const entry = paramInputs.get('n_parents');
-    const n = entry ? Number(entry.input.value) : NaN;
-    return Number.isInteger(n) && n >= 1 ? n : preset().params.n_parents;
+    const n = entry && entry.input.value !== '' ? Number(entry.input.value) : NaN;
+    const p = entry && entry.p;
+    if (!p || !Number.isInteger(n) || n < p.minimum || n > p.maximum || n === preset().params.n_parents) return null;
+    return n;
   }
-  function refreshRatioHelp() {
-    const n = parentsNow();
-    const valid = divisors(n);
-    const bad = parseRatios(ratioIn.value).algorithms.map((a) => Number(a.replace(/^mgrao-/, '').replace(/:1$/, '')))
-      .filter((x) => !valid.includes(x));
-    ratioHelp.textContent = `Valid x for n_parents = ${n}: ${valid.join(', ')}.` +
-      (bad.length ? ` ${bad.join(', ')} ${bad.length > 1 ? 'do' : 'does'} not divide ${n}.` : '');
-    ratioHelp.classList.toggle('warn', bad.length > 0);
+  /** The form of `template` as the registry gives it for the chosen system (its valid values). */
+  function currentForm(template) {
+    return argumentForms(systemFams).map((f) => f.form).find((form) => form.template === template)
+      || argumentForms(fams).map((f) => f.form).find((form) => form.template === template) || null;
   }
-  ratioIn.addEventListener('input', refreshRatioHelp);
-  paramInputs.get('n_parents')?.input.addEventListener('input', refreshRatioHelp);
+  function refreshArgumentChecks() {
+    const memory = memoryPerChild(systemFams); // when the registry gives it (with a system)
+    const perChild = (label) => (Number.isFinite(memory[label]) ? `${fmtBytes(memory[label])} per child` : '');
+    for (const el of algoFieldset.querySelectorAll('small.memory')) {
+      el.textContent = perChild(el.dataset.label) ? ` (${perChild(el.dataset.label)})` : '';
+    }
+    const labels = [];
+    for (const f of argumentFields) {
+      const form = currentForm(f.form.template);
+      const { values } = readArguments(f.input.value, form);
+      const problems = values.map((v) => argumentProblem(form, v)).filter(Boolean);
+      labels.push(...values.filter((v) => !argumentProblem(form, v)).map((v) => labelFor(form, v)));
+      const sizes = values.map((v) => labelFor(form, v)).filter(perChild).map((l) => `${l} ${perChild(l)}`);
+      f.check.textContent = (Array.isArray(form.valid) ? `Valid ${form.argument} here: ${form.valid.join(', ')}.` : '') +
+        (sizes.length ? ` Memory: ${sizes.join(', ')}.` : '') + (problems.length ? ` ${problems.join(' ')}` : '');
+      f.check.classList.toggle('warn', problems.length > 0);
+    }
+    described = ready(labels); // their order among the configurations
+  }
+  async function refreshValid() {
+    const mine = ++asked;
+    try {
+      const got = await families(preset().name, parentsOverride());
+      if (mine !== asked) return;
+      systemFams = got;
+    } catch { /* unreachable: the server checks the values on submit */ }
+    refreshArgumentChecks();
+    for (const listener of validListeners) listener();
+  }
+  for (const f of argumentFields) f.input.addEventListener('input', refreshArgumentChecks);
+  paramInputs.get('n_parents')?.input.addEventListener('input', refreshValid);
 
   // --- letters in a number field: say the range at once (the browser reads them as empty) ---
   const numberRanges = [[seedsIn, `a whole number from 1 to ${schema.limits.max_seeds}`],
@@ -145,10 +193,10 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3 } 
     const now = preset().params;
     const kept = Object.entries(mine).filter(([name, v]) => paramInputs.has(name) && name in changedParams({ [name]: v }, now));
     for (const [name, value] of kept) setParam(name, value);
-    refreshRatioHelp();
+    refreshValid();
     if (!kept.length) { keptNote.replaceChildren(); return; }
     keptNote.replaceChildren(`Kept your changes on the ${preset().name} preset: ${kept.map(([n, v]) => `${n} ${fmtParam(v)}`).join(', ')}. `,
-      h('button', { type: 'button', class: 'small secondary', onclick: () => { applyPreset(); refreshRatioHelp(); keptNote.replaceChildren(); } },
+      h('button', { type: 'button', class: 'small secondary', onclick: () => { applyPreset(); keptNote.replaceChildren(); } },
         'Use the preset’s values'));
   });
 
@@ -162,11 +210,19 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3 } 
     const s = preset();
     shownPreset = s;
     systemDesc.textContent = s.description;
-    for (const cb of algoBoxes) cb.checked = s.algorithms.includes(cb.value);
-    ratioIn.value = s.algorithms.filter((a) => !fixed.includes(a)).map((a) => a.replace(/^mgrao-/, '').replace(/:1$/, '')).join(', ');
+    showAlgorithms(s.algorithms);
     for (const { p } of paramInputs.values()) setParam(p.name, s.params[p.name]);
-    refreshRatioHelp();
+    refreshValid();
     for (const listener of presetListeners) listener(s);
+  }
+
+  /** Tick the literal labels among `labels` and put the others' arguments in their forms' fields. */
+  function showAlgorithms(labels) {
+    for (const cb of algoBoxes) cb.checked = labels.includes(cb.value);
+    const rest = labels.filter((a) => !literals.includes(a));
+    for (const f of argumentFields) {
+      f.input.value = rest.map((a) => argumentOf(f.form, a)).filter((v) => v !== null).join(', ');
+    }
   }
 
   /** Every parameter input's value as the API takes it. */
@@ -191,11 +247,7 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3 } 
     if (!experiment || !schema.systems.some((s) => s.name === experiment.system)) return;
     systemSel.value = experiment.system;
     applyPreset();
-    if (Array.isArray(experiment.algorithms)) {
-      for (const cb of algoBoxes) cb.checked = experiment.algorithms.includes(cb.value);
-      ratioIn.value = experiment.algorithms.filter((a) => !fixed.includes(a))
-        .map((a) => a.replace(/^mgrao-/, '').replace(/:1$/, '')).join(', ');
-    }
+    if (Array.isArray(experiment.algorithms)) showAlgorithms(experiment.algorithms);
     if (experiment.seeds !== undefined) seedsIn.value = String(experiment.seeds);
     if (experiment.episodes !== undefined) episodesIn.value = String(experiment.episodes);
     for (const [name, value] of Object.entries(experiment.params || {})) {
@@ -206,13 +258,19 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3 } 
     }
   }
 
-  /** The experiment as the API takes it; {invalidRatios} when the ratio field cannot be read. */
+  /** The experiment as the API takes it; {invalidArguments} when an argument field cannot be read. */
   function read() {
-    const ratios = parseRatios(ratioIn.value);
-    if (ratios.invalid.length) return { invalidRatios: ratios.invalid };
+    const labels = algoBoxes.filter((cb) => cb.checked).map((cb) => cb.value);
+    const invalid = [];
+    for (const f of argumentFields) {
+      const typed = readArguments(f.input.value, f.form);
+      invalid.push(...typed.invalid);
+      labels.push(...typed.values.sort((a, b) => a - b).map((v) => labelFor(f.form, v)));
+    }
+    if (invalid.length) return { invalidArguments: invalid };
     return {
       system: systemSel.value,
-      algorithms: sortAlgorithms([...algoBoxes.filter((cb) => cb.checked).map((cb) => cb.value), ...ratios.algorithms]),
+      algorithms: sortLabels(labels),
       seeds: seedsIn.value === '' ? seedsIn.value : Number(seedsIn.value),
       episodes: episodesIn.value === '' ? episodesIn.value : Number(episodesIn.value),
       params: readParams(),
@@ -229,7 +287,7 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3 } 
   function updateBudget() {
     if (!budgetBox) return null;
     const experiment = read();
-    const budget = experiment.invalidRatios ? null : workBudget(experiment, preset().params, schema.limits);
+    const budget = experiment.invalidArguments ? null : workBudget(experiment, preset().params, schema.limits);
     budgetBox.classList.toggle('over', Boolean(budget && budget.over));
     budgetText.textContent = budget ? workText(budget) : `Work: fill in every field to see it against the limit of ` +
       `${schema.limits.max_work.toLocaleString('en-US')} atomic tasks per experiment.`;
@@ -267,7 +325,7 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3 } 
     let first = null;
     for (const [apiPath, msg] of Object.entries(byField)) {
       const path = keyOf(apiPath);
-      const target = errorEls.get(path);
+      const target = errorEls.get(path) || errorEls.get(path.replace(/\[\d+\]$/, '')); // algorithms[3]: beside the list
       if (!target) { unplaced.push(msg); continue; }
       target.error.textContent = target.error.textContent ? `${target.error.textContent}; ${msg}` : msg;
       target.input.setAttribute('aria-invalid', 'true');
@@ -291,8 +349,9 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3 } 
   }
 
   return {
-    fieldBlock, errorEls, systemSel, systemDesc, algoFieldset, algoBoxes, ratioIn, seedsIn, episodesIn, advanced,
+    fieldBlock, errorEls, systemSel, systemDesc, algoFieldset, algoBoxes, argumentFields, seedsIn, episodesIn, advanced,
     paramInputs, preset, applyPreset, read, load, clearErrors, showErrors, keptNote, budgetBlock, updateBudget,
+    currentForm, described: () => described, onValid: (listener) => validListeners.push(listener),
     onPreset: (listener) => presetListeners.push(listener),
   };
 }

@@ -6,9 +6,9 @@ import { api } from './api.js';
 import { h, notice, nextId } from './ui.js';
 import { draw, purge, heatmapTrace, indexAxis } from './charts.js';
 import { algorithmStyles } from './colours.js';
+import { roleLabel } from './algorithms.js';
 
 const MEAN = 'mean';
-const ORACLE = 'oracle';
 
 /** What the weights describe, in one line: the seed, or the mean and why it washes out. */
 export function weightsNote(seed, nSeeds) {
@@ -24,14 +24,15 @@ export function weightsNote(seed, nSeeds) {
  * `state` keeps the chosen seed, configuration and child across redraws of a running job.
  */
 export function weightsSection({ jobId, results, plots, state }) {
+  const bestFixed = roleLabel('best_fixed'); // the oracle's label (GET /api/systems, algorithms.best_fixed)
   const colours = algorithmStyles(results.configurations.map((c) => c.algorithm)); // the utility chart's
   const configs = results.configurations.filter((c) => c.weights && Array.isArray(c.weights.combined) && c.weights.combined.length);
   if (!configs.length) return h('section', {}, h('h2', {}, 'Learned weights'), notice('empty', 'No learned weights were stored for this job.'));
   const nGroups = (w) => ((w.groups || [])[0] || []).length;
-  const learners = configs.filter((c) => c.algorithm !== ORACLE);
+  const learners = configs.filter((c) => c.algorithm !== bestFixed);
   const preferred = (learners.length ? learners : configs).reduce((best, c) => (nGroups(c.weights) > nGroups(best.weights) ? c : best));
   if (!state.algorithm || !configs.some((c) => c.algorithm === state.algorithm)) state.algorithm = preferred.algorithm;
-  const hasOracle = configs.some((c) => c.algorithm === ORACLE);
+  const hasOracle = configs.some((c) => c.algorithm === bestFixed);
 
   const ids = { seed: nextId('wseed'), cfg: nextId('cfg'), child: nextId('child') };
   const seedSel = h('select', { id: ids.seed, 'data-testid': 'weights-seed' });
@@ -104,9 +105,9 @@ export function weightsSection({ jobId, results, plots, state }) {
       heatNote.textContent = c.groups === null ? `${c.algorithm}: ${c.groups_omitted}.`
         : `${c.algorithm} learns no group weights; only its combined weights are shown.`;
     }
-    const shown = [c, ...answer.configurations.filter((x) => x.algorithm === ORACLE && x !== c)];
+    const shown = [c, ...answer.configurations.filter((x) => x.algorithm === bestFixed && x !== c)];
     draw(bars, shown.map((x) => ({
-      type: 'bar', name: x.algorithm === ORACLE ? 'oracle (best fixed allocation)' : x.algorithm, x: types, y: x.combined[child],
+      type: 'bar', name: x.algorithm === bestFixed ? `${x.algorithm} (best fixed allocation)` : x.algorithm, x: types, y: x.combined[child],
       marker: { color: colours[x.algorithm]?.color || '#000000' }, meta: { kind: 'bar', config: x.algorithm, child },
       hovertemplate: `${x.algorithm}, type %{x}: %{y:.4f}<extra></extra>`,
     })), {

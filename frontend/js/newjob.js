@@ -5,6 +5,7 @@ import { api } from './api.js';
 import { h, notice, nextId, confirmDialog } from './ui.js';
 import { parseTags } from './stats.js';
 import { experimentFields, STUDY_DRAFT } from './experimentfields.js';
+import { families, literalLabels, ready } from './algorithms.js';
 
 const PAPER_SEEDS = 100;
 const PAPER_EPISODES = 100;
@@ -21,13 +22,15 @@ export async function mount(root, params, ctx) {
     'Sweep parameters: new study'))));
   let schema;
   let fields = null;
+  let fams;
   try {
-    schema = await api.systems();
+    [schema, fams] = await Promise.all([api.systems(), families()]);
+    await ready(literalLabels(fams));
   } catch (e) {
     root.append(notice('error', `Cannot load the systems: ${e.message}`));
     return null;
   }
-  fields = experimentFields(schema, params);
+  fields = experimentFields(schema, params, { fams });
   const nameIn = h('input', { type: 'text', name: 'name', maxlength: 200 });
   const tagsIn = h('input', { type: 'text', name: 'tags' });
   const notesIn = h('textarea', { name: 'notes', rows: 2 });
@@ -88,9 +91,10 @@ export async function mount(root, params, ctx) {
   form.addEventListener('submit', async (ev) => {
     ev.preventDefault();
     fields.clearErrors(summary);
+    await fields.described(); // the typed configurations' order
     const experiment = fields.read();
-    if (experiment.invalidRatios) {
-      showErrors({ detail: [{ field: 'algorithms', msg: `not a ratio: ${experiment.invalidRatios.join(', ')} (type whole numbers like 2, 5)` }] });
+    if (experiment.invalidArguments) {
+      showErrors({ detail: [{ field: 'algorithms', msg: `not a value: ${experiment.invalidArguments.join(', ')} (type whole numbers like 2, 5)` }] });
       return;
     }
     const budget = fields.updateBudget();

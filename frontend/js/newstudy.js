@@ -1,35 +1,43 @@
 // New study form: the new-experiment form's fields (js/experimentfields.js), where any parameter
 // can be ticked to sweep (a range prefilled from the schema, or a list of values), plus the group
-// count x of mgrao-x:1, the method, the budget and the objective. The server validates; its 422
+// count (the argument of the label form GET /api/systems names as studies.group_label), the
+// method, the budget and the objective. The server validates; its 422
 // messages appear beside the fields they name (space.<name>, base.*, objective.*).
 
 import { api } from './api.js';
 import { h, notice, nextId } from './ui.js';
-import { experimentFields, STUDY_DRAFT } from './experimentfields.js';
-import { defaultSweep, divisors, gridPoints, parseValues, studyBody, studyFieldKey, fmtParam } from './studydata.js';
+import { experimentFields, STUDY_DRAFT, templateText } from './experimentfields.js';
+import { argumentForms, families, labelFor, literalLabels, ready } from './algorithms.js';
+import { defaultSweep, gridPoints, parseValues, studyBody, studyFieldKey, fmtParam } from './studydata.js';
 
 const METHOD_HELP = {
   grid: 'Every combination of the swept values, each run once.',
   random: 'Points drawn at random from the ranges (log-uniform for log ranges), up to the trial budget.',
   tpe: 'Optuna’s TPE sampler proposes each point from the trials so far, up to the trial budget.',
 };
-const METRICS = {
+/** The metrics' names; % of max is of the reference configuration (GET /api/systems, algorithms.reference). */
+const metricNames = (reference) => ({
   final_mean: 'final mean utility',
   pct_from_uniform: '% from uniform',
-  pct_of_max: '% of mgrao-max',
+  pct_of_max: `% of ${reference}`,
   paper_deviation: 'worst deviation from the paper’s figures',
-};
+});
 
 export async function mount(root, params, ctx) {
   root.append(h('h1', {}, 'New study'));
   let schema;
+  let fams;
   try {
-    schema = await api.systems();
+    [schema, fams] = await Promise.all([api.systems(), families()]);
+    await ready(literalLabels(fams));
   } catch (e) {
     root.append(notice('error', `Cannot load the systems: ${e.message}`));
     return null;
   }
   const limits = schema.studies;
+  const METRICS = metricNames(schema.algorithms.reference);
+  // the label form whose argument a study's `groups` dimension sweeps (its label with the argument's name)
+  const groupForm = argumentForms(fams).map((f) => f.form).find((form) => labelFor(form, form.argument) === limits.group_label);
   const sweeps = new Map(); // parameter name -> {p, box, read(), points()}
   const errorTargets = []; // the sweep editors' error places, registered once the fields exist
   const summary = h('div', { class: 'error-summary', id: nextId('summary'), 'aria-live': 'assertive' });
@@ -96,6 +104,7 @@ export async function mount(root, params, ctx) {
 
   const fields = experimentFields(schema, params, {
     seeds: 10,
+    fams,
     decorate(p, block, input) {
       const path = `space.${p.name}`;
       const tick = h('input', { type: 'checkbox', id: nextId('sweep'), dataset: { sweep: p.name } });
@@ -120,20 +129,21 @@ export async function mount(root, params, ctx) {
   const groupsErr = h('span', { class: 'field-error', 'aria-live': 'polite' });
   const groupsHelp = h('small', { class: 'help' });
   fields.errorEls.set('space.groups', { input: groupsIn, error: groupsErr });
-  const groupsBox = h('fieldset', { class: 'groups-sweep' }, h('legend', {}, 'Group count'),
-    h('label', { class: 'check', for: groupsTick.id }, groupsTick, ' sweep x of mgrao-x:1 (adds that configuration to each trial)'),
-    h('div', { class: 'field', hidden: true }, h('label', { for: groupsIn.id }, 'Values of x'), groupsIn, groupsHelp, groupsErr));
+  const groupsBox = h('fieldset', { class: 'groups-sweep', hidden: !groupForm }, h('legend', {}, 'Group count'),
+    h('label', { class: 'check', for: groupsTick.id }, groupsTick,
+      groupForm ? ` sweep ${groupForm.argument} of ${templateText(groupForm)} (adds that configuration to each trial)` : ''),
+    h('div', { class: 'field', hidden: true }, h('label', { for: groupsIn.id }, `Values of ${groupForm ? groupForm.argument : ''}`), groupsIn, groupsHelp, groupsErr));
   const groupsField = groupsBox.querySelector('.field');
-  const parentsNow = () => {
-    const entry = fields.paramInputs.get('n_parents');
-    return entry && entry.input.value !== '' ? Number(entry.input.value) : fields.preset().params.n_parents;
+  const validGroups = () => (groupForm && fields.currentForm(groupForm.template)?.valid) || [];
+  const refreshGroupsHelp = () => {
+    groupsHelp.textContent = groupForm ? `Valid ${groupForm.argument} here: ${validGroups().join(', ')}.` : '';
   };
-  const refreshGroupsHelp = () => { groupsHelp.textContent = `Divisors of n_parents = ${parentsNow()}: ${divisors(parentsNow()).join(', ')}.`; };
   groupsTick.addEventListener('change', () => {
     groupsField.hidden = !groupsTick.checked;
     if (groupsTick.checked && !groupsIn.value) {
-      const ds = divisors(parentsNow()).filter((d) => d > 1 && d < parentsNow());
-      groupsIn.value = (ds.length ? ds : [1]).join(', ');
+      const valid = validGroups();
+      const inner = valid.slice(1, -1); // neither end of the valid values
+      groupsIn.value = (inner.length ? inner : valid.slice(0, 1)).join(', ');
     }
     refreshGroupsHelp();
     updateObjective();
@@ -154,6 +164,7 @@ export async function mount(root, params, ctx) {
     }
   };
   fields.onPreset(() => { syncSystems(); refreshGroupsHelp(); updateObjective(); });
+  fields.onValid(refreshGroupsHelp); // the system's valid values have come
 
   const methodSel = h('select', { name: 'method' }, limits.methods.map((m) => h('option', { value: m, selected: m === (params.method || 'grid') }, m)));
   const methodHelp = h('small', { class: 'help' });
@@ -171,13 +182,14 @@ export async function mount(root, params, ctx) {
     updateObjective();
   });
   for (const cb of fields.algoBoxes) cb.addEventListener('change', updateObjective);
-  fields.ratioIn.addEventListener('input', updateObjective);
+  for (const f of fields.argumentFields) f.input.addEventListener('input', updateObjective);
 
   function updateObjective() {
     const base = fields.read();
     const labels = base.algorithms ? base.algorithms.slice() : [];
-    if (groupsTick.checked) labels.push('mgrao-x:1');
-    const keep = configSel.value || (labels.includes('mgrao-max') ? 'mgrao-max' : labels[labels.length - 1]);
+    if (groupsTick.checked) labels.push(limits.group_label);
+    const reference = schema.algorithms.reference; // the default objective: % of max's own configuration
+    const keep = configSel.value || (labels.includes(reference) ? reference : labels[labels.length - 1]);
     configSel.replaceChildren(...labels.map((l) => h('option', { value: l, selected: l === keep }, l)));
     configSel.disabled = metricSel.value === 'paper_deviation';
   }
@@ -236,9 +248,10 @@ export async function mount(root, params, ctx) {
     ev.preventDefault();
     fields.clearErrors(summary);
     const showErrors = (err) => fields.showErrors(err, summary, 'study', studyFieldKey);
+    await fields.described(); // the typed configurations' order
     const base = fields.read();
-    if (base.invalidRatios) {
-      showErrors({ detail: [{ field: 'algorithms', msg: `not a ratio: ${base.invalidRatios.join(', ')} (type whole numbers like 2, 5)` }] });
+    if (base.invalidArguments) {
+      showErrors({ detail: [{ field: 'algorithms', msg: `not a value: ${base.invalidArguments.join(', ')} (type whole numbers like 2, 5)` }] });
       return;
     }
     const rows = [...sweeps.values()].map((e) => e.read());

@@ -4,7 +4,8 @@
 
 import { api } from './api.js';
 import { h, notice } from './ui.js';
-import { fmtPct, fmtCI, algorithmRank } from './stats.js';
+import { fmtPct, fmtCI } from './stats.js';
+import { compareLabels, ready } from './algorithms.js';
 import { algorithmStyles } from './colours.js';
 import { paperRows, agreement, choosePaperJob, fmtSeedPercentile } from './paperdata.js';
 import { tableCsvButton } from './chartcontrols.js';
@@ -67,12 +68,14 @@ export async function mount(root, params, ctx) {
       h('a', { class: 'button primary', href: '#/new' }, 'Reproduce the paper')));
     return () => { stopped = true; };
   }
+  await ready(Object.values(results).flatMap((r) => r.configurations.map((c) => c.algorithm))); // order, colours
+  if (stopped) return null;
   const rows = paperRows(schema, results);
   // each system's configurations in the colours of its job's page
   const colours = Object.fromEntries(Object.entries(results).map(([system, r]) =>
     [system, algorithmStyles(r.configurations.map((c) => c.algorithm))]));
   rows.sort((a, b) => schema.systems.findIndex((s) => s.name === a.system) - schema.systems.findIndex((s) => s.name === b.system)
-    || algorithmRank(a.algorithm) - algorithmRank(b.algorithm));
+    || compareLabels(a.algorithm, b.algorithm));
   const table = h('table', { class: 'summary paper-table', id: 'paper-table' },
       h('caption', {}, 'A flag marks a figure whose published value lies outside our 95% interval.'),
       h('thead', {}, h('tr', {}, ['System', 'Configuration', 'Job', 'Seeds', 'Ours: % from uniform', '95% CI', 'Paper',

@@ -2,7 +2,8 @@
 
 import { api } from './api.js';
 import { h, statusCell, confirmDialog, promptDialog, cancelConsequence, keepLabel, editJobDialog, notice, debounce, nextId } from './ui.js';
-import { fmtDate, fmtDuration, seedCount, sortAlgorithms, parseTags } from './stats.js';
+import { fmtDate, fmtDuration, seedCount, parseTags } from './stats.js';
+import { ready, sortLabels } from './algorithms.js';
 import { columnsFromQuery, sortKey, nextSort, sortState, cellText, cellInterval, refreshLimit, sameJob, progressOnly } from './runcolumns.js';
 
 const STATUSES = ['queued', 'running', 'succeeded', 'failed', 'cancelled'];
@@ -11,7 +12,6 @@ const SORTS = [
   ['-name', 'Name Z–A'], ['status', 'Status A–Z'], ['-status', 'Status Z–A'],
 ];
 const PAGE = 50;
-const CONFIGURATIONS = ['mgrao-max', 'mgrao-1:1', 'uniform', 'oracle'];
 const FIXED_SORTS = { Name: 'name', Status: 'status', Created: 'created_at' };
 
 export async function mount(root, params, ctx) {
@@ -60,7 +60,7 @@ export async function mount(root, params, ctx) {
   }
   fillSorts();
   const resultSel = h('select', { name: 'result' }, h('option', { value: '' }, 'none'),
-    [...new Set([...CONFIGURATIONS, ...(filters.result ? [filters.result] : [])])]
+    [...new Set([...(schema ? schema.algorithms.fixed : []), ...(filters.result ? [filters.result] : [])])]
       .map((c) => h('option', { value: c, selected: c === filters.result }, c)));
   const paramBoxes = schema ? schema.parameters.map((p) => h('label', { class: 'check', title: p.help },
     h('input', { type: 'checkbox', value: p.name, checked: columns.some((c) => c.kind === 'param' && c.name === p.name),
@@ -242,7 +242,7 @@ export async function mount(root, params, ctx) {
         job.notes ? h('div', { class: 'note', title: job.notes }, job.notes) : null),
       h('td', { class: 'status' }, statusCell(job)),
       h('td', {}, job.system),
-      h('td', { class: 'algos' }, sortAlgorithms(job.algorithms || []).join(', ')),
+      h('td', { class: 'algos' }, sortLabels(job.algorithms || []).join(', ')),
       h('td', { class: 'num' }, seedCount(job)),
       h('td', { class: 'num' }, job.episodes),
       columns.map((c) => h('td', { class: `num extra ${c.kind}`, title: cellInterval(job, c) || null, 'data-column': sortKey(c) },
@@ -279,6 +279,7 @@ export async function mount(root, params, ctx) {
     try {
       page = await api.listJobs({ status: filters.status, system: filters.system, tag: filters.tag, q: filters.q,
         sort: filters.sort, limit: PAGE, cursor: reset ? undefined : cursor });
+      await ready(page.data.flatMap((job) => job.algorithms || [])); // the configurations' order in each row
     } catch (e) {
       if (token === loadToken) { showError(e); root.removeAttribute('aria-busy'); moreBtn.disabled = false; }
       return;
@@ -328,6 +329,7 @@ export async function mount(root, params, ctx) {
     try {
       page = await api.listJobs({ status: filters.status, system: filters.system, tag: filters.tag, q: filters.q,
         sort: filters.sort, limit });
+      await ready(page.data.flatMap((job) => job.algorithms || []));
     } catch { /* unreachable or refused: the next change tries again */ }
     refreshing = false;
     if (stopped) return;

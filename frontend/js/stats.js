@@ -74,41 +74,6 @@ export function bandPolygon(x, low, high) {
   return { x: xs, y: ys };
 }
 
-const FIXED_ORDER = { uniform: 0, 'mgrao-1:1': 1, 'mgrao-max': 1e9, oracle: 2e9 };
-
-/** Sort key putting uniform first, then x:1 by increasing x, then max, then oracle. */
-export function algorithmRank(name) {
-  if (name in FIXED_ORDER) return FIXED_ORDER[name];
-  const m = /^mgrao-(\d+):1$/.exec(name);
-  if (m) return Number(m[1]);
-  return 3e9;
-}
-
-export function sortAlgorithms(names) {
-  return names.slice().sort((a, b) => algorithmRank(a) - algorithmRank(b) || String(a).localeCompare(String(b)));
-}
-
-/**
- * Parse extra "x:1" configurations typed by a user: "2, 5:1 mgrao-10:1" -> ["mgrao-2:1", "mgrao-5:1", "mgrao-10:1"].
- * Returns {algorithms, invalid} where invalid lists tokens that are not a positive integer ratio.
- */
-export function parseRatios(text) {
-  const algorithms = [];
-  const invalid = [];
-  for (const raw of String(text || '').split(/[\s,;]+/)) {
-    const token = raw.trim();
-    if (!token) continue;
-    const m = /^(?:mgrao-)?(\d+)(?::1)?$/i.exec(token);
-    if (m && Number(m[1]) >= 1) {
-      const name = `mgrao-${Number(m[1])}:1`;
-      if (!algorithms.includes(name)) algorithms.push(name);
-    } else {
-      invalid.push(token);
-    }
-  }
-  return { algorithms, invalid };
-}
-
 /** Tags from a comma separated string, trimmed, de-duplicated, empty ones dropped. */
 export function parseTags(text) {
   const tags = [];

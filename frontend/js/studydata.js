@@ -55,13 +55,6 @@ export function endedTrials(counts) {
 
 const LOG_SCALE = /rate|temperature|epsilon|probability|noise/;
 
-/** Divisors of n in increasing order (the valid x of mgrao-x:1). */
-export function divisors(n) {
-  const out = [];
-  for (let d = 1; d <= n; d++) if (n % d === 0) out.push(d);
-  return out;
-}
-
 /**
  * A sweep's first range for parameter `p` (a schema entry) around the preset's value `v`: half to
  * twice the value within the schema's limits, 3 steps; log-scaled for rates, temperatures and

@@ -9,7 +9,10 @@ Real `mgrao serve` with real workers (the session's), headless Chromium; each te
 
 from __future__ import annotations
 
+import re
 import time
+import urllib.parse
+from pathlib import Path
 
 import pytest
 
@@ -20,6 +23,19 @@ from tests.frontend.test_job_view import get_job, post_job
 pytestmark = pytest.mark.browser
 
 FIVE = ["uniform", "mgrao-1:1", "mgrao-5:1", "mgrao-10:1", "mgrao-max"]
+
+
+def palette() -> list[str]:
+    """The dashboard's palette (frontend/js/colours.js), whose slots the registry's colour keys name."""
+    source = (Path(__file__).resolve().parents[2] / "frontend" / "js" / "colours.js").read_text()
+    return re.findall(r"'(#[0-9A-F]{6})'", re.search(r"PALETTE = \[(.*?)\]", source).group(1))
+
+
+def registry_colours(server: str, labels: list[str]) -> dict[str, str]:
+    """Each label's colour by its registry colour key (GET /api/algorithms?label=...)."""
+    query = "&".join(f"label={urllib.parse.quote(label)}" for label in labels)
+    described = api(server, "GET", f"/algorithms?{query}")["data"]
+    return {d["label"]: palette()[d["colour_key"]] for d in described}
 
 
 def wait_succeeded(server: str, jobs: list[dict], timeout: float = 180) -> None:
@@ -63,8 +79,9 @@ def box(page, selector: str) -> dict:
 
 def test_job_bands_let_the_lines_show_and_each_configuration_has_its_own_colour(browser, server, screenshots):
     """Three seeds: the bands are slabs around every line. They are drawn light and under the lines,
-    a caution says they mean little, a toggle (kept in the URL) hides them; 1:1 and 10:1, 5:1 and max
-    are not one hue; a compare of the job draws it in the same colours."""
+    a caution says they mean little, a toggle (kept in the URL) hides them; each configuration is
+    drawn in its registry colour (GET /api/algorithms' colour_key, when free: here all are); a compare
+    of the job draws it in the same colours."""
     job = post_job(server, {"system": "single", "algorithms": FIVE, "seeds": 3, "episodes": 60, "name": "three seeds"})
     wait_succeeded(server, [job])
     with page_at(browser, server) as page:
@@ -77,8 +94,7 @@ def test_job_bands_let_the_lines_show_and_each_configuration_has_its_own_colour(
         means = traces(page, "#utility-chart", "mean")
         colour = {t["config"]: t["color"] for t in means}
         assert len(set(colour.values())) == 5, colour
-        blues, oranges = {"#0072B2", "#56B4E9"}, {"#D55E00", "#E69F00"}
-        assert not blues <= set(colour.values()) and not oranges <= set(colour.values()), colour
+        assert colour == registry_colours(server, FIVE), colour  # each its registry colour: the same in any job
         caution = page.inner_text("#band-caution")
         assert "too wide to mean much" in caution and "3 seeds per configuration (fewer than 10)" in caution
         page.locator("#utility-chart").scroll_into_view_if_needed()

@@ -1,9 +1,11 @@
 """The small things a new researcher trips over (issue: "the dashboard as a researcher reads it", 8):
-a preset change keeps the parameters they changed, the valid group counts beside the ratio field,
+a preset change keeps the parameters they changed, the valid group counts beside the x field,
 letters in a number field, compare with nothing to show, header counts right after an action, and
 the summary columns defined where they are shown."""
 
 from __future__ import annotations
+
+from playwright.sync_api import expect
 
 from tests.frontend.test_compare_view import wait_succeeded
 from tests.frontend.test_dashboard import api
@@ -18,16 +20,18 @@ def active(reading: dict) -> int:
     return reading["running"] + reading["queued"]
 
 
-def test_preset_change_keeps_edits_and_the_ratio_field_lists_valid_counts(page, server, screenshots):
+def test_preset_change_keeps_edits_and_the_x_field_lists_valid_counts(page, server, screenshots):
     page.goto("/#/new")
     page.locator("form.newjob").wait_for()
     page.locator("details.advanced > summary").click()
     page.fill("input[name=learning_rate]", "0.05")
     page.fill("input[name=n_parents]", "12")
-    help_text = page.locator(".ratio-help")
-    assert "Valid x for n_parents = 12: 1, 2, 3, 4, 6, 12." in help_text.inner_text()
-    page.fill("input[name=ratios]", "5, 4")
-    assert "5 does not divide 12" in help_text.inner_text()
+    help_text = page.locator(".argument-check")
+    expect(help_text).to_contain_text("Valid x here: 1, 2, 3, 4, 6, 12.")  # the registry for 12 parents
+    page.fill("input.argument-values", "5, 4")
+    expect(help_text).to_contain_text("mgrao-5:1 is not valid here")
+    expect(help_text).to_contain_text("(valid: 1, 2, 3, 4, 6, 12)")
+    assert "mgrao-4:1" not in help_text.inner_text()
     page.select_option("select[name=system]", "multi")
     kept = page.locator(".kept-edits")
     assert "learning_rate 0.05" in kept.inner_text() and "n_parents 12" in kept.inner_text()

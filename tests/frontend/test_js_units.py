@@ -25,3 +25,29 @@ def test_every_dashboard_module_parses(module):
     proc = subprocess.run(["node", "--input-type=module", "--check"], input=source, capture_output=True, text=True,
                           timeout=60)
     assert proc.returncode == 0, f"{module}: {proc.stderr}"
+
+
+def _within(expected: object, actual: object) -> bool:
+    """``expected`` is ``actual`` except for keys ``actual`` has beyond it (a key the registry adds later)."""
+    if isinstance(expected, dict):
+        return isinstance(actual, dict) and all(k in actual and _within(v, actual[k]) for k, v in expected.items())
+    if isinstance(expected, list):
+        return isinstance(actual, list) and len(expected) == len(actual) and all(map(_within, expected, actual))
+    return expected == actual
+
+
+def test_the_js_units_registry_fixture_is_the_cores():
+    # tests/frontend/js/algorithms.fixture.json stands for GET /api/algorithms in the JS unit tests
+    import json
+
+    from backend.api.routes.systems import algorithm_labels
+    from mgrao_core import PRESETS
+    from mgrao_core.algorithms import describe_label, registry
+    from mgrao_core.params import make_params
+
+    fixture = json.loads((ROOT / "tests" / "frontend" / "js" / "algorithms.fixture.json").read_text())
+    assert _within(fixture["families"], registry(None))
+    twelve = make_params({"n_parents": 12}, base=PRESETS["single"].params)
+    assert _within(fixture["families_single_12"], registry(twelve))
+    assert _within(fixture["descriptions"], [describe_label(d["label"]) for d in fixture["descriptions"]])
+    assert _within(fixture["roles"], algorithm_labels())

@@ -64,7 +64,7 @@ def test_the_work_budget_fills_in_and_marks_what_drives_it(browser, server, scre
         page.get_by_label("System preset").select_option("large")
         for box in page.locator("fieldset.algos input[type=checkbox]").all():
             box.set_checked(box.get_attribute("value") == "mgrao-max")
-        page.locator("input[name=ratios]").fill("")
+        page.locator("input.argument-values").fill("")
         page.get_by_label("Seeds (number of runs)").fill("1000")
         page.get_by_label("Episodes per run").fill("3500")
         page.wait_for_function("() => !document.querySelector('.budget').classList.contains('over')")

@@ -20,7 +20,9 @@ from mgrao_core import (
     make_spec,
     search,
 )
+from mgrao_core.algorithms import ORACLE, registry, sort_key
 from mgrao_core.reproduction import PAPER_EPISODES
+from mgrao_core.stats import BASELINE, REFERENCE
 
 
 @cache
@@ -30,6 +32,21 @@ def paper_config_hash(system: str) -> str:
     A job has it whatever its seeds, algorithms, name or tags (``GET /api/jobs?config_hash=``).
     """
     return config_hash(make_spec(system, seeds=1, episodes=PAPER_EPISODES).as_dict())
+
+
+@cache
+def algorithm_labels() -> dict:
+    """``algorithms`` of the answer, from the core's registry (GET /api/algorithms has the whole of it).
+
+    ``fixed``: every family's example labels of the grammar alone, in view order; ``pattern``: the
+    label forms that take an argument, ``<x>`` where it goes; ``baseline``, ``reference`` and
+    ``best_fixed``: the labels that % from uniform, % of max and the weights' best fixed allocation read.
+    """
+    families = registry(None)
+    fixed = sorted({label for f in families for label in f["examples"]}, key=sort_key)
+    pattern = ", ".join(form["template"].replace(f"{{{form['argument']}}}", f"<{form['argument']}>")
+                        for f in families for form in f["forms"] if form["argument"] is not None)
+    return {"fixed": fixed, "pattern": pattern, "baseline": BASELINE, "reference": REFERENCE, "best_fixed": ORACLE}
 
 
 router = APIRouter(prefix="/api", tags=["systems"])
@@ -50,12 +67,12 @@ def systems(settings: SettingsDep) -> dict:
             for p in PRESETS.values()
         ],
         "parameters": [p.as_dict() for p in PARAMETERS],
-        "algorithms": {"fixed": ["uniform", "mgrao-1:1", "mgrao-max", "oracle"], "pattern": "mgrao-<x>:1"},
+        "algorithms": algorithm_labels(),
         "limits": {"max_seeds": MAX_SEEDS, "max_episodes": MAX_EPISODES, "max_algorithms": MAX_ALGORITHMS,
                    "max_work": MAX_WORK, "work_factors": list(WORK_FACTORS),
                    "max_body_bytes": settings.max_body_bytes},
         "studies": {"methods": list(search.METHODS), "metrics": list(search.METRICS),
                     "max_trials": search.MAX_TRIALS, "max_in_flight": search.MAX_IN_FLIGHT,
                     "max_dimensions": search.MAX_DIMENSIONS, "max_steps": search.MAX_STEPS,
-                    "max_values": search.MAX_VALUES},
+                    "max_values": search.MAX_VALUES, "group_label": search.GROUP_LABEL},
     }

@@ -1,6 +1,10 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { configurationStyles, algorithmStyles, PALETTE } from '../../../frontend/js/colours.js';
+import { readFileSync } from 'node:fs';
+import { configurationStyles, algorithmStyles, slotStyles, PALETTE } from '../../../frontend/js/colours.js';
+import { remember, forget } from '../../../frontend/js/algorithms.js';
+
+const FIXTURE = JSON.parse(readFileSync(new URL('./algorithms.fixture.json', import.meta.url)));
 
 test('configurationStyles: eight Okabe-Ito colours, one each, then again with dashes and markers', () => {
   assert.equal(new Set(PALETTE).size, 8);
@@ -14,14 +18,32 @@ test('configurationStyles: eight Okabe-Ito colours, one each, then again with da
   assert.equal(new Set(pairs).size, 10); // told apart past the palette too
 });
 
-test('algorithmStyles: the job page order, so 1:1 and 10:1, 5:1 and max are not the same hue in a small job', () => {
+test('slotStyles: each its preferred slot when free, else the next free one, then another round', () => {
+  const colour = (s) => PALETTE.indexOf(s.color);
+  assert.deepEqual(slotStyles([2, 0, 4]).map(colour), [2, 0, 4]);
+  // a later one preferring the same slot takes the next free one; an earlier one never loses its own
+  assert.deepEqual(slotStyles([4, 4, 5]).map(colour), [4, 6, 5]);
+  assert.deepEqual(slotStyles([null, 0]).map(colour), [1, 0]);
+  const nine = slotStyles(Array(9).fill(3));
+  assert.equal(new Set(nine.slice(0, 8).map((s) => s.color)).size, 8);
+  assert.ok(nine.slice(0, 8).every((s) => s.dash === 'solid'));
+  assert.notEqual(nine[8].dash, 'solid');
+});
+
+test('algorithmStyles: the job page order and the registry colours, the same wherever drawn', () => {
+  forget();
+  remember(FIXTURE.descriptions);
   const s = algorithmStyles(['mgrao-max', 'mgrao-10:1', 'uniform', 'mgrao-5:1', 'mgrao-1:1']);
   assert.deepEqual(Object.keys(s), ['uniform', 'mgrao-1:1', 'mgrao-5:1', 'mgrao-10:1', 'mgrao-max']);
   assert.equal(new Set(Object.values(s).map((x) => x.color)).size, 5);
-  // the two blues (#0072B2, #56B4E9) and the two oranges (#D55E00, #E69F00) only meet from the 6th on
-  const five = Object.values(s).map((x) => x.color);
-  assert.ok(!(five.includes('#0072B2') && five.includes('#56B4E9')));
-  assert.ok(!(five.includes('#D55E00') && five.includes('#E69F00')));
-  // the same set gives the same colours wherever it is drawn
+  const key = Object.fromEntries(FIXTURE.descriptions.map((d) => [d.label, d.colour_key]));
+  for (const [label, style] of Object.entries(s)) assert.equal(style.color, PALETTE[key[label]], label);
+  // the same configuration keeps its colour in a smaller set
+  assert.equal(algorithmStyles(['mgrao-max', 'uniform']).uniform.color, s.uniform.color);
+  assert.equal(algorithmStyles(['mgrao-max', 'uniform'])['mgrao-max'].color, s['mgrao-max'].color);
+  // large's seven configurations: seven colours, none of them dashed
+  const large = algorithmStyles(['uniform', 'mgrao-1:1', 'mgrao-2:1', 'mgrao-5:1', 'mgrao-10:1', 'mgrao-25:1', 'mgrao-max']);
+  assert.equal(new Set(Object.values(large).map((x) => x.color)).size, 7);
+  assert.ok(Object.values(large).every((x) => x.dash === 'solid'));
   assert.deepEqual(algorithmStyles(['uniform', 'mgrao-1:1', 'mgrao-5:1', 'mgrao-10:1', 'mgrao-max']), s);
 });

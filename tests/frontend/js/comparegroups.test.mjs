@@ -1,7 +1,11 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { configurations, differingParams, groupLabels, diffTable, facets, lineStyles, legendLayout, legendRows, barsLayout, MAX_LEGEND_ROWS } from '../../../frontend/js/comparegroups.js';
+import { readFileSync } from 'node:fs';
 import { algorithmStyles, PALETTE } from '../../../frontend/js/colours.js';
+import { remember } from '../../../frontend/js/algorithms.js';
+
+remember(JSON.parse(readFileSync(new URL('./algorithms.fixture.json', import.meta.url))).descriptions);
 
 const jobs = [
   { config_hash: 'aaaaaaaa1', system: 'single', episodes: 100, params: { learning_rate: 0.1, trace_decay: 0.9 } },
@@ -48,8 +52,8 @@ test('facets and line styles: a chart per system, each group of a chart its own 
   const page = algorithmStyles(['mgrao-max', 'uniform']);
   assert.equal(styles[3].color, page.uniform.color);
   assert.equal(styles[0].color, page['mgrao-max'].color);
-  assert.equal(styles[1].color, PALETTE[2]); // the second job's next
-  assert.equal(styles[2].color, PALETTE[0]); // the large chart starts over
+  assert.equal(styles[1].color, PALETTE[3]); // the second job's max: the next free slot after max's own (2)
+  assert.equal(styles[2].color, page['mgrao-max'].color); // the large chart starts over: max in its own colour
 });
 
 test('legendLayout keeps the plot area and puts the legend below the axis title, a row at a time', () => {

@@ -1,7 +1,7 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import {
-  centredAverage, episodesPerPoint, smoothingNote, smoothSeries, bandPolygon, sortAlgorithms, parseRatios, parseTags, parseIds,
+  centredAverage, episodesPerPoint, smoothingNote, smoothSeries, bandPolygon, parseTags, parseIds,
   parseHash, buildHash, fieldErrors, fmtNumber, fmtPct, fmtCI, fmtDuration, fmtDate, pctProgress,
   pctErrorBars, groupKey, seedCount, changedParams,
 } from '../../../frontend/js/stats.js';
@@ -53,17 +53,6 @@ test('smoothSeries smooths mean and band, keeps episodes', () => {
 
 test('bandPolygon goes forward along high and back along low', () => {
   assert.deepEqual(bandPolygon([0, 1, 2], [0, 1, 2], [5, 6, 7]), { x: [0, 1, 2, 2, 1, 0], y: [5, 6, 7, 2, 1, 0] });
-});
-
-test('sortAlgorithms orders uniform, 1:1, x:1 ascending, max, oracle', () => {
-  assert.deepEqual(sortAlgorithms(['oracle', 'mgrao-max', 'mgrao-10:1', 'mgrao-2:1', 'uniform', 'mgrao-1:1']),
-    ['uniform', 'mgrao-1:1', 'mgrao-2:1', 'mgrao-10:1', 'mgrao-max', 'oracle']);
-});
-
-test('parseRatios accepts x, x:1 and mgrao-x:1, rejects others', () => {
-  assert.deepEqual(parseRatios('2, 5:1 mgrao-10:1; 2'), { algorithms: ['mgrao-2:1', 'mgrao-5:1', 'mgrao-10:1'], invalid: [] });
-  assert.deepEqual(parseRatios('0, abc, 1.5'), { algorithms: [], invalid: ['0', 'abc', '1.5'] });
-  assert.deepEqual(parseRatios(''), { algorithms: [], invalid: [] });
 });
 
 test('parseTags and parseIds', () => {

@@ -1,7 +1,7 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import {
-  sortTrials, pageOf, fmtParam, endedTrials, divisors, defaultSweep, gridPoints, parseValues, studyBody,
+  sortTrials, pageOf, fmtParam, endedTrials, defaultSweep, gridPoints, parseValues, studyBody,
   studyFieldKey, historyTraces, importanceTrace, sliceTraces, studyHeatmapTrace, parallelPlot,
 } from '../../../frontend/js/studydata.js';
 
@@ -36,11 +36,6 @@ test('fmtParam and endedTrials', () => {
   assert.equal(fmtParam(null), '–');
   assert.equal(endedTrials({ succeeded: 3, failed: 1, queued: 2, cancelled: 1 }), 5);
   assert.equal(endedTrials(undefined), 0);
-});
-
-test('divisors', () => {
-  assert.deepEqual(divisors(10), [1, 2, 5, 10]);
-  assert.deepEqual(divisors(1), [1]);
 });
 
 test('defaultSweep: half to twice within the limits, log for rates, all values for choices', () => {

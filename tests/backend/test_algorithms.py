@@ -1,0 +1,73 @@
+"""``GET /api/algorithms``: the core's registry as the API serves it, and labels described one by one."""
+
+from __future__ import annotations
+
+from fastapi.testclient import TestClient
+
+from mgrao_core import PRESETS
+from mgrao_core.algorithms import FAMILIES, describe_label, registry, sort_key
+
+
+def test_registry_is_the_cores_one_family_per_entry(client: TestClient) -> None:
+    answer = client.get("/api/algorithms")
+    assert answer.status_code == 200, answer.text
+    data = answer.json()["data"]
+    assert [f["name"] for f in data] == [f.name for f in FAMILIES]
+    assert data == registry(None)
+    for family in data:
+        assert family["forms"] and family["examples"] and family["title"] and family["description"]
+
+
+def test_registry_for_a_system_gives_its_valid_arguments(client: TestClient) -> None:
+    data = client.get("/api/algorithms", params={"system": "large"}).json()["data"]
+    assert data == registry(PRESETS["large"].params)
+    with_argument = [form for f in data for form in f["forms"] if form["argument"]]
+    assert with_argument and all(form["valid"] for form in with_argument)
+    examples = [label for f in data for label in f["examples"]]
+    assert set(PRESETS["large"].algorithms) <= set(examples)
+    # a form's parent count beside the preset's
+    twelve = client.get("/api/algorithms", params={"system": "single", "n_parents": 12}).json()["data"]
+    assert [form["valid"] for f in twelve for form in f["forms"] if form["argument"]] == [[1, 2, 3, 4, 6, 12]]
+
+
+def test_unknown_system_or_parents_without_one_is_a_422_naming_the_field(client: TestClient) -> None:
+    answer = client.get("/api/algorithms", params={"system": "huge"})
+    assert answer.status_code == 422
+    assert [d["field"] for d in answer.json()["detail"]] == ["system"]
+    answer = client.get("/api/algorithms", params={"n_parents": 12})
+    assert answer.status_code == 422 and answer.json()["detail"][0]["field"] == "n_parents"
+    answer = client.get("/api/algorithms", params={"system": "single", "n_parents": 0})
+    assert answer.status_code == 422 and answer.json()["detail"][0]["field"] == "n_parents"
+
+
+def test_label_is_canonicalised_and_described(client: TestClient) -> None:
+    answer = client.get("/api/algorithms", params={"label": " MGRAO-05:1"})
+    assert answer.status_code == 200, answer.text
+    [described] = answer.json()["data"]
+    assert described == describe_label("mgrao-5:1") and described["label"] == "mgrao-5:1"
+    assert described["sort_key"] == list(sort_key("mgrao-5:1")[:2])
+    several = client.get("/api/algorithms", params=[("label", "mgrao-max"), ("label", "mgrao-1:1"),
+                                                    ("label", "mgrao-5:1"), ("system", "large")]).json()["data"]
+    assert [d["label"] for d in several] == ["mgrao-max", "mgrao-1:1", "mgrao-5:1"]
+    assert len({d["colour_key"] for d in several}) == 3  # 1:1, 5:1 and max differ
+    large = [client.get("/api/algorithms", params={"label": a}).json()["data"][0] for a in PRESETS["large"].algorithms]
+    assert len({d["colour_key"] for d in large}) == len(large)  # large's 7 configurations each their own slot
+
+
+def test_bad_label_is_a_422_naming_label_with_the_cores_message(client: TestClient) -> None:
+    answer = client.get("/api/algorithms", params={"label": "mgrao-3:1", "system": "large"})
+    assert answer.status_code == 422
+    [detail] = answer.json()["detail"]
+    assert detail["field"] == "label" and detail["loc"] == ["query", "label"]
+    assert "x must be a divisor of n_parents = 50" in detail["msg"] and detail["msg"].startswith("label: ")
+    answer = client.get("/api/algorithms", params=[("label", "uniform"), ("label", "bandit")])
+    assert answer.status_code == 422
+    assert answer.json()["detail"][0]["field"] == "label[1]" and "unknown algorithm 'bandit'" in answer.text
+
+
+def test_systems_algorithms_come_from_the_registry(client: TestClient) -> None:
+    algorithms = client.get("/api/systems").json()["algorithms"]
+    assert algorithms["fixed"] == ["uniform", "mgrao-1:1", "mgrao-max", "oracle"]  # spelling and values of before
+    assert algorithms["pattern"] == "mgrao-<x>:1"
+    assert (algorithms["baseline"], algorithms["reference"], algorithms["best_fixed"]) == (
+        "uniform", "mgrao-max", "oracle")
