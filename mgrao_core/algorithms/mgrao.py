@@ -83,12 +83,22 @@ class Mgrao(Family):
         return hint
 
     def colour_key(self, algorithm: Algorithm) -> int:
-        """1:1 blue (slot 1), max vermillion (2); other x by magnitude: 2-3, 4-7, 8-15, 16 and more (4-7)."""
+        """1:1 blue (slot 1), max vermillion (2); other x by magnitude: 2-3 green, 4-7 pink, 8-15 yellow, 16+ orange.
+
+        The palette holds two blues (1, 6) and two oranges (2, 5); the slots are chosen so that the
+        configurations a job of the paper's systems shows together (1:1, a few x, max) take colours of
+        different hues, and the second of a pair comes only with 16 or more groups (large's 25:1).
+        """
+        x = algorithm.n_groups
         if algorithm.label == MAX_LABEL:
             return 2
-        if algorithm.n_groups == 1:
+        if x == 1:
             return 1
-        return 4 + min(3, algorithm.n_groups.bit_length() - 2)
+        if x < 4:
+            return 3
+        if x < 8:
+            return 4
+        return 7 if x < 16 else 5
 
     def order(self, algorithm: Algorithm) -> int:
         """x:1 by increasing x, then max."""

@@ -39,8 +39,8 @@ class Oracle(Family):
         return LABEL
 
     def colour_key(self, algorithm: Algorithm) -> int:
-        """The palette slot of the configuration."""
-        return 3
+        """The palette slot of the configuration: sky blue (6), beside 1:1's darker blue."""
+        return 6
 
 
 FAMILY = Oracle()

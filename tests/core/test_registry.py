@@ -63,3 +63,17 @@ def test_every_paper_label_is_an_example_or_matches_a_form():
         patterns = [form["pattern"] for entry in entries for form in entry["forms"]]
         for label in preset.algorithms:
             assert any(re.fullmatch(p, label) for p in patterns), label
+
+
+NEAR = ({1, 6}, {2, 5})  # palette slots of the two blues and of the two oranges (frontend/js/colours.js)
+
+
+@pytest.mark.parametrize("labels", [
+    ["uniform", "mgrao-1:1", "mgrao-2:1", "mgrao-5:1", "mgrao-10:1", "mgrao-max"],
+    ["uniform", "mgrao-2:1", "mgrao-5:1", "mgrao-10:1", "mgrao-max", "oracle"],
+])
+def test_configurations_shown_together_in_the_paper_systems_differ_in_hue(labels):
+    # Seven configurations cannot: the palette has six hues. The oracle is the lighter blue beside
+    # 1:1's darker one, and large's 25:1 the orange beside max's vermillion.
+    keys = {describe_label(label)["colour_key"] for label in labels}
+    assert not any(pair <= keys for pair in NEAR), keys

@@ -95,6 +95,10 @@ def test_job_bands_let_the_lines_show_and_each_configuration_has_its_own_colour(
         colour = {t["config"]: t["color"] for t in means}
         assert len(set(colour.values())) == 5, colour
         assert colour == registry_colours(server, FIVE), colour  # each its registry colour: the same in any job
+        # round 2's complaint: 1:1 and 10:1 both blue, 5:1 and max both orange; the palette's two blues
+        # and two oranges are now never given to these five together
+        hue = {"#0072B2": "blue", "#56B4E9": "blue", "#D55E00": "orange", "#E69F00": "orange"}
+        assert len({hue.get(c.upper(), c) for c in colour.values()}) == 5, colour
         caution = page.inner_text("#band-caution")
         assert "too wide to mean much" in caution and "3 seeds per configuration (fewer than 10)" in caution
         page.locator("#utility-chart").scroll_into_view_if_needed()
