@@ -150,6 +150,21 @@ class SeedPct(BaseModel):
     pct_from_uniform: Number
 
 
+class AlgorithmLabel(BaseModel):
+    """One label of ``GET /api/algorithms?label=``, canonical and described."""
+
+    label: str = Field(description="The canonical spelling (what jobs store).")
+    family: str
+    title: str
+    groups: int | None = Field(description="Parent groups per child of a learner with groups, else null.")
+    description: str
+    colour_key: int = Field(ge=0, le=7, description="The palette slot (0-7) the configuration prefers in every view.")
+    sort_key: list[int] = Field(description="Views order configurations by this (family rank, then order), then "
+                                            "by label.")
+    memory_per_child: int | None = Field(None, description="Bytes of learning state per child (null without a "
+                                                           "system).")
+
+
 class ResultConfiguration(BaseModel):
     """One configuration of a job's results."""
 
@@ -170,6 +185,8 @@ class Results(BaseModel):
     job: JobOut
     paper: dict[str, float] | None
     partial: bool
+    algorithms: list[AlgorithmLabel] = Field(description="The registry's description of each of the job's "
+                                                         "algorithms (as GET /api/algorithms?label= gives it).")
     points: int
     configurations: list[ResultConfiguration]
 
@@ -215,6 +232,8 @@ class Comparison(BaseModel):
     """``GET /api/compare``."""
 
     jobs: list[JobOut]
+    algorithms: list[AlgorithmLabel] = Field(description="The registry's description of every configuration's "
+                                                         "algorithm (as GET /api/algorithms?label= gives it).")
     groups: list[CompareGroup]
 
 
@@ -256,21 +275,6 @@ class AlgorithmFamily(BaseModel):
     examples: list[str] = Field(description="Labels valid for the system (the grammar's own without one).")
     memory_per_child: dict[str, int] | None = Field(None, description="Bytes of learning state per child of each "
                                                                       "example (with a system; null without one).")
-
-
-class AlgorithmLabel(BaseModel):
-    """One label of ``GET /api/algorithms?label=``, canonical and described."""
-
-    label: str = Field(description="The canonical spelling (what jobs store).")
-    family: str
-    title: str
-    groups: int | None = Field(description="Parent groups per child of a learner with groups, else null.")
-    description: str
-    colour_key: int = Field(ge=0, le=7, description="The palette slot (0-7) the configuration prefers in every view.")
-    sort_key: list[int] = Field(description="Views order configurations by this (family rank, then order), then "
-                                            "by label.")
-    memory_per_child: int | None = Field(None, description="Bytes of learning state per child (null without a "
-                                                           "system).")
 
 
 class Algorithms(BaseModel):

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import json
 import threading
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from typing import Any
 
 import numpy as np
@@ -26,7 +26,8 @@ from backend.services.cache import AnswerCache
 from backend.services.memory import trim
 from backend.store.crud import get_job, job_dict
 from backend.store.models import RUN_READ_BATCH, SUCCEEDED, Job, Run
-from mgrao_core import PRESETS, EpisodeStats, final_utilities, paired_pct_from_uniform, summarise
+from mgrao_core import PRESETS, ConfigError, EpisodeStats, final_utilities, paired_pct_from_uniform, summarise
+from mgrao_core.algorithms import describe_label
 from mgrao_core.reproduction import PAPER_EPISODES
 from mgrao_core.stats import BASELINE
 
@@ -142,6 +143,21 @@ def _pct_by_seed(by_seed: dict[int, float], baseline: dict[int, float] | None,
 RESULTS_CACHE = AnswerCache()
 
 
+def described(labels: Iterable[str]) -> list[dict[str, Any]]:
+    """The algorithm registry's description of each distinct label (``GET /api/algorithms?label=``).
+
+    Answers that show configurations carry them, so that a view orders and colours them without
+    asking again. A label no family recognises (a run logged from outside) is left out.
+    """
+    out = []
+    for label in dict.fromkeys(labels):
+        try:
+            out.append(describe_label(label))
+        except ConfigError:
+            continue
+    return out
+
+
 def dumps(value: Any) -> bytes:
     """Compact JSON of data holding numpy arrays, without a Python object per number.
 
@@ -173,7 +189,8 @@ def job_results_parts(session: Session, *, job_id: int, points: int | None = Non
         key = (job.id, job.config_hash, job.finished_at, points, include_seeds, pct_by_seed)
         body = RESULTS_CACHE.get_or_build(key, build)
     expected = len(job.config["seeds"]) * len(job.config["algorithms"])
-    head = {"job": job_dict(job), "paper": paper_figures(job), "partial": partial or stored < expected}
+    head = {"job": job_dict(job), "paper": paper_figures(job), "partial": partial or stored < expected,
+            "algorithms": described(job.config["algorithms"])}
     return dumps(head)[:-1] + b",", body
 
 
@@ -215,7 +232,9 @@ def compare_json(session: Session, *, job_ids: Sequence[int], points: int | None
                 trim()
 
     groups = RESULTS_CACHE.get_or_build(key, build)
-    return dumps({"jobs": [job_dict(job) for job in jobs]})[:-1] + b',"groups":' + groups + b"}"
+    head = {"jobs": [job_dict(job) for job in jobs],
+            "algorithms": described(a for job in jobs for a in job.config["algorithms"])}
+    return dumps(head)[:-1] + b',"groups":' + groups + b"}"
 
 
 def compare(session: Session, *, job_ids: Sequence[int], points: int | None = None) -> dict[str, Any]:

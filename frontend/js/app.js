@@ -2,6 +2,7 @@
 // mount(container, params, ctx) and may return a cleanup function (stop polling, purge plots).
 
 import { api, savedToken, setToken } from './api.js';
+import { ready } from './algorithms.js';
 import { parseHash, buildHash, workersWord } from './stats.js';
 import * as runs from './runs.js';
 import * as newjob from './newjob.js';
@@ -172,6 +173,7 @@ document.querySelector('.skip-link').addEventListener('click', (ev) => {
   main.focus();
 });
 if (!location.hash) history.replaceState(null, '', '#/runs');
+ready(); // the algorithm roles (GET /api/systems), asked for while the first view loads its data
 render();
 checkHealth();
 setInterval(checkHealth, 10000);

@@ -17,6 +17,7 @@ from backend.store import queue
 from backend.store.db import Database
 from backend.store.models import Run
 from mgrao_core import MAX_EPISODES, PRESETS, make_spec, run_experiment
+from mgrao_core.algorithms import describe_label
 
 SMALL = {"system": "single", "seeds": 3, "episodes": 15}
 
@@ -54,6 +55,7 @@ def test_submit_run_results_and_export_match_the_core(client: TestClient, worker
 
     results = client.get(f"/api/jobs/{job['id']}/results").json()
     assert results["paper"] is None  # 15 episodes: the paper's tables are after 100
+    assert results["algorithms"] == [describe_label(a) for a in job["algorithms"]]  # the view asks no more
     summary = expected.summary()
     bands = expected.episode_bands()
     for config in results["configurations"]:
@@ -165,6 +167,8 @@ def test_compare_pools_seeds_by_configuration(client: TestClient, worker: Worker
     assert a["config_hash"] == b["config_hash"] != c["config_hash"]
     body = client.get(f"/api/compare?jobs={a['id']},{b['id']},{c['id']}&points=5").json()
     assert [j["id"] for j in body["jobs"]] == [a["id"], b["id"], c["id"]]
+    assert [d["label"] for d in body["algorithms"]] == ["uniform", "mgrao-1:1", "mgrao-max"]  # described with it
+    assert body["algorithms"][2] == describe_label("mgrao-max")
     groups = {(g["config_hash"], g["algorithm"]): g for g in body["groups"]}
     assert len(groups) == 6
     pooled = groups[(a["config_hash"], "mgrao-max")]
