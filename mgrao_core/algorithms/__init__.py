@@ -31,6 +31,10 @@ if TYPE_CHECKING:
 FAMILIES: tuple[Family, ...] = (uniform.FAMILY, oracle.FAMILY, mgrao.FAMILY)
 """Every registered family. A new family is a module with a ``FAMILY`` and a line here."""
 FAMILIES_BY_NAME: dict[str, Family] = {f.name: f for f in FAMILIES}
+KINDS: dict[str, int] = {f.name: code for code, f in enumerate(FAMILIES)}
+"""Each family's code: its place in :data:`FAMILIES`, what the kernel dispatches on."""
+LEARNERS: tuple[Family, ...] = tuple(f for f in FAMILIES if f.learns)
+"""The families with compiled steps, in registry order: the kernel takes their lanes in this order."""
 
 
 def family_of(algorithm: Algorithm) -> Family:
@@ -104,22 +108,34 @@ def describe_label(label: Any, params: SystemParams | None = None, field: str = 
     return {"label": algorithm.label, "family": family.name, "title": family.title,
             "groups": algorithm.n_groups if family.name == mgrao.FAMILY.name and algorithm.n_groups else None,
             "description": family.description, "colour_key": family.colour_key(algorithm),
-            "sort_key": list(family.sort_key(algorithm))}
+            "sort_key": list(family.sort_key(algorithm)),
+            "memory_per_child": None if params is None else family.memory_per_child(algorithm, params)}
 
 
 def registry(params: SystemParams | None = None) -> list[dict[str, Any]]:
     """Every family for clients: name, description, label forms and examples valid for a system.
 
-    ``params`` None describes the grammar alone (no system chosen yet).
+    ``params`` None describes the grammar alone (no system chosen yet). ``memory_per_child`` maps each
+    example to the bytes of one child's state in the system (None without a system).
     """
     n_parents = None if params is None else params.n_parents
+
+    def memory(family: Family) -> dict[str, int] | None:
+        if params is None:
+            return None
+        return {label: family.memory_per_child(parse_algorithm(label, n_parents), params)
+                for label in family.examples(n_parents)}
+
     return [{"name": f.name, "title": f.title, "description": f.description, "rank": f.rank,
-             "forms": f.forms(n_parents), "examples": f.examples(n_parents)} for f in FAMILIES]
+             "parameters": [p.name for p in f.parameters], "forms": f.forms(n_parents),
+             "examples": f.examples(n_parents), "memory_per_child": memory(f)} for f in FAMILIES]
 
 
 __all__ = [
     "FAMILIES",
     "FAMILIES_BY_NAME",
+    "KINDS",
+    "LEARNERS",
     "MGRAO_MAX",
     "ORACLE",
     "PALETTE_SLOTS",

@@ -1,18 +1,31 @@
 """``oracle``: each child's best fixed allocation given the true expected values (an upper bound).
 
-The allocation itself is computed by :mod:`mgrao_core.oracle`.
+The allocation itself is computed by :mod:`mgrao_core.oracle`, from the seed's own ``"oracle"`` stream.
 """
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
-from mgrao_core.algorithms.base import Algorithm, Family, LabelForm
+import numpy as np
+
+from mgrao_core.algorithms.base import Algorithm, FixedFamily, LabelForm
+
+if TYPE_CHECKING:
+    from mgrao_core.params import SystemParams
+    from mgrao_core.world import World
 
 LABEL = "oracle"
+ORACLE_BATCH = 128
+"""Monte-Carlo samples of the oracle's expected values summed apart before they are added to the
+total: fixes the order of the floating-point sums (a different batch gives different last bits)."""
+ORACLE_DRAWS = 262_144
+"""Noise values of the oracle's Monte-Carlo estimate drawn at once (2 MiB), or one sample's when that
+is more; ``should_stop`` is polled between draws."""
 
 
-class Oracle(Family):
+class Oracle(FixedFamily):
     """The best fixed allocation of each child, knowing every parent's expected values."""
 
     name = LABEL
@@ -20,6 +33,7 @@ class Oracle(Family):
     description = ("Each child's best fixed allocation given the true expected task values: no learner with a "
                    "fixed allocation does better in a stationary system.")
     rank = 2
+    streams = {"oracle": 5}
     _form = LabelForm(LABEL, "^oracle$", "the best fixed allocation")
 
     def parse(self, text: str, n_parents: int | None, field: str) -> Algorithm | None:
@@ -41,6 +55,19 @@ class Oracle(Family):
     def colour_key(self, algorithm: Algorithm) -> int:
         """The palette slot of the configuration."""
         return 3
+
+    def fixed_weights(self, params: SystemParams, world: World, seed: int,
+                      should_stop: Callable[[], bool] | None = None) -> np.ndarray:
+        """The best fixed allocation of each child (see :func:`mgrao_core.oracle.oracle_weights`)."""
+        from mgrao_core.oracle import oracle_weights  # compiled Monte Carlo: loaded only when an oracle runs
+
+        return oracle_weights(params, world, seed, should_stop=should_stop)
+
+    def preparation_bytes(self, params: SystemParams, n_seeds: int) -> int:
+        """The Monte-Carlo temporaries of the expected values (one seed at a time) and every seed's weights."""
+        per_composite = params.n_parents * params.types_per_composite
+        return 8 * (max(ORACLE_DRAWS, per_composite) + 2 * per_composite + params.types_per_composite
+                    + 3 * params.n_types + n_seeds * params.n_children * params.n_types)
 
 
 FAMILY = Oracle()

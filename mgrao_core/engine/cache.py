@@ -1,10 +1,10 @@
 """Numba's on-disk cache of the kernel: stale after any change of the engine, loaded without the compiler.
 
 Numba keys a cached function on its own source file alone. The kernel inlines functions from
-:mod:`~mgrao_core.engine.environment` and :mod:`~mgrao_core.engine.learning`, so after an edit of
-either (or a checkout that touches only them) numba would load the old kernel and compute old
-numbers. :func:`bind_to_sources` adds a digest of every engine source to the stamp numba checks,
-so any change recompiles the kernel.
+:mod:`~mgrao_core.engine.environment` and from the algorithm families' compiled steps
+(``mgrao_core/algorithms/``), so after an edit of one of them (or a checkout that touches only them)
+numba would load the old kernel and compute old numbers. :func:`bind_to_sources` adds a digest of
+every engine and algorithm source to the stamp numba checks, so any change recompiles the kernel.
 
 Before it loads a cached function, numba imports and registers every implementation it has (its
 target context's "refresh", about 0.15 s of a process that runs for under a second), which
@@ -22,13 +22,21 @@ from pathlib import Path
 from typing import Any
 
 ENGINE_DIR = Path(__file__).resolve().parent
+ALGORITHMS_DIR = ENGINE_DIR.parent / "algorithms"
 
 
-def sources_digest(directory: Path = ENGINE_DIR) -> str:
-    """sha256 of every ``.py`` file of the engine package, by name and content."""
+def sources_digest(directory: Path = ENGINE_DIR, algorithms: Path | None = ALGORITHMS_DIR) -> str:
+    """sha256 of every ``.py`` file of the engine package and of the algorithms' (whose steps the kernel inlines).
+
+    By path (relative to each directory) and content.
+    """
     digest = hashlib.sha256()
     for path in sorted(directory.glob("*.py")):
         digest.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
+    if algorithms is not None:
+        for path in sorted(algorithms.glob("**/*.py")):
+            digest.update(b"algorithms/" + path.relative_to(algorithms).as_posix().encode() + b"\0"
+                          + path.read_bytes() + b"\0")
     return digest.hexdigest()
 
 

@@ -4,16 +4,27 @@ Each child keeps one row of parent-group weights (PW) per group of parents: ``mg
 the parents into x groups of equal size (x divides ``n_parents``; the paper's "x:y ratio of
 parent-agent groups to each child-agent", y being 1), ``mgrao-max`` gives every parent its own
 group and ``mgrao-1:1`` pools them all.
+
+The family's parts sit side by side: this module (labels, parameters, lane state),
+:mod:`~mgrao_core.algorithms.mgrao.compiled` (the kernel's steps) and
+:mod:`~mgrao_core.algorithms.mgrao.reference` (the dense, literal algorithms 1 and 2).
 """
 
 from __future__ import annotations
 
 import re
-from typing import Any
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from mgrao_core.algorithms.base import Algorithm, Family, LabelForm, invalid
+from mgrao_core.algorithms.base import Algorithm, Family, LabelForm, ReferenceChild, invalid
+from mgrao_core.algorithms.state import StateArray
+from mgrao_core.parameter import Parameter
+
+if TYPE_CHECKING:
+    from mgrao_core.params import SystemParams
+    from mgrao_core.world import World
 
 MAX_LABEL = "mgrao-max"
 _RATIO = re.compile(r"^mgrao-0*(\d{1,9}):0*(\d{1,9})$")
@@ -43,6 +54,34 @@ class Mgrao(Family):
                    "return (algorithm 1) and blends the rows by how informative and how used each is "
                    "(algorithm 2). More groups: a finer model that learns more slowly and needs more memory.")
     rank = 1
+    parameters = (
+        Parameter("learning_rate", "float", 0.1, "Learning rate alpha of the MG-RAO update.",
+                  "mgrao", 0.0, 1.0),
+        Parameter(
+            "trace_decay", "float", 0.9, "Decay gamma of the replacing eligibility trace.",
+            "mgrao", 0.001, 0.999,
+        ),
+        Parameter(
+            "temperature", "float", None,
+            "Softmax temperature of the combined weights; empty means 1/n_types, 1 is paper-literal.",
+            "mgrao", 1e-4, 100.0, nullable=True,
+        ),
+    )
+    state = (  # each child's PW and trace in lazy form (see the compiled module), its active rows and counts
+        StateArray("Y", ("lanes", "children", "groups", "n_types"), fill="uniform", help="PW, lazily"),
+        StateArray("F", ("lanes", "children", "groups", "n_types"), help="the eligibility trace, lazily"),
+        StateArray("H", ("lanes", "children", "groups"), help="each active row's pending update"),
+        StateArray("cs", ("lanes", "children", "groups"), fill=1.0, help="each active row's scale"),
+        StateArray("G", ("lanes", "children", "groups"), help="each active row's trace sum"),
+        StateArray("k_since_rebase", ("lanes", "children"), "int64", help="updates since the last rebase"),
+        StateArray("rows", ("lanes", "children", "groups"), "int64", help="the active rows, first n_rows"),
+        StateArray("slot", ("lanes", "children", "groups"), "int64", help="each row's place in rows (-1: inactive)"),
+        StateArray("n_rows", ("lanes", "children"), "int64", help="how many rows are active"),
+        StateArray("counts", ("lanes", "children", "groups"), help="parent agent sample counts"),
+        StateArray("rebase_due", ("lanes", "children"), "bool", help="a scale nears underflow: rebase first"),
+        StateArray("scratch", ("lanes", "groups"), help="algorithm 2's blending vector, while it is computed"),
+    )
+    steps = "mgrao_core.algorithms.mgrao.compiled"
     _ratio = LabelForm("mgrao-{x}:1", r"^mgrao-0*(\d{1,9}):0*1$", "x parent groups per child",
                        "x", "parent groups per child, a whole number dividing n_parents")
     _max = LabelForm(MAX_LABEL, "^mgrao-max$", "one group per parent")
@@ -93,6 +132,30 @@ class Mgrao(Family):
     def order(self, algorithm: Algorithm) -> int:
         """x:1 by increasing x, then max."""
         return 2**62 if algorithm.label == MAX_LABEL else algorithm.n_groups
+
+    def initialise(self, arrays: Mapping[str, np.ndarray], lanes: np.ndarray, params: SystemParams) -> None:
+        """The children's active rows (see :func:`~mgrao_core.algorithms.mgrao.compiled.initial_rows`)."""
+        from mgrao_core.algorithms.mgrao.compiled import initial_rows
+
+        initial_rows(arrays, lanes)
+
+    def compiled_lanes(self, arrays: Mapping[str, np.ndarray], params: SystemParams) -> tuple:
+        """:class:`~mgrao_core.algorithms.mgrao.compiled.MgraoLanes`."""
+        from mgrao_core.algorithms.mgrao.compiled import lanes_of
+
+        return lanes_of(arrays, params)
+
+    def group_weights(self, arrays: Mapping[str, np.ndarray], lane: int, algorithm: Algorithm) -> np.ndarray | None:
+        """The lane's final PW of every child, ``(children, n_groups, n_types)``."""
+        return arrays["Y"][lane, :, : algorithm.n_groups].copy()
+
+    def reference_children(self, params: SystemParams, algorithm: Algorithm, world: World,
+                           seed: int) -> list[ReferenceChild]:
+        """Children applying algorithms 1 and 2 literally (:mod:`~mgrao_core.algorithms.mgrao.reference`)."""
+        from mgrao_core.algorithms.mgrao.reference import Child
+
+        groups = parent_groups(params.n_parents, algorithm.n_groups)
+        return [Child(algorithm.n_groups, groups, params) for _ in range(params.n_children)]
 
 
 FAMILY = Mgrao()
