@@ -15,18 +15,16 @@ docs/algorithms.md shows how to add a family.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from mgrao_core.algorithms import mgrao, oracle, uniform
 from mgrao_core.algorithms.base import PALETTE_SLOTS, Algorithm, Family
 from mgrao_core.algorithms.mgrao import MAX_LABEL as MGRAO_MAX
 from mgrao_core.algorithms.mgrao import divisors, parent_groups
 from mgrao_core.algorithms.oracle import LABEL as ORACLE
+from mgrao_core.algorithms.state import System
 from mgrao_core.algorithms.uniform import LABEL as UNIFORM
 from mgrao_core.errors import ConfigError
-
-if TYPE_CHECKING:
-    from mgrao_core.params import SystemParams
 
 FAMILIES: tuple[Family, ...] = (uniform.FAMILY, oracle.FAMILY, mgrao.FAMILY)
 """Every registered family. A new family is a module with a ``FAMILY`` and a line here."""
@@ -95,7 +93,7 @@ def sort_key(label: str) -> tuple[int, int, str]:
     return (*family_of(algorithm).sort_key(algorithm), algorithm.label)
 
 
-def describe_label(label: Any, params: SystemParams | None = None, field: str = "label") -> dict[str, Any]:
+def describe_label(label: Any, params: System | None = None, field: str = "label") -> dict[str, Any]:
     """One label, canonical and described for a system (``params``; None: the grammar alone).
 
     What ``GET /api/algorithms?label=`` answers.
@@ -112,7 +110,7 @@ def describe_label(label: Any, params: SystemParams | None = None, field: str = 
             "memory_per_child": None if params is None else family.memory_per_child(algorithm, params)}
 
 
-def registry(params: SystemParams | None = None) -> list[dict[str, Any]]:
+def registry(params: System | None = None) -> list[dict[str, Any]]:
     """Every family for clients: name, description, label forms and examples valid for a system.
 
     ``params`` None describes the grammar alone (no system chosen yet). ``memory_per_child`` maps each

@@ -18,19 +18,37 @@ learner to copy.
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
-from mgrao_core.algorithms.state import StateArray, nbytes, sizes_of
+from mgrao_core.algorithms.state import StateArray, System, nbytes, sizes_of
 from mgrao_core.errors import ConfigError
 from mgrao_core.parameter import Parameter
 
-if TYPE_CHECKING:
-    from mgrao_core.params import SystemParams
-    from mgrao_core.world import World
+
+class World(Protocol):
+    """What a family reads of a seed's world (:class:`mgrao_core.world.World`)."""
+
+    composite_types: np.ndarray
+    parent_types: np.ndarray
+    profiles: np.ndarray
+    resources: np.ndarray
+
+
+def load(entry: str) -> Any:
+    """The object an entry names: ``"package.module"`` (the module) or ``"package.module:name"``.
+
+    A family names its heavy parts (compiled steps, reference step, a fixed allocation's computation)
+    by entry rather than importing them, so that the registry loads neither numba nor the modules
+    that read the registry; the layer that runs them (the runner, the reference simulator) loads them.
+    """
+    module, _, name = entry.partition(":")
+    loaded = importlib.import_module(module)
+    return getattr(loaded, name) if name else loaded
 
 PALETTE_SLOTS = 8
 """Colour keys are slots ``0 .. PALETTE_SLOTS - 1`` of the dashboard's colour-blind-safe palette."""
@@ -124,39 +142,50 @@ class Family:
     every registered family's arrays, sized for the chunk's algorithms (one declaration per name:
     two families declaring one name share the array)."""
     steps: str | None = None
-    """A learner's compiled steps: the module the kernel calls (imported only by the kernel)."""
+    """A learner's compiled steps: the module the kernel calls (an entry, see :func:`load`); it also defines
+    ``lanes_of(arrays, params)``, the family's lanes as the steps read them."""
+    reference: str | None = None
+    """A learner's dense reference step: the entry (:func:`load`) of a function ``(params, algorithm, world,
+    seed)`` returning one :class:`ReferenceChild` per child."""
 
     @property
     def learns(self) -> bool:
         """Whether the family's children learn (it has compiled steps)."""
         return self.steps is not None
 
-    def memory_per_child(self, algorithm: Algorithm, params: SystemParams) -> int:
+    def memory_per_child(self, algorithm: Algorithm, params: System) -> int:
         """Bytes of one child's state (:attr:`state`) for ``algorithm`` in a system."""
         return nbytes(self.state, sizes_of(params, 1, algorithm.n_groups) | {"children": 1})
 
-    def preparation_bytes(self, params: SystemParams, n_seeds: int) -> int:
+    def preparation_bytes(self, params: System, n_seeds: int) -> int:
         """Bytes the family allocates, beyond its lane state, to prepare a chunk of ``n_seeds`` seeds."""
         return 0
 
-    def initialise(self, arrays: Mapping[str, np.ndarray], lanes: np.ndarray, params: SystemParams) -> None:
+    def initialise(self, arrays: Mapping[str, np.ndarray], lanes: np.ndarray, params: System) -> None:
         """Set the initial state of the family's ``lanes`` that the declared fills do not (nothing by default).
 
         ``arrays`` are every array of the chunk by name (``arrays["groups"]``: each lane's parent groups).
         """
 
-    def compiled_lanes(self, arrays: Mapping[str, np.ndarray], params: SystemParams) -> tuple:
-        """A learner's lanes as its compiled steps read them (a NamedTuple of arrays and numbers)."""
-        raise NotImplementedError(f"{self.name} has no compiled steps")
+    def compiled_lanes(self, arrays: Mapping[str, np.ndarray], params: System) -> tuple:
+        """A learner's lanes as its compiled steps read them (a flat NamedTuple of arrays and numbers).
+
+        Loads the compiled steps (numba): the runner calls it.
+        """
+        if self.steps is None:
+            raise NotImplementedError(f"{self.name} has no compiled steps")
+        return load(self.steps).lanes_of(arrays, params)
 
     def group_weights(self, arrays: Mapping[str, np.ndarray], lane: int, algorithm: Algorithm) -> np.ndarray | None:
         """A lane's final per-group weights ``(children, n_groups, n_types)`` to store, if the family has any."""
         return None
 
-    def reference_children(self, params: SystemParams, algorithm: Algorithm, world: World,
+    def reference_children(self, params: System, algorithm: Algorithm, world: World,
                            seed: int) -> list[ReferenceChild]:
         """The children of the dense reference simulator for ``algorithm`` (its reference step)."""
-        raise NotImplementedError
+        if self.reference is None:
+            raise NotImplementedError(f"{self.name} has no reference step")
+        return load(self.reference)(params, algorithm, world, seed)
 
     def parse(self, text: str, n_parents: int | None, field: str) -> Algorithm | None:
         """The algorithm that lower-cased, stripped ``text`` names, or None if it is not this family's.
@@ -201,15 +230,15 @@ class FixedFamily(Family):
     state = (StateArray("fixed_weights", ("lanes", "children", "n_types"), fill="uniform",
                         help="each child's allocation for the whole run"),)
 
-    def fixed_weights(self, params: SystemParams, world: World, seed: int,
+    def fixed_weights(self, params: System, world: World, seed: int,
                       should_stop: Callable[[], bool] | None = None) -> np.ndarray:
         """Each child's allocation, ``(n_children, n_types)``, rows summing to 1."""
         raise NotImplementedError
 
-    def initialise(self, arrays: Mapping[str, np.ndarray], lanes: np.ndarray, params: SystemParams) -> None:
+    def initialise(self, arrays: Mapping[str, np.ndarray], lanes: np.ndarray, params: System) -> None:
         """Nothing: the runner writes :meth:`fixed_weights` into ``fixed_weights`` per seed."""
 
-    def reference_children(self, params: SystemParams, algorithm: Algorithm, world: World,
+    def reference_children(self, params: System, algorithm: Algorithm, world: World,
                            seed: int) -> list[ReferenceChild]:
         """Children that keep :meth:`fixed_weights`."""
         return [FixedChild(w) for w in self.fixed_weights(params, world, seed)]

@@ -6,17 +6,16 @@ The allocation itself is computed by :mod:`mgrao_core.oracle`, from the seed's o
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-from mgrao_core.algorithms.base import Algorithm, FixedFamily, LabelForm
-
-if TYPE_CHECKING:
-    from mgrao_core.params import SystemParams
-    from mgrao_core.world import World
+from mgrao_core.algorithms.base import Algorithm, FixedFamily, LabelForm, World, load
+from mgrao_core.algorithms.state import System
 
 LABEL = "oracle"
+COMPUTATION = "mgrao_core.oracle:oracle_weights"
+"""Where the allocation is computed (an entry, loaded when an oracle runs: it compiles a Monte Carlo)."""
 ORACLE_BATCH = 128
 """Monte-Carlo samples of the oracle's expected values summed apart before they are added to the
 total: fixes the order of the floating-point sums (a different batch gives different last bits)."""
@@ -56,14 +55,12 @@ class Oracle(FixedFamily):
         """The palette slot of the configuration."""
         return 3
 
-    def fixed_weights(self, params: SystemParams, world: World, seed: int,
+    def fixed_weights(self, params: System, world: World, seed: int,
                       should_stop: Callable[[], bool] | None = None) -> np.ndarray:
         """The best fixed allocation of each child (see :func:`mgrao_core.oracle.oracle_weights`)."""
-        from mgrao_core.oracle import oracle_weights  # compiled Monte Carlo: loaded only when an oracle runs
+        return load(COMPUTATION)(params, world, seed, should_stop=should_stop)
 
-        return oracle_weights(params, world, seed, should_stop=should_stop)
-
-    def preparation_bytes(self, params: SystemParams, n_seeds: int) -> int:
+    def preparation_bytes(self, params: System, n_seeds: int) -> int:
         """The Monte-Carlo temporaries of the expected values (one seed at a time) and every seed's weights."""
         per_composite = params.n_parents * params.types_per_composite
         return 8 * (max(ORACLE_DRAWS, per_composite) + 2 * per_composite + params.types_per_composite

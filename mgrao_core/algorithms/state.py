@@ -14,12 +14,19 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from mgrao_core.params import SystemParams
+
+class System(Protocol):
+    """A system's parameters as the algorithms read them: :class:`mgrao_core.params.System`.
+
+    Its fields come from the parameter schema, which lists every registered family's own, so any
+    parameter's name is an attribute.
+    """
+
+    def __getattr__(self, name: str) -> Any: ...  # noqa: D105
 
 SIZES = ("lanes", "children", "groups", "n_types", "n_parents", "choices", "types_per_composite")
 """The sizes a shape may name: the chunk's lanes, the system's children, the most parent groups of
@@ -67,12 +74,12 @@ class StateArray:
         return np.full(self.dims(sizes), self.fill, dtype=self.dtype)
 
 
-def routing_choices(params: SystemParams) -> int:
+def routing_choices(params: System) -> int:
     """Child choices a parent makes per composite task: 1 per composite, or one per atomic task."""
     return 1 if params.routing == "per-composite" else params.types_per_composite
 
 
-def sizes_of(params: SystemParams, lanes: int, groups: int) -> dict[str, int]:
+def sizes_of(params: System, lanes: int, groups: int) -> dict[str, int]:
     """The named sizes (:data:`SIZES`) of ``lanes`` lanes of a system whose algorithms have at most ``groups``."""
     return {"lanes": lanes, "children": params.n_children, "groups": max(groups, 1), "n_types": params.n_types,
             "n_parents": params.n_parents, "choices": routing_choices(params),

@@ -14,33 +14,21 @@ total. A real family replaces the four parts marked below:
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import Any
 
 import numpy as np
 
-from mgrao_core.algorithms.base import Algorithm, Family, LabelForm, ReferenceChild
-from mgrao_core.algorithms.state import StateArray
+from mgrao_core.algorithms.base import Algorithm, Family, LabelForm, ReferenceChild, World
+from mgrao_core.algorithms.state import StateArray, System
 from mgrao_core.parameter import Parameter
 
-if TYPE_CHECKING:
-    from mgrao_core.params import SystemParams
-    from mgrao_core.world import World
-
 LABEL = "template"
-
-
-class TemplateLanes(NamedTuple):
-    """The family's lanes as its compiled steps read them: its declared arrays, then its parameters."""
-
-    totals: np.ndarray
-    template_prior: float
 
 
 class TemplateChild(ReferenceChild):
     """The dense reference step: the same rule as the compiled steps, in plain numpy."""
 
-    def __init__(self, params: SystemParams) -> None:
+    def __init__(self, params: System) -> None:
         self.prior = params.template_prior if hasattr(params, "template_prior") else 1.0
         self.totals = np.zeros(params.n_types)
 
@@ -67,7 +55,8 @@ class Template(Family):
     state = (  # 3. each lane's arrays; a shape names sizes of mgrao_core.algorithms.state.SIZES
         StateArray("totals", ("lanes", "children", "n_types"), help="each type's total returned value"),
     )
-    steps = "mgrao_core.algorithms.template_steps"  # 4. the compiled steps the kernel calls
+    steps = "mgrao_core.algorithms.template_steps"  # 4. the compiled steps the kernel calls (an entry: loaded
+    reference = "mgrao_core.algorithms.template:reference_children"  # by the layer that runs them) and the dense one
     _form = LabelForm(LABEL, "^template$", "the template learner")
 
     # 1. the label grammar
@@ -91,15 +80,11 @@ class Template(Family):
         """The palette slot of the configuration."""
         return 7
 
-    # 4. the bridges to the steps
-    def compiled_lanes(self, arrays: Mapping[str, np.ndarray], params: SystemParams) -> tuple:
-        """:class:`TemplateLanes` over the chunk's arrays."""
-        return TemplateLanes(arrays["totals"], float(getattr(params, "template_prior", 1.0)))
 
-    def reference_children(self, params: SystemParams, algorithm: Algorithm, world: World,
-                           seed: int) -> list[ReferenceChild]:
-        """One :class:`TemplateChild` per child."""
-        return [TemplateChild(params) for _ in range(params.n_children)]
+
+def reference_children(params: System, algorithm: Algorithm, world: World, seed: int) -> list[ReferenceChild]:
+    """The dense reference step's children: one :class:`TemplateChild` per child."""
+    return [TemplateChild(params) for _ in range(params.n_children)]
 
 
 FAMILY = Template()

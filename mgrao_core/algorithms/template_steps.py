@@ -1,5 +1,7 @@
 """The template family's compiled steps (:mod:`mgrao_core.algorithms.template`): what the kernel calls.
 
+:func:`lanes_of` builds the family's lanes from the chunk's arrays (the runner calls it).
+
 Each step takes the family's lanes (a flat NamedTuple of arrays and numbers: numba's parallel loop
 takes no nested tuple) and the lane's index, and indexes the arrays itself (in numba's parallel
 loop, a write through an array held in a tuple built there is dropped as dead once inlined). The
@@ -18,7 +20,25 @@ from __future__ import annotations
 import mgrao_core._numba_cache  # noqa: F401  (first: picks a writable numba cache before numba loads)
 
 # isort: split
+from collections.abc import Mapping
+from typing import NamedTuple
+
+import numpy as np
 from numba import njit
+
+from mgrao_core.algorithms.state import System
+
+
+class TemplateLanes(NamedTuple):
+    """The family's lanes as its compiled steps read them: its declared arrays, then its parameters."""
+
+    totals: np.ndarray
+    template_prior: float
+
+
+def lanes_of(arrays: Mapping[str, np.ndarray], params: System) -> TemplateLanes:
+    """:class:`TemplateLanes` over the chunk's arrays (by name, as declared) and the parameters."""
+    return TemplateLanes(arrays["totals"], float(getattr(params, "template_prior", 1.0)))
 
 
 @njit(cache=True)

@@ -6,15 +6,12 @@ The baseline of the paper's "% from uniform".
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-from mgrao_core.algorithms.base import Algorithm, FixedFamily, LabelForm
-
-if TYPE_CHECKING:
-    from mgrao_core.params import SystemParams
-    from mgrao_core.world import World
+from mgrao_core.algorithms.base import Algorithm, FixedFamily, LabelForm, World
+from mgrao_core.algorithms.state import System
 
 LABEL = "uniform"
 
@@ -48,7 +45,7 @@ class Uniform(FixedFamily):
         """The palette slot of the configuration."""
         return 0
 
-    def fixed_weights(self, params: SystemParams, world: World, seed: int,
+    def fixed_weights(self, params: System, world: World, seed: int,
                       should_stop: Callable[[], bool] | None = None) -> np.ndarray:
         """``1 / n_types`` for every type of every child."""
         return np.full((params.n_children, params.n_types), 1.0 / params.n_types)

@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 
 from mgrao_core import engine, make_spec, run_experiment
 from mgrao_core import equations as eq
-from mgrao_core.algorithms.mgrao import compiled as learning_module
+from mgrao_core.algorithms.mgrao import family as learning_module
 from mgrao_core.algorithms.mgrao.compiled import NEGLIGIBLE, trace_is_negligible, trace_tail
 from mgrao_core.params import ABSENT_TASKS, QUALITY_MODELS, ROUTINGS
 

@@ -30,10 +30,11 @@ leaves the child's *active rows*, which are the only ones an update visits. A re
 its group makes it active again. ``H``, ``cs`` and ``G`` are stored by place among the active rows
 (``H[s]`` belongs to row ``rows[s]``), so that the update runs over contiguous memory.
 
-Children with at most :data:`MIN_BOUNDED_GROUPS` groups keep every row active and perform exactly
-the operations above. A child with more keeps the reciprocal scale in ``cs`` (``PW = (Y + F * H) /
-cs``; ``H += a * gamma**k * cs``; ``cs *= 1 + a * gamma**k * G``): multiplications instead of
-divisions, the same rounding up to the last bit. docs/model.md ("The engine") gives the argument.
+Children with at most :data:`~mgrao_core.algorithms.mgrao.family.MIN_BOUNDED_GROUPS` groups keep every row
+active and perform exactly the operations above. A child with more keeps the reciprocal scale in
+``cs`` (``PW = (Y + F * H) / cs``; ``H += a * gamma**k * cs``; ``cs *= 1 + a * gamma**k * G``):
+multiplications instead of divisions, the same rounding up to the last bit. docs/model.md ("The
+engine") gives the argument.
 """
 
 from __future__ import annotations
@@ -48,7 +49,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from mgrao_core.params import SystemParams
+from mgrao_core.algorithms.mgrao import family
+from mgrao_core.algorithms.state import System
 
 _SCALE_LIMIT = 1e-150  # rebase before any cs[i] falls below this (a reciprocal scale rises above 1 / it)
 
@@ -64,10 +66,6 @@ NEGLIGIBLE = 2.0**-55
 fraction of 1): less than half a unit in the last place (a weight ``w`` has ``ulp(w) / 2 > w *
 2**-54``), so adding it would not change the row in float64."""
 
-MIN_BOUNDED_GROUPS = 64
-"""Children with at most this many parent groups keep every row active. Below it, dropping
-negligible traces saves little, and the engine then performs exactly the floating-point operations
-of the unbounded lazy update (so results stored by earlier versions re-run bit for bit)."""
 
 
 class MgraoLanes(NamedTuple):
@@ -90,7 +88,7 @@ class MgraoLanes(NamedTuple):
         gamma_inv_pow: ``trace_decay ** -k``, likewise.
         trace_tail: ``alpha * gamma / (1 - gamma)``: the most a trace entry of 1 still adds to its
             weight over all later updates (see :func:`trace_is_negligible`).
-        min_bounded_groups: :data:`MIN_BOUNDED_GROUPS`.
+        min_bounded_groups: :data:`~mgrao_core.algorithms.mgrao.family.MIN_BOUNDED_GROUPS`.
     """
 
     Y: np.ndarray
@@ -127,29 +125,12 @@ def trace_tail(learning_rate: float, trace_decay: float) -> float:
     return learning_rate * trace_decay / (1.0 - trace_decay)
 
 
-def lanes_of(arrays: Mapping[str, np.ndarray], params: SystemParams) -> MgraoLanes:
+def lanes_of(arrays: Mapping[str, np.ndarray], params: System) -> MgraoLanes:
     """The kernel's view of the chunk's MG-RAO arrays (by name, as declared) and of a validated parameter set."""
     gamma_pow = params.trace_decay ** np.arange(rebase_interval(params.trace_decay) + 1, dtype=float)
     state = [arrays[name] for name in MgraoLanes._fields[:12]]
     return MgraoLanes(*state, params.learning_rate, params.effective_temperature, gamma_pow, 1.0 / gamma_pow,
-                      trace_tail(params.learning_rate, params.trace_decay), MIN_BOUNDED_GROUPS)
-
-
-def initial_rows(arrays: Mapping[str, np.ndarray], lanes: np.ndarray) -> None:
-    """The active rows of the children of ``lanes`` before the first episode, in ``arrays``.
-
-    ``rows (lanes, children, groups)`` (the active rows of a child come first), ``slot`` (a row's
-    place in ``rows``, -1 if inactive) and ``n_rows (lanes, children)``. With at most
-    :data:`MIN_BOUNDED_GROUPS` groups every row is active and stays so; with more, none is yet: a
-    row becomes active with the first value of its group.
-    """
-    rows, slot, n_rows, groups = arrays["rows"], arrays["slot"], arrays["n_rows"], arrays["groups"]
-    rows[lanes] = np.arange(rows.shape[2], dtype=np.int64)
-    slot[lanes] = rows[lanes]  # H, cs and G of a row are at its slot: where the row is, while all are active
-    n_rows[lanes] = groups[lanes, None]
-    for lane in lanes[groups[lanes] > MIN_BOUNDED_GROUPS]:
-        slot[lane] = -1
-        n_rows[lane] = 0
+                      trace_tail(params.learning_rate, params.trace_decay), family.MIN_BOUNDED_GROUPS)
 
 
 @njit(cache=True, inline="always")

@@ -14,19 +14,19 @@ from __future__ import annotations
 
 import re
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-from mgrao_core.algorithms.base import Algorithm, Family, LabelForm, ReferenceChild, invalid
-from mgrao_core.algorithms.state import StateArray
+from mgrao_core.algorithms.base import Algorithm, Family, LabelForm, invalid
+from mgrao_core.algorithms.state import StateArray, System
 from mgrao_core.parameter import Parameter
 
-if TYPE_CHECKING:
-    from mgrao_core.params import SystemParams
-    from mgrao_core.world import World
-
 MAX_LABEL = "mgrao-max"
+MIN_BOUNDED_GROUPS = 64
+"""Children with at most this many parent groups keep every row active. Below it, dropping
+negligible traces saves little, and the engine then performs exactly the floating-point operations
+of the unbounded lazy update (so results stored by earlier versions re-run bit for bit)."""
 _RATIO = re.compile(r"^mgrao-0*(\d{1,9}):0*(\d{1,9})$")
 
 
@@ -82,6 +82,7 @@ class Mgrao(Family):
         StateArray("scratch", ("lanes", "groups"), help="algorithm 2's blending vector, while it is computed"),
     )
     steps = "mgrao_core.algorithms.mgrao.compiled"
+    reference = "mgrao_core.algorithms.mgrao.reference:children"
     _ratio = LabelForm("mgrao-{x}:1", r"^mgrao-0*(\d{1,9}):0*1$", "x parent groups per child",
                        "x", "parent groups per child, a whole number dividing n_parents")
     _max = LabelForm(MAX_LABEL, "^mgrao-max$", "one group per parent")
@@ -133,29 +134,25 @@ class Mgrao(Family):
         """x:1 by increasing x, then max."""
         return 2**62 if algorithm.label == MAX_LABEL else algorithm.n_groups
 
-    def initialise(self, arrays: Mapping[str, np.ndarray], lanes: np.ndarray, params: SystemParams) -> None:
-        """The children's active rows (see :func:`~mgrao_core.algorithms.mgrao.compiled.initial_rows`)."""
-        from mgrao_core.algorithms.mgrao.compiled import initial_rows
+    def initialise(self, arrays: Mapping[str, np.ndarray], lanes: np.ndarray, params: System) -> None:
+        """The active rows of the children of ``lanes`` before the first episode.
 
-        initial_rows(arrays, lanes)
-
-    def compiled_lanes(self, arrays: Mapping[str, np.ndarray], params: SystemParams) -> tuple:
-        """:class:`~mgrao_core.algorithms.mgrao.compiled.MgraoLanes`."""
-        from mgrao_core.algorithms.mgrao.compiled import lanes_of
-
-        return lanes_of(arrays, params)
+        ``rows (lanes, children, groups)`` (the active rows of a child come first), ``slot`` (a row's
+        place in ``rows``, -1 if inactive) and ``n_rows (lanes, children)``. With at most
+        :data:`MIN_BOUNDED_GROUPS` groups every row is active and stays so; with more, none is yet: a
+        row becomes active with the first value of its group.
+        """
+        rows, slot, n_rows, groups = arrays["rows"], arrays["slot"], arrays["n_rows"], arrays["groups"]
+        rows[lanes] = np.arange(rows.shape[2], dtype=np.int64)
+        slot[lanes] = rows[lanes]  # H, cs and G of a row are at its slot: where the row is, while all are active
+        n_rows[lanes] = groups[lanes, None]
+        for lane in lanes[groups[lanes] > MIN_BOUNDED_GROUPS]:
+            slot[lane] = -1
+            n_rows[lane] = 0
 
     def group_weights(self, arrays: Mapping[str, np.ndarray], lane: int, algorithm: Algorithm) -> np.ndarray | None:
         """The lane's final PW of every child, ``(children, n_groups, n_types)``."""
         return arrays["Y"][lane, :, : algorithm.n_groups].copy()
-
-    def reference_children(self, params: SystemParams, algorithm: Algorithm, world: World,
-                           seed: int) -> list[ReferenceChild]:
-        """Children applying algorithms 1 and 2 literally (:mod:`~mgrao_core.algorithms.mgrao.reference`)."""
-        from mgrao_core.algorithms.mgrao.reference import Child
-
-        groups = parent_groups(params.n_parents, algorithm.n_groups)
-        return [Child(algorithm.n_groups, groups, params) for _ in range(params.n_children)]
 
 
 FAMILY = Mgrao()

@@ -7,15 +7,12 @@ equations.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from mgrao_core import equations as eq
-from mgrao_core.algorithms.base import ReferenceChild
-
-if TYPE_CHECKING:
-    from mgrao_core.params import SystemParams
+from mgrao_core.algorithms.base import Algorithm, ReferenceChild, World
+from mgrao_core.algorithms.mgrao.family import parent_groups
+from mgrao_core.algorithms.state import System
 
 
 class Child(ReferenceChild):
@@ -27,7 +24,7 @@ class Child(ReferenceChild):
         params: the system's parameters (MG-RAO's among them).
     """
 
-    def __init__(self, n_groups: int, groups: np.ndarray, params: SystemParams) -> None:
+    def __init__(self, n_groups: int, groups: np.ndarray, params: System) -> None:
         self.groups = groups
         self.params = params
         self.pw = np.full((n_groups, params.n_types), 1.0 / params.n_types)
@@ -44,3 +41,9 @@ class Child(ReferenceChild):
         self.counts[group] += 1
         self.trace = eq.eligibility_update(self.trace, group, task_type, self.params.trace_decay)
         self.pw = eq.pw_update(self.pw, self.trace, value, self.params.learning_rate)
+
+
+def children(params: System, algorithm: Algorithm, world: World, seed: int) -> list[ReferenceChild]:
+    """One :class:`Child` per child of the system, for ``algorithm`` (``mgrao-x:1`` or ``mgrao-max``)."""
+    groups = parent_groups(params.n_parents, algorithm.n_groups)
+    return [Child(algorithm.n_groups, groups, params) for _ in range(params.n_children)]
