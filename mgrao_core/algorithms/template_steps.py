@@ -3,9 +3,9 @@
 :func:`lanes_of` builds the family's lanes from the chunk's arrays (the runner calls it).
 
 Each step takes the family's lanes (a flat NamedTuple of arrays and numbers: numba's parallel loop
-takes no nested tuple) and the lane's index, and indexes the arrays itself (in numba's parallel
-loop, a write through an array held in a tuple built there is dropped as dead once inlined). The
-kernel calls, for a lane of the family, with ``m`` the lane's parent groups:
+takes no nested tuple) and the lane's index, and indexes the arrays itself (docs/algorithms.md says
+which writes numba's parallel loop would drop as dead once inlined). The kernel calls, for a lane of
+the family, with ``m`` the lane's parent groups:
 
 * ``allocate(tl, lane, m, c, weights)`` at the start of every episode, for each child ``c``: write
   the child's allocation into ``weights (n_types,)``;

@@ -110,6 +110,7 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes):
         active = lanes.active[lane]
         weights = lanes.weights[lane]
         m = lanes.groups[lane]
+        mgrao_views = mgrao.lane_of(mgrao_lanes, lane)
         child_of = np.zeros((n_parents, types_per_composite), dtype=np.int64)
         ctv = np.zeros((n_parents, types_per_composite))
         values = np.zeros((n_parents, types_per_composite))
@@ -120,7 +121,7 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes):
             parents_leave_and_join(active, lanes.profiles[lane], draws.volatility[s, e], draws.new_profiles[s, e], env)
             for c in range(n_children):
                 if kind == MGRAO:
-                    mgrao.allocate(mgrao_lanes, lane, m, c, weights[c])
+                    mgrao.allocate(mgrao_lanes, mgrao_views, m, c, weights[c])
                 else:
                     weights[c, :] = lanes.fixed_weights[lane, c, :]
             # 2-3. Parents decompose their composite tasks and allocate the atomic tasks.
@@ -156,7 +157,8 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes):
                     update_estimates(lanes.estimates[lane, p], lanes.tries[lane, p], child_of[p], values[p], taq[p],
                                      env.per_composite)
                 if kind == MGRAO:
-                    mgrao.learn(mgrao_lanes, lane, m, p, n_parents, child_of[p], worlds.parent_types[s, p], values[p])
+                    mgrao.learn(mgrao_lanes, mgrao_views, m, p, n_parents, child_of[p], worlds.parent_types[s, p],
+                                values[p])
 
 
 @njit(cache=True)

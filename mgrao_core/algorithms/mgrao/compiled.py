@@ -278,23 +278,31 @@ def pw_update(Y, F, H, cs, G, rows, slot, n_rows, c, k, group, task_type, step, 
 
 
 @njit(cache=True)
-def allocate(ml, lane, m, c, weights):
-    """Child ``c`` of lane ``lane`` (``m`` parent groups per child) fixes its allocation for the episode.
+def fix_allocation(Y, F, H, cs, G, rows, slot, n_rows, counts, m, bounded, gamma_k, tail, temperature, weights,
+                   scratch):
+    """A child fixes its resource weights for the episode: its PW is materialised, then algorithm 2 writes ``weights``.
 
-    Its PW is materialised, then algorithm 2 writes ``weights``; the updates since the rebase are
-    now 0. Like every step here it takes the family's lanes (``ml``, :class:`MgraoLanes`) and the
-    lane's index. It is not inlined: inlined into numba's parallel loop, a write through
-    ``ml.<array>[lane, c]`` that nothing reads afterwards in the loop is dropped as dead (``ml`` is a
-    tuple, which numba's alias analysis does not follow).
+    Returns the number of active rows.
     """
-    k = ml.k_since_rebase[lane, c]
-    Y = ml.Y[lane, c]
-    ml.n_rows[lane, c] = rebase(Y, ml.F[lane, c], ml.H[lane, c], ml.cs[lane, c], ml.G[lane, c], ml.rows[lane, c],
-                                ml.slot[lane, c], ml.n_rows[lane, c], ml.gamma_pow[k], ml.trace_tail,
-                                m > ml.min_bounded_groups)
-    combined_weights(Y, ml.counts[lane, c], m, Y.shape[1], ml.temperature, weights, ml.scratch[lane])
-    ml.k_since_rebase[lane, c] = 0
-    ml.rebase_due[lane, c] = False
+    n_rows = rebase(Y, F, H, cs, G, rows, slot, n_rows, gamma_k, tail, bounded)
+    combined_weights(Y, counts, m, Y.shape[1], temperature, weights, scratch)
+    return n_rows
+
+
+@njit(cache=True, inline="always")
+def allocate(ml, views, m, c, weights):
+    """Child ``c`` of the lane whose :func:`lane_of` is ``views`` (``m`` parent groups per child) fixes its allocation.
+
+    The updates since the rebase are now 0. The views are indexed by position (``views[8]`` is
+    ``k_since_rebase``): numba's parallel loop keeps a write through a tuple's item alive only when
+    it sees the item taken from the tuple.
+    """
+    k = views[8][c]
+    views[7][c] = fix_allocation(views[0][c], views[1][c], views[2][c], views[3][c], views[4][c], views[5][c],
+                                 views[6][c], views[7][c], views[9][c], m, m > ml.min_bounded_groups, ml.gamma_pow[k],
+                                 ml.trace_tail, ml.temperature, weights, views[11])
+    views[8][c] = 0
+    views[10][c] = False
 
 
 @njit(cache=True, inline="always")
@@ -318,17 +326,29 @@ def learn_value(Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, reba
 
 
 @njit(cache=True, inline="always")
-def learn(ml, lane, m, p, n_parents, children, task_types, values):
+def lane_of(ml, lane):
+    """Lane ``lane``'s views of the arrays the steps write, made once per lane (as the kernel did before).
+
+    A plain tuple, in this order: Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts,
+    rebase_due, scratch. :func:`learn` unpacks it once per composite task, around a loop that keeps
+    using every view; :func:`allocate` takes its items by position, which numba's parallel loop sees
+    as the tuple's (a write through a NamedTuple's field, or through an unpacked item nothing reads
+    later, would be dropped as dead there; docs/algorithms.md).
+    """
+    return (ml.Y[lane], ml.F[lane], ml.H[lane], ml.cs[lane], ml.G[lane], ml.rows[lane], ml.slot[lane],
+            ml.n_rows[lane], ml.k_since_rebase[lane], ml.counts[lane], ml.rebase_due[lane], ml.scratch[lane])
+
+
+@njit(cache=True, inline="always")
+def learn(ml, views, m, p, n_parents, children, task_types, values):
     """The values of parent ``p``'s composite task come back to the children that performed its atomic tasks.
 
-    Atomic task ``k``, of type ``task_types[k]``, gives ``values[k]`` to child ``children[k]`` of lane
-    ``lane``, which learns it for the parent's group (of ``m``).
+    Atomic task ``k``, of type ``task_types[k]``, gives ``values[k]`` to child ``children[k]`` of the
+    lane whose :func:`lane_of` is ``views``, which learns it for the parent's group (of ``m``).
     """
     group = (p * m) // n_parents
     bounded = m > ml.min_bounded_groups
-    Y, F, H, cs, G = ml.Y[lane], ml.F[lane], ml.H[lane], ml.cs[lane], ml.G[lane]
-    rows, slot, n_rows = ml.rows[lane], ml.slot[lane], ml.n_rows[lane]
-    k_since_rebase, counts, rebase_due = ml.k_since_rebase[lane], ml.counts[lane], ml.rebase_due[lane]
+    Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, _ = views  # once per composite
     for k in range(task_types.shape[0]):
         learn_value(Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, children[k], bounded,
                     group, task_types[k], values[k], ml)
@@ -337,5 +357,6 @@ def learn(ml, lane, m, p, n_parents, children, task_types, values):
 @njit(cache=True)
 def finish(ml, lane, m, weights):
     """Materialise lane ``lane``'s final PW and combined weights (after the last episode) into ``weights``."""
+    views = lane_of(ml, lane)
     for c in range(ml.Y.shape[1]):
-        allocate(ml, lane, m, c, weights[c])
+        allocate(ml, views, m, c, weights[c])
