@@ -11,6 +11,7 @@ import importlib
 import click
 
 COMMANDS = {
+    "algorithms": "mgrao_cli.algorithms:algorithms",
     "run": "mgrao_cli.experiments:run",
     "reproduce": "mgrao_cli.experiments:reproduce",
     "serve": "mgrao_cli.service_commands:serve",

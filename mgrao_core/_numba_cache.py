@@ -40,8 +40,9 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from numba.core.dispatcher import Dispatcher
 
-ENGINE_PACKAGE = "mgrao_core.engine"
-"""The package of the ``cache=True`` functions (numba's own place for their cache is its ``__pycache__``)."""
+ENGINE_PACKAGES = ("mgrao_core.engine", "mgrao_core.algorithms")
+"""The packages of the ``cache=True`` functions: the engine and the algorithm families' compiled steps
+(numba's own place for their cache is each module's ``__pycache__``)."""
 
 
 def _creatable(path: str) -> bool:
@@ -117,9 +118,9 @@ def choose_cache_dir(environ: Mapping[str, str], temp_dir: str | None = None) ->
 
 
 def _is_engine(dispatcher: Dispatcher) -> bool:
-    """A function of :mod:`mgrao_core.engine` (wherever the package is installed or copied)."""
+    """A function of the engine or of an algorithm's compiled steps (wherever the package is installed or copied)."""
     module = getattr(dispatcher.py_func, "__module__", None) or ""
-    return module == ENGINE_PACKAGE or module.startswith(ENGINE_PACKAGE + ".")
+    return any(module == package or module.startswith(package + ".") for package in ENGINE_PACKAGES)
 
 
 def _compile_without_cache() -> None:

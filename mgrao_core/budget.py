@@ -6,13 +6,17 @@ not the experiment. :func:`chunk_cost` counts every array a chunk allocates whil
 :mod:`mgrao_core.runner` and :mod:`mgrao_core.oracle` allocate them, and the copies a caller makes
 to store the chunk's runs (one serialised copy of every run, as the service's workers do):
 
-* ``state``: each lane's learner (PW and trace in lazy form, its active rows, counts, weights),
-  the parents' estimates of children, presence and value profiles;
+* ``state``: every per-lane array, from the same declarations the runner allocates from
+  (:mod:`mgrao_core.lanes`): the parents' estimates of children, presence and value profiles, the
+  children's allocation, and each algorithm family's state (MG-RAO's PW and trace in lazy form, its
+  active rows and counts; the fixed families' allocation);
 * ``worlds``: what each seed drew once, and its stacked copies for the kernel;
 * ``draws``: one block of per-episode randomness per seed, the per-seed arrays and their stacked
   copies (:data:`mgrao_core.runner.BLOCK_ATOMIC_TASKS` bounds a block);
 * ``utilities``: every episode utility of the chunk's runs, and the block's output;
-* ``oracle``: the Monte-Carlo temporaries of the oracle's expected values (one seed at a time,
+* ``preparation``: what the chunk's algorithm families allocate to prepare it
+  (:meth:`Family.preparation_bytes <mgrao_core.algorithms.base.Family.preparation_bytes>`): the
+  Monte-Carlo temporaries of the oracle's expected values (one seed at a time,
   :data:`ORACLE_DRAWS` noise values at a time) and its weights;
 * ``results``: the final weights copied into each run, and the serialised copy of every run.
 
@@ -23,12 +27,13 @@ The process's own baseline (the interpreter, numpy, numba and the compiled kerne
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
-from typing import TYPE_CHECKING
+from typing import Protocol
 
+from mgrao_core.algorithms import Algorithm, family_of
+from mgrao_core.algorithms.oracle import ORACLE_BATCH, ORACLE_DRAWS  # noqa: F401  (where oracle.py reads them)
+from mgrao_core.lanes import lane_bytes
+from mgrao_core.params import SystemParams
 from mgrao_core.world import routing_choices
-
-if TYPE_CHECKING:
-    from mgrao_core.spec import ExperimentSpec
 
 MAX_CHUNK_BYTES = 2 * 1024**3
 """Default memory budget of one chunk (what :func:`chunk_cost` counts, above the baseline)."""
@@ -39,13 +44,22 @@ CHUNK_ATOMIC_TASKS = 50_000_000
 and its progress shown, a chunk at a time, and a cluster can share the chunks out."""
 BLOCK_ATOMIC_TASKS = 4_000_000
 """Atomic tasks per block: progress is reported and cancellation checked between blocks."""
-ORACLE_BATCH = 128
-"""Monte-Carlo samples of the oracle's expected values summed apart before they are added to the
-total: fixes the order of the floating-point sums (a different batch gives different last bits)."""
-ORACLE_DRAWS = 262_144
-"""Noise values of the oracle's Monte-Carlo estimate drawn at once (2 MiB), or one sample's when that
-is more; ``should_stop`` is polled between draws."""
 _F = 8  # bytes of a float64 or an int64
+
+
+class Experiment(Protocol):
+    """What the budget reads of an experiment (:class:`mgrao_core.spec.ExperimentSpec` is one)."""
+
+    @property
+    def params(self) -> SystemParams: ...  # noqa: D102
+    @property
+    def algorithms(self) -> tuple[str, ...]: ...  # noqa: D102
+    @property
+    def parsed_algorithms(self) -> tuple[Algorithm, ...]: ...  # noqa: D102
+    @property
+    def seeds(self) -> tuple[int, ...]: ...  # noqa: D102
+    @property
+    def episodes(self) -> int: ...  # noqa: D102
 
 
 @dataclass(frozen=True)
@@ -56,7 +70,7 @@ class ChunkCost:
     worlds: int
     draws: int
     utilities: int
-    oracle: int
+    preparation: int
     results: int
 
     @property
@@ -65,7 +79,7 @@ class ChunkCost:
         return sum(getattr(self, f.name) for f in fields(self))
 
 
-def block_episodes(spec: ExperimentSpec, n_seeds: int | None = None) -> int:
+def block_episodes(spec: Experiment, n_seeds: int | None = None) -> int:
     """Episodes per block for ``n_seeds`` seeds (all of the spec's by default).
 
     A block simulates about :data:`BLOCK_ATOMIC_TASKS` atomic tasks.
@@ -76,20 +90,14 @@ def block_episodes(spec: ExperimentSpec, n_seeds: int | None = None) -> int:
     return int(min(spec.episodes, max(1, BLOCK_ATOMIC_TASKS // per_episode)))
 
 
-def chunk_cost(spec: ExperimentSpec, n_seeds: int) -> ChunkCost:
+def chunk_cost(spec: Experiment, n_seeds: int) -> ChunkCost:
     """The memory a chunk of ``n_seeds`` seeds of ``spec`` allocates (every algorithm)."""
     p = spec.params
     algorithms = spec.parsed_algorithms
     lanes = n_seeds * len(algorithms)
     children, types, parents, per_composite = p.n_children, p.n_types, p.n_parents, p.types_per_composite
-    groups = max([a.n_groups for a in algorithms] + [1])
     choices = routing_choices(p)
-    state = _F * lanes * (
-        children * (2 * groups * types + 6 * groups + 2 * types + 2)
-        + 2 * parents * choices * children
-        + parents * per_composite
-        + 3
-    ) + lanes * parents
+    state = lane_bytes(p, algorithms, n_seeds)
     per_seed_world = _F * (p.n_composite_types * types + 2 * parents * per_composite + children)
     worlds = n_seeds * (per_seed_world + _F * (2 * parents * per_composite + children))
     block = block_episodes(spec, n_seeds)
@@ -103,23 +111,21 @@ def chunk_cost(spec: ExperimentSpec, n_seeds: int) -> ChunkCost:
     )
     draws = _F * n_seeds * block * per_episode
     utilities = _F * lanes * (spec.episodes + block)
-    oracle = 0
-    if "oracle" in spec.algorithms:
-        oracle = _F * (max(ORACLE_DRAWS, parents * per_composite) + 2 * parents * per_composite
-                       + per_composite + 3 * types + n_seeds * children * types)
+    families = {family_of(a).name: family_of(a) for a in algorithms}
+    preparation = sum(f.preparation_bytes(p, n_seeds) for f in families.values())
     weights = sum(children * (a.n_groups + 1) * types for a in algorithms) * n_seeds
     results = _F * (2 * weights + lanes * spec.episodes)
-    return ChunkCost(state, worlds, draws, utilities, oracle, results)
+    return ChunkCost(state, worlds, draws, utilities, preparation, results)
 
 
-def result_bytes(spec: ExperimentSpec) -> int:
+def result_bytes(spec: Experiment) -> int:
     """Bytes of every run's stored utilities and final weights (what :data:`MAX_RESULT_BYTES` bounds)."""
     p = spec.params
     per_seed = sum(p.n_children * (a.n_groups + 1) * p.n_types for a in spec.parsed_algorithms)
     return _F * len(spec.seeds) * (len(spec.algorithms) * spec.episodes + per_seed)
 
 
-def seeds_per_chunk(spec: ExperimentSpec, budget: int = MAX_CHUNK_BYTES) -> int:
+def seeds_per_chunk(spec: Experiment, budget: int = MAX_CHUNK_BYTES) -> int:
     """The most seeds a chunk may hold: within ``budget`` and :data:`CHUNK_ATOMIC_TASKS` (at least 1)."""
     p = spec.params
     per_seed_tasks = len(spec.algorithms) * spec.episodes * p.n_parents * p.types_per_composite
@@ -129,7 +135,7 @@ def seeds_per_chunk(spec: ExperimentSpec, budget: int = MAX_CHUNK_BYTES) -> int:
     return count
 
 
-def plan_chunks(spec: ExperimentSpec, seeds: tuple[int, ...] | None = None,
+def plan_chunks(spec: Experiment, seeds: tuple[int, ...] | None = None,
                 budget: int = MAX_CHUNK_BYTES) -> list[tuple[int, ...]]:
     """``seeds`` (the spec's by default) in chunks of at most :func:`seeds_per_chunk`, in order."""
     seeds = spec.seeds if seeds is None else tuple(seeds)

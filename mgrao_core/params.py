@@ -10,51 +10,19 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
 from typing import Any
 
 from mgrao_core import quality
+from mgrao_core.algorithms import FAMILIES
 from mgrao_core.errors import ConfigError
+from mgrao_core.parameter import Parameter
 
 QUALITY_MODELS = tuple(quality.QUALITY_MODELS)
 ROUTINGS = ("per-composite", "per-task")
 ABSENT_TASKS = ("excluded", "counted")
 
 
-@dataclass(frozen=True)
-class Parameter:
-    """The schema of one parameter.
-
-    Attributes:
-        name: field name in :class:`SystemParams`.
-        kind: ``"int"``, ``"float"``, ``"bool"`` or ``"choice"``.
-        default: the default docs/model.md documents (``None`` only where ``nullable``).
-        minimum: smallest allowed value (numbers only).
-        maximum: largest allowed value (numbers only).
-        exclusive_minimum: whether ``minimum`` itself is excluded.
-        choices: allowed values of a ``"choice"`` parameter.
-        nullable: whether ``None`` is allowed (it then means the documented automatic value).
-        group: which part of the model it belongs to (for forms and docs).
-        help: one sentence for people.
-    """
-
-    name: str
-    kind: str
-    default: Any
-    help: str
-    group: str
-    minimum: float | None = None
-    maximum: float | None = None
-    exclusive_minimum: bool = False
-    choices: tuple[str, ...] = ()
-    nullable: bool = False
-
-    def as_dict(self) -> dict[str, Any]:
-        """The schema entry as plain JSON-ready data."""
-        return dataclasses.asdict(self) | {"choices": list(self.choices)}
-
-
-PARAMETERS: tuple[Parameter, ...] = (
+_ENVIRONMENT: tuple[Parameter, ...] = (
     # The system (paper section 3, appendix "General parameter values").
     Parameter("n_types", "int", 20, "Number of atomic task types.", "system", 2, 200),
     Parameter("n_composite_types", "int", 10, "Number of composite task types.", "system", 1, 1000),
@@ -108,18 +76,8 @@ PARAMETERS: tuple[Parameter, ...] = (
         "Smallest atomic task quality, so that quality stays in (0, 1].",
         "quality", 1e-12, 0.1,
     ),
-    # MG-RAO (paper algorithms 1 and 2).
-    Parameter("learning_rate", "float", 0.1, "Learning rate alpha of the MG-RAO update.",
-              "mgrao", 0.0, 1.0),
-    Parameter(
-        "trace_decay", "float", 0.9, "Decay gamma of the replacing eligibility trace.",
-        "mgrao", 0.001, 0.999,
-    ),
-    Parameter(
-        "temperature", "float", None,
-        "Softmax temperature of the combined weights; empty means 1/n_types, 1 is paper-literal.",
-        "mgrao", 1e-4, 100.0, nullable=True,
-    ),
+)
+_ALLOCATION: tuple[Parameter, ...] = (
     # Multi-child task allocation by parents.
     Parameter(
         "routing", "choice", "per-composite",
@@ -175,40 +133,15 @@ PARAMETERS: tuple[Parameter, ...] = (
     ),
 )
 
+PARAMETERS: tuple[Parameter, ...] = (*_ENVIRONMENT, *(p for f in FAMILIES for p in f.parameters), *_ALLOCATION)
+"""Every parameter: the system's, values' and quality's, then each algorithm family's own (MG-RAO's
+``learning_rate``, ``trace_decay``, ``temperature``, declared in :mod:`mgrao_core.algorithms.mgrao`), then
+the parents' allocation and volatility."""
 PARAMETERS_BY_NAME: dict[str, Parameter] = {p.name: p for p in PARAMETERS}
 
 
-@dataclass(frozen=True)
-class SystemParams:
-    """A complete, validated parameter set (build it with :func:`make_params`)."""
-
-    n_types: int = 20
-    n_composite_types: int = 10
-    types_per_composite: int = 5
-    n_parents: int = 10
-    n_children: int = 1
-    resource_mean: float = 0.5
-    resource_sd: float = 0.2
-    value_concentration: float = 1.0
-    value_noise: float = 0.1
-    quality_model: str = "hyperbolic"
-    half_saturation: float = 0.2
-    load_sharing: bool = False
-    quality_at_uniform: float = 0.3
-    quality_floor: float = 1e-6
-    learning_rate: float = 0.1
-    trace_decay: float = 0.9
-    temperature: float | None = None
-    routing: str = "per-composite"
-    epsilon: float = 0.1
-    boltzmann_temperature: float = 0.1
-    initial_estimate: float = 1.0
-    tie_break: str = "random"
-    leave_probability: float = 0.0
-    join_probability: float = 0.0
-    rejoin_profile: str = "same"
-    absent_tasks: str = "excluded"
-    absent_quality: float | None = None
+class _Derived:
+    """What a parameter set computes from its fields (the base of :class:`SystemParams`)."""
 
     @property
     def effective_temperature(self) -> float:
@@ -229,6 +162,24 @@ class SystemParams:
     def as_dict(self) -> dict[str, Any]:
         """All parameters as plain JSON-ready data."""
         return dataclasses.asdict(self)
+
+
+_TYPES = {"int": int, "float": float, "bool": bool, "choice": str}
+
+
+def _field(param: Parameter) -> tuple[str, Any, Any]:
+    kind = _TYPES[param.kind]
+    return param.name, kind | None if param.nullable else kind, dataclasses.field(default=param.default)
+
+
+SystemParams = dataclasses.make_dataclass(
+    "SystemParams", [_field(p) for p in PARAMETERS], bases=(_Derived,), frozen=True,
+)
+SystemParams.__module__ = __name__  # where pickle finds it (make_dataclass takes no module before Python 3.12)
+SystemParams.__doc__ = """A complete, validated parameter set (build it with :func:`make_params`).
+
+One field per entry of :data:`PARAMETERS`, in its order, defaulting to the entry's default (so a family's
+parameters are fields without an edit here), and the derived values of :class:`_Derived`."""
 
 
 _TRUE = ("true", "on", "yes", "1")

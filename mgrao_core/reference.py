@@ -1,52 +1,25 @@
 """A plain per-agent simulator built from :mod:`mgrao_core.equations` and :mod:`mgrao_core.quality`: slow, dense.
 
-It reads the same world and random streams as the engine and applies algorithm 1 literally (a
-dense trace and weight update per returned value), so the tests can check that the batched
-engine computes exactly the paper's equations, and the benchmark can show what batching buys.
+It reads the same world and random streams as the engine, and each child is its algorithm family's
+dense reference step (:meth:`Family.reference_children <mgrao_core.algorithms.base.Family.reference_children>`;
+MG-RAO's applies algorithm 1 literally, a dense trace and weight update per returned value), so the
+tests can check that the batched engine computes exactly the paper's equations, and the benchmark
+can show what batching buys.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from mgrao_core import equations as eq
-from mgrao_core.algorithms import parent_groups, parse_algorithm
-from mgrao_core.oracle import oracle_weights
+from mgrao_core.algorithms import family_of, parse_algorithm
+from mgrao_core.algorithms.base import ReferenceChild
 from mgrao_core.params import SystemParams
 from mgrao_core.quality import atomic_quality
 from mgrao_core.world import EpisodeStreams, draw_world
-
-
-@dataclass
-class Child:
-    """One child agent: its PW matrix, eligibility trace and per-group sample counts."""
-
-    n_groups: int
-    n_types: int
-    fixed: np.ndarray | None = None
-    pw: np.ndarray = field(init=False)
-    trace: np.ndarray = field(init=False)
-    counts: np.ndarray = field(init=False)
-
-    def __post_init__(self) -> None:
-        self.pw = np.full((self.n_groups, self.n_types), 1.0 / self.n_types)
-        self.trace = np.zeros((self.n_groups, self.n_types))
-        self.counts = np.zeros(self.n_groups)
-
-    def allocation(self, temperature: float) -> np.ndarray:
-        """Algorithm 2: the combined resource weights (or the fixed ones of a baseline)."""
-        if self.fixed is not None:
-            return self.fixed
-        return eq.combined_weights(self.pw, self.counts, temperature)
-
-    def learn(self, group: int, task_type: int, value: float, params: SystemParams) -> None:
-        """Algorithm 1 for one returned absolute value."""
-        self.counts[group] += 1
-        self.trace = eq.eligibility_update(self.trace, group, task_type, params.trace_decay)
-        self.pw = eq.pw_update(self.pw, self.trace, value, params.learning_rate)
 
 
 def choose_child(estimates: np.ndarray, u: np.ndarray, params: SystemParams) -> int:
@@ -103,18 +76,13 @@ class Parent:
                 self.estimates[k, c] += (value - self.estimates[k, c]) / self.tries[k, c]
 
 
-def simulate(params: SystemParams, algorithm: str, seed: int, episodes: int) -> tuple[np.ndarray, list[Child]]:
+def simulate(params: SystemParams, algorithm: str, seed: int,
+             episodes: int) -> tuple[np.ndarray, list[ReferenceChild]]:
     """One run; returns the utility of every episode and the children's final state."""
     world = draw_world(params, seed)
     draws = EpisodeStreams(params, seed).draw(episodes)
     alg = parse_algorithm(algorithm, params.n_parents)
-    fixed: np.ndarray | list[None] = [None] * params.n_children
-    if alg.kind == "uniform":
-        fixed = np.full((params.n_children, params.n_types), 1.0 / params.n_types)
-    elif alg.kind == "oracle":
-        fixed = oracle_weights(params, world, seed)
-    children = [Child(max(alg.n_groups, 1), params.n_types, fixed[c]) for c in range(params.n_children)]
-    groups = parent_groups(params.n_parents, alg.n_groups) if alg.kind == "mgrao" else None
+    children = family_of(alg).reference_children(params, alg, world, seed)
     choices = 1 if params.routing == "per-composite" else params.types_per_composite
     parents = [
         Parent(world.parent_types[p], world.profiles[p].copy(),
@@ -132,7 +100,7 @@ def simulate(params: SystemParams, algorithm: str, seed: int, episodes: int) -> 
                 parent.active = True
                 if params.rejoin_profile == "new":
                     parent.profile = draws.new_profiles[e, p].copy()
-        weights = [child.allocation(params.effective_temperature) for child in children]
+        weights = [child.allocation() for child in children]
         # 2-3. Each present parent decomposes its task and allocates the atomic tasks.
         present = [p for p, parent in enumerate(parents) if parent.active]
         assigned = {p: parents[p].allocate(draws.routing[e, p] if params.n_children > 1 else None, params)
@@ -163,7 +131,6 @@ def simulate(params: SystemParams, algorithm: str, seed: int, episodes: int) -> 
                 continue
             if params.n_children > 1:
                 parents[p].observe(assigned[p], values[p], taqs[p], params)
-            if groups is not None:
-                for k, c in enumerate(assigned[p]):
-                    children[c].learn(int(groups[p]), int(parents[p].task_types[k]), values[p][k], params)
+            for k, c in enumerate(assigned[p]):
+                children[c].learn(int(p), int(parents[p].task_types[k]), values[p][k])
     return utilities, children

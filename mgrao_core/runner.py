@@ -12,57 +12,38 @@ from collections.abc import Callable, Iterable, Sequence
 import numpy as np
 
 from mgrao_core import engine
+from mgrao_core.algorithms import FAMILIES, LEARNERS, family_of
+from mgrao_core.algorithms.base import FixedFamily
 from mgrao_core.budget import MAX_CHUNK_BYTES, block_episodes, plan_chunks
 from mgrao_core.errors import Cancelled, NumericalError
-from mgrao_core.oracle import oracle_weights
+from mgrao_core.lanes import allocate_lanes
 from mgrao_core.results import ExperimentResult, Run
 from mgrao_core.spec import ExperimentSpec
-from mgrao_core.world import EpisodeDraws, EpisodeStreams, World, draw_world, routing_choices
-
-_KINDS = {"uniform": engine.KIND_UNIFORM, "oracle": engine.KIND_ORACLE, "mgrao": engine.KIND_MGRAO}
+from mgrao_core.world import EpisodeDraws, EpisodeStreams, World, draw_world
 
 ProgressCallback = Callable[[float], None]
 StopCheck = Callable[[], bool]
 
 
-def _build_lanes(spec: ExperimentSpec, worlds: Sequence[World], oracle: Sequence[np.ndarray],
-                 learning: engine.Learning) -> engine.Lanes:
+def _build_lanes(spec: ExperimentSpec, worlds: Sequence[World], seeds: Sequence[int],
+                 should_stop: StopCheck | None) -> tuple[dict[str, np.ndarray], engine.Lanes, tuple]:
+    """Every array of the chunk's lanes (by name), the kernel's lanes, and each learner family's compiled lanes.
+
+    The fixed families' allocations are computed here, per seed (the oracle's Monte Carlo polls ``should_stop``).
+    """
     p = spec.params
     algorithms = spec.parsed_algorithms
-    n_lanes = len(algorithms) * len(worlds)
-    max_groups = max([a.n_groups for a in algorithms] + [1])
-    shape = (n_lanes, p.n_children)
-    # Seed-major lanes: the kernel's parallel loop hands each thread a contiguous range of lanes, and
-    # interleaving the algorithms gives every thread a share of the costly many-group lanes.
-    seed_index = np.repeat(np.arange(len(worlds)), len(algorithms))
-    kind = np.tile([_KINDS[a.kind] for a in algorithms], len(worlds)).astype(np.int64)
-    groups = np.tile([a.n_groups for a in algorithms], len(worlds)).astype(np.int64)
-    fixed = np.full(shape + (p.n_types,), 1.0 / p.n_types)
-    for lane in np.flatnonzero(kind == engine.KIND_ORACLE):
-        fixed[lane] = oracle[int(seed_index[lane])]
-    estimates_shape = (n_lanes, p.n_parents, routing_choices(p), p.n_children)
-    rows, slot, n_rows = engine.initial_rows(groups, p.n_children, max_groups, learning.min_bounded_groups)
-    return engine.Lanes(
-        seed_index=seed_index.astype(np.int64),
-        kind=kind,
-        groups=groups,
-        fixed_weights=fixed,
-        Y=np.full(shape + (max_groups, p.n_types), 1.0 / p.n_types),
-        F=np.zeros(shape + (max_groups, p.n_types)),
-        H=np.zeros(shape + (max_groups,)),
-        cs=np.ones(shape + (max_groups,)),
-        G=np.zeros(shape + (max_groups,)),
-        k_since_rebase=np.zeros(shape, dtype=np.int64),
-        rows=rows,
-        slot=slot,
-        n_rows=n_rows,
-        counts=np.zeros(shape + (max_groups,)),
-        weights=fixed.copy(),
-        estimates=np.full(estimates_shape, p.initial_estimate),
-        tries=np.zeros(estimates_shape, dtype=np.int64),
-        active=np.ones((n_lanes, p.n_parents), dtype=np.bool_),
-        profiles=np.stack([worlds[i].profiles for i in seed_index]),
-    )
+    arrays = allocate_lanes(p, algorithms, len(worlds))
+    arrays["profiles"][:] = np.stack([worlds[i].profiles for i in arrays["seed_index"]])
+    for code, family in enumerate(FAMILIES):
+        lanes = np.flatnonzero(arrays["kind"] == code)
+        if isinstance(family, FixedFamily) and len(lanes):
+            weights = [family.fixed_weights(p, world, seed, should_stop)
+                       for world, seed in zip(worlds, seeds, strict=True)]
+            for lane in lanes:
+                arrays["fixed_weights"][lane] = weights[int(arrays["seed_index"][lane])]
+    kernel_lanes = engine.Lanes(**{name: arrays[name] for name in engine.Lanes._fields})
+    return arrays, kernel_lanes, tuple(f.compiled_lanes(arrays, p) for f in LEARNERS)
 
 
 def _stack(draws: list[EpisodeDraws], name: str) -> np.ndarray:
@@ -113,12 +94,7 @@ def run_chunk(
     p = spec.params
     seeds = tuple(seeds)
     worlds = [draw_world(p, seed) for seed in seeds]
-    oracle = []
-    if "oracle" in spec.algorithms:
-        for world, seed in zip(worlds, seeds, strict=True):
-            oracle.append(oracle_weights(p, world, seed, should_stop=should_stop))
-    learning = engine.learning_of(p)
-    lanes = _build_lanes(spec, worlds, oracle, learning)
+    arrays, lanes, learners = _build_lanes(spec, worlds, seeds, should_stop)
     world = engine.Worlds(
         parent_types=np.ascontiguousarray(np.stack([w.parent_types for w in worlds]).astype(np.int64)),
         resources=np.ascontiguousarray(np.stack([w.resources for w in worlds])),
@@ -133,23 +109,25 @@ def run_chunk(
             raise Cancelled(f"stopped after {done} of {spec.episodes} episodes")
         count = min(block, spec.episodes - done)
         out = np.zeros((len(lanes.kind), count))
-        engine.run_block(lanes, world, _block_draws([s.draw(count) for s in streams]), environment, learning, out)
+        engine.run_block(lanes, world, _block_draws([s.draw(count) for s in streams]), environment, out, *learners)
         utilities[:, done : done + count] = out
         done += count
         if on_progress is not None:
             on_progress(done / spec.episodes)
-    engine.finish(lanes, learning)
+    engine.finish(lanes, *learners)
     runs = []
     n_algorithms = len(spec.algorithms)
-    for algorithm_index, algorithm in enumerate(spec.algorithms):
+    no_groups = np.zeros((p.n_children, 0, p.n_types))
+    for algorithm_index, algorithm in enumerate(spec.parsed_algorithms):
+        family = family_of(algorithm)
         for seed_index, seed in enumerate(seeds):
             lane = seed_index * n_algorithms + algorithm_index
-            m = int(lanes.groups[lane])
+            group_weights = family.group_weights(arrays, lane, algorithm)
             runs.append(Run(
-                algorithm=algorithm,
+                algorithm=algorithm.label,
                 seed=seed,
                 utilities=utilities[lane],
-                group_weights=lanes.Y[lane, :, :m].copy(),
+                group_weights=no_groups.copy() if group_weights is None else group_weights,
                 combined_weights=lanes.weights[lane].copy(),
             ))
     check_finite(runs)

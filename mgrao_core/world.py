@@ -11,9 +11,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mgrao_core.algorithms import FAMILIES
+from mgrao_core.algorithms.state import routing_choices
 from mgrao_core.params import SystemParams
 
-_STREAM_IDS = {"world": 0, "noise": 1, "order": 2, "volatility": 3, "routing": 4, "oracle": 5, "profiles": 6}
+_STREAM_IDS = {"world": 0, "noise": 1, "order": 2, "volatility": 3, "routing": 4, "profiles": 6} | {
+    name: number for family in FAMILIES for name, number in family.streams.items()}
+"""Each stream's number in its seed sequence: the environment's, then each family's own (the oracle's
+``"oracle"``, 5); a number, once used, is never given to another stream."""
 RESOURCE_FLOOR = 1e-6
 
 
@@ -53,11 +58,6 @@ def draw_world(params: SystemParams, seed: int) -> World:
         rng.normal(params.resource_mean, params.resource_sd, params.n_children), RESOURCE_FLOOR, 1.0
     )
     return World(composite_types, np.ascontiguousarray(parent_types), profiles, resources)
-
-
-def routing_choices(params: SystemParams) -> int:
-    """Child choices a parent makes per composite task: 1 per composite, or one per atomic task."""
-    return 1 if params.routing == "per-composite" else params.types_per_composite
 
 
 @dataclass(frozen=True)

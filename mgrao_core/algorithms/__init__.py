@@ -15,22 +15,24 @@ docs/algorithms.md shows how to add a family.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from mgrao_core.algorithms import mgrao, oracle, uniform
 from mgrao_core.algorithms.base import PALETTE_SLOTS, Algorithm, Family
 from mgrao_core.algorithms.mgrao import MAX_LABEL as MGRAO_MAX
 from mgrao_core.algorithms.mgrao import divisors, parent_groups
 from mgrao_core.algorithms.oracle import LABEL as ORACLE
+from mgrao_core.algorithms.state import System
 from mgrao_core.algorithms.uniform import LABEL as UNIFORM
 from mgrao_core.errors import ConfigError
-
-if TYPE_CHECKING:
-    from mgrao_core.params import SystemParams
 
 FAMILIES: tuple[Family, ...] = (uniform.FAMILY, oracle.FAMILY, mgrao.FAMILY)
 """Every registered family. A new family is a module with a ``FAMILY`` and a line here."""
 FAMILIES_BY_NAME: dict[str, Family] = {f.name: f for f in FAMILIES}
+KINDS: dict[str, int] = {f.name: code for code, f in enumerate(FAMILIES)}
+"""Each family's code: its place in :data:`FAMILIES`, what the kernel dispatches on."""
+LEARNERS: tuple[Family, ...] = tuple(f for f in FAMILIES if f.learns)
+"""The families with compiled steps, in registry order: the kernel takes their lanes in this order."""
 
 
 def family_of(algorithm: Algorithm) -> Family:
@@ -91,7 +93,7 @@ def sort_key(label: str) -> tuple[int, int, str]:
     return (*family_of(algorithm).sort_key(algorithm), algorithm.label)
 
 
-def describe_label(label: Any, params: SystemParams | None = None, field: str = "label") -> dict[str, Any]:
+def describe_label(label: Any, params: System | None = None, field: str = "label") -> dict[str, Any]:
     """One label, canonical and described for a system (``params``; None: the grammar alone).
 
     What ``GET /api/algorithms?label=`` answers.
@@ -104,22 +106,34 @@ def describe_label(label: Any, params: SystemParams | None = None, field: str = 
     return {"label": algorithm.label, "family": family.name, "title": family.title,
             "groups": algorithm.n_groups if family.name == mgrao.FAMILY.name and algorithm.n_groups else None,
             "description": family.description, "colour_key": family.colour_key(algorithm),
-            "sort_key": list(family.sort_key(algorithm))}
+            "sort_key": list(family.sort_key(algorithm)),
+            "memory_per_child": None if params is None else family.memory_per_child(algorithm, params)}
 
 
-def registry(params: SystemParams | None = None) -> list[dict[str, Any]]:
+def registry(params: System | None = None) -> list[dict[str, Any]]:
     """Every family for clients: name, description, label forms and examples valid for a system.
 
-    ``params`` None describes the grammar alone (no system chosen yet).
+    ``params`` None describes the grammar alone (no system chosen yet). ``memory_per_child`` maps each
+    example to the bytes of one child's state in the system (None without a system).
     """
     n_parents = None if params is None else params.n_parents
+
+    def memory(family: Family) -> dict[str, int] | None:
+        if params is None:
+            return None
+        return {label: family.memory_per_child(parse_algorithm(label, n_parents), params)
+                for label in family.examples(n_parents)}
+
     return [{"name": f.name, "title": f.title, "description": f.description, "rank": f.rank,
-             "forms": f.forms(n_parents), "examples": f.examples(n_parents)} for f in FAMILIES]
+             "parameters": [p.name for p in f.parameters], "forms": f.forms(n_parents),
+             "examples": f.examples(n_parents), "memory_per_child": memory(f)} for f in FAMILIES]
 
 
 __all__ = [
     "FAMILIES",
     "FAMILIES_BY_NAME",
+    "KINDS",
+    "LEARNERS",
     "MGRAO_MAX",
     "ORACLE",
     "PALETTE_SLOTS",

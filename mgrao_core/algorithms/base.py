@@ -1,17 +1,54 @@
-"""What every algorithm family declares: its label grammar, its description and its place in views.
+"""What every algorithm family declares: labels, parameters, per-lane state, compiled and reference steps.
 
 A *family* is one kind of learner or baseline (``uniform``, ``oracle``, ``mgrao``); a *label* names
 one configuration of a family (``mgrao-5:1``); an :class:`Algorithm` is a label parsed for a system.
 Each family lives in its own module of :mod:`mgrao_core.algorithms` and is registered in
-:data:`mgrao_core.algorithms.FAMILIES`; nothing outside the family's module parses its labels.
+:data:`mgrao_core.algorithms.FAMILIES`; nothing outside the family's module parses its labels, and
+nothing outside it knows its state or its steps. A family is one of two kinds:
+
+* a :class:`FixedFamily` (``uniform``, ``oracle``): every child keeps one allocation for the whole
+  run, which the family computes per seed (:meth:`FixedFamily.fixed_weights`); the kernel copies it;
+* a *learner* (``mgrao``): each child's state is the family's per-lane arrays (:attr:`Family.state`),
+  and its compiled steps (:attr:`Family.steps`, a module the kernel calls) fix the child's allocation
+  at the start of an episode, learn from each returned value and materialise the final state.
+
+docs/algorithms.md shows how to add one, and :mod:`mgrao_core.algorithms.template` is a documented
+learner to copy.
 """
 
 from __future__ import annotations
 
+import importlib
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
+import numpy as np
+
+from mgrao_core.algorithms.state import StateArray, System, nbytes, sizes_of
 from mgrao_core.errors import ConfigError
+from mgrao_core.parameter import Parameter
+
+
+class World(Protocol):
+    """What a family reads of a seed's world (:class:`mgrao_core.world.World`)."""
+
+    composite_types: np.ndarray
+    parent_types: np.ndarray
+    profiles: np.ndarray
+    resources: np.ndarray
+
+
+def load(entry: str) -> Any:
+    """The object an entry names: ``"package.module"`` (the module) or ``"package.module:name"``.
+
+    A family names its heavy parts (compiled steps, reference step, a fixed allocation's computation)
+    by entry rather than importing them, so that the registry loads neither numba nor the modules
+    that read the registry; the layer that runs them (the runner, the reference simulator) loads them.
+    """
+    module, _, name = entry.partition(":")
+    loaded = importlib.import_module(module)
+    return getattr(loaded, name) if name else loaded
 
 PALETTE_SLOTS = 8
 """Colour keys are slots ``0 .. PALETTE_SLOTS - 1`` of the dashboard's colour-blind-safe palette."""
@@ -56,11 +93,35 @@ class LabelForm:
         return out
 
 
+class ReferenceChild:
+    """A child of the dense reference simulator (:mod:`mgrao_core.reference`), as each family defines it."""
+
+    def allocation(self) -> np.ndarray:
+        """The child's resource weights for the coming episode, ``(n_types,)``."""
+        raise NotImplementedError
+
+    def learn(self, parent: int, task_type: int, value: float) -> None:
+        """The child receives the absolute ``value`` of an atomic task of ``task_type`` from ``parent``."""
+
+
+class FixedChild(ReferenceChild):
+    """A reference child that keeps one allocation and never learns."""
+
+    def __init__(self, weights: np.ndarray) -> None:
+        self.weights = weights
+
+    def allocation(self) -> np.ndarray:
+        """The fixed weights."""
+        return self.weights
+
+
 class Family:
-    """The label side of an algorithm family; each family's module defines one subclass and an instance.
+    """An algorithm family; each family's module defines one subclass and an instance (``FAMILY``).
 
     Subclasses set the class attributes and implement :meth:`parse`, :meth:`forms`,
-    :meth:`examples`, :meth:`colour_key` and :meth:`order`.
+    :meth:`examples`, :meth:`colour_key` and :meth:`order` (the label side), and either derive
+    from :class:`FixedFamily` or, for a learner, set :attr:`state` and :attr:`steps` and implement
+    :meth:`compiled_lanes` and :meth:`reference_children`.
     """
 
     name: str = ""
@@ -71,6 +132,60 @@ class Family:
     """One or two sentences for people: what the family does."""
     rank: int = 0
     """Where the family's configurations come in views (lower first)."""
+    parameters: tuple[Parameter, ...] = ()
+    """The family's own parameters; :data:`mgrao_core.params.PARAMETERS` lists them after the quality's."""
+    streams: Mapping[str, int] = {}
+    """The family's own random streams, name to a number no other stream has ever used
+    (:func:`mgrao_core.world.stream`)."""
+    state: tuple[StateArray, ...] = ()
+    """Each lane's arrays of the family (a learner's children's state). Every lane of a chunk holds
+    every registered family's arrays, sized for the chunk's algorithms (one declaration per name:
+    two families declaring one name share the array)."""
+    steps: str | None = None
+    """A learner's compiled steps: the module the kernel calls (an entry, see :func:`load`); it also defines
+    ``lanes_of(arrays, params)``, the family's lanes as the steps read them."""
+    reference: str | None = None
+    """A learner's dense reference step: the entry (:func:`load`) of a function ``(params, algorithm, world,
+    seed)`` returning one :class:`ReferenceChild` per child."""
+
+    @property
+    def learns(self) -> bool:
+        """Whether the family's children learn (it has compiled steps)."""
+        return self.steps is not None
+
+    def memory_per_child(self, algorithm: Algorithm, params: System) -> int:
+        """Bytes of one child's state (:attr:`state`) for ``algorithm`` in a system."""
+        return nbytes(self.state, sizes_of(params, 1, algorithm.n_groups) | {"children": 1})
+
+    def preparation_bytes(self, params: System, n_seeds: int) -> int:
+        """Bytes the family allocates, beyond its lane state, to prepare a chunk of ``n_seeds`` seeds."""
+        return 0
+
+    def initialise(self, arrays: Mapping[str, np.ndarray], lanes: np.ndarray, params: System) -> None:
+        """Set the initial state of the family's ``lanes`` that the declared fills do not (nothing by default).
+
+        ``arrays`` are every array of the chunk by name (``arrays["groups"]``: each lane's parent groups).
+        """
+
+    def compiled_lanes(self, arrays: Mapping[str, np.ndarray], params: System) -> tuple:
+        """A learner's lanes as its compiled steps read them (a flat NamedTuple of arrays and numbers).
+
+        Loads the compiled steps (numba): the runner calls it.
+        """
+        if self.steps is None:
+            raise NotImplementedError(f"{self.name} has no compiled steps")
+        return load(self.steps).lanes_of(arrays, params)
+
+    def group_weights(self, arrays: Mapping[str, np.ndarray], lane: int, algorithm: Algorithm) -> np.ndarray | None:
+        """A lane's final per-group weights ``(children, n_groups, n_types)`` to store, if the family has any."""
+        return None
+
+    def reference_children(self, params: System, algorithm: Algorithm, world: World,
+                           seed: int) -> list[ReferenceChild]:
+        """The children of the dense reference simulator for ``algorithm`` (its reference step)."""
+        if self.reference is None:
+            raise NotImplementedError(f"{self.name} has no reference step")
+        return load(self.reference)(params, algorithm, world, seed)
 
     def parse(self, text: str, n_parents: int | None, field: str) -> Algorithm | None:
         """The algorithm that lower-cased, stripped ``text`` names, or None if it is not this family's.
@@ -103,6 +218,30 @@ class Family:
     def sort_key(self, algorithm: Algorithm) -> tuple[int, int]:
         """Views order configurations by family rank, then by :meth:`order`."""
         return (self.rank, self.order(algorithm))
+
+
+class FixedFamily(Family):
+    """A family whose children keep one allocation for a whole run, computed per seed.
+
+    Its lanes hold that allocation in ``fixed_weights``, which the kernel copies into the child's
+    weights at the start of every episode.
+    """
+
+    state = (StateArray("fixed_weights", ("lanes", "children", "n_types"), fill="uniform",
+                        help="each child's allocation for the whole run"),)
+
+    def fixed_weights(self, params: System, world: World, seed: int,
+                      should_stop: Callable[[], bool] | None = None) -> np.ndarray:
+        """Each child's allocation, ``(n_children, n_types)``, rows summing to 1."""
+        raise NotImplementedError
+
+    def initialise(self, arrays: Mapping[str, np.ndarray], lanes: np.ndarray, params: System) -> None:
+        """Nothing: the runner writes :meth:`fixed_weights` into ``fixed_weights`` per seed."""
+
+    def reference_children(self, params: System, algorithm: Algorithm, world: World,
+                           seed: int) -> list[ReferenceChild]:
+        """Children that keep :meth:`fixed_weights`."""
+        return [FixedChild(w) for w in self.fixed_weights(params, world, seed)]
 
 
 def invalid(field: str, message: str) -> ConfigError:

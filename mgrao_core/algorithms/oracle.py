@@ -1,18 +1,30 @@
 """``oracle``: each child's best fixed allocation given the true expected values (an upper bound).
 
-The allocation itself is computed by :mod:`mgrao_core.oracle`.
+The allocation itself is computed by :mod:`mgrao_core.oracle`, from the seed's own ``"oracle"`` stream.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
-from mgrao_core.algorithms.base import Algorithm, Family, LabelForm
+import numpy as np
+
+from mgrao_core.algorithms.base import Algorithm, FixedFamily, LabelForm, World, load
+from mgrao_core.algorithms.state import System
 
 LABEL = "oracle"
+COMPUTATION = "mgrao_core.oracle:oracle_weights"
+"""Where the allocation is computed (an entry, loaded when an oracle runs: it compiles a Monte Carlo)."""
+ORACLE_BATCH = 128
+"""Monte-Carlo samples of the oracle's expected values summed apart before they are added to the
+total: fixes the order of the floating-point sums (a different batch gives different last bits)."""
+ORACLE_DRAWS = 262_144
+"""Noise values of the oracle's Monte-Carlo estimate drawn at once (2 MiB), or one sample's when that
+is more; ``should_stop`` is polled between draws."""
 
 
-class Oracle(Family):
+class Oracle(FixedFamily):
     """The best fixed allocation of each child, knowing every parent's expected values."""
 
     name = LABEL
@@ -20,6 +32,7 @@ class Oracle(Family):
     description = ("Each child's best fixed allocation given the true expected task values: no learner with a "
                    "fixed allocation does better in a stationary system.")
     rank = 2
+    streams = {"oracle": 5}
     _form = LabelForm(LABEL, "^oracle$", "the best fixed allocation")
 
     def parse(self, text: str, n_parents: int | None, field: str) -> Algorithm | None:
@@ -41,6 +54,17 @@ class Oracle(Family):
     def colour_key(self, algorithm: Algorithm) -> int:
         """The palette slot of the configuration: sky blue (6), beside 1:1's darker blue."""
         return 6
+
+    def fixed_weights(self, params: System, world: World, seed: int,
+                      should_stop: Callable[[], bool] | None = None) -> np.ndarray:
+        """The best fixed allocation of each child (see :func:`mgrao_core.oracle.oracle_weights`)."""
+        return load(COMPUTATION)(params, world, seed, should_stop=should_stop)
+
+    def preparation_bytes(self, params: System, n_seeds: int) -> int:
+        """The Monte-Carlo temporaries of the expected values (one seed at a time) and every seed's weights."""
+        per_composite = params.n_parents * params.types_per_composite
+        return 8 * (max(ORACLE_DRAWS, per_composite) + 2 * per_composite + params.types_per_composite
+                    + 3 * params.n_types + n_seeds * params.n_children * params.n_types)
 
 
 FAMILY = Oracle()

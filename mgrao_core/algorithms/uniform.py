@@ -5,14 +5,18 @@ The baseline of the paper's "% from uniform".
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
-from mgrao_core.algorithms.base import Algorithm, Family, LabelForm
+import numpy as np
+
+from mgrao_core.algorithms.base import Algorithm, FixedFamily, LabelForm, World
+from mgrao_core.algorithms.state import System
 
 LABEL = "uniform"
 
 
-class Uniform(Family):
+class Uniform(FixedFamily):
     """The fixed uniform allocation ``1 / n_types`` per type."""
 
     name = LABEL
@@ -40,6 +44,11 @@ class Uniform(Family):
     def colour_key(self, algorithm: Algorithm) -> int:
         """The palette slot of the configuration."""
         return 0
+
+    def fixed_weights(self, params: System, world: World, seed: int,
+                      should_stop: Callable[[], bool] | None = None) -> np.ndarray:
+        """``1 / n_types`` for every type of every child."""
+        return np.full((params.n_children, params.n_types), 1.0 / params.n_types)
 
 
 FAMILY = Uniform()

@@ -1,8 +1,8 @@
 """Numba's on-disk cache of the kernel: stale after any change of what it compiles, loaded without the compiler.
 
 Numba keys a cached function on its own source file alone. The kernel inlines functions from
-:mod:`~mgrao_core.engine.environment`, :mod:`~mgrao_core.engine.learning`, :mod:`mgrao_core.quality`
-and the algorithms' modules, so after an edit of any of them (or a checkout that touches only them)
+:mod:`~mgrao_core.engine.environment`, :mod:`mgrao_core.quality` and the algorithm families'
+compiled steps (``mgrao_core/algorithms/``), so after an edit of any of them (or a checkout that touches only them)
 numba would load the old kernel and compute old numbers. :func:`bind_to_sources` adds a digest of
 every compiled source (:data:`COMPILED_SOURCES`) to the stamp numba checks, so any change
 recompiles the kernel.

@@ -2,7 +2,7 @@
 
 What a parent does with a composite task (absent parents, proportional values, choosing a child)
 and what a child's resources make of an atomic task (its quality) live here; what a child learns
-from the values it gets back lives in :mod:`mgrao_core.engine.learning`. Each function is the
+from the values it gets back lives with its algorithm family in :mod:`mgrao_core.algorithms`. Each function is the
 compiled twin of a step of the dense reference (:mod:`mgrao_core.reference`), which is built from
 :mod:`mgrao_core.equations`, and performs the same floating-point operations in the same order. The
 quality models' compiled forms live with their other forms in :mod:`mgrao_core.quality`.

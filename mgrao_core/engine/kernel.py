@@ -15,6 +15,13 @@ fixed at its start (the paper: an allocation cannot change instantly):
 5. each composite task completes: its quality counts in the system utility, and the absolute
    values go back, composite by composite in a random order of parents, to the parents'
    estimates of their children and to the children, which learn from them (algorithm 1).
+
+What a child does in steps 1 (its allocation) and 5 (learning) is its algorithm family's: a fixed
+family's child copies its lane's ``fixed_weights``; a learner's child runs the family's compiled
+steps (:attr:`Family.steps <mgrao_core.algorithms.base.Family.steps>`), chosen by the lane's family
+code. Each learner family's lanes come as one argument of :func:`run_block` and :func:`finish`, after
+the kernel's own, in the order of :data:`mgrao_core.algorithms.LEARNERS` (numba's parallel loop takes
+no tuple of them). docs/algorithms.md says how a new learner is wired in here.
 """
 
 from __future__ import annotations
@@ -24,6 +31,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, prange
 
+from mgrao_core.algorithms import KINDS
+from mgrao_core.algorithms.mgrao import compiled as mgrao
 from mgrao_core.engine.environment import (
     allocate_atomic_tasks,
     parents_leave_and_join,
@@ -31,26 +40,18 @@ from mgrao_core.engine.environment import (
     proportional_values,
     update_estimates,
 )
-from mgrao_core.engine.learning import combined_weights, pw_update, rebase
 
-KIND_UNIFORM = 0
-KIND_ORACLE = 1
-KIND_MGRAO = 2
+MGRAO = KINDS["mgrao"]
 
 
 class Lanes(NamedTuple):
-    """Per-lane inputs and state (updated in place), first axis the lane.
+    """Per-lane inputs and state (updated in place), first axis the lane (see :data:`mgrao_core.lanes.ENVIRONMENT`).
 
     Attributes:
         seed_index: index of the lane's seed in the block's per-seed arrays.
-        kind: ``KIND_UNIFORM``, ``KIND_ORACLE`` or ``KIND_MGRAO``.
-        groups: parent groups ``m`` per child (MG-RAO lanes).
-        fixed_weights: ``(lanes, children, n_types)`` the weights of uniform and oracle lanes.
-        Y, F, H, cs, G, k_since_rebase: each child's lazy PW and trace (see
-            :mod:`mgrao_core.engine.learning`), ``(lanes, children, groups[, n_types])``.
-        rows, slot, n_rows: each child's active rows (the first ``n_rows`` of ``rows``), a row's
-            place among them (-1: inactive), ``(lanes, children[, groups])``.
-        counts: ``(lanes, children, groups)`` parent agent sample counts.
+        kind: the code of the lane's family (:data:`mgrao_core.algorithms.KINDS`).
+        groups: parent groups ``m`` per child of the lane's algorithm.
+        fixed_weights: ``(lanes, children, n_types)`` the allocation of a fixed family's lanes.
         weights: ``(lanes, children, n_types)`` each child's allocation in this episode.
         estimates, tries: ``(lanes, parents, choices, children)`` each parent's running mean of
             what each child gave back, and how often it tried it.
@@ -62,16 +63,6 @@ class Lanes(NamedTuple):
     kind: np.ndarray
     groups: np.ndarray
     fixed_weights: np.ndarray
-    Y: np.ndarray
-    F: np.ndarray
-    H: np.ndarray
-    cs: np.ndarray
-    G: np.ndarray
-    k_since_rebase: np.ndarray
-    rows: np.ndarray
-    slot: np.ndarray
-    n_rows: np.ndarray
-    counts: np.ndarray
     weights: np.ndarray
     estimates: np.ndarray
     tries: np.ndarray
@@ -102,45 +93,12 @@ class Draws(NamedTuple):
     routing: np.ndarray
 
 
-@njit(cache=True)
-def fix_allocation(Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, m, bounded, learning, weights,
-                   scratch):
-    """A learning child fixes its resource weights for the episode.
-
-    Its PW is materialised, then algorithm 2 writes ``weights``. Returns the number of active rows
-    (the updates since the rebase are now 0).
-    """
-    n_rows = rebase(Y, F, H, cs, G, rows, slot, n_rows, learning.gamma_pow[k_since_rebase], learning.trace_tail,
-                    bounded)
-    combined_weights(Y, counts, m, Y.shape[1], learning.temperature, weights, scratch)
-    return n_rows
-
-
-@njit(cache=True, inline="always")
-def learn(Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, c, bounded, group, task_type, value,
-          learning):
-    """Child ``c`` receives an atomic task's absolute value from a parent of ``group``.
-
-    The sample count, then algorithm 1 (rebasing first when due). The arrays are the lane's, first
-    index the child (so that no per-child view is made for every task).
-    """
-    counts[c, group] += 1.0
-    k = k_since_rebase[c]
-    if rebase_due[c] or k == learning.gamma_pow.shape[0] - 1:
-        n_rows[c] = rebase(Y[c], F[c], H[c], cs[c], G[c], rows[c], slot[c], n_rows[c], learning.gamma_pow[k],
-                           learning.trace_tail, bounded)
-        k = 0
-    k += 1
-    k_since_rebase[c] = k
-    rebase_due[c] = pw_update(Y, F, H, cs, G, rows, slot, n_rows, c, k, group, task_type,
-                              learning.learning_rate * value, learning.gamma_pow, learning.gamma_inv_pow, bounded)
-
-
 @njit(cache=True, parallel=True)
-def run_block(lanes, worlds, draws, env, learning, utilities):
+def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes):
     """Run every lane through the episodes of one block.
 
-    The system utility of each lane and episode goes into ``utilities (lanes, episodes)``.
+    The system utility of each lane and episode goes into ``utilities (lanes, episodes)``;
+    ``mgrao_lanes`` are the MG-RAO family's (:class:`~mgrao_core.algorithms.mgrao.compiled.MgraoLanes`).
     """
     n_lanes = lanes.seed_index.shape[0]
     n_episodes = utilities.shape[1]
@@ -148,29 +106,22 @@ def run_block(lanes, worlds, draws, env, learning, utilities):
     n_children = lanes.weights.shape[1]
     for lane in prange(n_lanes):
         s = lanes.seed_index[lane]
-        m = lanes.groups[lane]
-        learning_lane = lanes.kind[lane] == KIND_MGRAO
+        kind = lanes.kind[lane]
         active = lanes.active[lane]
-        bounded = m > learning.min_bounded_groups
-        Y, F, H, cs, G = lanes.Y[lane], lanes.F[lane], lanes.H[lane], lanes.cs[lane], lanes.G[lane]
-        rows, slot, n_rows = lanes.rows[lane], lanes.slot[lane], lanes.n_rows[lane]
-        k_since_rebase, counts, weights = lanes.k_since_rebase[lane], lanes.counts[lane], lanes.weights[lane]
+        weights = lanes.weights[lane]
+        m = lanes.groups[lane]
+        mgrao_views = mgrao.lane_of(mgrao_lanes, lane)
         child_of = np.zeros((n_parents, types_per_composite), dtype=np.int64)
         ctv = np.zeros((n_parents, types_per_composite))
         values = np.zeros((n_parents, types_per_composite))
         taq = np.zeros(n_parents)
         load = np.ones((n_children, lanes.weights.shape[2]))
-        scratch = np.zeros(max(m, 1))
-        rebase_due = np.zeros(n_children, dtype=np.bool_)
         for e in range(n_episodes):
             # 1. Composite tasks arrive at the parents present.
             parents_leave_and_join(active, lanes.profiles[lane], draws.volatility[s, e], draws.new_profiles[s, e], env)
             for c in range(n_children):
-                if learning_lane:
-                    n_rows[c] = fix_allocation(Y[c], F[c], H[c], cs[c], G[c], rows[c], slot[c], n_rows[c],
-                                               k_since_rebase[c], counts[c], m, bounded, learning, weights[c], scratch)
-                    k_since_rebase[c] = 0
-                    rebase_due[c] = False
+                if kind == MGRAO:
+                    mgrao.allocate(mgrao_lanes, mgrao_views, m, c, weights[c])
                 else:
                     weights[c, :] = lanes.fixed_weights[lane, c, :]
             # 2-3. Parents decompose their composite tasks and allocate the atomic tasks.
@@ -205,26 +156,14 @@ def run_block(lanes, worlds, draws, env, learning, utilities):
                 if n_children > 1:
                     update_estimates(lanes.estimates[lane, p], lanes.tries[lane, p], child_of[p], values[p], taq[p],
                                      env.per_composite)
-                if learning_lane:
-                    group = (p * m) // n_parents
-                    for k in range(types_per_composite):
-                        c = child_of[p, k]
-                        learn(Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, c, bounded,
-                              group, worlds.parent_types[s, p, k], values[p, k], learning)
+                if kind == MGRAO:
+                    mgrao.learn(mgrao_lanes, mgrao_views, m, p, n_parents, child_of[p], worlds.parent_types[s, p],
+                                values[p])
 
 
 @njit(cache=True)
-def finish(lanes, learning):
-    """Materialise every MG-RAO lane's final PW and combined weights (after the last episode)."""
+def finish(lanes, mgrao_lanes):
+    """Materialise every learner lane's final state and allocation (after the last episode)."""
     for lane in range(lanes.kind.shape[0]):
-        if lanes.kind[lane] != KIND_MGRAO:
-            continue
-        m = lanes.groups[lane]
-        scratch = np.zeros(m)
-        for c in range(lanes.Y.shape[1]):
-            lanes.n_rows[lane, c] = fix_allocation(
-                lanes.Y[lane, c], lanes.F[lane, c], lanes.H[lane, c], lanes.cs[lane, c], lanes.G[lane, c],
-                lanes.rows[lane, c], lanes.slot[lane, c], lanes.n_rows[lane, c], lanes.k_since_rebase[lane, c],
-                lanes.counts[lane, c], m, m > learning.min_bounded_groups, learning, lanes.weights[lane, c], scratch,
-            )
-            lanes.k_since_rebase[lane, c] = 0
+        if lanes.kind[lane] == MGRAO:
+            mgrao.finish(mgrao_lanes, lane, lanes.groups[lane], lanes.weights[lane])

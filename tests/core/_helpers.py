@@ -21,7 +21,7 @@ def assert_matches_reference(result, atol=1e-12):
         utilities, children = reference.simulate(spec.params, run.algorithm, run.seed, spec.episodes)
         np.testing.assert_allclose(run.utilities, utilities, rtol=0, atol=atol,
                                    err_msg=f"{run.algorithm} seed {run.seed}")
-        combined = np.stack([c.allocation(temperature) for c in children])
+        combined = np.stack([c.allocation() for c in children])
         if run.group_weights.size:
             pw = np.stack([c.pw for c in children])
             assert run.group_weights.shape == pw.shape

@@ -1,7 +1,7 @@
 """Active rows: an update visits only the rows whose trace can still change them in float64.
 
 A row's trace is dropped once everything it can still add, over all later updates, is below half
-a unit in the last place of every weight it adds to (``engine.learning.trace_is_negligible``), and
+a unit in the last place of every weight it adds to (``algorithms.mgrao.compiled.trace_is_negligible``), and
 the row then leaves its child's active rows until a value of its group comes back. Children with
 more than ``MIN_BOUNDED_GROUPS`` groups do that; the fixture ``every_child_bounded`` makes every
 child do it, so that the small systems of every reading cover it too. Whatever the system, reading
@@ -10,6 +10,7 @@ and configuration, the engine must still equal the dense literal algorithm 1
 """
 
 import itertools
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -18,8 +19,8 @@ from hypothesis import strategies as st
 
 from mgrao_core import engine, make_spec, run_experiment
 from mgrao_core import equations as eq
-from mgrao_core.engine import learning as learning_module
-from mgrao_core.engine.learning import NEGLIGIBLE, trace_is_negligible, trace_tail
+from mgrao_core.algorithms.mgrao import family as learning_module
+from mgrao_core.algorithms.mgrao.compiled import NEGLIGIBLE, trace_is_negligible, trace_tail
 from mgrao_core.params import ABSENT_TASKS, QUALITY_MODELS, ROUTINGS
 
 from ._helpers import assert_matches_reference
@@ -37,9 +38,10 @@ def final_lanes(monkeypatch):
     seen = []
     finish = engine.finish
 
-    def keep(lanes, learning):
-        finish(lanes, learning)
-        seen.append(lanes)
+    def keep(lanes, mgrao_lanes):
+        finish(lanes, mgrao_lanes)
+        seen.append(SimpleNamespace(groups=lanes.groups, n_rows=mgrao_lanes.n_rows, slot=mgrao_lanes.slot,
+                                    counts=mgrao_lanes.counts))
 
     monkeypatch.setattr(engine, "finish", keep)
     return seen

@@ -216,6 +216,37 @@ def test_out_to_a_device_that_refuses_writes_is_a_clean_error(runner):
     assert not isinstance(result.exception, OSError)
 
 
+def test_algorithms_json_is_the_registry_for_the_system(runner):
+    from mgrao_core.algorithms import registry
+    from mgrao_core.presets import PRESETS
+
+    result = _run(runner, "algorithms", "--system", "large", "--json")
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.stdout)["data"]
+    assert data == registry(PRESETS["large"].params)
+    mgrao = next(entry for entry in data if entry["name"] == "mgrao")
+    assert mgrao["parameters"] == ["learning_rate", "trace_decay", "temperature"]
+    assert mgrao["memory_per_child"]["mgrao-max"] > mgrao["memory_per_child"]["mgrao-1:1"] > 0
+
+
+def test_algorithms_without_a_system_lists_the_grammar(runner):
+    result = _run(runner, "algorithms")
+    assert result.exit_code == 0, result.output
+    assert "mgrao-{x}:1" in result.stdout and "oracle" in result.stdout and "B per child" not in result.stdout
+
+
+def test_algorithms_describes_one_label(runner):
+    result = _run(runner, "algorithms", "--system", "single", "--label", " MGRAO-05:1", "--json")
+    assert result.exit_code == 0, result.output
+    described = json.loads(result.stdout)
+    assert described["label"] == "mgrao-5:1" and described["groups"] == 5
+    assert described["memory_per_child"] == 8 * (2 * 5 * 20 + 6 * 5 + 2) + 1 + 8 * 5  # PW, trace, rows; flag, scratch
+    result = _run(runner, "algorithms", "--system", "single", "--label", "mgrao-3:1")
+    assert result.exit_code == 2 and "1, 2, 5, 10" in result.output
+    text = _run(runner, "algorithms", "--system", "single", "--label", "uniform").stdout
+    assert text.startswith("uniform: Uniform (uniform)") and "memory per child: 160 B" in text
+
+
 def test_help_and_the_web_layers_imports_load_no_numba():
     # `mgrao --help` (and validating a request) needs the schema, not the compiled engine
     for code in ("import mgrao_cli.main", "import mgrao_core; mgrao_core.make_spec('single')"):

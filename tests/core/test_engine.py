@@ -5,7 +5,8 @@ import itertools
 import numpy as np
 import pytest
 
-from mgrao_core import engine, make_spec, reference, run_experiment
+from mgrao_core import make_spec, reference, run_experiment
+from mgrao_core.algorithms.mgrao import compiled
 from mgrao_core.engine.environment import choose_child, environment_of
 from mgrao_core.params import ABSENT_TASKS, QUALITY_MODELS, ROUTINGS, make_params
 
@@ -67,10 +68,10 @@ def test_engine_equals_reference_when_blocks_are_small():
 
 def test_rebase_interval():
     # 0.9 ** -k <= 64  <=>  k <= ln 64 / -ln 0.9 = 39.47
-    assert engine.rebase_interval(0.9) == 39
-    assert engine.rebase_interval(0.5) == 6  # 2 ** 6 = 64
-    assert engine.rebase_interval(0.001) == 1
-    assert 0.99 ** -engine.rebase_interval(0.99) <= engine.TRACE_SCALE_LIMIT
+    assert compiled.rebase_interval(0.9) == 39
+    assert compiled.rebase_interval(0.5) == 6  # 2 ** 6 = 64
+    assert compiled.rebase_interval(0.001) == 1
+    assert 0.99 ** -compiled.rebase_interval(0.99) <= compiled.TRACE_SCALE_LIMIT
 
 
 def test_choose_child_kernel_equals_reference():

@@ -1,4 +1,10 @@
-"""MG-RAO's learning, compiled: algorithm 1 (update) applied lazily and algorithm 2 (weighting).
+"""MG-RAO's compiled steps: algorithm 1 (update) applied lazily and algorithm 2 (weighting).
+
+What the kernel (:mod:`mgrao_core.engine.kernel`) calls for an MG-RAO lane: :func:`lane_of` (the
+lane's views, once), :func:`allocate` (a child's allocation at the start of an episode),
+:func:`learn` (the values of a composite task coming back) and :func:`finish` (the final state).
+:class:`MgraoLanes` is the family's state as the kernel reads it, built by :func:`lanes_of` from
+the arrays declared in :mod:`mgrao_core.algorithms.mgrao.family`.
 
 Cost per returned value. Algorithm 1 adds ``alpha * atv * E`` to the whole ``PW`` matrix and
 sum-normalises every row. Done densely that is O(m * n) per value. Here it is O(active rows): for
@@ -24,21 +30,27 @@ leaves the child's *active rows*, which are the only ones an update visits. A re
 its group makes it active again. ``H``, ``cs`` and ``G`` are stored by place among the active rows
 (``H[s]`` belongs to row ``rows[s]``), so that the update runs over contiguous memory.
 
-Children with at most :data:`MIN_BOUNDED_GROUPS` groups keep every row active and perform exactly
-the operations above. A child with more keeps the reciprocal scale in ``cs`` (``PW = (Y + F * H) /
-cs``; ``H += a * gamma**k * cs``; ``cs *= 1 + a * gamma**k * G``): multiplications instead of
-divisions, the same rounding up to the last bit. docs/model.md ("The engine") gives the argument.
+Children with at most :data:`~mgrao_core.algorithms.mgrao.family.MIN_BOUNDED_GROUPS` groups keep every row
+active and perform exactly the operations above. A child with more keeps the reciprocal scale in
+``cs`` (``PW = (Y + F * H) / cs``; ``H += a * gamma**k * cs``; ``cs *= 1 + a * gamma**k * G``):
+multiplications instead of divisions, the same rounding up to the last bit. docs/model.md ("The
+engine") gives the argument.
 """
 
 from __future__ import annotations
 
+import mgrao_core._numba_cache  # noqa: F401  (first: picks a writable numba cache before numba loads)
+
+# isort: split
 import math
+from collections.abc import Mapping
 from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
-from mgrao_core.params import SystemParams
+from mgrao_core.algorithms.mgrao import family
+from mgrao_core.algorithms.state import System
 
 _SCALE_LIMIT = 1e-150  # rebase before any cs[i] falls below this (a reciprocal scale rises above 1 / it)
 
@@ -54,25 +66,43 @@ NEGLIGIBLE = 2.0**-55
 fraction of 1): less than half a unit in the last place (a weight ``w`` has ``ulp(w) / 2 > w *
 2**-54``), so adding it would not change the row in float64."""
 
-MIN_BOUNDED_GROUPS = 64
-"""Children with at most this many parent groups keep every row active. Below it, dropping
-negligible traces saves little, and the engine then performs exactly the floating-point operations
-of the unbounded lazy update (so results stored by earlier versions re-run bit for bit)."""
 
 
-class Learning(NamedTuple):
-    """MG-RAO's parameters as the kernel reads them.
+class MgraoLanes(NamedTuple):
+    """Every lane's MG-RAO state and the parameters, as the kernel reads them.
+
+    One flat tuple: numba's parallel loop takes no tuple nested in an argument.
 
     Attributes:
+        Y, F, H, cs, G, k_since_rebase: each child's lazy PW and trace (see the module docstring),
+            ``(lanes, children, groups[, n_types])``.
+        rows, slot, n_rows: each child's active rows (the first ``n_rows`` of ``rows``), a row's
+            place among them (-1: inactive), ``(lanes, children[, groups])``.
+        counts: ``(lanes, children, groups)`` parent agent sample counts.
+        rebase_due: ``(lanes, children)`` whether a row's scale came so close to underflow that the
+            child rebases before its next update.
+        scratch: ``(lanes, groups)`` the blending vector of algorithm 2, while it is computed.
         learning_rate: alpha.
         temperature: the softmax temperature of algorithm 2 in use.
         gamma_pow: ``trace_decay ** k`` for ``k = 0 .. rebase interval``.
         gamma_inv_pow: ``trace_decay ** -k``, likewise.
         trace_tail: ``alpha * gamma / (1 - gamma)``: the most a trace entry of 1 still adds to its
             weight over all later updates (see :func:`trace_is_negligible`).
-        min_bounded_groups: :data:`MIN_BOUNDED_GROUPS`.
+        min_bounded_groups: :data:`~mgrao_core.algorithms.mgrao.family.MIN_BOUNDED_GROUPS`.
     """
 
+    Y: np.ndarray
+    F: np.ndarray
+    H: np.ndarray
+    cs: np.ndarray
+    G: np.ndarray
+    k_since_rebase: np.ndarray
+    rows: np.ndarray
+    slot: np.ndarray
+    n_rows: np.ndarray
+    counts: np.ndarray
+    rebase_due: np.ndarray
+    scratch: np.ndarray
     learning_rate: float
     temperature: float
     gamma_pow: np.ndarray
@@ -95,30 +125,12 @@ def trace_tail(learning_rate: float, trace_decay: float) -> float:
     return learning_rate * trace_decay / (1.0 - trace_decay)
 
 
-def learning_of(params: SystemParams) -> Learning:
-    """The kernel's view of a validated parameter set."""
+def lanes_of(arrays: Mapping[str, np.ndarray], params: System) -> MgraoLanes:
+    """The kernel's view of the chunk's MG-RAO arrays (by name, as declared) and of a validated parameter set."""
     gamma_pow = params.trace_decay ** np.arange(rebase_interval(params.trace_decay) + 1, dtype=float)
-    return Learning(params.learning_rate, params.effective_temperature, gamma_pow, 1.0 / gamma_pow,
-                    trace_tail(params.learning_rate, params.trace_decay), MIN_BOUNDED_GROUPS)
-
-
-def initial_rows(groups: np.ndarray, n_children: int, max_groups: int,
-                 min_bounded_groups: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The active rows of every lane's children before the first episode.
-
-    Returns ``rows (lanes, children, max_groups)`` (the active rows of a child come first),
-    ``slot`` (a row's place in ``rows``, -1 if inactive) and ``n_rows (lanes, children)``. With
-    at most ``min_bounded_groups`` groups every row is active and stays so; with more, none is
-    yet: a row becomes active with the first value of its group.
-    """
-    n_lanes = groups.shape[0]
-    rows = np.tile(np.arange(max_groups, dtype=np.int64), (n_lanes, n_children, 1))
-    slot = rows.copy()  # H, cs and G of a row are at its slot: where the row is, while all are active
-    n_rows = np.repeat(groups.astype(np.int64)[:, None], n_children, axis=1)
-    for lane in np.flatnonzero(groups > min_bounded_groups):
-        slot[lane] = -1
-        n_rows[lane] = 0
-    return rows, slot, n_rows
+    state = [arrays[name] for name in MgraoLanes._fields[:12]]
+    return MgraoLanes(*state, params.learning_rate, params.effective_temperature, gamma_pow, 1.0 / gamma_pow,
+                      trace_tail(params.learning_rate, params.trace_decay), family.MIN_BOUNDED_GROUPS)
 
 
 @njit(cache=True, inline="always")
@@ -263,3 +275,88 @@ def pw_update(Y, F, H, cs, G, rows, slot, n_rows, c, k, group, task_type, step, 
             cs[c, s] /= 1.0 + scale * G[c, s]
             extreme += cs[c, s] < _SCALE_LIMIT
     return extreme > 0
+
+
+@njit(cache=True)
+def fix_allocation(Y, F, H, cs, G, rows, slot, n_rows, counts, m, bounded, gamma_k, tail, temperature, weights,
+                   scratch):
+    """A child fixes its resource weights for the episode: its PW is materialised, then algorithm 2 writes ``weights``.
+
+    Returns the number of active rows.
+    """
+    n_rows = rebase(Y, F, H, cs, G, rows, slot, n_rows, gamma_k, tail, bounded)
+    combined_weights(Y, counts, m, Y.shape[1], temperature, weights, scratch)
+    return n_rows
+
+
+@njit(cache=True, inline="always")
+def allocate(ml, views, m, c, weights):
+    """Child ``c`` of the lane whose :func:`lane_of` is ``views`` (``m`` parent groups per child) fixes its allocation.
+
+    The updates since the rebase are now 0. The views are indexed by position (``views[8]`` is
+    ``k_since_rebase``): numba's parallel loop keeps a write through a tuple's item alive only when
+    it sees the item taken from the tuple.
+    """
+    k = views[8][c]
+    views[7][c] = fix_allocation(views[0][c], views[1][c], views[2][c], views[3][c], views[4][c], views[5][c],
+                                 views[6][c], views[7][c], views[9][c], m, m > ml.min_bounded_groups, ml.gamma_pow[k],
+                                 ml.trace_tail, ml.temperature, weights, views[11])
+    views[8][c] = 0
+    views[10][c] = False
+
+
+@njit(cache=True, inline="always")
+def learn_value(Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, c, bounded, group, task_type,
+                value, ml):
+    """Child ``c`` receives an atomic task's absolute value from a parent of ``group``.
+
+    The sample count, then algorithm 1 (rebasing first when due). The arrays are the lane's, first
+    index the child (so that no per-child view is made for every task).
+    """
+    counts[c, group] += 1.0
+    k = k_since_rebase[c]
+    if rebase_due[c] or k == ml.gamma_pow.shape[0] - 1:
+        n_rows[c] = rebase(Y[c], F[c], H[c], cs[c], G[c], rows[c], slot[c], n_rows[c], ml.gamma_pow[k], ml.trace_tail,
+                           bounded)
+        k = 0
+    k += 1
+    k_since_rebase[c] = k
+    rebase_due[c] = pw_update(Y, F, H, cs, G, rows, slot, n_rows, c, k, group, task_type, ml.learning_rate * value,
+                              ml.gamma_pow, ml.gamma_inv_pow, bounded)
+
+
+@njit(cache=True, inline="always")
+def lane_of(ml, lane):
+    """Lane ``lane``'s views of the arrays the steps write, made once per lane (as the kernel did before).
+
+    A plain tuple, in this order: Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts,
+    rebase_due, scratch. :func:`learn` unpacks it once per composite task, around a loop that keeps
+    using every view; :func:`allocate` takes its items by position, which numba's parallel loop sees
+    as the tuple's (a write through a NamedTuple's field, or through an unpacked item nothing reads
+    later, would be dropped as dead there; docs/algorithms.md).
+    """
+    return (ml.Y[lane], ml.F[lane], ml.H[lane], ml.cs[lane], ml.G[lane], ml.rows[lane], ml.slot[lane],
+            ml.n_rows[lane], ml.k_since_rebase[lane], ml.counts[lane], ml.rebase_due[lane], ml.scratch[lane])
+
+
+@njit(cache=True, inline="always")
+def learn(ml, views, m, p, n_parents, children, task_types, values):
+    """The values of parent ``p``'s composite task come back to the children that performed its atomic tasks.
+
+    Atomic task ``k``, of type ``task_types[k]``, gives ``values[k]`` to child ``children[k]`` of the
+    lane whose :func:`lane_of` is ``views``, which learns it for the parent's group (of ``m``).
+    """
+    group = (p * m) // n_parents
+    bounded = m > ml.min_bounded_groups
+    Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, _ = views  # once per composite
+    for k in range(task_types.shape[0]):
+        learn_value(Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, children[k], bounded,
+                    group, task_types[k], values[k], ml)
+
+
+@njit(cache=True)
+def finish(ml, lane, m, weights):
+    """Materialise lane ``lane``'s final PW and combined weights (after the last episode) into ``weights``."""
+    views = lane_of(ml, lane)
+    for c in range(ml.Y.shape[1]):
+        allocate(ml, views, m, c, weights[c])

@@ -4,18 +4,29 @@ Each child keeps one row of parent-group weights (PW) per group of parents: ``mg
 the parents into x groups of equal size (x divides ``n_parents``; the paper's "x:y ratio of
 parent-agent groups to each child-agent", y being 1), ``mgrao-max`` gives every parent its own
 group and ``mgrao-1:1`` pools them all.
+
+The family's parts sit side by side: this module (labels, parameters, lane state),
+:mod:`~mgrao_core.algorithms.mgrao.compiled` (the kernel's steps) and
+:mod:`~mgrao_core.algorithms.mgrao.reference` (the dense, literal algorithms 1 and 2).
 """
 
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
 from mgrao_core.algorithms.base import Algorithm, Family, LabelForm, invalid
+from mgrao_core.algorithms.state import StateArray, System
+from mgrao_core.parameter import Parameter
 
 MAX_LABEL = "mgrao-max"
+MIN_BOUNDED_GROUPS = 64
+"""Children with at most this many parent groups keep every row active. Below it, dropping
+negligible traces saves little, and the engine then performs exactly the floating-point operations
+of the unbounded lazy update (so results stored by earlier versions re-run bit for bit)."""
 _RATIO = re.compile(r"^mgrao-0*(\d{1,9}):0*(\d{1,9})$")
 
 
@@ -43,6 +54,35 @@ class Mgrao(Family):
                    "return (algorithm 1) and blends the rows by how informative and how used each is "
                    "(algorithm 2). More groups: a finer model that learns more slowly and needs more memory.")
     rank = 1
+    parameters = (
+        Parameter("learning_rate", "float", 0.1, "Learning rate alpha of the MG-RAO update.",
+                  "mgrao", 0.0, 1.0),
+        Parameter(
+            "trace_decay", "float", 0.9, "Decay gamma of the replacing eligibility trace.",
+            "mgrao", 0.001, 0.999,
+        ),
+        Parameter(
+            "temperature", "float", None,
+            "Softmax temperature of the combined weights; empty means 1/n_types, 1 is paper-literal.",
+            "mgrao", 1e-4, 100.0, nullable=True,
+        ),
+    )
+    state = (  # each child's PW and trace in lazy form (see the compiled module), its active rows and counts
+        StateArray("Y", ("lanes", "children", "groups", "n_types"), fill="uniform", help="PW, lazily"),
+        StateArray("F", ("lanes", "children", "groups", "n_types"), help="the eligibility trace, lazily"),
+        StateArray("H", ("lanes", "children", "groups"), help="each active row's pending update"),
+        StateArray("cs", ("lanes", "children", "groups"), fill=1.0, help="each active row's scale"),
+        StateArray("G", ("lanes", "children", "groups"), help="each active row's trace sum"),
+        StateArray("k_since_rebase", ("lanes", "children"), "int64", help="updates since the last rebase"),
+        StateArray("rows", ("lanes", "children", "groups"), "int64", help="the active rows, first n_rows"),
+        StateArray("slot", ("lanes", "children", "groups"), "int64", help="each row's place in rows (-1: inactive)"),
+        StateArray("n_rows", ("lanes", "children"), "int64", help="how many rows are active"),
+        StateArray("counts", ("lanes", "children", "groups"), help="parent agent sample counts"),
+        StateArray("rebase_due", ("lanes", "children"), "bool", help="a scale nears underflow: rebase first"),
+        StateArray("scratch", ("lanes", "groups"), help="algorithm 2's blending vector, while it is computed"),
+    )
+    steps = "mgrao_core.algorithms.mgrao.compiled"
+    reference = "mgrao_core.algorithms.mgrao.reference:children"
     _ratio = LabelForm("mgrao-{x}:1", r"^mgrao-0*(\d{1,9}):0*1$", "x parent groups per child",
                        "x", "parent groups per child, a whole number dividing n_parents")
     _max = LabelForm(MAX_LABEL, "^mgrao-max$", "one group per parent")
@@ -103,6 +143,26 @@ class Mgrao(Family):
     def order(self, algorithm: Algorithm) -> int:
         """x:1 by increasing x, then max."""
         return 2**62 if algorithm.label == MAX_LABEL else algorithm.n_groups
+
+    def initialise(self, arrays: Mapping[str, np.ndarray], lanes: np.ndarray, params: System) -> None:
+        """The active rows of the children of ``lanes`` before the first episode.
+
+        ``rows (lanes, children, groups)`` (the active rows of a child come first), ``slot`` (a row's
+        place in ``rows``, -1 if inactive) and ``n_rows (lanes, children)``. With at most
+        :data:`MIN_BOUNDED_GROUPS` groups every row is active and stays so; with more, none is yet: a
+        row becomes active with the first value of its group.
+        """
+        rows, slot, n_rows, groups = arrays["rows"], arrays["slot"], arrays["n_rows"], arrays["groups"]
+        rows[lanes] = np.arange(rows.shape[2], dtype=np.int64)
+        slot[lanes] = rows[lanes]  # H, cs and G of a row are at its slot: where the row is, while all are active
+        n_rows[lanes] = groups[lanes, None]
+        for lane in lanes[groups[lanes] > MIN_BOUNDED_GROUPS]:
+            slot[lane] = -1
+            n_rows[lane] = 0
+
+    def group_weights(self, arrays: Mapping[str, np.ndarray], lane: int, algorithm: Algorithm) -> np.ndarray | None:
+        """The lane's final PW of every child, ``(children, n_groups, n_types)``."""
+        return arrays["Y"][lane, :, : algorithm.n_groups].copy()
 
 
 FAMILY = Mgrao()

@@ -1,0 +1,49 @@
+"""MG-RAO's dense reference step: algorithms 1 and 2 applied literally, one child at a time.
+
+What :mod:`mgrao_core.reference` runs for an MG-RAO configuration, built from
+:mod:`mgrao_core.equations`, so that the tests can check the compiled steps against the paper's
+equations.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mgrao_core import equations as eq
+from mgrao_core.algorithms.base import Algorithm, ReferenceChild, World
+from mgrao_core.algorithms.mgrao.family import parent_groups
+from mgrao_core.algorithms.state import System
+
+
+class Child(ReferenceChild):
+    """One child agent: its PW matrix, eligibility trace and per-group sample counts.
+
+    Args:
+        n_groups: parent groups ``m``.
+        groups: the group of each parent.
+        params: the system's parameters (MG-RAO's among them).
+    """
+
+    def __init__(self, n_groups: int, groups: np.ndarray, params: System) -> None:
+        self.groups = groups
+        self.params = params
+        self.pw = np.full((n_groups, params.n_types), 1.0 / params.n_types)
+        self.trace = np.zeros((n_groups, params.n_types))
+        self.counts = np.zeros(n_groups)
+
+    def allocation(self) -> np.ndarray:
+        """Algorithm 2: the combined resource weights."""
+        return eq.combined_weights(self.pw, self.counts, self.params.effective_temperature)
+
+    def learn(self, parent: int, task_type: int, value: float) -> None:
+        """Algorithm 1 for one returned absolute value, from a parent of group ``groups[parent]``."""
+        group = int(self.groups[parent])
+        self.counts[group] += 1
+        self.trace = eq.eligibility_update(self.trace, group, task_type, self.params.trace_decay)
+        self.pw = eq.pw_update(self.pw, self.trace, value, self.params.learning_rate)
+
+
+def children(params: System, algorithm: Algorithm, world: World, seed: int) -> list[ReferenceChild]:
+    """One :class:`Child` per child of the system, for ``algorithm`` (``mgrao-x:1`` or ``mgrao-max``)."""
+    groups = parent_groups(params.n_parents, algorithm.n_groups)
+    return [Child(algorithm.n_groups, groups, params) for _ in range(params.n_children)]

@@ -1,0 +1,82 @@
+"""The chunk's per-lane arrays: allocated and counted from one set of declarations."""
+
+import shutil
+
+import numpy as np
+import pytest
+
+from mgrao_core import make_spec
+from mgrao_core.algorithms import FAMILIES, KINDS
+from mgrao_core.budget import chunk_cost
+from mgrao_core.engine.cache import PACKAGE_DIR, sources_digest
+from mgrao_core.lanes import ENVIRONMENT, allocate_lanes, declarations, lane_bytes
+from mgrao_core.world import _STREAM_IDS, routing_choices
+
+CASES = [
+    ("single", ["uniform", "mgrao-1:1", "mgrao-max", "oracle"], 3, {}),
+    ("multi", ["mgrao-2:1", "uniform"], 2, {"routing": "per-task"}),
+    ("large", ["mgrao-max"], 1, {}),
+    ("single", ["uniform"], 4, {}),
+]
+
+
+def _before(spec, n_seeds):
+    """The state bytes as budget.py counted them by hand before the declarations (issue 19)."""
+    p = spec.params
+    algorithms = spec.parsed_algorithms
+    lanes = n_seeds * len(algorithms)
+    groups = max([a.n_groups for a in algorithms] + [1])
+    return 8 * lanes * (
+        p.n_children * (2 * groups * p.n_types + 6 * groups + 2 * p.n_types + 2)
+        + 2 * p.n_parents * routing_choices(p) * p.n_children
+        + p.n_parents * p.types_per_composite
+        + 3
+    ) + lanes * p.n_parents
+
+
+@pytest.mark.parametrize(("system", "algorithms", "seeds", "overrides"), CASES)
+def test_the_budget_counts_exactly_what_the_runner_allocates(system, algorithms, seeds, overrides):
+    spec = make_spec(system, algorithms, seeds=seeds, episodes=5, overrides=overrides)
+    arrays = allocate_lanes(spec.params, spec.parsed_algorithms, seeds)
+    allocated = sum(a.nbytes for a in arrays.values())
+    assert allocated == lane_bytes(spec.params, spec.parsed_algorithms, seeds) == chunk_cost(spec, seeds).state
+    assert sorted(arrays) == sorted(a.name for a in declarations())
+
+
+@pytest.mark.parametrize(("system", "algorithms", "seeds", "overrides"), CASES)
+def test_the_budget_grows_only_by_the_kernel_temporaries_it_now_counts(system, algorithms, seeds, overrides):
+    # MG-RAO's rebase flag (a byte per lane and child) and algorithm 2's blending vector (groups
+    # floats per lane) were allocated inside the kernel, per lane, and not counted; they are now
+    # declared state, allocated once per chunk and counted
+    spec = make_spec(system, algorithms, seeds=seeds, episodes=5, overrides=overrides)
+    lanes = seeds * len(algorithms)
+    groups = max([a.n_groups for a in spec.parsed_algorithms] + [1])
+    assert chunk_cost(spec, seeds).state == _before(spec, seeds) + lanes * (spec.params.n_children + 8 * groups)
+
+
+def test_lanes_are_seed_major_with_their_family_codes_and_groups():
+    spec = make_spec("single", ["uniform", "mgrao-5:1", "oracle"], seeds=2, episodes=5)
+    arrays = allocate_lanes(spec.params, spec.parsed_algorithms, 2)
+    assert arrays["seed_index"].tolist() == [0, 0, 0, 1, 1, 1]
+    assert arrays["kind"].tolist() == [KINDS["uniform"], KINDS["mgrao"], KINDS["oracle"]] * 2
+    assert arrays["groups"].tolist() == [0, 5, 0] * 2
+    assert (arrays["n_rows"][[1, 4]] == 5).all() and (arrays["rows"][1, 0] == np.arange(5)).all()
+
+
+def test_declarations_are_well_formed_and_streams_distinct():
+    names = [a.name for a in ENVIRONMENT]
+    assert len(names) == len(set(names))
+    numbers = list(_STREAM_IDS.values())
+    assert len(numbers) == len(set(numbers)) and _STREAM_IDS["oracle"] == 5
+    for family in FAMILIES:
+        for array in family.state:
+            assert array.shape[0] == "lanes" and array.dtype in ("float64", "int64", "bool")
+
+
+def test_editing_an_algorithm_module_changes_the_kernel_cache_digest(tmp_path):
+    package = shutil.copytree(PACKAGE_DIR, tmp_path / "mgrao_core", ignore=shutil.ignore_patterns("__pycache__"))
+    before = sources_digest(package)
+    assert before == sources_digest(PACKAGE_DIR)
+    compiled = package / "algorithms" / "mgrao" / "compiled.py"
+    compiled.write_text(compiled.read_text() + "\n# an edit\n")
+    assert sources_digest(package) != before
