@@ -52,6 +52,11 @@ def downgrade() -> None:
     op.drop_table("external_pieces")
     op.drop_table("external_batches")
     op.drop_table("external_runs")
-    op.execute("DELETE FROM jobs WHERE kind <> 'simulation'")  # no earlier revision can tell them apart
+    # no earlier revision can tell an external run from a job: they go, with what refers to them (a
+    # migration's SQLite connection does not enforce foreign keys, so no cascade does it)
+    external = "SELECT id FROM jobs WHERE kind <> 'simulation'"
+    for table in ("runs", "job_tags", "job_summaries"):
+        op.execute(f"DELETE FROM {table} WHERE job_id IN ({external})")
+    op.execute("DELETE FROM jobs WHERE kind <> 'simulation'")
     with op.batch_alter_table("jobs", table_kwargs={"sqlite_autoincrement": True}) as batch:
         batch.drop_column("kind")
