@@ -161,6 +161,7 @@ class LoggedRun:
         limits = answer["limits"]
         self.batch_bytes = max(1024, limits["max_body_bytes"] - BODY_MARGIN)
         self.max_entries: int = limits["max_batch_entries"]
+        self.max_piece_values: int = limits.get("max_piece_values", 10_000)
         self.weights_shape: tuple[int, int] = tuple(limits["weights_shape"])
         self.batches = 0
         self.replayed = 0
@@ -193,7 +194,7 @@ class LoggedRun:
             overhead = len(head) + 20 + 2
             room = self.batch_bytes - self._size - overhead
             take, used = 0, 0
-            for text in texts[done:]:
+            for text in texts[done:done + self.max_piece_values]:
                 if used + len(text) + 1 > room:
                     break
                 used += len(text) + 1

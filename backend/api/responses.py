@@ -376,6 +376,7 @@ class ExternalLimits(BaseModel):
 
     max_body_bytes: int = Field(description="Largest request body (MGRAO_MAX_BODY_BYTES): 413 beyond.")
     max_batch_entries: int = Field(description="Pieces of utilities, and seeds' weights, per batch.")
+    max_piece_values: int = Field(description="Episode utilities of one piece.")
     max_pieces_per_seed: int = Field(description="Pieces one seed's episodes may come in.")
     weights_shape: list[int] = Field(description="[n_children, n_types]: the shape of a seed's final weights.")
 

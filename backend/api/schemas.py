@@ -18,9 +18,10 @@ from pydantic import (
 from pydantic.json_schema import JsonSchemaValue, SkipJsonSchema
 from pydantic_core import PydanticCustomError, core_schema
 
-from backend.store.external import MAX_BATCH_ENTRIES
+from backend.store.external import MAX_BATCH_ENTRIES, MAX_PIECE_VALUES
 from backend.store.models import has_nul
 from mgrao_core import MAX_ALGORITHMS, MAX_EPISODES, MAX_SEEDS, PARAMETERS, PRESETS, search
+from mgrao_core.params import PARAMETERS_BY_NAME
 from mgrao_core.spec import MAX_SEED_VALUE
 
 MAX_NAME = 200
@@ -299,7 +300,7 @@ class UtilityPiece(BaseModel):
 
     seed: Seed
     start: EpisodeIndex = 0
-    values: Annotated[list[Utility], Field(min_length=1, max_length=MAX_EPISODES)]
+    values: Annotated[list[Utility], Field(min_length=1, max_length=MAX_PIECE_VALUES)]
 
 
 class SeedWeightsIn(BaseModel):
@@ -308,8 +309,9 @@ class SeedWeightsIn(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     seed: Seed
-    weights: Annotated[list[Annotated[list[Annotated[Utility, Field(ge=0)]], Field(min_length=1, max_length=10_000)]],
-                       Field(min_length=1, max_length=10_000)]
+    weights: Annotated[list[Annotated[list[Annotated[Utility, Field(ge=0)]],
+                                      Field(min_length=1, max_length=int(PARAMETERS_BY_NAME["n_types"].maximum))]],
+                       Field(min_length=1, max_length=int(PARAMETERS_BY_NAME["n_children"].maximum))]
 
 
 class ExternalBatchIn(BaseModel):

@@ -48,6 +48,11 @@ MAX_PIECES_PER_SEED = 1000
 """Pieces one seed's episodes may come in (a batch adds one piece per entry): send episodes in batches."""
 MAX_BATCH_ENTRIES = 1000
 """Entries (pieces of utilities, or weights) of one batch."""
+MAX_PIECE_VALUES = 10_000
+"""Episode utilities of one piece (a 64 KiB body holds about 3,000): a longer seed comes in several pieces.
+
+Every limit of a batch's schema is small enough that a body just past it is still under the default
+body limit, so that it is refused naming the field (422) rather than for its size (413)."""
 
 
 @dataclass(frozen=True)

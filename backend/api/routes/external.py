@@ -34,6 +34,7 @@ def _answer(session: Session, job_id: int, settings: Settings) -> dict[str, Any]
     run = external.state(session, job_id=job_id)
     params = run["job"]["params"]
     return run | {"limits": {"max_body_bytes": settings.max_body_bytes, "max_batch_entries": external.MAX_BATCH_ENTRIES,
+                             "max_piece_values": external.MAX_PIECE_VALUES,
                              "max_pieces_per_seed": external.MAX_PIECES_PER_SEED,
                              "weights_shape": [params["n_children"], params["n_types"]]}}
 
