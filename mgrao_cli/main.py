@@ -19,6 +19,7 @@ COMMANDS = {
     "dispatcher": "mgrao_cli.service_commands:dispatcher",
     "migrate": "mgrao_cli.service_commands:migrate",
     "study": "mgrao_cli.studies:study",
+    "log": "mgrao_cli.logging_command:log",
 }
 """Subcommand name to ``module:attribute`` of its click command."""
 
@@ -41,7 +42,7 @@ class LazyGroup(click.Group):
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="mgrao")
 def cli() -> None:
-    """MG-RAO experiments from the shell: simulate, reproduce the paper, serve the dashboard."""
+    """MG-RAO experiments from the shell: simulate, reproduce the paper, serve the dashboard, log runs from outside."""
 
 
 if __name__ == "__main__":

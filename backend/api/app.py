@@ -16,7 +16,7 @@ from backend.api.api_methods import ApiMethods
 from backend.api.apidocs import install_api_docs
 from backend.api.docpages import install_docs
 from backend.api.limits import BodyLimit
-from backend.api.routes import algorithms, changes, compare, health, jobs, studies, systems
+from backend.api.routes import algorithms, changes, compare, external, health, jobs, studies, systems
 from backend.api.security import (
     AllowedHosts,
     SameOriginWrites,
@@ -108,7 +108,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.db = db
     _install_error_handlers(app)
     faults.install(app)  # first of the middlewares: the innermost
-    routers = [module.router for module in (jobs, changes, studies, compare, systems, algorithms, health)]
+    routers = [module.router for module in (jobs, changes, external, studies, compare, systems, algorithms, health)]
     for router in routers:
         app.include_router(router)
 

@@ -373,3 +373,46 @@ class JobCheck(BaseModel):
     work: int | None = None
     max_work: int | None = None
     detail: list[dict[str, Any]] | None = None
+
+
+class ExternalLimits(BaseModel):
+    """What one batch may hold (docs/platform.md, "Limits")."""
+
+    max_body_bytes: int = Field(description="Largest request body (MGRAO_MAX_BODY_BYTES): 413 beyond.")
+    max_batch_entries: int = Field(description="Pieces of utilities, and seeds' weights, per batch.")
+    max_piece_values: int = Field(description="Episode utilities of one piece.")
+    max_pieces_per_seed: int = Field(description="Pieces one seed's episodes may come in.")
+    weights_shape: list[int] = Field(description="[n_children, n_types]: the shape of a seed's final weights.")
+
+
+class ExternalSeed(BaseModel):
+    """One seed of an external run: episodes stored so far, whether complete, whether its weights are."""
+
+    seed: int
+    episodes_stored: int
+    complete: bool
+    weights: bool
+
+
+class ExternalRunState(BaseModel):
+    """An external run (``POST /api/external-runs``, ``GET``, ``.../close``): its job and what is stored."""
+
+    job: JobOut
+    label: str
+    status: Status
+    progress: float
+    seeds_complete: int
+    values_stored: int
+    seeds: list[ExternalSeed]
+    limits: ExternalLimits
+
+
+class ExternalBatchOut(BaseModel):
+    """``POST /api/external-runs/{id}/batches``: whether the batch was a replay, what it stored, where the run is."""
+
+    replayed: bool = Field(description="True when this key's batch was already stored: nothing was stored again.")
+    values: int = Field(description="Episode utilities the batch stored (a replay: what it stored the first time).")
+    status: Status
+    progress: float
+    seeds_complete: int
+    values_stored: int

@@ -18,8 +18,10 @@ from pydantic import (
 from pydantic.json_schema import JsonSchemaValue, SkipJsonSchema
 from pydantic_core import PydanticCustomError, core_schema
 
+from backend.store.external import MAX_BATCH_ENTRIES, MAX_PIECE_VALUES
 from backend.store.models import has_nul
 from mgrao_core import MAX_ALGORITHMS, MAX_EPISODES, MAX_SEEDS, PARAMETERS, PRESETS, search
+from mgrao_core.params import PARAMETERS_BY_NAME
 from mgrao_core.spec import MAX_SEED_VALUE
 
 MAX_NAME = 200
@@ -109,7 +111,8 @@ SeedCount = Annotated[StrictInt, Field(ge=1, le=MAX_SEEDS)]
 SeedList = Annotated[list[Seed], Field(min_length=1, max_length=MAX_SEEDS)]
 ParamValue = StrictBool | StrictInt | float | ParamName | None
 Params = Annotated[dict[ParamName, ParamValue], Field(max_length=len(PARAMETERS), json_schema_extra=parameters_schema)]
-Status = Literal["queued", "running", "succeeded", "failed", "cancelled"]
+Status = Literal["queued", "running", "succeeded", "failed", "cancelled", "open"]
+Kind = Literal["simulation", "external"]
 Sort = Literal["-created_at", "created_at", "name", "-name", "status", "-status"]
 
 
@@ -164,6 +167,8 @@ class JobOut(BaseModel):
     version: str
     study_id: int | None = None
     trial_id: int | None = None
+    kind: Kind = "simulation"
+    """``simulation`` (run by the service's workers) or ``external`` (logged from outside: docs/platform.md)."""
     summaries: dict[str, dict[str, Any]] = {}
     """Per configuration, once the job succeeded (``GET /api/jobs`` and ``GET /api/jobs/{id}``): n_runs,
     final_mean, ci95, pct_from_uniform, pct_ci95, pct_of_max."""
@@ -255,3 +260,65 @@ class StudyCreate(BaseModel):
     max_trials: Annotated[StrictInt, Field(ge=1, le=search.MAX_TRIALS)] = 100
     max_in_flight: Annotated[StrictInt, Field(ge=1, le=search.MAX_IN_FLIGHT)] = 4
     seed: Annotated[StrictInt, Field(ge=0, le=2**32 - 1)] = 0
+
+
+# ---- runs logged from outside (docs/platform.md) ---------------------------------------------------------------
+
+EXTERNAL_LABEL_PATTERN = "^[a-z][a-z0-9._-]{0,31}$"
+"""An external run's label: 1-32 characters, a lowercase letter then lowercase letters, digits, ``.``, ``_``, ``-``
+(and no built-in algorithm's label: the core's grammar, checked by the route)."""
+BATCH_KEY_PATTERN = "^[A-Za-z0-9._:-]{1,64}$"
+"""A client's key of a batch or of an opening: 1-64 letters, digits, ``.``, ``_``, ``:`` or ``-``."""
+ExternalLabel = Annotated[str, StringConstraints(pattern=EXTERNAL_LABEL_PATTERN)]
+ClientKey = Annotated[str, StringConstraints(pattern=BATCH_KEY_PATTERN)]
+Utility = Annotated[float, Field(allow_inf_nan=False)]
+EpisodeIndex = Annotated[StrictInt, Field(ge=0, le=MAX_EPISODES - 1)]
+
+
+class ExternalRunCreate(BaseModel):
+    """Body of ``POST /api/external-runs``: a run's label, its world (as a job's) and its labels."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    label: ExternalLabel = Field(description="The configuration's name beside the built-in ones (never a built-in "
+                                             "algorithm's label: GET /api/algorithms).")
+    system: Label
+    params: Params = Field(default_factory=dict)
+    seeds: SeedCount | SeedList = Field(description="A count S (seeds 0 .. S-1) or the list of seeds, as a job's.")
+    episodes: Annotated[StrictInt, Field(ge=1, le=MAX_EPISODES)]
+    key: ClientKey | SkipJsonSchema[None] = Field(None, description="Opening again with the same key and definition "
+                                                                    "answers the same run (200): resume after a crash.")
+    name: Annotated[str, StringConstraints(strip_whitespace=True, max_length=MAX_NAME), NoNul()] = ""
+    tags: Annotated[list[Tag], Field(max_length=MAX_TAGS)] = Field(default_factory=list)
+    notes: Annotated[str, StringConstraints(max_length=MAX_NOTES), NoNul()] = ""
+
+
+class UtilityPiece(BaseModel):
+    """Episodes ``start .. start + len(values) - 1`` of one seed (a whole seed: start 0 and every episode)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    seed: Seed
+    start: EpisodeIndex = 0
+    values: Annotated[list[Utility], Field(min_length=1, max_length=MAX_PIECE_VALUES)]
+
+
+class SeedWeightsIn(BaseModel):
+    """One seed's final weights: per child (``n_children`` rows), its weight on each type (``n_types``)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    seed: Seed
+    weights: Annotated[list[Annotated[list[Annotated[Utility, Field(ge=0)]],
+                                      Field(min_length=1, max_length=int(PARAMETERS_BY_NAME["n_types"].maximum))]],
+                       Field(min_length=1, max_length=int(PARAMETERS_BY_NAME["n_children"].maximum))]
+
+
+class ExternalBatchIn(BaseModel):
+    """Body of ``POST /api/external-runs/{id}/batches``: pieces of episode utilities, and seeds' final weights."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    key: ClientKey = Field(description="The client's key of this batch: sent again (a retry), it stores nothing twice.")
+    utilities: Annotated[list[UtilityPiece], Field(max_length=MAX_BATCH_ENTRIES)] = Field(default_factory=list)
+    weights: Annotated[list[SeedWeightsIn], Field(max_length=MAX_BATCH_ENTRIES)] = Field(default_factory=list)

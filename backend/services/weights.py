@@ -56,6 +56,8 @@ def mean_over_seeds(session: Session, job_id: int, algorithm: str) -> dict[str, 
     groups: np.ndarray | None = None
     count = 0
     for blobs in session.execute(select(*columns).where(*of_config).execution_options(yield_per=RUN_READ_BATCH)):
+        if not blobs[0]:  # a run logged from outside without its final weights
+            continue
         values = np.frombuffer(blobs[0], dtype="<f8")
         combined = values.copy() if combined is None else combined + values
         if len(blobs) > 1:

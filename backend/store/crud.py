@@ -15,7 +15,7 @@ from sqlalchemy.orm import Session
 import mgrao_core
 from backend.errors import Conflict, NotFound
 from backend.store.job_order import parse_sort
-from backend.store.models import CANCELLED, QUEUED, RUNNING, Job, JobTag, utcnow
+from backend.store.models import CANCELLED, QUEUED, RUNNING, SIMULATION, Job, JobTag, utcnow
 from mgrao_core import ExperimentSpec
 
 
@@ -50,11 +50,12 @@ def job_dict(job: Job | Row, config: dict[str, Any] | None = None) -> dict[str, 
         "requeue_reason": job.requeue_reason,
         "created_at": iso(job.created_at), "started_at": iso(job.started_at),
         "finished_at": iso(job.finished_at), "duration_s": duration, "version": job.version,
-        "study_id": job.study_id, "trial_id": job.trial_id,
+        "study_id": job.study_id, "trial_id": job.trial_id, "kind": job.kind,
     }
 
 
-def _set_tags(session: Session, job: Job, tags: Sequence[str]) -> None:
+def set_tags(session: Session, job: Job, tags: Sequence[str]) -> None:
+    """Give ``job`` these tags (repeats dropped), for the listing's ``tag`` filter too."""
     unique = list(dict.fromkeys(tags))
     job.tags = unique
     job.tag_rows = [JobTag(tag=t) for t in unique]
@@ -67,11 +68,11 @@ def create_job(
     """Add a queued job for a validated spec (the caller commits); a study's trial names its study and trial."""
     config = spec.as_dict()
     job = Job(
-        name=name, notes=notes, system=spec.system, config=config, config_hash=config_hash(config),
+        name=name, notes=notes, system=spec.system, config=config, config_hash=config_hash(config), kind=SIMULATION,
         status=QUEUED, progress=0.0, attempts=0, version=mgrao_core.__version__, created_at=utcnow(),
         study_id=study_id, trial_id=trial_id,
     )
-    _set_tags(session, job, tags)
+    set_tags(session, job, tags)
     session.add(job)
     session.flush()
     return job
@@ -96,7 +97,7 @@ def update_job(
     if notes is not None:
         job.notes = notes
     if tags is not None:
-        _set_tags(session, job, tags)
+        set_tags(session, job, tags)
     return job
 
 
@@ -138,8 +139,10 @@ def _escape_like(text: str) -> str:
 
 
 def _filters(*, status: str | None, system: str | None, tag: str | None, q: str | None,
-             config_hash: str | None = None) -> list[ColumnElement]:
+             config_hash: str | None = None, kind: str | None = None) -> list[ColumnElement]:
     clauses: list[ColumnElement] = []
+    if kind:
+        clauses.append(Job.kind == kind)
     if config_hash:
         clauses.append(Job.config_hash == config_hash)
     if status:
@@ -162,7 +165,7 @@ def _filters(*, status: str | None, system: str | None, tag: str | None, q: str 
 
 LISTED = (Job.id, Job.name, Job.tags, Job.notes, Job.system, cast(Job.config, Text).label("config_json"),
           Job.config_hash, Job.status, Job.progress, Job.attempts, Job.error, Job.requeue_reason, Job.created_at,
-          Job.started_at, Job.finished_at, Job.version, Job.study_id, Job.trial_id)
+          Job.started_at, Job.finished_at, Job.version, Job.study_id, Job.trial_id, Job.kind)
 """The columns a listing shows: no ORM objects, and the configuration as its stored JSON text.
 
 orjson reads that text several times faster than the JSON type's ``json.loads`` (PostgreSQL's
@@ -180,15 +183,16 @@ def _config(text: str) -> dict[str, Any]:
 def list_jobs(
     session: Session, *, status: str | None = None, system: str | None = None, tag: str | None = None,
     q: str | None = None, sort: str = "-created_at", limit: int = 50, cursor: str | None = None,
-    config_hash: str | None = None,
+    config_hash: str | None = None, kind: str | None = None,
 ) -> tuple[list[dict[str, Any]], str | None, int]:
     """One page of jobs as :func:`job_dict` shows them, the next page's cursor (None at the end), the total matching.
 
     ``sort`` as :func:`backend.store.job_order.parse_sort` reads it (BadQuery naming ``sort`` or ``cursor``);
-    ``config_hash`` keeps the jobs of one configuration (system, resolved parameters, episodes).
+    ``config_hash`` keeps the jobs of one configuration (system, resolved parameters, episodes), ``kind``
+    the jobs of one kind (``simulation`` or ``external``).
     """
     order = parse_sort(sort)
-    clauses = _filters(status=status, system=system, tag=tag, q=q, config_hash=config_hash)
+    clauses = _filters(status=status, system=system, tag=tag, q=q, config_hash=config_hash, kind=kind)
     total = session.scalar(select(func.count()).select_from(Job).where(*clauses)) or 0
     statement = order.apply(select(*LISTED, order.value.label("sort_key")).where(*clauses), cursor)
     rows = session.execute(statement.limit(limit + 1)).all()

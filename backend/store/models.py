@@ -21,7 +21,12 @@ from sqlalchemy import (
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column, relationship
 
 QUEUED, RUNNING, SUCCEEDED, FAILED, CANCELLED = "queued", "running", "succeeded", "failed", "cancelled"
-STATUSES = (QUEUED, RUNNING, SUCCEEDED, FAILED, CANCELLED)
+OPEN = "open"
+"""An external run still taking batches (``POST /api/external-runs/{id}/close`` makes it ``succeeded``)."""
+STATUSES = (QUEUED, RUNNING, SUCCEEDED, FAILED, CANCELLED, OPEN)
+SIMULATION, EXTERNAL = "simulation", "external"
+KINDS = (SIMULATION, EXTERNAL)
+"""What a job is: simulated by the service's workers, or logged from outside (docs/platform.md)."""
 
 
 def utcnow() -> datetime:
@@ -82,6 +87,8 @@ class Job(Base):
                                                  index=True)
     requeue_reason: Mapped[str | None] = mapped_column(Text, nullable=True)
     """Why the job was last put back in the queue (a lost worker, a database outage), or None."""
+    kind: Mapped[str] = mapped_column(String(16), default=SIMULATION, server_default=SIMULATION)
+    """:data:`SIMULATION` (run by workers) or :data:`EXTERNAL` (logged via ``/api/external-runs``, never claimed)."""
 
     tag_rows: Mapped[list[JobTag]] = relationship(cascade="all, delete-orphan", passive_deletes=True)
 
@@ -118,6 +125,49 @@ class Run(Base):
     combined_weights: Mapped[bytes] = mapped_column(LargeBinary)
     group_weights: Mapped[bytes] = mapped_column(LargeBinary)
     group_shape: Mapped[list[int]] = mapped_column(JSON)
+
+
+class ExternalRun(Base):
+    """What an external job (``Job.kind`` external) adds to its job: the key it was opened with, if any.
+
+    ``open_key`` (unique) makes opening idempotent: the same key and definition (``definition_digest``)
+    answer the same run, so a client that died and starts again resumes its run.
+    """
+
+    __tablename__ = "external_runs"
+
+    job_id: Mapped[int] = mapped_column(ID, ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
+    open_key: Mapped[str | None] = mapped_column(String(64), nullable=True, unique=True)
+    definition_digest: Mapped[str] = mapped_column(String(64))
+
+
+class ExternalBatch(Base):
+    """A batch an external run took, by the client's key: a retried batch is recognised and not stored twice."""
+
+    __tablename__ = "external_batches"
+
+    job_id: Mapped[int] = mapped_column(ID, ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
+    batch_key: Mapped[str] = mapped_column(String(64), primary_key=True)
+    digest: Mapped[str] = mapped_column(String(64))
+    """sha256 of the batch's content: the same key with other content is refused (409)."""
+    value_count: Mapped[int] = mapped_column(Integer)
+    created_at: Mapped[datetime] = mapped_column(DateTime, default=utcnow)
+
+
+class ExternalPiece(Base):
+    """Episodes ``start .. start + count - 1`` of one seed of an external run, until the seed is complete.
+
+    Once a seed's pieces cover every episode they become its :class:`Run` (one blob, as a simulated
+    run's) and are deleted, so results and compare read external runs as they read any other.
+    """
+
+    __tablename__ = "external_pieces"
+
+    job_id: Mapped[int] = mapped_column(ID, ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
+    seed: Mapped[int] = mapped_column(BigInteger, primary_key=True)
+    start: Mapped[int] = mapped_column(Integer, primary_key=True)
+    count: Mapped[int] = mapped_column(Integer)
+    utilities: Mapped[bytes] = mapped_column(LargeBinary)
 
 
 class JobSummary(Base):

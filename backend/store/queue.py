@@ -23,7 +23,7 @@ from sqlalchemy.orm import Session
 
 from backend.store import dialect, summaries
 from backend.store.db import Database
-from backend.store.models import FAILED, QUEUED, RUNNING, SUCCEEDED, Job, Run, utcnow
+from backend.store.models import FAILED, QUEUED, RUNNING, SIMULATION, SUCCEEDED, Job, Run, utcnow
 from mgrao_core import Run as SimulatedRun
 
 
@@ -47,7 +47,7 @@ def _held(claim: Claim) -> tuple:
 
 def has_work(session: Session, *, stale_after_s: float, look_for_stale: bool = True) -> bool:
     """Whether a job is queued, or (if asked) a running job's heartbeat is stale: a read, no lock."""
-    claimable = Job.status == QUEUED
+    claimable = (Job.status == QUEUED) & (Job.kind == SIMULATION)
     if look_for_stale:
         claimable = or_(claimable, (Job.status == RUNNING) & _stale(session, stale_after_s))
     return bool(session.scalar(select(exists().where(claimable))))
@@ -61,7 +61,7 @@ def requeue_stale(session: Session, *, stale_after_s: float, max_attempts: int) 
     """
     stale = session.execute(
         select(Job.id, Job.lease, Job.attempts, Job.worker_id)
-        .where(Job.status == RUNNING, _stale(session, stale_after_s))
+        .where(Job.status == RUNNING, Job.kind == SIMULATION, _stale(session, stale_after_s))
     ).all()
     changed = []
     for job_id, lease, attempts, worker_id in stale:
@@ -95,12 +95,13 @@ def claim(db: Database, *, worker_id: str, stale_after_s: float, max_attempts: i
     with db.write() as session:
         if requeue:
             requeue_stale(session, stale_after_s=stale_after_s, max_attempts=max_attempts)
+        claimable = (Job.status == QUEUED, Job.kind == SIMULATION)  # an external job is never a worker's
         oldest = dialect.skip_locked(
-            session, select(Job.id).where(Job.status == QUEUED).order_by(Job.created_at, Job.id).limit(1)
+            session, select(Job.id).where(*claimable).order_by(Job.created_at, Job.id).limit(1)
         ).scalar_subquery()
         lease = str(uuid.uuid4())
         row = session.execute(
-            update(Job).where(Job.id == oldest, Job.status == QUEUED)
+            update(Job).where(Job.id == oldest, *claimable)
             .values(status=RUNNING, lease=lease, worker_id=worker_id, attempts=Job.attempts + 1,
                     started_at=utcnow(), heartbeat_at=dialect.db_now(session), finished_at=None)
             .returning(Job.id, Job.config, Job.attempts)

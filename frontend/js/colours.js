@@ -59,6 +59,19 @@ export function configurationStyles(keys) {
 }
 
 /**
+ * The palette slot a configuration prefers: the registry's colour key, or for a label outside the
+ * registry (a run logged from outside, docs/platform.md) a slot of its own spelling, so that it keeps
+ * its colour from view to view. The one place a label outside the registry is given a colour.
+ */
+export function labelSlot(label) {
+  const key = colourKey(label);
+  if (key !== null) return key;
+  let hash = 0;
+  for (const ch of String(label)) hash = (hash * 31 + ch.codePointAt(0)) >>> 0;
+  return hash % PALETTE.length;
+}
+
+/**
  * The styles of a job's configurations by algorithm label, in the job page's order (the registry's
  * sort keys), each in its registry colour when free: what the job page, its weights, the paper view
  * and a compare of that job all use, so that a configuration keeps its colour from view to view.
@@ -66,6 +79,6 @@ export function configurationStyles(keys) {
  */
 export function algorithmStyles(algorithms) {
   const labels = sortLabels([...new Set(algorithms || [])]);
-  const styles = slotStyles(labels.map(colourKey));
+  const styles = slotStyles(labels.map(labelSlot));
   return Object.fromEntries(labels.map((label, i) => [label, styles[i]]));
 }

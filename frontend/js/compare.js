@@ -3,7 +3,7 @@
 // #/compare?jobs=1,2&smooth=5&groups=<key>,<key>&bands=0  (groups absent = all shown; bands=0: no 95% bands).
 
 import { api } from './api.js';
-import { h, notice, nextId } from './ui.js';
+import { h, notice, nextId, kindBadge } from './ui.js';
 import { draw, purge, loadPlotly, meanBandTraces, utilityLayout, pctBarTrace, bandsBelow, bandAlpha } from './charts.js';
 import { parseIds, badIds, DEFINITIONS, groupKey, pctErrorBars, fmtNumber, fmtPct, fmtCI, seedCount, smoothingNote, episodesPerPoint, bandCaution } from './stats.js';
 import { compareLabels, ready, remember } from './algorithms.js';
@@ -50,7 +50,7 @@ export async function mount(root, params, ctx) {
         const ids = parseIds(idsIn.value).filter((x) => x !== j.id);
         if (e.target.checked) ids.push(j.id);
         idsIn.value = ids.join(', ');
-      } }), h('label', { for: cbId }, `#${j.id} ${j.name || ''} (${j.system}, ${seedCount(j)} seeds × ${j.episodes})`));
+      } }), h('label', { for: cbId }, `#${j.id} ${j.name || ''} (${j.system}, ${seedCount(j)} seeds × ${j.episodes})`, kindBadge(j)));
     }));
     picker.append(h('details', { open: state.jobs.length === 0 }, h('summary', {}, 'Recent succeeded jobs'), list));
   }).catch(() => {});
@@ -85,7 +85,8 @@ export async function mount(root, params, ctx) {
     return () => { stopped = true; };
   }
   const configs = configurations(data.jobs);
-  const labels = groupLabels(groups, configs);
+  const external = new Set(data.jobs.filter((j) => j.kind === 'external').map((j) => j.id));
+  const labels = groupLabels(groups, configs).map((l, i) => (groups[i].job_ids.some((id) => external.has(id)) ? `${l} · external` : l));
   const styles = lineStyles(groups, data.jobs);
   const systems = facets(groups);
   const keys = groups.map(groupKey);

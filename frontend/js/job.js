@@ -67,7 +67,7 @@ export async function mount(root, params, ctx) {
         } }, 'Cancel job')
         : null,
       job.status === 'succeeded' ? h('a', { class: 'button secondary', href: `#/compare?jobs=${job.id}` }, 'Open in compare') : null,
-      h('a', { class: 'button secondary', href: `#/new?clone=${job.id}`, id: 'clone-job' }, 'Clone into a new experiment'),
+      job.kind === 'external' ? null : h('a', { class: 'button secondary', href: `#/new?clone=${job.id}`, id: 'clone-job' }, 'Clone into a new experiment'),
       job.study_id ? h('a', { class: 'button secondary', href: `#/studies/${job.study_id}` }, `Its study (${job.study_id})`) : null,
     ].filter(Boolean));
   }

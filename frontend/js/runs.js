@@ -6,7 +6,7 @@ import { fmtDate, fmtDuration, seedCount, parseTags } from './stats.js';
 import { ready, sortLabels } from './algorithms.js';
 import { columnsFromQuery, sortKey, nextSort, sortState, cellText, cellInterval, refreshLimit, sameJob, progressOnly } from './runcolumns.js';
 
-const STATUSES = ['queued', 'running', 'succeeded', 'failed', 'cancelled'];
+const STATUSES = ['queued', 'running', 'succeeded', 'failed', 'cancelled', 'open'];
 const SORTS = [
   ['-created_at', 'Newest first'], ['created_at', 'Oldest first'], ['name', 'Name A–Z'],
   ['-name', 'Name Z–A'], ['status', 'Status A–Z'], ['-status', 'Status Z–A'],

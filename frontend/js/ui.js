@@ -34,16 +34,26 @@ export function nextId(prefix = 'id') {
   return `${prefix}-${uid}`;
 }
 
-/** Status badge, with a progress bar and spinner for running/queued jobs. */
+/** Status badge, with a progress bar and spinner for running/queued jobs and open external runs. */
 export function statusCell(job) {
   const badge = h('span', { class: `badge status-${job.status}` },
     job.status === 'running' ? h('span', { class: 'spinner', 'aria-hidden': 'true' }) : null,
     job.status);
-  if (job.status !== 'running' && job.status !== 'queued') return badge;
+  const kind = kindBadge(job);
+  if (job.status !== 'running' && job.status !== 'queued' && job.status !== 'open') {
+    return kind ? h('span', { class: 'status-progress' }, badge, kind) : badge;
+  }
   const pct = pctProgress(job.progress);
-  return h('div', { class: 'status-progress' }, badge,
+  return h('div', { class: 'status-progress' }, badge, kind,
     h('progress', { max: 100, value: pct, 'aria-label': `Job ${job.id} progress` }),
     h('span', { class: 'pct' }, `${pct}%`));
+}
+
+/** The mark of a run logged from outside (docs/platform.md), or null for a job the service simulated. */
+export function kindBadge(job) {
+  return job.kind === 'external'
+    ? h('span', { class: 'badge kind-external', title: 'Logged from outside (POST /api/external-runs), not simulated here' }, 'external')
+    : null;
 }
 
 export function jobMeta(job) {

@@ -240,3 +240,48 @@ def test_jobs_that_succeeded_before_summaries_were_stored_get_them_from_their_ru
             assert summaries.compute(session, 1)["mgrao-max"].final_mean == written[(1, "mgrao-max")]
     finally:
         db.dispose()
+
+
+def _alembic(db_url: str, action, revision: str) -> None:
+    engine = create_engine(db_url)
+    config = alembic_config()
+    with engine.connect() as connection:
+        config.attributes["connection"] = connection
+        action(config, revision)
+        connection.commit()
+    engine.dispose()
+
+
+def test_jobs_stored_before_external_runs_are_simulations_and_downgrade_drops_external_runs(db_url: str) -> None:
+    _alembic(db_url, command.upgrade, "0008")
+    engine = create_engine(db_url)
+    with engine.begin() as connection:
+        _insert_job(connection, LEGACY["jobs"][0]["config"], LEGACY["jobs"][0]["config_hash"], "old",
+                    datetime(2026, 11, 3))
+    engine.dispose()
+    db = Database(db_url)
+    db.migrate()
+    try:
+        with db.session() as session:
+            assert session.execute(text("SELECT kind FROM jobs")).scalars().all() == ["simulation"]
+        from backend.store import external
+
+        config = make_spec("single", seeds=1, episodes=1).as_dict() | {"algorithms": ["mine"]}
+        with db.write() as session:
+            job, created = external.open_run(session, config=config, name="", tags=["t"], notes="", open_key="k")
+            external.append_batch(session, job_id=job.id, key="b", digest="d",
+                                  pieces=[external.Piece(0, 0, np.array([1.0]))], weights=[])
+        assert created and job.kind == "external"
+        _alembic(db_url, command.downgrade, "0008")  # the external run goes: no earlier revision tells it apart
+        with db.session() as session:
+            assert session.execute(text("SELECT name FROM jobs")).scalars().all() == ["old"]
+            assert session.execute(text("SELECT count(*) FROM runs")).scalar() == 0
+            assert session.execute(text("SELECT count(*) FROM job_tags")).scalar() == 0
+            tables = sa.inspect(session.get_bind()).get_table_names()
+        assert not {"external_runs", "external_batches", "external_pieces"} & set(tables)
+        db.dispose()
+        db.migrate()
+        with db.session() as session:
+            assert session.execute(text("SELECT kind FROM jobs")).scalars().all() == ["simulation"]
+    finally:
+        db.dispose()

@@ -23,7 +23,7 @@ from backend.api.validation import validation_details
 from backend.errors import InvalidSpec
 from backend.execution import presence
 from backend.store import crud
-from backend.store.models import MAX_JOB_ID, QUEUED, RUNNING, Job, Run
+from backend.store.models import MAX_JOB_ID, OPEN, QUEUED, RUNNING, Job, Run
 from mgrao_core import MAX_WORK, ConfigError, make_spec
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
@@ -37,7 +37,7 @@ def jobs_token(session: Session) -> tuple[str, dict[str, int]]:
     """A token of the jobs' state and the queue's counts (jobs per status).
 
     The token moves when a job is submitted or deleted (count and highest id per status), changes
-    status, or when a queued or running job's progress or attempt count moves. Two index scans of
+    status, or when a queued, running or open (external) job's progress or attempt count moves. Two index scans of
     ``ix_jobs_status_created`` and a read of the active jobs' rows: no job's config or runs are read.
     A name, tags or notes edit does not move it.
     """
@@ -45,7 +45,8 @@ def jobs_token(session: Session) -> tuple[str, dict[str, int]]:
         select(Job.status, func.count(), func.max(Job.id)).group_by(Job.status).order_by(Job.status)
     ).all()
     active = session.execute(
-        select(func.count(), func.sum(Job.progress), func.sum(Job.attempts)).where(Job.status.in_((QUEUED, RUNNING)))
+        select(func.count(), func.sum(Job.progress), func.sum(Job.attempts))
+        .where(Job.status.in_((QUEUED, RUNNING, OPEN)))
     ).one()
     state = repr(([tuple(row) for row in per_status], tuple(active)))
     token = hashlib.blake2b(state.encode(), digest_size=TOKEN_CHARS // 2).hexdigest()

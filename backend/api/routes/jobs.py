@@ -15,7 +15,7 @@ from sqlalchemy import select
 
 from backend.api.deps import Authorized, DatabaseDep, SessionDep, SettingsDep
 from backend.api.responses import LOCATION, EpisodeRow, Results, Weights, answers, links
-from backend.api.schemas import JobCreate, JobOut, JobPage, JobPatch, Status, Text
+from backend.api.schemas import JobCreate, JobOut, JobPage, JobPatch, Kind, Status, Text
 from backend.errors import BadQuery, InvalidSpec
 from backend.services import analysis, studies, weights
 from backend.services.cache import SharedBuilds
@@ -69,6 +69,7 @@ async def list_jobs(
     tag: Annotated[Text | None, Query(max_length=50)] = None,
     q: Annotated[Text | None, Query(max_length=200, description="Text in name, notes or tags.")] = None,
     config_hash: Annotated[Text | None, Query(max_length=64, description=CONFIG_HASH_HELP)] = None,
+    kind: Annotated[Kind | None, Query(description="Only simulated jobs, or only runs logged from outside.")] = None,
     sort: Annotated[Text, Query(max_length=80, description=SORT_HELP)] = "-created_at",
     limit: Annotated[int, Query(ge=1, le=200)] = 50,
     cursor: Annotated[Text | None, Query(max_length=500)] = None,
@@ -84,7 +85,7 @@ async def list_jobs(
                                       f"system's paper_config_hash in GET /api/systems), got {len(config_hash)} "
                                       "characters" + ("" if len(config_hash) != 64 else " that are not all 0-9a-f"))
     listing = {"status": status, "system": system, "tag": tag, "q": q, "sort": sort, "limit": limit, "cursor": cursor,
-               "config_hash": config_hash}
+               "config_hash": config_hash, "kind": kind}
 
     def build() -> bytes:
         with db.session() as session:

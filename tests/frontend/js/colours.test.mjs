@@ -1,7 +1,7 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { readFileSync } from 'node:fs';
-import { configurationStyles, algorithmStyles, slotStyles, PALETTE } from '../../../frontend/js/colours.js';
+import { configurationStyles, algorithmStyles, slotStyles, labelSlot, PALETTE } from '../../../frontend/js/colours.js';
 import { remember, forget } from '../../../frontend/js/algorithms.js';
 
 const FIXTURE = JSON.parse(readFileSync(new URL('./algorithms.fixture.json', import.meta.url)));
@@ -46,4 +46,17 @@ test('algorithmStyles: the job page order and the registry colours, the same whe
   assert.equal(new Set(Object.values(large).map((x) => x.color)).size, 7);
   assert.ok(Object.values(large).every((x) => x.dash === 'solid'));
   assert.deepEqual(algorithmStyles(['uniform', 'mgrao-1:1', 'mgrao-5:1', 'mgrao-10:1', 'mgrao-max']), s);
+});
+
+test('labelSlot: the registry colour key, and for a label outside the registry a slot of its spelling', () => {
+  forget();
+  remember(FIXTURE.descriptions);
+  assert.equal(labelSlot('uniform'), 0);
+  const slot = labelSlot('my-learner');
+  assert.ok(Number.isInteger(slot) && slot >= 0 && slot < PALETTE.length);
+  assert.equal(labelSlot('my-learner'), slot); // the same in every view
+  assert.notEqual(labelSlot('my-learner'), labelSlot('other-learner'));
+  const styles = algorithmStyles(['uniform', 'my-learner']);
+  assert.equal(styles.uniform.color, PALETTE[0]); // a built-in keeps its slot beside it
+  forget();
 });
