@@ -10,12 +10,12 @@ the wrong shape. What depends on what is stored (a conflict, 409) is :mod:`backe
 from __future__ import annotations
 
 import hashlib
-from typing import Any
+from collections.abc import Sequence
+from typing import Any, Protocol
 
 import numpy as np
 import orjson
 
-from backend.api.schemas import ExternalBatchIn, ExternalRunCreate
 from backend.errors import InvalidSpec
 from backend.store.external import Piece
 from mgrao_core import MAX_RESULT_BYTES, ConfigError, make_params
@@ -23,6 +23,42 @@ from mgrao_core.algorithms import parse_algorithm
 from mgrao_core.presets import get_preset
 
 _F = 8  # bytes of a stored float64
+
+
+class RunDefinition(Protocol):
+    """An opening's definition as the API has parsed it (``POST /api/external-runs``)."""
+
+    label: str
+    system: str
+    params: dict[str, Any]
+    seeds: int | list[int]
+    episodes: int
+
+
+class UtilityPiece(Protocol):
+    """Consecutive episode utilities of one seed, from episode ``start``."""
+
+    seed: int
+    start: int
+    values: list[float]
+
+
+class SeedWeights(Protocol):
+    """A seed's final weights, a row per child."""
+
+    seed: int
+    weights: list[list[float]]
+
+
+class Batch(Protocol):
+    """A batch as the API has parsed it (``POST /api/external-runs/{id}/batches``)."""
+
+    utilities: Sequence[UtilityPiece]
+    weights: Sequence[SeedWeights]
+
+    def model_dump(self, *, mode: str, exclude: set[str]) -> dict[str, Any]:
+        """Its content as JSON-ready data (what the digest is taken of)."""
+        ...
 
 
 def check_label(label: str) -> None:
@@ -39,7 +75,7 @@ def check_label(label: str) -> None:
                       "external run needs a label of its own, e.g. 'my-learner'")
 
 
-def external_config(body: ExternalRunCreate) -> dict[str, Any]:
+def external_config(body: RunDefinition) -> dict[str, Any]:
     """The job configuration of an external run: a simulated job's, with the label as its one algorithm.
 
     The system and parameters go through the core's ``make_params`` on the preset's, as a job's do, so
@@ -69,7 +105,7 @@ def external_config(body: ExternalRunCreate) -> dict[str, Any]:
             "episodes": body.episodes}
 
 
-def batch_content(body: ExternalBatchIn, config: dict[str, Any]) -> tuple[str, list[Piece], list[tuple[int, Any]]]:
+def batch_content(body: Batch, config: dict[str, Any]) -> tuple[str, list[Piece], list[tuple[int, Any]]]:
     """A batch's digest, pieces and weights, checked against the run's definition ``config``.
 
     Raises:
