@@ -82,6 +82,10 @@ class Job(Base):
                                                  index=True)
     requeue_reason: Mapped[str | None] = mapped_column(Text, nullable=True)
     """Why the job was last put back in the queue (a lost worker, a database outage), or None."""
+    work: Mapped[int | None] = mapped_column(BigInteger, nullable=True)
+    """The atomic tasks the job simulates (``ExperimentSpec.work``): small jobs are claimed in batches.
+
+    None for jobs stored before migration 0009: those are claimed one at a time."""
 
     tag_rows: Mapped[list[JobTag]] = relationship(cascade="all, delete-orphan", passive_deletes=True)
 
