@@ -91,8 +91,8 @@ class Worker:
         """``call()``, retried on database errors until it succeeds (see :mod:`backend.store.retry`)."""
         return self.lifecycle.persist(call, what)
 
-    def run_once(self) -> bool:
-        """Claim and run one job, or a batch of small ones; False when the queue was empty."""
+    def run_once(self) -> int:
+        """Claim and run one job, or a batch of small ones; how many (0: the queue was empty)."""
         try:
             claims = self.lifecycle.claim_batch(requeue=self.lifecycle.may_requeue())
         except Exception:
@@ -100,7 +100,7 @@ class Worker:
             raise
         self.health.success()
         if not claims:
-            return False
+            return 0
         try:
             if len(claims) == 1 and not self.small(claims[0]):
                 self.execute(claims[0])
@@ -108,7 +108,7 @@ class Worker:
                 self.execute_batch(claims)
         except Stopping as error:
             log.warning("jobs %s left to their leases: %s", [c.job_id for c in claims], error)
-        return True
+        return len(claims)
 
     def small(self, claim: queue.Claim) -> bool:
         """Whether a claimed job is small (``MGRAO_SMALL_JOB_WORK``): it runs as a batch, on one numba thread."""
