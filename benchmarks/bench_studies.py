@@ -273,21 +273,24 @@ def rest_rate(base: str, n: int, *, batch: int = 0, connections: int = 16) -> fl
 
 
 def cancel_delay(client: httpx.Client) -> tuple[float, int]:
-    """(seconds from a running study's cancel answered to none of its jobs running, trials ended after it)."""
+    """(seconds from a running study's cancel answered to none of its jobs running, its jobs succeeded after it)."""
     study_id = client.post("/api/studies", json=random_study(2000, 7)).json()["study"]["id"]
     while client.get(f"/api/studies/{study_id}", params={"trials": "false"}).json()["study"]["trials"].get(
             "succeeded", 0) < 200:
         time.sleep(0.01)
+    tag = f"study-{study_id}"
+
+    def stored() -> int:
+        return client.get("/api/jobs", params={"status": "succeeded", "tag": tag, "limit": 1}).json()["count"]
+
     client.post(f"/api/studies/{study_id}/cancel", headers={"Content-Type": "application/json"}).raise_for_status()
     t = time.perf_counter()
-    done_then = client.get(f"/api/studies/{study_id}", params={"trials": "false"}).json()["study"]["trials"]
-    tag = f"study-{study_id}"
+    done_then = stored()
     while client.get("/api/jobs", params={"status": "running", "tag": tag, "limit": 1}).json()["count"]:
         time.sleep(0.005)
     delay = time.perf_counter() - t
     time.sleep(1)
-    jobs_after = client.get("/api/jobs", params={"status": "succeeded", "tag": tag, "limit": 1}).json()["count"]
-    return delay, jobs_after - done_then.get("succeeded", 0)
+    return delay, stored() - done_then
 
 
 def spread(values: list[float], unit: str = "/s", digits: int = 0) -> str:
@@ -346,8 +349,8 @@ def versus_optuna(args: argparse.Namespace) -> None:
                             print(f"round {round_ + 1}: c. {n} small jobs over REST, 16 connections: {rest:.0f} "
                                   f"jobs/s; in batches of 100 (4 connections): {batched:.0f} jobs/s", flush=True)
                             print(f"round {round_ + 1}: d. cancel: no job of the study running "
-                                  f"{delay * 1000:.0f} ms after the cancel's answer; {after} trial jobs were "
-                                  f"stored after it (in the batch being stored)", flush=True)
+                                  f"{delay * 1000:.0f} ms after the cancel's answer; {after} of its jobs succeeded "
+                                  f"after it", flush=True)
                 finally:
                     stop(process, timeout=30)
                     log.close()
