@@ -12,9 +12,11 @@ import signal
 from collections import Counter
 
 import pytest
-from backend_helpers import JSON, Service
+from backend_helpers import JSON, Service, drain
+from fastapi.testclient import TestClient
 from sqlalchemy import func, select
 
+from backend.execution.worker import Worker
 from backend.store.db import Database
 from backend.store.models import Job, Run, Trial
 
@@ -146,3 +148,15 @@ def test_cancelling_a_study_of_small_trials_stops_its_batches(service: Service, 
     assert distinct == total
     assert service.get(f"/api/studies/{study_id}").json()["study"]["status"] == "cancelled"
     assert _succeeded(service) == stored  # still: nothing ran on
+
+
+def test_a_batch_submit_queues_every_job_or_none(client: TestClient, worker: Worker, db_url: str) -> None:
+    answer = client.post("/api/jobs/batch", headers=JSON, json={"jobs": [SMALL | {"name": f"j{i}"} for i in range(5)]})
+    assert answer.status_code == 202, answer.text
+    assert [job["name"] for job in answer.json()["data"]] == [f"j{i}" for i in range(5)]
+    bad = client.post("/api/jobs/batch", headers=JSON,
+                      json={"jobs": [SMALL, SMALL | {"params": {"learning_rate": -1}}]})
+    assert bad.status_code == 422 and bad.json()["detail"][0]["loc"][:3] == ["body", "jobs", 1], bad.text
+    assert drain(worker) == 5  # one batch: nothing of the refused request was queued
+    per_job, distinct, total = _runs(db_url)
+    assert per_job == dict.fromkeys((job["id"] for job in answer.json()["data"]), 2) and distinct == total == 10
