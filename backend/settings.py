@@ -26,6 +26,11 @@ class Settings(BaseSettings):
     heartbeat_s: float = Field(5.0, gt=0, description="Seconds between a worker's heartbeats.")
     progress_s: float = Field(1.0, gt=0, description="Smallest interval between progress writes.")
     poll_s: float = Field(0.25, gt=0, description="Idle worker's polling interval for new jobs.")
+    batch_jobs: int = Field(64, ge=1, le=1000,
+                            description="Small jobs a worker claims, runs and stores at once (1: one at a time).")
+    small_job_work: int = Field(200_000, ge=0, le=10**12,
+                                description="Atomic tasks (seeds x algorithms x episodes x parents x types per "
+                                            "composite) up to which a job is small, and claimed in batches.")
     max_attempts: int = Field(3, ge=1, le=100, description="Claims of a job before a lost worker fails it.")
     max_body_bytes: int = Field(65536, ge=1024, description="Largest accepted request body (413 beyond).")
     job_memory_mib: int = Field(

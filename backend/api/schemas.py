@@ -131,6 +131,18 @@ class JobCreate(BaseModel):
     notes: Annotated[str, StringConstraints(max_length=MAX_NOTES), NoNul()] = ""
 
 
+MAX_BATCH_JOBS = 200
+"""Jobs of one ``POST /api/jobs/batch`` at most (the body limit, ``MGRAO_MAX_BODY_BYTES``, holds too)."""
+
+
+class JobBatchCreate(BaseModel):
+    """Body of ``POST /api/jobs/batch``: many jobs, each as ``POST /api/jobs`` takes it, queued in one transaction."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    jobs: Annotated[list[JobCreate], Field(min_length=1, max_length=MAX_BATCH_JOBS)]
+
+
 class JobPatch(BaseModel):
     """Body of ``PATCH /api/jobs/{id}``: any of the labels."""
 
@@ -179,6 +191,13 @@ class JobPage(BaseModel):
 
     data: list[JobOut]
     next_cursor: str | None
+    count: int
+
+
+class JobBatch(BaseModel):
+    """The answer of ``POST /api/jobs/batch``: the queued jobs, in the order submitted."""
+
+    data: list[JobOut]
     count: int
 
 

@@ -25,8 +25,9 @@ from mgrao_core import ExperimentSpec, MgraoError, NumericalError, plan_chunks, 
 log = logging.getLogger("mgrao.lifecycle")
 T = TypeVar("T")
 
-Ended = Callable[[Database, int], None]
-"""Told that a job ended (succeeded, failed, cancelled or taken over): the database and the job's id."""
+Ended = Callable[[Database, Sequence[int]], None]
+"""Told that jobs ended (succeeded, failed, cancelled or taken over): the database and the jobs' ids (a batch's
+jobs are told at once, so that a study advances once per batch)."""
 
 
 @dataclass(frozen=True)
@@ -86,6 +87,46 @@ class Lifecycle:
         return queue.claim(self.db, worker_id=self.owner_id, stale_after_s=self.settings.stale_after_s,
                            max_attempts=self.settings.max_attempts, requeue=requeue)
 
+    def claim_batch(self, *, requeue: bool) -> list[queue.Claim]:
+        """Take the oldest queued job and, if it is small, the next small ones (:func:`queue.claim_batch`)."""
+        return queue.claim_batch(self.db, worker_id=self.owner_id, stale_after_s=self.settings.stale_after_s,
+                                 max_attempts=self.settings.max_attempts, requeue=requeue,
+                                 small_work=self.settings.small_job_work, limit=self.settings.batch_jobs)
+
+    def plan_batch(self, claims: Sequence[queue.Claim]) -> dict[int, Plan | MgraoError]:
+        """:meth:`plan` of many jobs, their stored runs read in one query; a job no longer valid maps to its error."""
+        budget = self.settings.job_memory_bytes
+        specs: dict[int, ExperimentSpec | MgraoError] = {}
+        for claim in claims:
+            try:
+                specs[claim.job_id] = spec_from_dict(claim.config, memory_budget=budget)
+            except MgraoError as error:
+                specs[claim.job_id] = error
+        wanted = {job_id: len(spec.algorithms) for job_id, spec in specs.items() if isinstance(spec, ExperimentSpec)}
+
+        def read() -> dict[int, set[int]]:
+            with self.db.session() as session:
+                return queue.stored_seeds_of(session, algorithms=wanted)
+
+        done = self.persist(read, "reading stored runs") if wanted else {}
+        plans: dict[int, Plan | MgraoError] = {}
+        for job_id, spec in specs.items():
+            if isinstance(spec, MgraoError):
+                plans[job_id] = spec
+                continue
+            missing = tuple(seed for seed in spec.seeds if seed not in done.get(job_id, ()))
+            plans[job_id] = Plan(spec, len(spec.seeds) - len(missing), plan_chunks(spec, missing, budget=budget))
+        return plans
+
+    def finish_batch(self, completed: Sequence[queue.Completed]) -> dict[int, str]:
+        """Store many completed jobs' runs and mark them succeeded in one transaction (:func:`queue.finish_batch`)."""
+        return self.persist(lambda: queue.finish_batch(self.db, completed=completed),
+                            f"storing a batch of {len(completed)} jobs")
+
+    def release_many(self, claims: Sequence[queue.Claim]) -> None:
+        """Hand jobs back to the queue in one transaction (the process is stopping); their stored runs stay."""
+        self.persist(lambda: queue.release_many(self.db, claims=claims), f"handing back {len(claims)} jobs")
+
     def plan(self, claim: queue.Claim) -> Plan:
         """The job's configuration, validated again, and its seeds not yet stored, in chunks the job budget holds.
 
@@ -123,10 +164,12 @@ class Lifecycle:
         """Hand the job back to the queue (the process is stopping); its stored runs stay."""
         self.persist(lambda: queue.release(self.db, claim=claim), f"handing back job {claim.job_id}")
 
-    def ended(self, job_id: int) -> None:
-        """Tell every subscriber that the job ended; a subscriber's failure is logged, never raised."""
+    def ended(self, *job_ids: int) -> None:
+        """Tell every subscriber that the jobs ended; a subscriber's failure is logged, never raised."""
+        if not job_ids:
+            return
         for subscriber in self.on_ended:
             try:
-                subscriber(self.db, job_id)
+                subscriber(self.db, job_ids)
             except Exception:  # noqa: BLE001 - a subscriber never stops a process that runs jobs
-                log.warning("a subscriber to the end of job %s failed", job_id, exc_info=True)
+                log.warning("a subscriber to the end of jobs %s failed", list(job_ids), exc_info=True)

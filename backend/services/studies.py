@@ -15,6 +15,7 @@ Trial states: ``pending`` (no job yet: waiting for a place in flight), ``queued`
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import threading
@@ -22,7 +23,8 @@ from collections import defaultdict
 from collections.abc import Sequence
 from typing import Any
 
-from sqlalchemy import delete, func, select, update
+import orjson
+from sqlalchemy import delete, func, insert, select, update
 from sqlalchemy.orm import Session
 
 import mgrao_core
@@ -55,8 +57,13 @@ ENDED = (SUCCEEDED, FAILED, CANCELLED)
 
 
 def plan_of(study: Study) -> StudyPlan:
-    """The study's validated definition."""
-    return make_plan(study.definition)
+    """The study's validated definition (validated once per definition and process: a definition never changes)."""
+    return _plan(orjson.dumps(study.definition, option=orjson.OPT_SORT_KEYS))
+
+
+@functools.lru_cache(maxsize=64)
+def _plan(definition: bytes) -> StudyPlan:
+    return make_plan(orjson.loads(definition))
 
 
 def get_study(session: Session, study_id: int) -> Study:
@@ -92,6 +99,8 @@ def _outcomes(session: Session, study: Study, plan: StudyPlan) -> dict[int, dict
     for row in session.execute(select(Job.id, Job.trial_id, Job.system, Job.status, Job.error)
                                .where(Job.trial_id.in_([t.id for t in trials]))):
         jobs[row.trial_id].append(row)
+    succeeded = [j.id for trial in trials for j in jobs[trial.id] if j.status == SUCCEEDED]
+    stored = job_results.config_summaries(session, succeeded)  # written when each job succeeded
     outcomes = {}
     for trial in trials:
         statuses = {j.status for j in jobs[trial.id]}
@@ -99,7 +108,7 @@ def _outcomes(session: Session, study: Study, plan: StudyPlan) -> dict[int, dict
             outcomes[trial.id] = {"status": FAILED, "error": "its jobs were deleted"}
             continue
         if statuses == {SUCCEEDED}:
-            summaries = {j.system: job_results.compute(session, j.id) for j in jobs[trial.id]}
+            summaries = {j.system: stored.get(j.id) or job_results.compute(session, j.id) for j in jobs[trial.id]}
             value, interval = evaluate(plan, trial.params, summaries)
             runs = sum(s.n_runs for summary in summaries.values() for s in summary.values())
             outcomes[trial.id] = {"status": SUCCEEDED, "value": _finite(value),
@@ -215,13 +224,34 @@ def _fill(session: Session, study: Study, plan: StudyPlan, made: int, suggestion
         changed = True
     if room <= 0 or _made(session, study.id) != made:  # someone made trials since the suggestions
         return changed
-    for number, params in enumerate(suggestions[:room], start=made):
-        trial = Trial(study_id=study.id, number=number, params=params, status=PENDING, runs=0, created_at=utcnow())
-        session.add(trial)
-        session.flush()
-        _submit(session, study, plan, trial)
-        changed = True
-    return changed
+    _make_trials(session, study, plan, list(enumerate(suggestions[:room], start=made)))
+    return changed or bool(suggestions[:room])
+
+
+def _make_trials(session: Session, study: Study, plan: StudyPlan, numbered: list[tuple[int, dict[str, Any]]]) -> None:
+    """New trials with their jobs, in a few statements (a batch of suggestions at once); as :func:`_submit` each."""
+    if not numbered:
+        return
+    now = utcnow()
+    rows, specs = [], []
+    for number, params in numbered:
+        try:
+            trial_specs = plan.specs(params)
+        except ConfigError as error:
+            rows.append({"study_id": study.id, "number": number, "params": params, "status": FAILED,
+                         "error": f"not a valid experiment: {error}", "runs": 0, "created_at": now,
+                         "finished_at": now})
+            specs.append([])
+            continue
+        rows.append({"study_id": study.id, "number": number, "params": params, "status": QUEUED, "runs": 0,
+                     "created_at": now})
+        specs.append(trial_specs)
+    ids = list(session.scalars(insert(Trial).returning(Trial.id, sort_by_parameter_order=True), rows))
+    name = study.name or "study"
+    crud.create_jobs(session, jobs=[
+        {"spec": spec, "name": f"{name} #{number}", "tags": [f"study-{study.id}"], "study_id": study.id,
+         "trial_id": trial_id}
+        for trial_id, (number, _), trial_specs in zip(ids, numbered, specs, strict=True) for spec in trial_specs])
 
 
 def _submit(session: Session, study: Study, plan: StudyPlan, trial: Trial) -> None:
@@ -248,20 +278,21 @@ def _update_best(session: Session, study: Study, plan: StudyPlan) -> None:
     study.best_trial, study.best_value = (best.number, best.value) if best else (None, None)
 
 
-def advance_for_job(db: Database, job_id: int) -> None:
-    """Advance the study of a job, if it has one (called when the job ended)."""
+def advance_for_jobs(db: Database, job_ids: Sequence[int]) -> None:
+    """Advance the studies of jobs that ended, each study once however many of its jobs ended."""
     with db.session() as session:
-        study_id = session.scalar(select(Job.study_id).where(Job.id == job_id))
-    if study_id is not None:
+        study_ids = sorted(set(session.scalars(select(Job.study_id).where(Job.id.in_(list(job_ids)),
+                                                                          Job.study_id.is_not(None)))))
+    for study_id in study_ids:
         advance(db, study_id)
 
 
-def advance_after(db: Database, job_id: int) -> None:
-    """Advance the study of a job that just ended; a failure here is left to the :class:`StudyDriver`."""
+def advance_after(db: Database, job_ids: Sequence[int]) -> None:
+    """Advance the studies of jobs that just ended; a failure here is left to the :class:`StudyDriver`."""
     try:
-        advance_for_job(db, job_id)
+        advance_for_jobs(db, job_ids)
     except Exception:  # noqa: BLE001 - the driver advances the study on its next round
-        log.warning("advancing the study of job %s failed; the study driver will", job_id, exc_info=True)
+        log.warning("advancing the studies of jobs %s failed; the study driver will", list(job_ids), exc_info=True)
 
 
 def advance_study_quietly(db: Database, study_id: int) -> None:

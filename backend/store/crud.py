@@ -9,7 +9,7 @@ from datetime import datetime
 from typing import Any
 
 import orjson
-from sqlalchemy import ColumnElement, Row, Text, cast, delete, func, or_, select, update
+from sqlalchemy import ColumnElement, Row, Text, cast, delete, func, insert, or_, select, update
 from sqlalchemy.orm import Session
 
 import mgrao_core
@@ -70,12 +70,38 @@ def create_job(
     job = Job(
         name=name, notes=notes, system=spec.system, config=config, config_hash=config_hash(config), kind=SIMULATION,
         status=QUEUED, progress=0.0, attempts=0, version=mgrao_core.__version__, created_at=utcnow(),
-        study_id=study_id, trial_id=trial_id,
+        study_id=study_id, trial_id=trial_id, work=spec.work,
     )
     set_tags(session, job, tags)
     session.add(job)
     session.flush()
     return job
+
+
+def create_jobs(session: Session, *, jobs: Sequence[dict[str, Any]]) -> list[int]:
+    """Add many queued jobs in two statements (the caller commits); their ids, in order.
+
+    Each item holds ``spec`` (validated) and, as :func:`create_job` takes them, ``name``, ``tags``,
+    ``notes``, ``study_id`` and ``trial_id``: each job is the same as :func:`create_job` makes.
+    """
+    if not jobs:
+        return []
+    now, version = utcnow(), mgrao_core.__version__
+    rows, tags = [], []
+    for item in jobs:
+        spec = item["spec"]
+        config = spec.as_dict()
+        unique = list(dict.fromkeys(item.get("tags", ())))
+        tags.append(unique)
+        rows.append({"name": item.get("name", ""), "tags": unique, "notes": item.get("notes", ""),
+                     "system": spec.system, "config": config, "config_hash": config_hash(config), "status": QUEUED,
+                     "progress": 0.0, "attempts": 0, "version": version, "created_at": now,
+                     "study_id": item.get("study_id"), "trial_id": item.get("trial_id"), "work": spec.work})
+    ids = list(session.scalars(insert(Job).returning(Job.id, sort_by_parameter_order=True), rows))
+    tag_rows = [{"job_id": job_id, "tag": tag} for job_id, unique in zip(ids, tags, strict=True) for tag in unique]
+    if tag_rows:
+        session.execute(insert(JobTag), tag_rows)
+    return ids
 
 
 def get_job(session: Session, *, job_id: int) -> Job:

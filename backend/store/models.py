@@ -89,6 +89,10 @@ class Job(Base):
     """Why the job was last put back in the queue (a lost worker, a database outage), or None."""
     kind: Mapped[str] = mapped_column(String(16), default=SIMULATION, server_default=SIMULATION)
     """:data:`SIMULATION` (run by workers) or :data:`EXTERNAL` (logged via ``/api/external-runs``, never claimed)."""
+    work: Mapped[int | None] = mapped_column(BigInteger, nullable=True)
+    """The atomic tasks the job simulates (``ExperimentSpec.work``): small jobs are claimed in batches.
+
+    None for jobs stored before migration 0010: those are claimed one at a time."""
 
     tag_rows: Mapped[list[JobTag]] = relationship(cascade="all, delete-orphan", passive_deletes=True)
 

@@ -25,6 +25,7 @@ from backend.store import dialect, summaries
 from backend.store.db import Database
 from backend.store.models import FAILED, QUEUED, RUNNING, SIMULATION, SUCCEEDED, Job, Run, utcnow
 from mgrao_core import Run as SimulatedRun
+from mgrao_core import summarise
 
 
 @dataclass(frozen=True)
@@ -35,6 +36,8 @@ class Claim:
     lease: str
     config: dict[str, Any]
     attempt: int
+    work: int | None = None
+    """The job's atomic tasks (``jobs.work``), when the claim read it."""
 
 
 def _stale(session: Session, stale_after_s: float) -> Any:
@@ -111,6 +114,44 @@ def claim(db: Database, *, worker_id: str, stale_after_s: float, max_attempts: i
         return Claim(job_id=row.id, lease=lease, config=dict(row.config), attempt=row.attempts)
 
 
+def claim_batch(db: Database, *, worker_id: str, stale_after_s: float, max_attempts: int, requeue: bool = True,
+                small_work: int, limit: int) -> list[Claim]:
+    """Atomically take the oldest queued job and, when it is small, the next small queued jobs; [] when none.
+
+    A job is small when its ``work`` (atomic tasks) is at most ``small_work``; a job that is not (or
+    whose work is unknown: stored before migration 0010) is claimed alone, as by :func:`claim`, so
+    the queue's order holds and no worker hoards big jobs. At most ``limit`` jobs are taken, in the
+    queue's order, in one conditional ``UPDATE`` that gives each the same fresh lease and counts an
+    attempt for each: every later change of each job is conditional on its own id, that lease and
+    its status, exactly as for a job claimed alone.
+    """
+    with db.session() as session:
+        if not has_work(session, stale_after_s=stale_after_s, look_for_stale=requeue):
+            return []
+    with db.write() as session:
+        if requeue:
+            requeue_stale(session, stale_after_s=stale_after_s, max_attempts=max_attempts)
+        queued = select(Job.id).where(Job.status == QUEUED, Job.kind == SIMULATION).order_by(Job.created_at, Job.id)
+        first = session.execute(dialect.skip_locked(session, queued.add_columns(Job.work).limit(1))).first()
+        if first is None:
+            return []
+        if first.work is None or first.work > small_work or limit <= 1:
+            picked = [first.id]
+        else:
+            picked = list(session.scalars(dialect.skip_locked(
+                session, queued.where(Job.work <= small_work).limit(limit))))
+        lease = str(uuid.uuid4())
+        rows = session.execute(
+            update(Job).where(Job.id.in_(picked), Job.status == QUEUED)
+            .values(status=RUNNING, lease=lease, worker_id=worker_id, attempts=Job.attempts + 1,
+                    started_at=utcnow(), heartbeat_at=dialect.db_now(session), finished_at=None)
+            .returning(Job.id, Job.config, Job.attempts, Job.work)
+        ).all()
+        order = {job_id: place for place, job_id in enumerate(picked)}
+        return [Claim(job_id=row.id, lease=lease, config=dict(row.config), attempt=row.attempts, work=row.work)
+                for row in sorted(rows, key=lambda row: order[row.id])]
+
+
 def heartbeat(db: Database, *, claim: Claim, progress: float | None = None) -> bool:
     """Record that the worker is alive (and its progress); False when the job is no longer ours."""
     with db.write() as session:
@@ -159,6 +200,19 @@ def stored_seeds(session: Session, *, job_id: int, algorithms: int) -> set[int]:
     return {seed for (seed,) in rows}
 
 
+def stored_seeds_of(session: Session, *, algorithms: dict[int, int]) -> dict[int, set[int]]:
+    """:func:`stored_seeds` of many jobs in one query: ``algorithms`` maps each job to its algorithm count."""
+    if not algorithms:
+        return {}
+    rows = session.execute(select(Run.job_id, Run.seed, func.count()).where(Run.job_id.in_(list(algorithms)))
+                           .group_by(Run.job_id, Run.seed))
+    out: dict[int, set[int]] = {}
+    for job_id, seed, count in rows:
+        if count == algorithms[job_id]:
+            out.setdefault(job_id, set()).add(seed)
+    return out
+
+
 def finish(db: Database, *, claim: Claim, expected_runs: int) -> bool:
     """Mark the job succeeded once every run is stored, with its summaries; False when the job is not ours.
 
@@ -179,6 +233,66 @@ def finish(db: Database, *, claim: Claim, expected_runs: int) -> bool:
         return True
 
 
+@dataclass(frozen=True)
+class Completed:
+    """A job of a batch whose missing runs were all simulated: what :func:`finish_batch` stores and ends.
+
+    ``finals`` holds every run's final utility (:func:`backend.store.summaries.finals_of_rows`) when
+    ``rows`` are all of the job's runs, so that its summary is computed without reading them back;
+    None when earlier attempts stored some of them (they are read back).
+    """
+
+    claim: Claim
+    rows: list[dict[str, Any]]
+    expected_runs: int
+    finals: dict[str, dict[int, float]] | None = None
+
+
+SUCCEEDED_NOW, NOT_OURS, INCOMPLETE = "succeeded", "not ours", "incomplete"
+
+
+def finish_batch(db: Database, *, completed: Sequence[Completed]) -> dict[int, str]:
+    """Store the runs of many completed jobs and mark them succeeded, with their summaries, in one transaction.
+
+    Per job, exactly as :func:`store_runs` then :func:`finish`: its row is updated (and, on
+    PostgreSQL, locked) on its id, lease and status first, so the runs of a job that is no longer
+    ours (cancelled, or taken over) are not stored; a run already stored is left as it is; the job
+    becomes ``succeeded`` only with every run stored. Returns each job's outcome:
+    :data:`SUCCEEDED_NOW`, :data:`NOT_OURS` (nothing stored) or :data:`INCOMPLETE` (runs missing: a
+    bug; its runs are stored, it stays running for the caller to fail).
+    """
+    outcome = {item.claim.job_id: NOT_OURS for item in completed}
+    if not completed:
+        return outcome
+    with db.write() as session:
+        now = dialect.db_now(session)
+        held: set[int] = set()
+        by_lease: dict[str, list[int]] = {}
+        for item in completed:
+            by_lease.setdefault(item.claim.lease, []).append(item.claim.job_id)
+        for lease, ids in by_lease.items():
+            held.update(session.scalars(
+                update(Job).where(Job.id.in_(ids), Job.lease == lease, Job.status == RUNNING)
+                .values(heartbeat_at=now, progress=1.0).returning(Job.id)))
+        ours = [item for item in completed if item.claim.job_id in held]
+        dialect.insert_ignoring_duplicates(session, Run, [row for item in ours for row in item.rows])
+        counts = dict(session.execute(select(Run.job_id, func.count()).where(Run.job_id.in_(held))
+                                      .group_by(Run.job_id)).all()) if held else {}
+        done = [item for item in ours if counts.get(item.claim.job_id, 0) == item.expected_runs]
+        for item in ours:
+            outcome[item.claim.job_id] = INCOMPLETE
+        for item in done:  # still held: this transaction updated (and locked) each row above
+            session.execute(update(Job).where(*_held(item.claim))
+                            .values(status=SUCCEEDED, progress=1.0, finished_at=utcnow(), lease=None, error=None))
+            outcome[item.claim.job_id] = SUCCEEDED_NOW
+        summaries.write(session, {item.claim.job_id: summarise(item.finals) for item in done
+                                  if item.finals is not None})
+        for item in done:
+            if item.finals is None:
+                summaries.store(session, item.claim.job_id)
+    return outcome
+
+
 def fail(db: Database, *, claim: Claim, error: str, discard_runs: bool = False) -> bool:
     """Mark the job failed with ``error`` (dropping its stored runs if asked); False when it is not ours."""
     with db.write() as session:
@@ -188,6 +302,18 @@ def fail(db: Database, *, claim: Claim, error: str, discard_runs: bool = False) 
         if result.rowcount == 1 and discard_runs:
             session.execute(delete(Run).where(Run.job_id == claim.job_id))
         return result.rowcount == 1
+
+
+def release_many(db: Database, *, claims: Sequence[Claim]) -> int:
+    """Give jobs back to the queue in one transaction (as :func:`release` each); how many were still ours."""
+    released = 0
+    with db.write() as session:
+        for claim in claims:
+            released += session.execute(
+                update(Job).where(*_held(claim))
+                .values(status=QUEUED, lease=None, worker_id=None, attempts=Job.attempts - 1)
+            ).rowcount
+    return released
 
 
 def release(db: Database, *, claim: Claim) -> bool:

@@ -34,14 +34,23 @@ def compute(session: Session, job_id: int) -> dict[str, ConfigSummary]:
     return summarise(dict(finals))
 
 
+def finals_of_rows(rows: Iterable[dict[str, Any]]) -> dict[str, dict[int, float]]:
+    """Each run's final utility, by algorithm and seed, from run rows (:func:`backend.store.queue.run_rows`).
+
+    What :func:`compute` reads back from the stored runs, taken from the rows before they are stored
+    (a batch of small jobs is summarised without reading its runs again).
+    """
+    finals: dict[str, dict[int, float]] = defaultdict(dict)
+    for row in rows:
+        finals[row["algorithm"]][row["seed"]] = float(final_utilities(np.frombuffer(row["utilities"], dtype="<f8"))[0])
+    return dict(finals)
+
+
 def _finite(value: float | None) -> float | None:
     return value if value is not None and math.isfinite(value) else None
 
 
-def store(session: Session, job_id: int) -> dict[str, ConfigSummary]:
-    """Compute a job's summaries and write them (replacing any); call inside a write transaction."""
-    summaries = compute(session, job_id)
-    session.execute(delete(JobSummary).where(JobSummary.job_id == job_id))
+def _rows(job_id: int, summaries: dict[str, ConfigSummary]) -> list[dict[str, Any]]:
     rows = []
     for algorithm, s in summaries.items():
         low, high = s.ci95
@@ -51,9 +60,47 @@ def store(session: Session, job_id: int) -> dict[str, ConfigSummary]:
             "final_low": _finite(low), "final_high": _finite(high), "pct_from_uniform": _finite(s.pct_from_uniform),
             "pct_low": _finite(pct_low), "pct_high": _finite(pct_high), "pct_of_max": _finite(s.pct_of_max),
         })
+    return rows
+
+
+def store(session: Session, job_id: int) -> dict[str, ConfigSummary]:
+    """Compute a job's summaries and write them (replacing any); call inside a write transaction."""
+    summaries = compute(session, job_id)
+    write(session, {job_id: summaries})
+    return summaries
+
+
+def write(session: Session, by_job: dict[int, dict[str, ConfigSummary]]) -> None:
+    """Write the given jobs' summaries (replacing any) in two statements; call inside a write transaction."""
+    if not by_job:
+        return
+    session.execute(delete(JobSummary).where(JobSummary.job_id.in_(list(by_job))))
+    rows = [row for job_id, summaries in by_job.items() for row in _rows(job_id, summaries)]
     if rows:
         session.execute(insert(JobSummary), rows)
-    return summaries
+
+
+def as_config_summary(row: JobSummary | Row) -> ConfigSummary:
+    """A stored summary as the core's :class:`~mgrao_core.ConfigSummary` (a figure stored as NULL is NaN again)."""
+    nan = float("nan")
+
+    def number(value: float | None) -> float:
+        return nan if value is None else value
+
+    pct_ci = None if row.pct_low is None and row.pct_high is None else (number(row.pct_low), number(row.pct_high))
+    return ConfigSummary(algorithm=row.algorithm, n_runs=row.n_runs, final_mean=number(row.final_mean),
+                         ci95=(number(row.final_low), number(row.final_high)), pct_from_uniform=row.pct_from_uniform,
+                         pct_ci95=pct_ci, pct_of_max=row.pct_of_max)
+
+
+def config_summaries(session: Session, job_ids: Iterable[int]) -> dict[int, dict[str, ConfigSummary]]:
+    """The stored summaries of the given jobs as the core's summaries, in one query (absent: none stored)."""
+    ids = list(job_ids)
+    out: dict[int, dict[str, ConfigSummary]] = defaultdict(dict)
+    if ids:
+        for row in session.execute(select(*JobSummary.__table__.columns).where(JobSummary.job_id.in_(ids))):
+            out[row.job_id][row.algorithm] = as_config_summary(row)
+    return dict(out)
 
 
 def as_dict(row: JobSummary | Row) -> dict[str, Any]:

@@ -69,6 +69,14 @@ def worker(settings: Settings) -> Iterator[Worker]:
 
 
 @pytest.fixture
+def single_worker(settings: Settings) -> Iterator[Worker]:
+    """A real worker that claims one job at a time (``MGRAO_BATCH_JOBS=1``), driven with ``run_once``."""
+    w = local_worker(settings.model_copy(update={"batch_jobs": 1}), worker_id="test-single-worker")
+    yield w
+    w.db.dispose()
+
+
+@pytest.fixture
 def db(settings: Settings) -> Iterator[Database]:
     database = Database(settings.database_url)
     database.migrate()

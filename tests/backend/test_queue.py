@@ -261,16 +261,16 @@ def test_after_an_outage_no_one_judges_heartbeats_stale_until_the_database_was_h
     other = Worker(settings, worker_id="other")
     try:
         other.health.failure()  # it saw the outage too
-        assert other.run_once() is False  # not yet entitled to judge: the job stays with its worker
+        assert not other.run_once()  # not yet entitled to judge: the job stays with its worker
         assert queue.heartbeat(db, claim=holder) is True  # the live holder beats again
         time.sleep(settings.stale_after_s + 0.1)
         assert queue.heartbeat(db, claim=holder) is True
-        assert other.run_once() is False  # healthy for the period now, and the heartbeat is fresh
+        assert not other.run_once()  # healthy for the period now, and the heartbeat is fresh
         with db.session() as session:
             job = session.get(Job, job_id)
             assert (job.status, job.lease, job.attempts) == ("running", holder.lease, 1)
         age_heartbeat(db, job_id, 10 * settings.stale_after_s)  # now the holder really is gone
-        assert other.run_once() is True  # taken over (and run to the end)
+        assert other.run_once() == 1  # taken over (and run to the end)
         with db.session() as session:
             assert session.get(Job, job_id).attempts == 2
     finally:

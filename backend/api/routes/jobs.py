@@ -15,7 +15,7 @@ from sqlalchemy import select
 
 from backend.api.deps import Authorized, DatabaseDep, SessionDep, SettingsDep
 from backend.api.responses import LOCATION, EpisodeRow, Results, Weights, answers, links
-from backend.api.schemas import JobCreate, JobOut, JobPage, JobPatch, Kind, Status, Text
+from backend.api.schemas import JobBatch, JobBatchCreate, JobCreate, JobOut, JobPage, JobPatch, Kind, Status, Text
 from backend.errors import BadQuery, InvalidSpec
 from backend.services import analysis, studies, weights
 from backend.services.cache import SharedBuilds
@@ -59,6 +59,29 @@ def submit_job(body: JobCreate, db: DatabaseDep, settings: SettingsDep, response
         out = crud.job_dict(job)
     response.headers["Location"] = f"/api/jobs/{out['id']}"
     return out
+
+
+@router.post("/batch", status_code=status.HTTP_202_ACCEPTED, response_model=JobBatch, dependencies=[Authorized],
+             responses=answers(write=True, extra={202: {"description": "Queued, every job."}}))
+def submit_jobs(body: JobBatchCreate, db: DatabaseDep, settings: SettingsDep) -> dict:
+    """Queue many experiments in one transaction: all or none; answers once they are committed."""
+    specs = []
+    for index, item in enumerate(body.jobs):
+        try:
+            specs.append(make_spec(item.system, item.algorithms, item.seeds, item.episodes, item.params,
+                                   memory_budget=settings.job_memory_bytes))
+        except ConfigError as error:
+            invalid = InvalidSpec.from_config_error(error, params=item.params)
+            raise InvalidSpec(["body", "jobs", index, *invalid.loc[1:]], f"jobs[{index}].{invalid.field}",
+                              f"jobs[{index}]: {invalid.msg}") from None
+    db.require_room()
+    with db.write() as session:
+        ids = crud.create_jobs(session, jobs=[
+            {"spec": spec, "name": item.name, "tags": item.tags, "notes": item.notes}
+            for spec, item in zip(specs, body.jobs, strict=True)])
+        rows = {job.id: job for job in session.scalars(select(Job).where(Job.id.in_(ids)))}
+        out = [crud.job_dict(rows[job_id]) for job_id in ids]
+    return {"data": out, "count": len(out)}
 
 
 @router.get("", response_model=JobPage, responses=answers())
