@@ -150,6 +150,7 @@ class SeedEnvironment:
         self._values = np.zeros(shape)
         self._taqs = np.zeros(params.n_parents)
         self._present = np.zeros(params.n_parents, dtype=bool)
+        self._volatile = params.leave_probability > 0 or params.join_probability > 0
 
     def _draws_of(self, e: int) -> EpisodeDraws:
         if self._draws is None or e >= self._start + self._block:
@@ -168,7 +169,7 @@ class SeedEnvironment:
         e = self.episode - self._start
         self.episode += 1
         # 1. Composite tasks arrive at the parents present.
-        for p, parent in enumerate(parents):
+        for p, parent in enumerate(parents if self._volatile else ()):
             if parent.active and draws.volatility[e, p] < params.leave_probability:
                 parent.active = False
             elif not parent.active and draws.volatility[e, p] < params.join_probability:
@@ -179,10 +180,6 @@ class SeedEnvironment:
         present = [p for p, parent in enumerate(parents) if parent.active]
         assigned = {p: parents[p].allocate(draws.routing[e, p] if params.n_children > 1 else None, params)
                     for p in present}
-        load = np.zeros((params.n_children, params.n_types))
-        for p in present:
-            for c, t in zip(assigned[p], parents[p].task_types, strict=True):
-                load[c, t] += 1
         # 4. Children perform the atomic tasks; composite qualities make the system utility.
         utility = 0.0
         child_of, values, taqs = self._child_of, self._values, self._taqs
@@ -193,11 +190,16 @@ class SeedEnvironment:
             child_of[p] = assigned[p]
         allocation = np.asarray(weights, dtype=float).reshape(params.n_children, params.n_types)
         children, types = child_of[present], world.parent_types[present]
-        quality = atomic_quality(allocation[children, types], world.resources[children], params,
-                                 load[children, types] if params.load_sharing else 1.0)
+        load = 1.0
+        if params.load_sharing:  # the instances of each type each child received this episode
+            counts = np.zeros((params.n_children, params.n_types))
+            np.add.at(counts, (children, types), 1.0)
+            load = counts[children, types]
+        quality = atomic_quality(allocation[children, types], world.resources[children], params, load)
+        self._present[:] = False
+        self._present[present] = True
         row = 0  # of quality: the present parents in order
         for p, parent in enumerate(parents):
-            self._present[p] = parent.active
             if not parent.active:
                 if params.absent_tasks == "counted":
                     utility += params.effective_absent_quality
