@@ -10,16 +10,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from gymnasium.utils.env_checker import check_env  # the env extra, part of the test extra
+from pettingzoo.test import parallel_api_test, parallel_seed_test
 
-pytest.importorskip("pettingzoo")
-
-from gymnasium.utils.env_checker import check_env  # noqa: E402
-from pettingzoo.test import parallel_api_test, parallel_seed_test  # noqa: E402
-
-from mgrao_core import ConfigError, make_spec, run_experiment  # noqa: E402
-from mgrao_core.algorithms import family_of, parse_algorithm  # noqa: E402
-from mgrao_core.env import parallel_env, single_agent_env  # noqa: E402
-from mgrao_core.world import EpisodeStreams, draw_world  # noqa: E402
+from mgrao_core import ConfigError, make_spec, run_experiment
+from mgrao_core.algorithms import family_of, parse_algorithm
+from mgrao_core.env import parallel_env, single_agent_env
+from mgrao_core.world import EpisodeStreams, draw_world
 
 SYSTEMS = ("single", "multi", "volatile", "large")
 EPISODES = 12
