@@ -1,6 +1,7 @@
 """MG-RAO core: the simulated systems and algorithms of Creech et al. (2021), batched and seeded.
 
-A pure library: numpy and numba, no I/O, no web, no database.
+A pure library: numpy and numba, no I/O, no web, no database. :mod:`mgrao_core.env` (the optional
+``env`` extra: PettingZoo and Gymnasium) offers the simulated world to learners of one's own.
 
     >>> from mgrao_core import make_spec, run_experiment
     >>> result = run_experiment(make_spec("single", seeds=5, episodes=100))

@@ -5,11 +5,16 @@ dense reference step (:meth:`Family.reference_children <mgrao_core.algorithms.ba
 MG-RAO's applies algorithm 1 literally, a dense trace and weight update per returned value), so the
 tests can check that the batched engine computes exactly the paper's equations, and the benchmark
 can show what batching buys.
+
+Its environment, :class:`SeedEnvironment` (one seed's parents, stepped one episode at a time with
+the children's allocations given), is also what :mod:`mgrao_core.env` offers to outside learners
+as a PettingZoo environment: both are this module's one reading of the paper's steps.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,7 +24,7 @@ from mgrao_core.algorithms import family_of, parse_algorithm
 from mgrao_core.algorithms.base import ReferenceChild
 from mgrao_core.params import SystemParams
 from mgrao_core.quality import atomic_quality
-from mgrao_core.world import EpisodeStreams, draw_world
+from mgrao_core.world import EpisodeDraws, EpisodeStreams, draw_world
 
 
 def choose_child(estimates: np.ndarray, u: np.ndarray, params: SystemParams) -> int:
@@ -76,61 +81,153 @@ class Parent:
                 self.estimates[k, c] += (value - self.estimates[k, c]) / self.tries[k, c]
 
 
-def simulate(params: SystemParams, algorithm: str, seed: int,
-             episodes: int) -> tuple[np.ndarray, list[ReferenceChild]]:
-    """One run; returns the utility of every episode and the children's final state."""
-    world = draw_world(params, seed)
-    draws = EpisodeStreams(params, seed).draw(episodes)
-    alg = parse_algorithm(algorithm, params.n_parents)
-    children = family_of(alg).reference_children(params, alg, world, seed)
-    choices = 1 if params.routing == "per-composite" else params.types_per_composite
-    parents = [
-        Parent(world.parent_types[p], world.profiles[p].copy(),
-               np.full((choices, params.n_children), params.initial_estimate),
-               np.zeros((choices, params.n_children), dtype=int))
-        for p in range(params.n_parents)
-    ]
-    utilities = np.zeros(episodes)
-    for e in range(episodes):
+@dataclass(frozen=True)
+class Episode:
+    """What one episode of :class:`SeedEnvironment` did (the arrays are the environment's own: read, do not keep).
+
+    Attributes:
+        utility: the system utility, the sum of the composite qualities ``taq`` (and, under
+            ``absent_tasks="counted"``, of the absent parents' ``absent_quality``).
+        present: ``(n_parents,)`` which parents were present (sent a composite task).
+        child_of: ``(n_parents, types_per_composite)`` the child each atomic task went to (-1: the
+            parent was absent).
+        values: ``(n_parents, types_per_composite)`` the absolute value ``atv`` each atomic task
+            returned (0 for an absent parent).
+        taqs: ``(n_parents,)`` each composite task's quality (0 for an absent parent).
+        order: the present parents, in the order their values came back (paper step 5).
+    """
+
+    utility: float
+    present: np.ndarray
+    child_of: np.ndarray
+    values: np.ndarray
+    taqs: np.ndarray
+    order: list[int]
+
+    def returns(self) -> Iterator[tuple[int, int, int, float]]:
+        """Every returned value in the order it came back: ``(parent, k, child, atv)``.
+
+        Composite by composite in :attr:`order`, and within a composite atomic task by atomic task;
+        that is the order in which each child learns from them.
+        """
+        for p in self.order:
+            for k in range(self.child_of.shape[1]):
+                yield p, k, int(self.child_of[p, k]), float(self.values[p, k])
+
+
+class SeedEnvironment:
+    """The simulated environment of one seed, one episode at a time: the paper's steps 1 to 5 without the children.
+
+    The children's part (an allocation at the start of an episode, learning from each returned value)
+    is the caller's: :func:`simulate` gives it to the algorithm families' reference steps, and
+    :mod:`mgrao_core.env` to whatever acts through the PettingZoo environment. Both read the world and
+    the episode streams of the seed exactly as the engine does.
+
+    Args:
+        params: the system's parameters.
+        seed: the engine's seed: its world and per-episode draws.
+        block: episodes drawn from the streams at a time (the numbers do not depend on it).
+    """
+
+    def __init__(self, params: SystemParams, seed: int, block: int = 256) -> None:
+        self.params = params
+        self.seed = seed
+        self.world = draw_world(params, seed)
+        self.episode = 0
+        self._streams = EpisodeStreams(params, seed)
+        self._block = max(1, block)
+        self._draws = None
+        self._start = 0
+        choices = 1 if params.routing == "per-composite" else params.types_per_composite
+        self.parents = [
+            Parent(self.world.parent_types[p], self.world.profiles[p].copy(),
+                   np.full((choices, params.n_children), params.initial_estimate),
+                   np.zeros((choices, params.n_children), dtype=int))
+            for p in range(params.n_parents)
+        ]
+        shape = (params.n_parents, params.types_per_composite)
+        self._child_of = np.full(shape, -1, dtype=np.int64)
+        self._values = np.zeros(shape)
+        self._taqs = np.zeros(params.n_parents)
+        self._present = np.zeros(params.n_parents, dtype=bool)
+        self._volatile = params.leave_probability > 0 or params.join_probability > 0
+
+    def _draws_of(self, e: int) -> EpisodeDraws:
+        if self._draws is None or e >= self._start + self._block:
+            self._start = e
+            self._draws = self._streams.draw(self._block)
+        return self._draws
+
+    def step(self, weights: Sequence[np.ndarray]) -> Episode:
+        """One episode with each child's allocation ``weights[c]`` (``n_types`` weights) held throughout.
+
+        Paper steps 1 (parents leave and rejoin) to 5 (the parents' estimates of their children take
+        the returned values); the values themselves are in the answer, for the children.
+        """
+        params, parents, world = self.params, self.parents, self.world
+        draws = self._draws_of(self.episode)
+        e = self.episode - self._start
+        self.episode += 1
         # 1. Composite tasks arrive at the parents present.
-        for p, parent in enumerate(parents):
+        for p, parent in enumerate(parents if self._volatile else ()):
             if parent.active and draws.volatility[e, p] < params.leave_probability:
                 parent.active = False
             elif not parent.active and draws.volatility[e, p] < params.join_probability:
                 parent.active = True
                 if params.rejoin_profile == "new":
                     parent.profile = draws.new_profiles[e, p].copy()
-        weights = [child.allocation() for child in children]
         # 2-3. Each present parent decomposes its task and allocates the atomic tasks.
         present = [p for p, parent in enumerate(parents) if parent.active]
         assigned = {p: parents[p].allocate(draws.routing[e, p] if params.n_children > 1 else None, params)
                     for p in present}
-        load = np.zeros((params.n_children, params.n_types))
-        for p in present:
-            for c, t in zip(assigned[p], parents[p].task_types, strict=True):
-                load[c, t] += 1
         # 4. Children perform the atomic tasks; composite qualities make the system utility.
-        values: dict[int, np.ndarray] = {}
-        taqs: dict[int, float] = {}
+        utility = 0.0
+        child_of, values, taqs = self._child_of, self._values, self._taqs
+        child_of[:] = -1
+        values[:] = 0.0
+        taqs[:] = 0.0
+        for p in present:
+            child_of[p] = assigned[p]
+        allocation = np.asarray(weights, dtype=float).reshape(params.n_children, params.n_types)
+        children, types = child_of[present], world.parent_types[present]
+        load = 1.0
+        if params.load_sharing:  # the instances of each type each child received this episode
+            counts = np.zeros((params.n_children, params.n_types))
+            np.add.at(counts, (children, types), 1.0)
+            load = counts[children, types]
+        quality = atomic_quality(allocation[children, types], world.resources[children], params, load)
+        self._present[:] = False
+        self._present[present] = True
+        row = 0  # of quality: the present parents in order
         for p, parent in enumerate(parents):
             if not parent.active:
                 if params.absent_tasks == "counted":
-                    utilities[e] += params.effective_absent_quality
+                    utility += params.effective_absent_quality
                 continue
             ctv = eq.proportional_values(parent.profile, draws.noise[e, p], params.value_noise)
-            quality = np.array([
-                atomic_quality(weights[c][t], world.resources[c], params, load[c, t] if params.load_sharing else 1.0)
-                for c, t in zip(assigned[p], parent.task_types, strict=True)
-            ])
-            taqs[p] = eq.composite_quality(ctv, quality)
+            taqs[p] = eq.composite_quality(ctv, quality[row])
+            row += 1
             values[p] = eq.absolute_values(ctv, taqs[p])
-            utilities[e] += taqs[p]
-        # 5. Values come back composite by composite, in a random order of parents.
-        for p in draws.order[e]:
-            if not parents[p].active:
-                continue
-            if params.n_children > 1:
+            utility += taqs[p]
+        # 5. Values come back composite by composite, in a random order of parents: first to the
+        # parents' estimates of their children (the children's learning is the caller's).
+        order = [int(p) for p in draws.order[e] if parents[p].active]
+        if params.n_children > 1:
+            for p in order:
                 parents[p].observe(assigned[p], values[p], taqs[p], params)
-            for k, c in enumerate(assigned[p]):
-                children[c].learn(int(p), int(parents[p].task_types[k]), values[p][k])
+        return Episode(utility, self._present, child_of, values, taqs, order)
+
+
+def simulate(params: SystemParams, algorithm: str, seed: int,
+             episodes: int) -> tuple[np.ndarray, list[ReferenceChild]]:
+    """One run; returns the utility of every episode and the children's final state."""
+    environment = SeedEnvironment(params, seed, block=episodes)
+    alg = parse_algorithm(algorithm, params.n_parents)
+    children = family_of(alg).reference_children(params, alg, environment.world, seed)
+    utilities = np.zeros(episodes)
+    for e in range(episodes):
+        episode = environment.step([child.allocation() for child in children])
+        utilities[e] = episode.utility
+        for p, k, c, value in episode.returns():
+            children[c].learn(p, int(environment.world.parent_types[p, k]), value)
     return utilities, children

@@ -1,0 +1,58 @@
+"""examples/independent_learner.py against a real service: its run in compare beside uniform and mgrao-max
+of the same system, seeds and episodes, % from uniform paired seed by seed."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+import urllib.request
+
+from playwright.sync_api import expect
+
+from mgrao_core.stats import final_utilities, paired_pct_from_uniform
+from tests.frontend.conftest import ROOT, page_at
+from tests.frontend.test_compare_view import wait_succeeded
+from tests.frontend.test_job_view import post_job
+
+SEEDS = 30
+EPISODES = 20  # the example's default is 100; fewer keep the test short, through the same code
+
+
+def finals(server: str, job_id: int) -> dict[str, dict[int, float]]:
+    with urllib.request.urlopen(f"{server}/api/jobs/{job_id}/episodes?format=json", timeout=30) as response:
+        rows = json.loads(response.read())
+    runs: dict[str, dict[int, list[float]]] = {}
+    for row in sorted(rows, key=lambda r: r["episode"]):
+        runs.setdefault(row["algorithm"], {}).setdefault(row["seed"], []).append(row["utility"])
+    return {label: {seed: float(final_utilities(values)[0]) for seed, values in by_seed.items()}
+            for label, by_seed in runs.items()}
+
+
+def test_the_example_learner_is_compared_beside_uniform_and_mgrao_max(browser, server, screenshots):
+    example = subprocess.run(
+        [sys.executable, str(ROOT / "examples" / "independent_learner.py"), "--url", server,
+         "--seeds", str(SEEDS), "--episodes", str(EPISODES)],
+        capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert example.returncode == 0, example.stderr
+    job_id = int(re.match(r"job (\d+): succeeded", example.stdout).group(1))
+    built_in = post_job(server, {"system": "single", "algorithms": ["uniform", "mgrao-max"], "seeds": SEEDS,
+                                 "episodes": EPISODES, "name": "built-in beside the example"})
+    wait_succeeded(server, [built_in])
+    ours = finals(server, job_id)["value-prop"]
+    theirs = finals(server, built_in["id"])
+    assert sorted(ours) == sorted(theirs["uniform"]) == list(range(SEEDS))
+    pct = paired_pct_from_uniform(ours, theirs["uniform"])
+    expected = sum(pct.values()) / len(pct)
+
+    with page_at(browser, server, height=1000) as page:
+        page.goto(f"/#/compare?jobs={built_in['id']},{job_id}")
+        page.locator("#compare-chart[data-rendered]").wait_for()
+        configs = page.eval_on_selector("#compare-chart", """el => el.data
+            .filter(t => t.meta && t.meta.kind === 'mean').map(t => t.meta.config)""")
+        assert set(configs) == {"single · uniform", "single · mgrao-max", "single · value-prop · external"}
+        row = page.locator("table.summary tr").filter(has_text="value-prop")
+        expect(row).to_contain_text(f"{expected:+.1f}")  # the mean over the 30 seeds of each seed's %
+        expect(page.locator("table.summary tr").filter(has_text="mgrao-max")).to_be_visible()
+        page.screenshot(path=str(screenshots / "example-learner-compare.png"), full_page=True)
