@@ -9,10 +9,12 @@ from mgrao_core import PARAMETERS, PRESETS, ConfigError, SystemParams, get_prese
 
 
 def test_schema_defaults_match_the_dataclass():
-    defaults = SystemParams().as_dict()
+    defaults = SystemParams()
     assert [p.name for p in PARAMETERS] == [f.name for f in dataclasses.fields(SystemParams)]
     for p in PARAMETERS:
-        assert defaults[p.name] == p.default, p.name
+        assert getattr(defaults, p.name) == p.default, p.name
+    plain = defaults.as_dict()
+    assert plain["composite_periods"] == [] and plain["schedule"] == []  # lists as JSON lists
 
 
 def test_simulation_md_defaults():
