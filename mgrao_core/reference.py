@@ -19,7 +19,7 @@ from mgrao_core.algorithms import family_of, parse_algorithm
 from mgrao_core.algorithms.base import ReferenceChild
 from mgrao_core.params import SystemParams
 from mgrao_core.quality import atomic_quality
-from mgrao_core.world import EpisodeStreams, draw_world
+from mgrao_core.world import NEW_COMPOSITE, NEW_PROFILE, EpisodeStreams, draw_world, is_dynamic
 
 
 def choose_child(estimates: np.ndarray, u: np.ndarray, params: SystemParams) -> int:
@@ -42,10 +42,11 @@ def choose_child(estimates: np.ndarray, u: np.ndarray, params: SystemParams) -> 
 
 @dataclass
 class Parent:
-    """One parent agent: its value profile, presence and running estimates of each child.
+    """One parent agent: its composite type's atomic types, value profile, presence and running estimates of each child.
 
     ``estimates[k, c]`` is what child ``c`` gave back: per composite (``k = 0`` only) the
-    composite quality, per task the absolute value of atomic task ``k``.
+    composite quality, per task the absolute value of atomic task ``k``. ``sending``: whether it sends a
+    composite task in the current episode (present, and its composite type arrives).
     """
 
     task_types: np.ndarray
@@ -53,6 +54,7 @@ class Parent:
     estimates: np.ndarray
     tries: np.ndarray
     active: bool = True
+    sending: bool = True
 
     def allocate(self, routing: np.ndarray, params: SystemParams) -> list[int]:
         """Task allocation: the child of each atomic task of this episode's composite task."""
@@ -80,19 +82,26 @@ def simulate(params: SystemParams, algorithm: str, seed: int,
              episodes: int) -> tuple[np.ndarray, list[ReferenceChild]]:
     """One run; returns the utility of every episode and the children's final state."""
     world = draw_world(params, seed)
-    draws = EpisodeStreams(params, seed).draw(episodes)
+    draws = EpisodeStreams(params, seed, world).draw(episodes)
+    dynamic = is_dynamic(params)
     alg = parse_algorithm(algorithm, params.n_parents)
     children = family_of(alg).reference_children(params, alg, world, seed)
     choices = 1 if params.routing == "per-composite" else params.types_per_composite
     parents = [
-        Parent(world.parent_types[p], world.profiles[p].copy(),
+        Parent(world.parent_types[p].copy(), world.profiles[p].copy(),
                np.full((choices, params.n_children), params.initial_estimate),
                np.zeros((choices, params.n_children), dtype=int))
         for p in range(params.n_parents)
     ]
     utilities = np.zeros(episodes)
     for e in range(episodes):
-        # 1. Composite tasks arrive at the parents present.
+        # 1. Composite tasks arrive at the parents present whose composite type arrives: the task stream's
+        # changes (scheduled events, unpredictable parents), then volatility.
+        for p, parent in enumerate(parents):
+            if dynamic and draws.changes[e, p] & NEW_PROFILE:
+                parent.profile = draws.event_profiles[e, p].copy()
+            if dynamic and draws.changes[e, p] & NEW_COMPOSITE:
+                parent.task_types = draws.event_types[e, p].copy()
         for p, parent in enumerate(parents):
             if parent.active and draws.volatility[e, p] < params.leave_probability:
                 parent.active = False
@@ -100,9 +109,11 @@ def simulate(params: SystemParams, algorithm: str, seed: int,
                 parent.active = True
                 if params.rejoin_profile == "new":
                     parent.profile = draws.new_profiles[e, p].copy()
+        for p, parent in enumerate(parents):
+            parent.sending = parent.active and (not dynamic or bool(draws.arrives[e, p]))
         weights = [child.allocation() for child in children]
         # 2-3. Each present parent decomposes its task and allocates the atomic tasks.
-        present = [p for p, parent in enumerate(parents) if parent.active]
+        present = [p for p, parent in enumerate(parents) if parent.sending]
         assigned = {p: parents[p].allocate(draws.routing[e, p] if params.n_children > 1 else None, params)
                     for p in present}
         load = np.zeros((params.n_children, params.n_types))
@@ -113,13 +124,14 @@ def simulate(params: SystemParams, algorithm: str, seed: int,
         values: dict[int, np.ndarray] = {}
         taqs: dict[int, float] = {}
         for p, parent in enumerate(parents):
-            if not parent.active:
-                if params.absent_tasks == "counted":
+            if not parent.sending:
+                if params.absent_tasks == "counted" and not parent.active:
                     utilities[e] += params.effective_absent_quality
                 continue
             ctv = eq.proportional_values(parent.profile, draws.noise[e, p], params.value_noise)
             quality = np.array([
-                atomic_quality(weights[c][t], world.resources[c], params, load[c, t] if params.load_sharing else 1.0)
+                atomic_quality(weights[c][t], world.resources[c] / world.capability[c, t], params,
+                               load[c, t] if params.load_sharing else 1.0)
                 for c, t in zip(assigned[p], parent.task_types, strict=True)
             ])
             taqs[p] = eq.composite_quality(ctv, quality)
@@ -127,7 +139,7 @@ def simulate(params: SystemParams, algorithm: str, seed: int,
             utilities[e] += taqs[p]
         # 5. Values come back composite by composite, in a random order of parents.
         for p in draws.order[e]:
-            if not parents[p].active:
+            if not parents[p].sending:
                 continue
             if params.n_children > 1:
                 parents[p].observe(assigned[p], values[p], taqs[p], params)
