@@ -18,7 +18,7 @@ import click
 import mgrao_core
 from mgrao_cli.engine_loading import load_engine
 from mgrao_core import ConfigError, MgraoError, make_spec
-from mgrao_core.presets import PRESETS
+from mgrao_core.presets import PAPER_SYSTEMS, PRESETS
 from mgrao_core.reproduction import DEFAULT_SEEDS, READINGS, reproduction_table
 from mgrao_core.reproduction import reproduce as run_reproduction
 from mgrao_core.spec import MAX_SEED_VALUE
@@ -194,8 +194,8 @@ def reproduce(seeds: int, first_seed: int, episodes: int, reading: str, sets: tu
     started = time.perf_counter()
     try:
         with _progress("reproduce", seeds * episodes >= 30_000) as update:
-            count = len(PRESETS)
-            order = {name: i for i, name in enumerate(PRESETS)}
+            count = len(PAPER_SYSTEMS)
+            order = {name: i for i, name in enumerate(PAPER_SYSTEMS)}
             results = run_reproduction(
                 _seed_range(seeds, first_seed), episodes, overrides,
                 on_progress=lambda name, f: update((order[name] + f) / count),

@@ -12,7 +12,7 @@ from mgrao_core.algorithms import Algorithm, divisors, parent_groups, parse_algo
 from mgrao_core.budget import MAX_CHUNK_BYTES, MAX_RESULT_BYTES, plan_chunks
 from mgrao_core.errors import Cancelled, ConfigError, MgraoError, NumericalError, WorkLimitError
 from mgrao_core.params import PARAMETERS, Parameter, SystemParams, make_params
-from mgrao_core.presets import PRESETS, Preset, get_preset
+from mgrao_core.presets import PAPER_SYSTEMS, PRESETS, Preset, get_preset
 from mgrao_core.results import ExperimentResult, Run
 from mgrao_core.spec import (
     MAX_ALGORITHMS,
@@ -59,6 +59,7 @@ __all__ = [
     "MAX_SEEDS",
     "MAX_WORK",
     "PARAMETERS",
+    "PAPER_SYSTEMS",
     "PRESETS",
     "WORK_FACTORS",
     "Algorithm",

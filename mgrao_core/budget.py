@@ -33,7 +33,7 @@ from mgrao_core.algorithms import Algorithm, family_of
 from mgrao_core.algorithms.oracle import ORACLE_BATCH, ORACLE_DRAWS  # noqa: F401  (where oracle.py reads them)
 from mgrao_core.lanes import lane_bytes
 from mgrao_core.params import SystemParams
-from mgrao_core.world import routing_choices
+from mgrao_core.world import is_dynamic, routing_choices
 
 MAX_CHUNK_BYTES = 2 * 1024**3
 """Default memory budget of one chunk (what :func:`chunk_cost` counts, above the baseline)."""
@@ -98,8 +98,9 @@ def chunk_cost(spec: Experiment, n_seeds: int) -> ChunkCost:
     children, types, parents, per_composite = p.n_children, p.n_types, p.n_parents, p.types_per_composite
     choices = routing_choices(p)
     state = lane_bytes(p, algorithms, n_seeds)
-    per_seed_world = _F * (p.n_composite_types * types + 2 * parents * per_composite + children)
-    worlds = n_seeds * (per_seed_world + _F * (2 * parents * per_composite + children))
+    per_seed_world = _F * (p.n_composite_types * types + 2 * parents * per_composite + children
+                           + 2 * children * types)  # capability, resource per type
+    worlds = n_seeds * (per_seed_world + _F * children * types)  # the stacked resources per type
     block = block_episodes(spec, n_seeds)
     volatile = p.leave_probability > 0 or p.join_probability > 0
     per_episode = parents * (
@@ -108,6 +109,7 @@ def chunk_cost(spec: Experiment, n_seeds: int) -> ChunkCost:
         + 2  # volatility, and its stacked copy
         + (3 * per_composite if volatile and p.rejoin_profile == "new" else 0)  # rejoin profiles (+ gamma draws)
         + (2 * 3 * choices if children > 1 else 0)  # routing uniforms, and their stacked copy
+        + (4 * per_composite + 1 if is_dynamic(p) else 0)  # event profiles and types, changes, arrivals (+ copies)
     )
     draws = _F * n_seeds * block * per_episode
     utilities = _F * lanes * (spec.episodes + block)

@@ -202,7 +202,7 @@ class MgraoParallelEnv(ParallelEnv):
         n_parents, k = self._shape
         child_of = episode.child_of.ravel()
         returned = (np.asarray(episode.order, dtype=np.int64)[:, None] * k + np.arange(k)).ravel()
-        types = self._environment.world.parent_types.ravel()
+        types = episode.task_types.ravel()  # this episode's (events and unpredictable parents change them)
         values = episode.values.ravel()
         observations, rewards = {}, {}
         for agent in self.agents:

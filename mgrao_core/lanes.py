@@ -32,6 +32,9 @@ ENVIRONMENT: tuple[StateArray, ...] = (
                help="how often each parent tried each child"),
     StateArray("active", ("lanes", "n_parents"), "bool", fill=True, help="which parents are present"),
     StateArray("profiles", ("lanes", "n_parents", "types_per_composite"), help="each parent's value profile"),
+    StateArray("parent_types", ("lanes", "n_parents", "types_per_composite"), "int64",
+               help="the atomic types of each parent's composite type (scheduled events and unpredictable parents "
+                    "change them)"),
 )
 """What every lane holds whatever its algorithm: the parents' side of the system and the children's
 allocation in force."""
@@ -67,7 +70,7 @@ def allocate_lanes(params: SystemParams, algorithms: Sequence[Algorithm], n_seed
     hands each thread a contiguous range of lanes, and interleaving the algorithms gives every thread
     a share of the costly many-group lanes. Each family then sets its own lanes' initial state
     (:meth:`Family.initialise <mgrao_core.algorithms.base.Family.initialise>`); the caller fills
-    ``profiles`` and the fixed families' ``fixed_weights``.
+    ``profiles``, ``parent_types`` and the fixed families' ``fixed_weights``.
     """
     arrays = allocate(declarations(), chunk_sizes(params, algorithms, n_seeds))
     arrays["seed_index"][:] = np.repeat(np.arange(n_seeds), len(algorithms))

@@ -21,6 +21,15 @@ best allocation for its own resource were it to receive every task (the parents'
 known in advance), which specialising learners can beat; under volatility the oracle knows the
 full system's task stream and, with ``rejoin_profile="new"``, only the initial profiles.
 
+The system's dynamics (docs/model.md): with task frequencies, a parent's composite counts at its
+arrival rate ``1 / period`` of its composite type (each phase is uniform, so that is the long-run share
+of episodes it arrives in), in ``V`` and, with load sharing, in the expected loads; an unpredictable
+parent counts at its expectation over a composite type drawn uniformly (each of its atomic types
+``1 / types_per_composite`` of the value, by the symmetry of the Dirichlet profile and the noise) at that
+type's arrival rate; a child's capability scales its resource per type (``ar / f``, as in the engine).
+Under a ``schedule`` the oracle knows only the initial world: the allocation is the best fixed one
+before the first event, not after it (it is not an upper bound there).
+
 ``V`` is estimated by Monte Carlo (:func:`expected_type_values`): :data:`EXPECTATION_SAMPLES`
 draws of every parent's noisy proportional values from the seed's ``"oracle"`` stream. That is
 the costly part (200 million noise values a seed at 1,000 parents and 200 types per composite);
@@ -43,7 +52,7 @@ from mgrao_core.engine.montecarlo import add_proportional_values, draw_scaled_no
 from mgrao_core.errors import Cancelled
 from mgrao_core.params import SystemParams
 from mgrao_core.quality import QualityModel, quality_model
-from mgrao_core.world import World, stream
+from mgrao_core.world import World, composite_periods, stream, unpredictable_parents
 
 EXPECTATION_SAMPLES = 1024
 _BISECTIONS = 200
@@ -77,16 +86,58 @@ def expected_type_values(params: SystemParams, world: World, seed: int,
             add_proportional_values(world.profiles, noise, start == 0, batch_sums, scratch)
         expected += batch_sums
     expected /= EXPECTATION_SAMPLES
+    parent_types, rates = _expected_parents(params, world, seed)
+    if rates is not None:
+        extra = len(parent_types) - len(expected)  # unpredictable parents' rows: 1 / types_per_composite each
+        expected = np.concatenate([expected, np.full((extra, params.types_per_composite),
+                                                     1.0 / params.types_per_composite)]) * rates[:, None]
     values = np.zeros(params.n_types)
-    np.add.at(values, world.parent_types.ravel(), expected.ravel())
+    np.add.at(values, parent_types.ravel(), expected.ravel())
     return values
 
 
-def type_loads(params: SystemParams, world: World) -> np.ndarray:
-    """``L[t]``: instances of type ``t`` per episode in the full system (1 without load sharing)."""
+def arrival_rates(params: SystemParams) -> np.ndarray:
+    """``(n_composite_types,)`` the share of episodes each composite type arrives in, ``1 / period``."""
+    return 1.0 / composite_periods(params)
+
+
+def _expected_parents(params: SystemParams, world: World, seed: int) -> tuple[np.ndarray, np.ndarray | None]:
+    """The parents as the oracle counts them: rows of atomic types and the rate each row arrives at.
+
+    ``(world.parent_types, None)`` when every composite arrives every episode and no parent is
+    unpredictable (the computation of earlier versions, bit for bit). Otherwise a parent's row arrives at its
+    composite type's rate, and an unpredictable parent's row (rate 0) is replaced by one row per composite
+    type at ``rate / n_composite_types``, appended after the parents' rows: its composite type is drawn
+    uniformly every episode.
+    """
+    rates = arrival_rates(params)
+    unpredictable = unpredictable_parents(params, stream(seed, "unpredictable"))
+    if not len(unpredictable) and (rates == 1.0).all():
+        return world.parent_types, None
+    per_parent = rates[np.arange(params.n_parents) % params.n_composite_types]
+    if not len(unpredictable):
+        return world.parent_types, per_parent
+    per_parent = per_parent.copy()
+    per_parent[unpredictable] = 0.0  # replaced by the rows below
+    n = params.n_composite_types
+    types = np.concatenate([world.parent_types] + [world.composite_types] * len(unpredictable))
+    rows = np.concatenate([per_parent] + [rates / n] * len(unpredictable))
+    return types, rows
+
+
+def type_loads(params: SystemParams, world: World, seed: int = 0) -> np.ndarray:
+    """``L[t]``: instances of type ``t`` per episode in the full system (1 without load sharing).
+
+    With task frequencies or unpredictable parents, the expected instances (each parent's at its arrival rate).
+    """
     if not params.load_sharing:
         return np.ones(params.n_types)
-    loads = np.bincount(world.parent_types.ravel(), minlength=params.n_types).astype(float)
+    parent_types, rates = _expected_parents(params, world, seed)
+    if rates is None:
+        loads = np.bincount(parent_types.ravel(), minlength=params.n_types).astype(float)
+    else:
+        loads = np.bincount(parent_types.ravel(), weights=np.repeat(rates, params.types_per_composite),
+                            minlength=params.n_types)
     return np.maximum(loads, 1.0)
 
 
@@ -139,7 +190,7 @@ def oracle_weights(params: SystemParams, world: World, seed: int,
     """The optimal fixed resource weights, ``(n_children, n_types)``, each row summing to 1."""
     model = quality_model(params.quality_model)
     values = expected_type_values(params, world, seed, should_stop)
-    loads = type_loads(params, world)
+    loads = type_loads(params, world, seed)
     if model.full_quality_share is not None:  # linear: the child's resource cancels out
         return np.tile(_knapsack(params, model, values, loads), (params.n_children, 1))
-    return np.stack([_water_filling(params, model, values, resource / loads) for resource in world.resources])
+    return np.stack([_water_filling(params, model, values, resource / loads) for resource in world.type_resources])

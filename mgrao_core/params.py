@@ -8,6 +8,7 @@ the command line, the REST API and the dashboard's form all read.
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 from collections.abc import Mapping
 from typing import Any
@@ -15,11 +16,17 @@ from typing import Any
 from mgrao_core import quality
 from mgrao_core.algorithms import FAMILIES
 from mgrao_core.errors import ConfigError
-from mgrao_core.parameter import Parameter
+from mgrao_core.parameter import Parameter, Record
 
 QUALITY_MODELS = tuple(quality.QUALITY_MODELS)
 ROUTINGS = ("per-composite", "per-task")
 ABSENT_TASKS = ("excluded", "counted")
+FREQUENCY_PROFILES = ("constant", "two-speed", "explicit")
+CHANGES = ("new-profiles", "new-composites", "frequencies")
+"""What a scheduled event changes (docs/model.md, "Changes over time")."""
+LAST_EPISODE = 99_999
+"""The last episode an event may name: :data:`mgrao_core.spec.MAX_EPISODES` - 1 (spec imports this module)."""
+MAX_PERIOD = 1000
 
 
 _ENVIRONMENT: tuple[Parameter, ...] = (
@@ -133,10 +140,61 @@ _ALLOCATION: tuple[Parameter, ...] = (
     ),
 )
 
-PARAMETERS: tuple[Parameter, ...] = (*_ENVIRONMENT, *(p for f in FAMILIES for p in f.parameters), *_ALLOCATION)
+_EVENT_FIELDS: tuple[Parameter, ...] = (
+    Parameter("episode", "int", None, "The episode at whose start the event applies (0: before the first).",
+              "dynamics", 0, LAST_EPISODE),
+    Parameter("change", "choice", None,
+              "new-profiles: the parents chosen draw new value profiles; new-composites: they draw new composite "
+              "types; frequencies: the composite types chosen arrive every `period` episodes from now.",
+              "dynamics", choices=CHANGES),
+    Parameter("fraction", "float", 1.0,
+              "Share of the parents (of the composite types, for frequencies) the event changes, chosen per seed.",
+              "dynamics", 0.0, 1.0),
+    Parameter("period", "int", 1, "frequencies only: the new period of the composite types chosen.",
+              "dynamics", 1, MAX_PERIOD),
+)
+_DYNAMICS: tuple[Parameter, ...] = (
+    # Task frequencies, changes over time, unpredictable parents, capability: docs/model.md.
+    Parameter(
+        "frequency_profile", "choice", "constant",
+        "How often each composite type arrives: every episode (constant), half the types every episode and "
+        "half every slow_period episodes (two-speed), or every composite_periods[k] episodes (explicit).",
+        "dynamics", choices=FREQUENCY_PROFILES,
+    ),
+    Parameter("slow_period", "int", 4, "two-speed only: episodes between arrivals of the slow composite types.",
+              "dynamics", 1, MAX_PERIOD),
+    Parameter(
+        "composite_periods", "list", (),
+        "explicit only: episodes between arrivals of each composite type, one per composite type.",
+        "dynamics", 1, MAX_PERIOD, item_kind="int", min_items=0, max_items=1000,
+    ),
+    Parameter(
+        "schedule", "events", (),
+        "Changes over time: events applied at the start of given episodes, each to a share of the parents "
+        "(or composite types) chosen per seed.",
+        "dynamics", min_items=0, max_items=100, fields=_EVENT_FIELDS,
+    ),
+    Parameter(
+        "unpredictable_fraction", "float", 0.0,
+        "Share of the parents (chosen per seed) that draw their composite type, value profile and arrival anew "
+        "every episode.",
+        "dynamics", 0.0, 1.0,
+    ),
+    Parameter(
+        "capability_spread", "float", 0.0,
+        "Log-normal spread of each child's half-saturation per atomic type (h * exp(spread * N(0, 1)), drawn "
+        "per child and type); 0: every child alike.",
+        "system", 0.0, 3.0,
+    ),
+)
+
+PARAMETERS: tuple[Parameter, ...] = (
+    *_ENVIRONMENT, *(p for f in FAMILIES for p in f.parameters), *_ALLOCATION, *_DYNAMICS,
+)
 """Every parameter: the system's, values' and quality's, then each algorithm family's own (MG-RAO's
 ``learning_rate``, ``trace_decay``, ``temperature``, declared in :mod:`mgrao_core.algorithms.mgrao`), then
-the parents' allocation and volatility."""
+the parents' allocation and volatility, then the system's dynamics (frequencies, schedule, unpredictable
+parents, capability)."""
 PARAMETERS_BY_NAME: dict[str, Parameter] = {p.name: p for p in PARAMETERS}
 
 
@@ -160,11 +218,17 @@ class _Derived:
         return float(quality.atomic_quality(1.0 / self.n_types, self.resource_mean, self))
 
     def as_dict(self) -> dict[str, Any]:
-        """All parameters as plain JSON-ready data."""
-        return dataclasses.asdict(self)
+        """All parameters as plain JSON-ready data (a list as a list, an event list as a list of objects)."""
+        return {f.name: _plain(getattr(self, f.name)) for f in dataclasses.fields(self)}
 
 
-_TYPES = {"int": int, "float": float, "bool": bool, "choice": str}
+def _plain(value: Any) -> Any:
+    if isinstance(value, tuple):
+        return [v.as_dict() if isinstance(v, Record) else v for v in value]
+    return value
+
+
+_TYPES = {"int": int, "float": float, "bool": bool, "choice": str, "list": tuple, "events": tuple}
 
 
 def _field(param: Parameter) -> tuple[str, Any, Any]:
@@ -196,7 +260,58 @@ def _boolean(param: Parameter, value: Any) -> bool:
     raise ConfigError(param.name, f"must be true or false (got {value!r})")
 
 
+def _json_list(param: Parameter, value: str, allow_commas: bool) -> Any:
+    text = value.strip()
+    if allow_commas and not text.startswith("["):
+        return [item.strip() for item in text.split(",")] if text else []
+    try:
+        return json.loads(text)
+    except ValueError:
+        raise ConfigError(param.name, f"must be a JSON list (got {value[:60]!r})") from None
+
+
+def _items(param: Parameter, value: Any) -> list[Any]:
+    """A list or event list's items, from a sequence or (a command line's) text; checks their count."""
+    if isinstance(value, str):
+        value = _json_list(param, value, allow_commas=param.kind == "list")
+    if not isinstance(value, list | tuple):
+        raise ConfigError(param.name, f"must be a list (got {type(value).__name__})")
+    if param.min_items is not None and len(value) < param.min_items:
+        raise ConfigError(param.name, f"must have at least {param.min_items} items (got {len(value)})")
+    if param.max_items is not None and len(value) > param.max_items:
+        raise ConfigError(param.name, f"must have at most {param.max_items} items (got {len(value)})")
+    return list(value)
+
+
+def _record(param: Parameter, index: int, value: Any) -> Record:
+    where = f"{param.name}[{index}]"
+    if isinstance(value, Record):
+        value = value.as_dict()
+    if not isinstance(value, Mapping):
+        raise ConfigError(where, f"must be an object with fields {', '.join(f.name for f in param.fields)} "
+                                 f"(got {type(value).__name__})")
+    known = [f.name for f in param.fields]
+    for key in value:
+        if key not in known:
+            raise ConfigError(f"{where}.{key}", f"unknown field (fields: {', '.join(known)})")
+    fields = {}
+    for field in param.fields:
+        nested = dataclasses.replace(field, name=f"{where}.{field.name}")
+        if field.name in value:
+            fields[field.name] = _coerce(nested, value[field.name])
+        elif field.default is None and not field.nullable:
+            raise ConfigError(nested.name, "is required")
+        else:
+            fields[field.name] = field.default
+    return Record.of(fields)
+
+
 def _coerce(param: Parameter, value: Any) -> Any:
+    if param.kind == "list":
+        return tuple(_coerce(dataclasses.replace(param.item, name=f"{param.name}[{i}]"), item)
+                     for i, item in enumerate(_items(param, value)))
+    if param.kind == "events":
+        return tuple(_record(param, i, item) for i, item in enumerate(_items(param, value)))
     if param.nullable and isinstance(value, str) and value.strip() in ("", "none", "null"):
         value = None
     if value is None:
@@ -247,10 +362,13 @@ def make_params(overrides: Mapping[str, Any] | None = None, base: SystemParams |
         A new, fully validated :class:`SystemParams`.
 
     Raises:
-        ConfigError: an unknown name, a wrong type, a value outside its limits, or
-            ``types_per_composite`` larger than ``n_types``.
+        ConfigError: an unknown name, a wrong type, a value outside its limits (a list's item or an event's
+            field named as ``composite_periods[3]`` or ``schedule[2].fraction``), ``types_per_composite``
+            larger than ``n_types``, or ``composite_periods`` not one per composite type under
+            ``frequency_profile="explicit"``.
     """
-    values = (base or SystemParams()).as_dict()
+    base = base or SystemParams()
+    values = {f.name: getattr(base, f.name) for f in dataclasses.fields(base)}
     for name, value in (overrides or {}).items():
         param = PARAMETERS_BY_NAME.get(name)
         if param is None:
@@ -260,5 +378,11 @@ def make_params(overrides: Mapping[str, Any] | None = None, base: SystemParams |
         raise ConfigError(
             "types_per_composite",
             f"must be at most n_types = {values['n_types']} (got {values['types_per_composite']})",
+        )
+    if values["frequency_profile"] == "explicit" and len(values["composite_periods"]) != values["n_composite_types"]:
+        raise ConfigError(
+            "composite_periods",
+            f"must have n_composite_types = {values['n_composite_types']} items under frequency_profile=explicit "
+            f"(got {len(values['composite_periods'])})",
         )
     return SystemParams(**values)

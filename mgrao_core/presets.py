@@ -1,4 +1,9 @@
-"""The paper's four simulated systems (section 5, appendix "Simulation parameter values")."""
+"""The paper's four simulated systems (section 5, appendix "Simulation parameter values"), and systems beyond them.
+
+:data:`PAPER_SYSTEMS` names the paper's four: ``mgrao reproduce`` and the paper view run those, never every
+preset. The others (``drift``, ``bursty``) exercise the parts of the paper's system model its experiments
+leave out (docs/model.md, "Task frequencies", "Changes over time").
+"""
 
 from __future__ import annotations
 
@@ -69,14 +74,29 @@ PRESETS: dict[str, Preset] = {
             "mgrao-5:1": 91.0, "mgrao-10:1": 96.6, "mgrao-25:1": 99.4,
         },
     ),
+    "drift": Preset(
+        "drift",
+        "single, but at episode 50 of 100, 30% of the parents draw new value profiles: does learning recover?",
+        {"n_parents": 10, "n_children": 1,
+         "schedule": [{"episode": 50, "change": "new-profiles", "fraction": 0.3}]},
+        ("uniform", "mgrao-1:1", "mgrao-max"),
+    ),
+    "bursty": Preset(
+        "bursty",
+        "large, but half the composite types arrive every episode and half every 4th: unequal sample counts.",
+        {"n_parents": 50, "n_children": 1, "frequency_profile": "two-speed", "slow_period": 4},
+        ("uniform", "mgrao-1:1", "mgrao-2:1", "mgrao-5:1", "mgrao-10:1", "mgrao-25:1", "mgrao-max"),
+    ),
 }
+PAPER_SYSTEMS: tuple[str, ...] = ("single", "multi", "volatile", "large")
+"""The paper's four systems, in its order: what ``mgrao reproduce`` and the paper view run."""
 
 
 def get_preset(name: str) -> Preset:
     """The preset called ``name``.
 
     Raises:
-        ConfigError: ``name`` is not one of single, multi, volatile, large.
+        ConfigError: ``name`` is no preset's (single, multi, volatile, large, drift, bursty).
     """
     try:
         return PRESETS[name]

@@ -24,7 +24,7 @@ from mgrao_core.algorithms import family_of, parse_algorithm
 from mgrao_core.algorithms.base import ReferenceChild
 from mgrao_core.params import SystemParams
 from mgrao_core.quality import atomic_quality
-from mgrao_core.world import EpisodeDraws, EpisodeStreams, draw_world
+from mgrao_core.world import NEW_COMPOSITE, NEW_PROFILE, EpisodeDraws, EpisodeStreams, draw_world, is_dynamic
 
 
 def choose_child(estimates: np.ndarray, u: np.ndarray, params: SystemParams) -> int:
@@ -47,10 +47,11 @@ def choose_child(estimates: np.ndarray, u: np.ndarray, params: SystemParams) -> 
 
 @dataclass
 class Parent:
-    """One parent agent: its value profile, presence and running estimates of each child.
+    """One parent agent: its composite type's atomic types, value profile, presence and estimates of each child.
 
     ``estimates[k, c]`` is what child ``c`` gave back: per composite (``k = 0`` only) the
-    composite quality, per task the absolute value of atomic task ``k``.
+    composite quality, per task the absolute value of atomic task ``k``. ``sending``: whether it sends a
+    composite task in the current episode (present, and its composite type arrives).
     """
 
     task_types: np.ndarray
@@ -58,6 +59,7 @@ class Parent:
     estimates: np.ndarray
     tries: np.ndarray
     active: bool = True
+    sending: bool = True
 
     def allocate(self, routing: np.ndarray, params: SystemParams) -> list[int]:
         """Task allocation: the child of each atomic task of this episode's composite task."""
@@ -88,7 +90,9 @@ class Episode:
     Attributes:
         utility: the system utility, the sum of the composite qualities ``taq`` (and, under
             ``absent_tasks="counted"``, of the absent parents' ``absent_quality``).
-        present: ``(n_parents,)`` which parents were present (sent a composite task).
+        present: ``(n_parents,)`` which parents sent a composite task (present, and its type arrived).
+        task_types: ``(n_parents, types_per_composite)`` each parent's atomic types in the episode
+            (scheduled events and unpredictable parents change them).
         child_of: ``(n_parents, types_per_composite)`` the child each atomic task went to (-1: the
             parent was absent).
         values: ``(n_parents, types_per_composite)`` the absolute value ``atv`` each atomic task
@@ -99,6 +103,7 @@ class Episode:
 
     utility: float
     present: np.ndarray
+    task_types: np.ndarray
     child_of: np.ndarray
     values: np.ndarray
     taqs: np.ndarray
@@ -134,13 +139,13 @@ class SeedEnvironment:
         self.seed = seed
         self.world = draw_world(params, seed)
         self.episode = 0
-        self._streams = EpisodeStreams(params, seed)
+        self._streams = EpisodeStreams(params, seed, self.world)
         self._block = max(1, block)
         self._draws = None
         self._start = 0
         choices = 1 if params.routing == "per-composite" else params.types_per_composite
         self.parents = [
-            Parent(self.world.parent_types[p], self.world.profiles[p].copy(),
+            Parent(self.world.parent_types[p].copy(), self.world.profiles[p].copy(),
                    np.full((choices, params.n_children), params.initial_estimate),
                    np.zeros((choices, params.n_children), dtype=int))
             for p in range(params.n_parents)
@@ -150,7 +155,9 @@ class SeedEnvironment:
         self._values = np.zeros(shape)
         self._taqs = np.zeros(params.n_parents)
         self._present = np.zeros(params.n_parents, dtype=bool)
+        self._task_types = np.array(self.world.parent_types, dtype=np.int64)
         self._volatile = params.leave_probability > 0 or params.join_probability > 0
+        self._dynamic = is_dynamic(params)
 
     def _draws_of(self, e: int) -> EpisodeDraws:
         if self._draws is None or e >= self._start + self._block:
@@ -168,7 +175,14 @@ class SeedEnvironment:
         draws = self._draws_of(self.episode)
         e = self.episode - self._start
         self.episode += 1
-        # 1. Composite tasks arrive at the parents present.
+        # 1. Composite tasks arrive at the parents present whose composite type arrives: the task stream's
+        # changes (scheduled events, unpredictable parents), then volatility.
+        for p, parent in enumerate(parents if self._dynamic else ()):
+            if draws.changes[e, p] & NEW_PROFILE:
+                parent.profile = draws.event_profiles[e, p].copy()
+            if draws.changes[e, p] & NEW_COMPOSITE:
+                parent.task_types = draws.event_types[e, p].copy()
+                self._task_types[p] = parent.task_types
         for p, parent in enumerate(parents if self._volatile else ()):
             if parent.active and draws.volatility[e, p] < params.leave_probability:
                 parent.active = False
@@ -176,8 +190,10 @@ class SeedEnvironment:
                 parent.active = True
                 if params.rejoin_profile == "new":
                     parent.profile = draws.new_profiles[e, p].copy()
-        # 2-3. Each present parent decomposes its task and allocates the atomic tasks.
-        present = [p for p, parent in enumerate(parents) if parent.active]
+        for p, parent in enumerate(parents):
+            parent.sending = parent.active and (not self._dynamic or bool(draws.arrives[e, p]))
+        # 2-3. Each parent that sends decomposes its task and allocates the atomic tasks.
+        present = [p for p, parent in enumerate(parents) if parent.sending]
         assigned = {p: parents[p].allocate(draws.routing[e, p] if params.n_children > 1 else None, params)
                     for p in present}
         # 4. Children perform the atomic tasks; composite qualities make the system utility.
@@ -189,19 +205,20 @@ class SeedEnvironment:
         for p in present:
             child_of[p] = assigned[p]
         allocation = np.asarray(weights, dtype=float).reshape(params.n_children, params.n_types)
-        children, types = child_of[present], world.parent_types[present]
+        children, types = child_of[present], self._task_types[present]
         load = 1.0
         if params.load_sharing:  # the instances of each type each child received this episode
             counts = np.zeros((params.n_children, params.n_types))
             np.add.at(counts, (children, types), 1.0)
             load = counts[children, types]
-        quality = atomic_quality(allocation[children, types], world.resources[children], params, load)
+        resources = world.resources[children] / world.capability[children, types]  # capability scales h per type
+        quality = atomic_quality(allocation[children, types], resources, params, load)
         self._present[:] = False
         self._present[present] = True
         row = 0  # of quality: the present parents in order
         for p, parent in enumerate(parents):
-            if not parent.active:
-                if params.absent_tasks == "counted":
+            if not parent.sending:
+                if params.absent_tasks == "counted" and not parent.active:
                     utility += params.effective_absent_quality
                 continue
             ctv = eq.proportional_values(parent.profile, draws.noise[e, p], params.value_noise)
@@ -211,11 +228,11 @@ class SeedEnvironment:
             utility += taqs[p]
         # 5. Values come back composite by composite, in a random order of parents: first to the
         # parents' estimates of their children (the children's learning is the caller's).
-        order = [int(p) for p in draws.order[e] if parents[p].active]
+        order = [int(p) for p in draws.order[e] if parents[p].sending]
         if params.n_children > 1:
             for p in order:
                 parents[p].observe(assigned[p], values[p], taqs[p], params)
-        return Episode(utility, self._present, child_of, values, taqs, order)
+        return Episode(utility, self._present, self._task_types, child_of, values, taqs, order)
 
 
 def simulate(params: SystemParams, algorithm: str, seed: int,
@@ -229,5 +246,5 @@ def simulate(params: SystemParams, algorithm: str, seed: int,
         episode = environment.step([child.allocation() for child in children])
         utilities[e] = episode.utility
         for p, k, c, value in episode.returns():
-            children[c].learn(p, int(environment.world.parent_types[p, k]), value)
+            children[c].learn(p, int(episode.task_types[p, k]), value)
     return utilities, children

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from mgrao_core.presets import PRESETS
+from mgrao_core.presets import PAPER_SYSTEMS, PRESETS
 from mgrao_core.results import ExperimentResult
 from mgrao_core.spec import make_spec
 from mgrao_core.stats import ConfigSummary
@@ -57,7 +57,7 @@ def reproduce(
     seeds: int | Sequence[int] = DEFAULT_SEEDS,
     episodes: int = PAPER_EPISODES,
     overrides: Mapping[str, Any] | None = None,
-    systems: Sequence[str] = tuple(PRESETS),
+    systems: Sequence[str] = PAPER_SYSTEMS,
     on_progress: Callable[[str, float], None] | None = None,
 ) -> dict[str, ExperimentResult]:
     """Run each system's preset with the paper's algorithms; ``on_progress(system, fraction)``.
@@ -66,7 +66,7 @@ def reproduce(
         seeds: a count (seeds ``0 .. S-1``) or an explicit list, e.g. calibration seeds.
         episodes: episodes per run.
         overrides: parameters changed in every system (e.g. a reading from :data:`READINGS`).
-        systems: which presets.
+        systems: which presets (the paper's four by default).
         on_progress: called with the system's name and its fraction done.
     """
     from mgrao_core import runner  # the compiled engine, loaded when a reproduction runs

@@ -35,6 +35,7 @@ def _build_lanes(spec: ExperimentSpec, worlds: Sequence[World], seeds: Sequence[
     algorithms = spec.parsed_algorithms
     arrays = allocate_lanes(p, algorithms, len(worlds))
     arrays["profiles"][:] = np.stack([worlds[i].profiles for i in arrays["seed_index"]])
+    arrays["parent_types"][:] = np.stack([worlds[i].parent_types for i in arrays["seed_index"]])
     for code, family in enumerate(FAMILIES):
         lanes = np.flatnonzero(arrays["kind"] == code)
         if isinstance(family, FixedFamily) and len(lanes):
@@ -57,6 +58,10 @@ def _block_draws(draws: list[EpisodeDraws]) -> engine.Draws:
         volatility=_stack(draws, "volatility"),
         new_profiles=_stack(draws, "new_profiles"),
         routing=_stack(draws, "routing"),
+        changes=_stack(draws, "changes"),
+        event_profiles=_stack(draws, "event_profiles"),
+        event_types=_stack(draws, "event_types"),
+        arrives=_stack(draws, "arrives"),
     )
 
 
@@ -95,12 +100,9 @@ def run_chunk(
     seeds = tuple(seeds)
     worlds = [draw_world(p, seed) for seed in seeds]
     arrays, lanes, learners = _build_lanes(spec, worlds, seeds, should_stop)
-    world = engine.Worlds(
-        parent_types=np.ascontiguousarray(np.stack([w.parent_types for w in worlds]).astype(np.int64)),
-        resources=np.ascontiguousarray(np.stack([w.resources for w in worlds])),
-    )
+    world = engine.Worlds(resources=np.ascontiguousarray(np.stack([w.type_resources for w in worlds])))
     environment = engine.environment_of(p)
-    streams = [EpisodeStreams(p, seed) for seed in seeds]
+    streams = [EpisodeStreams(p, seed, world) for seed, world in zip(seeds, worlds, strict=True)]
     utilities = np.zeros((len(lanes.kind), spec.episodes))
     block = episodes_per_block or block_episodes(spec, len(seeds))
     done = 0

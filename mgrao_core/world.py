@@ -15,11 +15,17 @@ from mgrao_core.algorithms import FAMILIES
 from mgrao_core.algorithms.state import routing_choices
 from mgrao_core.params import SystemParams
 
-_STREAM_IDS = {"world": 0, "noise": 1, "order": 2, "volatility": 3, "routing": 4, "profiles": 6} | {
+_STREAM_IDS = {"world": 0, "noise": 1, "order": 2, "volatility": 3, "routing": 4, "profiles": 6,
+               "arrivals": 16, "schedule": 17, "unpredictable": 18, "capability": 19} | {
     name: number for family in FAMILIES for name, number in family.streams.items()}
 """Each stream's number in its seed sequence: the environment's, then each family's own (the oracle's
-``"oracle"``, 5); a number, once used, is never given to another stream."""
+``"oracle"``, 5); a number, once used, is never given to another stream. The system's dynamics took 16 to
+19 (arrival phases, scheduled events, unpredictable parents, capability), leaving 7 to 15 to families."""
 RESOURCE_FLOOR = 1e-6
+NEW_PROFILE = 1
+"""A parent change (:attr:`EpisodeDraws.changes`): the parent takes the value profile of ``event_profiles``."""
+NEW_COMPOSITE = 2
+"""A parent change: the parent takes the atomic types of ``event_types`` (a new composite type)."""
 
 
 def stream(seed: int, name: str) -> np.random.Generator:
@@ -37,12 +43,25 @@ class World:
             ``p mod n_composite_types`` (the paper's ``tg`` mapping).
         profiles: ``(n_parents, types_per_composite)`` each parent's Dirichlet value profile.
         resources: ``(n_children,)`` each child's resource amount in (0, 1].
+        capability: ``(n_children, n_types)`` the factor on each child's half-saturation per type,
+            ``exp(capability_spread * N(0, 1))`` from the ``"capability"`` stream (exactly 1 at spread 0,
+            drawing nothing).
     """
 
     composite_types: np.ndarray
     parent_types: np.ndarray
     profiles: np.ndarray
     resources: np.ndarray
+    capability: np.ndarray
+
+    @property
+    def type_resources(self) -> np.ndarray:
+        """``(n_children, n_types)``: ``ar[c] / capability[c, t]``, a child's resource per unit of weight of a type.
+
+        Quality ``x' / (x' + h)`` at ``x' = w * ar / f`` equals ``x / (x + h * f)``: scaling the half-saturation by
+        ``f`` is scaling the resource by ``1 / f`` (exactly ``ar`` at ``f = 1``).
+        """
+        return self.resources[:, None] / self.capability
 
 
 def draw_world(params: SystemParams, seed: int) -> World:
@@ -57,7 +76,114 @@ def draw_world(params: SystemParams, seed: int) -> World:
     resources = np.clip(
         rng.normal(params.resource_mean, params.resource_sd, params.n_children), RESOURCE_FLOOR, 1.0
     )
-    return World(composite_types, np.ascontiguousarray(parent_types), profiles, resources)
+    shape = (params.n_children, params.n_types)
+    capability = (np.exp(params.capability_spread * stream(seed, "capability").standard_normal(shape))
+                  if params.capability_spread > 0 else np.ones(shape))
+    return World(composite_types, np.ascontiguousarray(parent_types), profiles, resources, capability)
+
+
+def composite_periods(params: SystemParams) -> np.ndarray:
+    """``(n_composite_types,)`` episodes between two arrivals of each composite type (``frequency_profile``).
+
+    ``two-speed``: the last ``n_composite_types // 2`` types are the slow ones.
+    """
+    periods = np.ones(params.n_composite_types, dtype=np.int64)
+    if params.frequency_profile == "two-speed":
+        periods[params.n_composite_types - params.n_composite_types // 2 :] = params.slow_period
+    elif params.frequency_profile == "explicit":
+        periods[:] = params.composite_periods
+    return periods
+
+
+def is_dynamic(params: SystemParams) -> bool:
+    """Whether the task stream changes: periods other than 1, a schedule, or unpredictable parents."""
+    return bool(params.schedule) or params.unpredictable_fraction > 0 or bool((composite_periods(params) > 1).any())
+
+
+def _share(fraction: float, n: int) -> int:
+    """How many of ``n`` a ``fraction`` chooses: ``fraction * n`` rounded half up."""
+    return int(np.floor(fraction * n + 0.5))
+
+
+def unpredictable_parents(params: SystemParams, rng: np.random.Generator) -> np.ndarray:
+    """The unpredictable parents, in increasing order: ``unpredictable_fraction`` of them, from ``rng``."""
+    return np.sort(rng.permutation(params.n_parents)[: _share(params.unpredictable_fraction, params.n_parents)])
+
+
+def _event_stream(seed: int, index: int) -> np.random.Generator:
+    """Event ``index`` of the schedule's own generator: adding an event changes no other event's draws."""
+    return np.random.Generator(np.random.PCG64(np.random.SeedSequence([seed, _STREAM_IDS["schedule"], index])))
+
+
+class Timeline:
+    """The task stream's changes over one seed's episodes: docs/model.md ("Task frequencies", "Changes over time").
+
+    The same mechanism serves scheduled events and unpredictable parents: at the start of an episode a
+    parent may take a new value profile (:data:`NEW_PROFILE`) or a new composite type (:data:`NEW_COMPOSITE`),
+    and the composite types' periods may change; then each parent's composite task arrives or not.
+    Everything here is per seed (no lane changes it), so it is drawn once, outside the kernel, and the
+    engine and the reference read the same arrays.
+    """
+
+    def __init__(self, params: SystemParams, world: World, seed: int) -> None:
+        self._params = params
+        self._seed = seed
+        self._composite_types = world.composite_types
+        self._composite_of = np.arange(params.n_parents) % params.n_composite_types
+        self._periods = composite_periods(params)
+        self._phases = stream(seed, "arrivals").integers(0, self._periods)
+        self._unpredictable_rng = stream(seed, "unpredictable")
+        self._unpredictable = unpredictable_parents(params, self._unpredictable_rng)
+        order = sorted(range(len(params.schedule)), key=lambda i: params.schedule[i].episode)
+        self._events = [(params.schedule[i].episode, i, params.schedule[i]) for i in order]
+        self._next_event = 0
+        self._episode = 0
+
+    def draw(self, episodes: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``changes, event_profiles, event_types, arrives`` of the next ``episodes`` episodes."""
+        p = self._params
+        changes = np.zeros((episodes, p.n_parents), dtype=np.int8)
+        profiles = np.zeros((episodes, p.n_parents, p.types_per_composite))
+        types = np.zeros((episodes, p.n_parents, p.types_per_composite), dtype=np.int64)
+        arrives = np.zeros((episodes, p.n_parents), dtype=np.bool_)
+        alpha = np.full(p.types_per_composite, p.value_concentration)
+        for i in range(episodes):
+            episode = self._episode + i
+            while self._next_event < len(self._events) and self._events[self._next_event][0] == episode:
+                _, index, event = self._events[self._next_event]
+                self._apply(event, _event_stream(self._seed, index), alpha, changes[i], profiles[i], types[i])
+                self._next_event += 1
+            periods = self._periods[self._composite_of]
+            arrives[i] = episode % periods == self._phases[self._composite_of]
+            u = self._unpredictable
+            if len(u):
+                rng = self._unpredictable_rng
+                composites = rng.integers(0, p.n_composite_types, size=len(u))
+                profiles[i, u] = rng.dirichlet(alpha, size=len(u))
+                arrives[i, u] = rng.random(len(u)) < 1.0 / self._periods[composites]
+                self._composite_of[u] = composites
+                types[i, u] = self._composite_types[composites]
+                changes[i, u] = NEW_PROFILE | NEW_COMPOSITE
+        self._episode += episodes
+        return changes, profiles, types, arrives
+
+    def _apply(self, event, rng: np.random.Generator, alpha: np.ndarray, changes: np.ndarray, profiles: np.ndarray,
+               types: np.ndarray) -> None:
+        p = self._params
+        if event.change == "frequencies":
+            chosen = rng.permutation(p.n_composite_types)[: _share(event.fraction, p.n_composite_types)]
+            self._periods[chosen] = event.period
+            self._phases[chosen] = rng.integers(0, event.period, size=len(chosen))
+            return
+        chosen = rng.permutation(p.n_parents)[: _share(event.fraction, p.n_parents)]
+        if event.change == "new-profiles":
+            profiles[chosen] = rng.dirichlet(alpha, size=len(chosen))
+            changes[chosen] |= NEW_PROFILE
+        else:  # new-composites
+            composites = rng.integers(0, p.n_composite_types, size=len(chosen))
+            self._composite_of[chosen] = composites
+            types[chosen] = self._composite_types[composites]
+            changes[chosen] |= NEW_COMPOSITE
 
 
 @dataclass(frozen=True)
@@ -74,6 +200,13 @@ class EpisodeDraws:
             explore or not, which other child, which of tied children. ``choices`` is 1 under
             ``routing="per-composite"`` (one choice per composite task) and ``types_per_composite``
             under ``"per-task"``; multi-child systems only (shape ``(episodes, 0, 0, 3)`` otherwise).
+        changes: ``(episodes, n_parents)`` int8: each parent's change at the episode's start, a sum of
+            :data:`NEW_PROFILE` and :data:`NEW_COMPOSITE` (scheduled events, unpredictable parents).
+        event_profiles: ``(episodes, n_parents, types_per_composite)`` the new profiles of those changes.
+        event_types: ``(episodes, n_parents, types_per_composite)`` the new atomic types of those changes.
+        arrives: ``(episodes, n_parents)`` whether the parent's composite type arrives in the episode.
+            The four have ``n_parents = 0`` (and 0 types) when the task stream never changes
+            (:func:`is_dynamic`): every present parent's task then arrives, and nothing is drawn.
     """
 
     noise: np.ndarray
@@ -81,13 +214,18 @@ class EpisodeDraws:
     volatility: np.ndarray
     new_profiles: np.ndarray
     routing: np.ndarray
+    changes: np.ndarray
+    event_profiles: np.ndarray
+    event_types: np.ndarray
+    arrives: np.ndarray
 
 
 class EpisodeStreams:
     """Draws :class:`EpisodeDraws` for consecutive blocks of episodes of one seed."""
 
-    def __init__(self, params: SystemParams, seed: int) -> None:
+    def __init__(self, params: SystemParams, seed: int, world: World | None = None) -> None:
         self._params = params
+        self._timeline = Timeline(params, world or draw_world(params, seed), seed) if is_dynamic(params) else None
         self._noise = stream(seed, "noise")
         self._order = stream(seed, "order")
         self._volatility = stream(seed, "volatility")
@@ -104,7 +242,14 @@ class EpisodeStreams:
             if volatile and p.rejoin_profile == "new"
             else np.zeros((episodes, 0, 0))
         )
+        if self._timeline is None:
+            changes, event_profiles, event_types, arrives = (
+                np.zeros((episodes, 0), dtype=np.int8), np.zeros((episodes, 0, 0)),
+                np.zeros((episodes, 0, 0), dtype=np.int64), np.zeros((episodes, 0), dtype=np.bool_))
+        else:
+            changes, event_profiles, event_types, arrives = self._timeline.draw(episodes)
         return EpisodeDraws(
+            changes=changes, event_profiles=event_profiles, event_types=event_types, arrives=arrives,
             noise=self._noise.standard_normal(shape),
             order=np.argsort(self._order.random(shape[:2]), axis=1, kind="stable"),
             volatility=self._volatility.random(shape[:2]) if volatile else np.ones(shape[:2]),

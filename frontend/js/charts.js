@@ -143,6 +143,23 @@ export function utilityLayout(title = '') {
   };
 }
 
+/**
+ * A utility chart's layout with a dashed vertical line at each scheduled event's episode (the job's
+ * `schedule` parameter: events apply at the start of their episode, 0-based like the chart's axis),
+ * labelled with what changes; events at or past `episodes` never fire and are not drawn.
+ */
+export function withEvents(layout, schedule, episodes) {
+  const fired = (Array.isArray(schedule) ? schedule : []).filter((e) => Number.isInteger(e.episode) && e.episode < episodes);
+  if (!fired.length) return layout;
+  const shapes = fired.map((e) => ({ type: 'line', xref: 'x', yref: 'paper', x0: e.episode, x1: e.episode, y0: 0, y1: 1,
+    line: { color: '#6b7280', width: 1, dash: 'dash' } }));
+  const annotations = fired.map((e, i) => ({ xref: 'x', yref: 'paper', x: e.episode, y: 1, yanchor: 'bottom',
+    showarrow: false, font: { size: 10, color: '#4b5563' }, yshift: 2 + 11 * (i % 2),
+    text: `${e.change}${e.change === 'frequencies' ? ` → ${e.period}` : ''} ${Math.round(100 * (e.fraction ?? 1))}%` }));
+  return { ...layout, shapes: [...(layout.shapes || []), ...shapes],
+    annotations: [...(layout.annotations || []), ...annotations] };
+}
+
 /** Bar chart of % from uniform with asymmetric error bars. */
 export function pctBarTrace(labels, bars, colors) {
   return {

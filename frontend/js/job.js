@@ -3,7 +3,7 @@
 
 import { api } from './api.js';
 import { h, statusCell, jobMeta, notice, editJobDialog, confirmDialog, cancelConsequence, keepLabel, nextId, downloadText, downloadWithToken } from './ui.js';
-import { draw, purge, loadPlotly, meanBandTraces, seedTraces, utilityLayout, bandsBelow, bandAlpha } from './charts.js';
+import { draw, purge, loadPlotly, meanBandTraces, seedTraces, utilityLayout, bandsBelow, bandAlpha, withEvents } from './charts.js';
 import { fmtNumber, fmtPct, fmtCI, pctProgress, waitingMessage, smoothingNote, episodesPerPoint, bandCaution, DEFINITIONS } from './stats.js';
 import { algorithmStyles } from './colours.js';
 import { compareLabels, ready, remember } from './algorithms.js';
@@ -255,7 +255,8 @@ export async function mount(root, params, ctx) {
         traces.push(...meanBandTraces(c.algorithm, c.episodes, style.color, smooth, c.algorithm, style.dash,
           { bands: showBands, symbol: style.symbol, fillAlpha: bandAlpha(data.configurations.length) }));
       });
-      await draw(chart, bandsBelow(traces), withAxis(utilityLayout(), axisUi.axis));
+      const layout = withEvents(utilityLayout(), (job.params || {}).schedule, job.episodes); // a line per event
+      await draw(chart, bandsBelow(traces), withAxis(layout, axisUi.axis));
       caution.textContent = showBands ? bandCaution(data.configurations.map((c) => ({
         runs: c.seeds_done ?? (c.summary || {}).n_runs, episodes: c.episodes }))) : '';
       chart.dataset.rendered = String(Date.now());

@@ -129,15 +129,16 @@ export async function mount(root, params, ctx) {
   });
 
   paperBtn.addEventListener('click', async () => {
-    const n = schema.systems.length;
+    const paperSystems = schema.systems.filter((s) => Object.keys(s.paper || {}).length); // not drift, bursty
+    const n = paperSystems.length;
     const ok = await confirmDialog('Reproduce the paper?',
-      `This queues ${n} jobs (${schema.systems.map((s) => s.name).join(', ')}), each with its paper configurations, ` +
+      `This queues ${n} jobs (${paperSystems.map((s) => s.name).join(', ')}), each with its paper configurations, ` +
       `${PAPER_SEEDS} seeds and ${PAPER_EPISODES} episodes, tagged “paper”.`, 'Queue the jobs', false, 'Not now');
     if (!ok) return;
     paperBtn.disabled = true;
     const made = [];
     try {
-      for (const s of schema.systems) {
+      for (const s of paperSystems) {
         paperStatus.textContent = `Queuing ${s.name}…`;
         const job = await api.createJob({ system: s.name, algorithms: s.algorithms, seeds: PAPER_SEEDS,
           episodes: PAPER_EPISODES, tags: ['paper'], name: `paper: ${s.name}`, notes: 'Full reproduction of the paper.' });

@@ -24,7 +24,7 @@ from typing import Any
 
 PACKAGE_DIR = Path(__file__).resolve().parents[1]
 
-COMPILED_SOURCES = ("engine/*.py", "quality.py", "algorithms.py", "algorithms/**/*.py")
+COMPILED_SOURCES = ("engine/*.py", "quality.py", "world.py", "algorithms.py", "algorithms/**/*.py")
 """Every place, as a glob under ``mgrao_core/``, whose code the kernel compiles or reads at compile time.
 
 The engine package; the quality models' compiled forms; the algorithms, a module or a package of

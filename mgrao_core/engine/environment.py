@@ -18,6 +18,7 @@ from numba import njit
 
 from mgrao_core.params import SystemParams
 from mgrao_core.quality import compiled_atomic_quality, quality_model
+from mgrao_core.world import NEW_COMPOSITE, NEW_PROFILE, is_dynamic
 
 atomic_task_quality = compiled_atomic_quality()
 """Quality of an atomic task under the environment's quality model (see :mod:`mgrao_core.quality`)."""
@@ -42,6 +43,7 @@ class Environment(NamedTuple):
     rejoin_new: bool
     absent_counted: bool
     absent_quality: float
+    dynamic: bool
 
 
 def environment_of(params: SystemParams) -> Environment:
@@ -63,7 +65,37 @@ def environment_of(params: SystemParams) -> Environment:
         rejoin_new=params.rejoin_profile == "new",
         absent_counted=params.absent_tasks == "counted",
         absent_quality=params.effective_absent_quality,
+        dynamic=is_dynamic(params),
     )
+
+
+@njit(cache=True)
+def apply_changes(profiles, parent_types, changes, event_profiles, event_types, env):
+    """The task stream's changes at the start of an episode (scheduled events, unpredictable parents).
+
+    A parent whose ``changes`` has :data:`~mgrao_core.world.NEW_PROFILE` takes the value profile
+    ``event_profiles[p]``; one with :data:`~mgrao_core.world.NEW_COMPOSITE` takes the atomic types
+    ``event_types[p]`` of its new composite type. Nothing changes in a system whose stream never does.
+    """
+    if not env.dynamic:
+        return
+    for p in range(changes.shape[0]):
+        if changes[p] & NEW_PROFILE:
+            for k in range(profiles.shape[1]):
+                profiles[p, k] = event_profiles[p, k]
+        if changes[p] & NEW_COMPOSITE:
+            for k in range(parent_types.shape[1]):
+                parent_types[p, k] = event_types[p, k]
+
+
+@njit(cache=True)
+def composite_tasks_arrive(active, arrives, env, sending):
+    """Which parents send a composite task in the episode, into ``sending``.
+
+    A present parent whose composite type arrives (every episode, unless frequencies say otherwise).
+    """
+    for p in range(active.shape[0]):
+        sending[p] = active[p] and (not env.dynamic or arrives[p])
 
 
 @njit(cache=True)
@@ -166,13 +198,14 @@ def allocate_atomic_tasks(estimates, routing, env, child_of):
 def perform_composite_task(ctv, child_of, task_types, weights, resources, load, env, values):
     """Children perform the atomic tasks; returns the composite task quality ``taq = sum(ctv * q)``.
 
-    Each atomic task's absolute value ``atv = taq * ctv`` goes into ``values``.
+    ``resources[c, t]`` is child ``c``'s resource per unit of weight of type ``t`` (its amount over its
+    capability factor). Each atomic task's absolute value ``atv = taq * ctv`` goes into ``values``.
     """
     taq = 0.0
     for k in range(ctv.shape[0]):
         c = child_of[k]
         t = task_types[k]
-        taq += ctv[k] * atomic_task_quality(weights[c, t], resources[c], load[c, t], env)
+        taq += ctv[k] * atomic_task_quality(weights[c, t], resources[c, t], load[c, t], env)
     for k in range(ctv.shape[0]):
         values[k] = taq * ctv[k]
     return taq

@@ -8,7 +8,8 @@ episodes are split into blocks.
 An episode follows the paper's five processing steps (section 3), with the child's allocation
 fixed at its start (the paper: an allocation cannot change instantly):
 
-1. composite tasks arrive, one per present parent (absent parents leave and rejoin first);
+1. composite tasks arrive, one per present parent whose composite type arrives in the episode (the
+   task stream's changes first, then absent parents leave and rejoin);
 2. each parent decomposes its composite task into atomic tasks (their proportional values);
 3. each parent allocates the atomic tasks to children;
 4. each child performs its atomic tasks with the resources its allocation gives their types;
@@ -35,6 +36,8 @@ from mgrao_core.algorithms import KINDS
 from mgrao_core.algorithms.mgrao import compiled as mgrao
 from mgrao_core.engine.environment import (
     allocate_atomic_tasks,
+    apply_changes,
+    composite_tasks_arrive,
     parents_leave_and_join,
     perform_composite_task,
     proportional_values,
@@ -57,6 +60,7 @@ class Lanes(NamedTuple):
             what each child gave back, and how often it tried it.
         active: ``(lanes, parents)`` which parents are present.
         profiles: ``(lanes, parents, types_per_composite)`` each parent's value profile.
+        parent_types: ``(lanes, parents, types_per_composite)`` the atomic types of each parent's composite type.
     """
 
     seed_index: np.ndarray
@@ -68,15 +72,17 @@ class Lanes(NamedTuple):
     tries: np.ndarray
     active: np.ndarray
     profiles: np.ndarray
+    parent_types: np.ndarray
 
 
 class Worlds(NamedTuple):
     """What each seed drew once.
 
-    ``parent_types (seeds, parents, types_per_composite)`` and ``resources (seeds, children)``.
+    ``resources (seeds, children, n_types)``: each child's resource per unit of weight of each type,
+    ``ar[c] / capability[c, t]`` (:attr:`mgrao_core.world.World.type_resources`). A parent's atomic types are
+    the lane's (``Lanes.parent_types``), since the task stream may change them.
     """
 
-    parent_types: np.ndarray
     resources: np.ndarray
 
 
@@ -91,6 +97,10 @@ class Draws(NamedTuple):
     volatility: np.ndarray
     new_profiles: np.ndarray
     routing: np.ndarray
+    changes: np.ndarray
+    event_profiles: np.ndarray
+    event_types: np.ndarray
+    arrives: np.ndarray
 
 
 @njit(cache=True, parallel=True)
@@ -102,12 +112,14 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes):
     """
     n_lanes = lanes.seed_index.shape[0]
     n_episodes = utilities.shape[1]
-    n_parents, types_per_composite = worlds.parent_types.shape[1], worlds.parent_types.shape[2]
+    n_parents, types_per_composite = lanes.parent_types.shape[1], lanes.parent_types.shape[2]
     n_children = lanes.weights.shape[1]
     for lane in prange(n_lanes):
         s = lanes.seed_index[lane]
         kind = lanes.kind[lane]
         active = lanes.active[lane]
+        sending = np.ones(n_parents, dtype=np.bool_)  # present, and the composite type arrives
+        parent_types = lanes.parent_types[lane]
         weights = lanes.weights[lane]
         m = lanes.groups[lane]
         mgrao_views = mgrao.lane_of(mgrao_lanes, lane)
@@ -117,8 +129,11 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes):
         taq = np.zeros(n_parents)
         load = np.ones((n_children, lanes.weights.shape[2]))
         for e in range(n_episodes):
-            # 1. Composite tasks arrive at the parents present.
+            # 1. Composite tasks arrive at the parents present whose composite type arrives.
+            apply_changes(lanes.profiles[lane], parent_types, draws.changes[s, e], draws.event_profiles[s, e],
+                          draws.event_types[s, e], env)
             parents_leave_and_join(active, lanes.profiles[lane], draws.volatility[s, e], draws.new_profiles[s, e], env)
+            composite_tasks_arrive(active, draws.arrives[s, e], env, sending)
             for c in range(n_children):
                 if kind == MGRAO:
                     mgrao.allocate(mgrao_lanes, mgrao_views, m, c, weights[c])
@@ -126,7 +141,7 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes):
                     weights[c, :] = lanes.fixed_weights[lane, c, :]
             # 2-3. Parents decompose their composite tasks and allocate the atomic tasks.
             for p in range(n_parents):
-                if active[p]:
+                if sending[p]:
                     proportional_values(lanes.profiles[lane, p], draws.noise[s, e, p], env.value_noise, ctv[p])
                     if n_children == 1:  # no choice (and no routing draws to index)
                         child_of[p, :] = 0
@@ -135,29 +150,29 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes):
             if env.load_sharing:
                 load[:, :] = 0.0
                 for p in range(n_parents):
-                    if active[p]:
+                    if sending[p]:
                         for k in range(types_per_composite):
-                            load[child_of[p, k], worlds.parent_types[s, p, k]] += 1.0
+                            load[child_of[p, k], parent_types[p, k]] += 1.0
             # 4. Children perform the atomic tasks; composite qualities make the system utility.
             utility = 0.0
             for p in range(n_parents):
-                if active[p]:
-                    taq[p] = perform_composite_task(ctv[p], child_of[p], worlds.parent_types[s, p],
+                if sending[p]:
+                    taq[p] = perform_composite_task(ctv[p], child_of[p], parent_types[p],
                                                     weights, worlds.resources[s], load, env, values[p])
                     utility += taq[p]
-                elif env.absent_counted:
+                elif env.absent_counted and not active[p]:
                     utility += env.absent_quality
             utilities[lane, e] = utility
             # 5. Values come back composite by composite, in a random order of parents.
             for i in range(n_parents):
                 p = draws.order[s, e, i]
-                if not active[p]:
+                if not sending[p]:
                     continue
                 if n_children > 1:
                     update_estimates(lanes.estimates[lane, p], lanes.tries[lane, p], child_of[p], values[p], taq[p],
                                      env.per_composite)
                 if kind == MGRAO:
-                    mgrao.learn(mgrao_lanes, mgrao_views, m, p, n_parents, child_of[p], worlds.parent_types[s, p],
+                    mgrao.learn(mgrao_lanes, mgrao_views, m, p, n_parents, child_of[p], parent_types[p],
                                 values[p])
 
 

@@ -75,7 +75,7 @@ def test_editing_an_inlined_engine_file_recompiles_the_kernel(tmp_path: Path) ->
     assert {p.parent for p in (root / "cache").rglob("*.nbi")} == {mine, theirs}
     assert not list(root.joinpath("mgrao_core").rglob("*.nb[ci]"))
     _edit(root / "mgrao_core" / "engine" / "environment.py",
-          "taq += ctv[k] * atomic_task_quality(weights[c, t], resources[c], load[c, t], env)", "taq += ctv[k] * 0.5")
+          "taq += ctv[k] * atomic_task_quality(weights[c, t], resources[c, t], load[c, t], env)", "taq += ctv[k] * 0.5")
     after = _run(root, "single")
     assert after != before  # the kernel inlines environment.py: it must not come from the old cache
     assert '"single": [[5.0, 5.0, 5.0]' in after  # uniform, 10 parents at quality 0.5
@@ -102,7 +102,7 @@ def test_editing_an_algorithm_module_or_the_quality_models_recompiles_the_kernel
 
 def test_no_index_is_out_of_bounds_in_any_system(tmp_path: Path) -> None:
     root = _copy_package(tmp_path)
-    _run(root, "single,multi,volatile,large", NUMBA_BOUNDSCHECK="1")
+    _run(root, "single,multi,volatile,large,drift,bursty", NUMBA_BOUNDSCHECK="1")  # drift, bursty: the dynamics
 
 
 LEAN = """

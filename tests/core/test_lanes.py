@@ -47,11 +47,14 @@ def test_the_budget_counts_exactly_what_the_runner_allocates(system, algorithms,
 def test_the_budget_grows_only_by_the_kernel_temporaries_it_now_counts(system, algorithms, seeds, overrides):
     # MG-RAO's rebase flag (a byte per lane and child) and algorithm 2's blending vector (groups
     # floats per lane) were allocated inside the kernel, per lane, and not counted; they are now
-    # declared state, allocated once per chunk and counted
+    # declared state, allocated once per chunk and counted; and (issue 20) each parent's atomic types,
+    # per lane since scheduled events and unpredictable parents change them
     spec = make_spec(system, algorithms, seeds=seeds, episodes=5, overrides=overrides)
     lanes = seeds * len(algorithms)
     groups = max([a.n_groups for a in spec.parsed_algorithms] + [1])
-    assert chunk_cost(spec, seeds).state == _before(spec, seeds) + lanes * (spec.params.n_children + 8 * groups)
+    parent_types = 8 * spec.params.n_parents * spec.params.types_per_composite
+    assert chunk_cost(spec, seeds).state == _before(spec, seeds) + lanes * (spec.params.n_children + 8 * groups
+                                                                             + parent_types)
 
 
 def test_lanes_are_seed_major_with_their_family_codes_and_groups():

@@ -5,14 +5,16 @@ import math
 
 import pytest
 
-from mgrao_core import PARAMETERS, PRESETS, ConfigError, SystemParams, get_preset, make_params
+from mgrao_core import PAPER_SYSTEMS, PARAMETERS, PRESETS, ConfigError, SystemParams, get_preset, make_params
 
 
 def test_schema_defaults_match_the_dataclass():
-    defaults = SystemParams().as_dict()
+    defaults = SystemParams()
     assert [p.name for p in PARAMETERS] == [f.name for f in dataclasses.fields(SystemParams)]
     for p in PARAMETERS:
-        assert defaults[p.name] == p.default, p.name
+        assert getattr(defaults, p.name) == p.default, p.name
+    plain = defaults.as_dict()
+    assert plain["composite_periods"] == [] and plain["schedule"] == []  # lists as JSON lists
 
 
 def test_simulation_md_defaults():
@@ -121,7 +123,9 @@ def test_overrides_apply_on_the_base():
 
 
 def test_presets_match_the_paper():
-    assert set(PRESETS) == {"single", "multi", "volatile", "large"}
+    assert PAPER_SYSTEMS == ("single", "multi", "volatile", "large")
+    assert set(PRESETS) == {*PAPER_SYSTEMS, "drift", "bursty"}
+    assert all(PRESETS[name].paper_pct_from_uniform for name in PAPER_SYSTEMS)
     assert (PRESETS["single"].params.n_parents, PRESETS["single"].params.n_children) == (10, 1)
     assert PRESETS["multi"].params.n_children == 3
     assert PRESETS["volatile"].params.leave_probability == 0.25

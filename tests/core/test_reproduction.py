@@ -42,6 +42,12 @@ def test_paper_tables_as_printed(table):
         assert set(preset.paper_pct_of_max) == set(preset.paper_pct_from_uniform)
 
 
+def test_reproduce_runs_the_papers_four_systems_not_every_preset():
+    import inspect
+
+    assert inspect.signature(reproduce).parameters["systems"].default == ("single", "multi", "volatile", "large")
+
+
 def test_reproduce_subset_with_progress_and_overrides():
     seen = []
     results = reproduce(seeds=2, episodes=5, overrides={"temperature": 1.0}, systems=("single", "multi"),

@@ -30,3 +30,16 @@ test('bands: light enough to read the lines through, under every line, and left 
   assert.equal(marked.mode, 'lines+markers');
   assert.equal(marked.marker.symbol, 'square');
 });
+
+test('withEvents: a dashed line per scheduled event that fires, labelled with its change', async () => {
+  const { withEvents, utilityLayout } = await import('../../../frontend/js/charts.js');
+  const plain = utilityLayout();
+  assert.equal(withEvents(plain, [], 100), plain);
+  assert.equal(withEvents(plain, undefined, 100), plain);
+  const schedule = [{ episode: 50, change: 'new-profiles', fraction: 0.3, period: 1 },
+    { episode: 60, change: 'frequencies', fraction: 0.5, period: 4 }, { episode: 100, change: 'new-composites', fraction: 1, period: 1 }];
+  const marked = withEvents(plain, schedule, 100);
+  assert.deepEqual(marked.shapes.map((s) => [s.x0, s.x1, s.yref, s.line.dash]), [[50, 50, 'paper', 'dash'], [60, 60, 'paper', 'dash']]);
+  assert.deepEqual(marked.annotations.map((a) => a.text), ['new-profiles 30%', 'frequencies → 4 50%']);
+  assert.equal(marked.xaxis, plain.xaxis);
+});
