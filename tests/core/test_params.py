@@ -12,7 +12,7 @@ def test_schema_defaults_match_the_dataclass():
     defaults = SystemParams().as_dict()
     assert [p.name for p in PARAMETERS] == [f.name for f in dataclasses.fields(SystemParams)]
     for p in PARAMETERS:
-        assert defaults[p.name] == p.default, p.name
+        assert defaults[p.name] == p.as_dict()["default"], p.name
 
 
 def test_simulation_md_defaults():
