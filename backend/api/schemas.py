@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from typing import Annotated, Any, Literal
 
 from pydantic import (
+    AfterValidator,
     BaseModel,
     ConfigDict,
     Field,
@@ -72,9 +73,34 @@ def text_keys(schema: JsonSchemaValue) -> None:
         schema["propertyNames"] = schema.get("propertyNames", {}) | {"pattern": pattern}
 
 
+MAX_LIST_ITEMS = 1000
+"""Most items of a list or event-list parameter's value in a body (a parameter's own ``max_items`` may be fewer)."""
+MAX_EVENT_FIELDS = 32
+"""Most fields of one event of an event-list parameter in a body."""
+
+
+def _sequence_schema(parameter: Any) -> JsonSchemaValue:
+    """A ``list`` or ``events`` parameter's value: a JSON array of numbers, or of objects of its fields."""
+    if parameter.kind == "list":
+        item_kind = parameter.item_kind or "float"
+        items: JsonSchemaValue = {"type": "integer" if item_kind == "int" else "number"}
+        items |= {k: v for k, v in (("minimum", parameter.minimum), ("maximum", parameter.maximum)) if v is not None}
+    else:
+        items = {"type": "object", "additionalProperties": False,
+                 "properties": {f.name: _parameter_schema(f) for f in parameter.fields},
+                 "required": [f.name for f in parameter.fields if f.default is None and not f.nullable]}
+        if not items["required"]:
+            del items["required"]
+    most = MAX_LIST_ITEMS if parameter.max_items is None else min(parameter.max_items, MAX_LIST_ITEMS)
+    return {"type": "array", "items": items, "minItems": parameter.min_items, "maxItems": most,
+            "description": parameter.help}
+
+
 def _parameter_schema(parameter: Any) -> JsonSchemaValue:
     """One parameter's value as the core reads it: its kind and limits, or text (``"0.5"``, ``"on"``)."""
     text = {"type": "string", "maxLength": 64, "pattern": NO_NUL_PATTERN}
+    if parameter.kind in ("list", "events"):
+        return _sequence_schema(parameter)
     if parameter.kind == "choice":
         branches: list[JsonSchemaValue] = [{"type": "string", "enum": list(parameter.choices)}]
     elif parameter.kind == "bool":
@@ -109,7 +135,21 @@ ParamName = Annotated[str, StringConstraints(max_length=64), NoNul()]
 Seed = Annotated[StrictInt, Field(ge=0, le=MAX_SEED_VALUE)]
 SeedCount = Annotated[StrictInt, Field(ge=1, le=MAX_SEEDS)]
 SeedList = Annotated[list[Seed], Field(min_length=1, max_length=MAX_SEEDS)]
-ParamValue = StrictBool | StrictInt | float | ParamName | None
+ScalarValue = StrictBool | StrictInt | float | ParamName | None
+
+
+def _at_most(limit: int, what: str) -> Any:
+    def check(value: Any) -> Any:
+        if len(value) > limit:
+            raise PydanticCustomError("value_error", f"must have at most {limit} {what} (got {len(value)})")
+        return value
+    return AfterValidator(check)
+
+
+Event = Annotated[dict[ParamName, ScalarValue], _at_most(MAX_EVENT_FIELDS, "fields")]
+ListValue = Annotated[list[StrictBool | StrictInt | float | ParamName | Event], _at_most(MAX_LIST_ITEMS, "items")]
+"""A list or event-list parameter's value (the core checks it against the parameter's own schema)."""
+ParamValue = ScalarValue | ListValue
 Params = Annotated[dict[ParamName, ParamValue], Field(max_length=len(PARAMETERS), json_schema_extra=parameters_schema)]
 Status = Literal["queued", "running", "succeeded", "failed", "cancelled", "open"]
 Kind = Literal["simulation", "external"]
@@ -206,7 +246,8 @@ SpaceName = Annotated[str, StringConstraints(max_length=64), NoNul()]
 def _space_names(schema: JsonSchemaValue) -> None:
     """A study's space: keyed by a parameter of the schema or ``groups`` (the core names an unknown one)."""
     text_keys(schema)
-    schema["propertyNames"] = {"enum": [p.name for p in PARAMETERS] + [search.GROUPS]}
+    swept = [p.name for p in PARAMETERS if p.kind not in ("list", "events")]  # a list is held fixed in base
+    schema["propertyNames"] = {"enum": [*swept, search.GROUPS]}
 
 
 class StudyBase(BaseModel):
@@ -227,7 +268,7 @@ class StudyDimension(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    values: Annotated[list[ParamValue], Field(min_length=1, max_length=search.MAX_VALUES)] | SkipJsonSchema[None] \
+    values: Annotated[list[ScalarValue], Field(min_length=1, max_length=search.MAX_VALUES)] | SkipJsonSchema[None] \
         = Unset
     low: float | SkipJsonSchema[None] = Unset
     high: float | SkipJsonSchema[None] = Unset

@@ -53,9 +53,3 @@ def registered(monkeypatch: pytest.MonkeyPatch, *extra: Parameter) -> Iterator[N
         monkeypatch.setattr(module, "SystemParams", made)
     yield
 
-
-@pytest.fixture
-def example_params(monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
-    """The example list, event-list and scalar parameters in the schema for one test."""
-    with registered(monkeypatch):
-        yield
