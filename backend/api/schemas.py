@@ -19,6 +19,7 @@ from pydantic import (
 from pydantic.json_schema import JsonSchemaValue, SkipJsonSchema
 from pydantic_core import PydanticCustomError, core_schema
 
+from backend.services.saved_systems import NAME_PATTERN as SAVED_NAME_PATTERN
 from backend.store.external import MAX_BATCH_ENTRIES, MAX_PIECE_VALUES
 from backend.store.models import has_nul
 from mgrao_core import MAX_ALGORITHMS, MAX_EPISODES, MAX_SEEDS, PARAMETERS, PRESETS, search
@@ -238,6 +239,8 @@ class Health(BaseModel):
 # ---- studies (docs/studies.md): the shape and the bounds; mgrao_core.search.make_plan checks the rest ----------
 
 Preset = Literal[tuple(PRESETS)]  # type: ignore[valid-type]
+SavedName = Annotated[str, StringConstraints(pattern=SAVED_NAME_PATTERN)]
+"""A saved system's name (``/api/systems/saved``); which exist is known only to the service (else 422)."""
 Unset = Field(default=None, json_schema_extra=lambda schema: schema.pop("default", None))
 """An optional field without a default of its own: left out, the core's default applies (null is refused)."""
 SpaceName = Annotated[str, StringConstraints(max_length=64), NoNul()]
@@ -255,7 +258,7 @@ class StudyBase(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    system: Preset | Annotated[list[Preset], Field(min_length=1, max_length=len(PRESETS))] = "single"
+    system: Preset | SavedName | Annotated[list[Preset], Field(min_length=1, max_length=len(PRESETS))] = "single"
     algorithms: Annotated[list[Label], Field(min_length=1, max_length=MAX_ALGORITHMS)] | None = None
     seeds: SeedCount | SeedList = 10
     first_seed: Seed = 0
@@ -363,3 +366,31 @@ class ExternalBatchIn(BaseModel):
     key: ClientKey = Field(description="The client's key of this batch: sent again (a retry), it stores nothing twice.")
     utilities: Annotated[list[UtilityPiece], Field(max_length=MAX_BATCH_ENTRIES)] = Field(default_factory=list)
     weights: Annotated[list[SeedWeightsIn], Field(max_length=MAX_BATCH_ENTRIES)] = Field(default_factory=list)
+
+
+# ---- saved systems (issue 20, "Your own system") ---------------------------------------------------------------
+
+class SavedSystemIn(BaseModel):
+    """Body of ``POST /api/systems/saved`` (and of ``PUT``): a name, a base preset and its overrides.
+
+    It is also the file ``mgrao systems export`` writes and the dashboard downloads.
+    """
+
+    model_config = ConfigDict(extra="forbid")
+
+    name: SavedName = Field(description="1-32 characters: a lowercase letter, then lowercase letters, digits or "
+                                        "'-'; no preset's name.")
+    description: Annotated[str, StringConstraints(strip_whitespace=True, max_length=MAX_NAME), NoNul()] = ""
+    base: Preset
+    params: Params = Field(default_factory=dict)
+
+
+class SavedSystemOut(BaseModel):
+    """A saved system: its definition, its resolved parameters and its base preset's algorithms."""
+
+    name: str
+    description: str
+    base: str
+    params: dict[str, Any]
+    resolved: dict[str, Any]
+    algorithms: list[str]
