@@ -152,9 +152,15 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
       helpText ? h('small', { id: helpId, class: 'help' }, helpText) : null, error);
   };
 
-  // --- preset -----------------------------------------------------------------------------
+  // --- preset, or a saved system (a base preset and overrides: GET /api/systems' `saved`) -------
+  const asChoice = (saved) => ({ name: saved.name, base: saved.base, overrides: saved.params, params: saved.resolved,
+    algorithms: saved.algorithms, description: saved.description || `Saved: ${saved.base} with ${Object.keys(saved.params).join(', ') || 'no changes'}.` });
+  const choices = [...schema.systems, ...(schema.saved || []).map(asChoice)];
+  const savedGroup = h('optgroup', { label: 'Saved systems' }, (schema.saved || []).map((s) =>
+    h('option', { value: s.name, selected: s.name === params.system }, `${s.name} (${s.base})`)));
   const systemSel = h('select', { name: 'system' }, schema.systems.map((s) =>
-    h('option', { value: s.name, selected: s.name === (params.system || 'single') }, s.name)));
+    h('option', { value: s.name, selected: s.name === (params.system || 'single') }, s.name)), savedGroup);
+  savedGroup.hidden = !savedGroup.children.length;
   const systemDesc = h('p', { class: 'help', id: nextId('sysdesc') });
 
   // --- algorithms: a box per literal label, a field of values per form with an argument ------
@@ -202,7 +208,25 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
       }))));
 
   function preset() {
-    return schema.systems.find((s) => s.name === systemSel.value) || schema.systems[0];
+    return choices.find((s) => s.name === systemSel.value) || schema.systems[0];
+  }
+
+  /** A system just saved (POST /api/systems/saved's answer): in the picker, chosen. */
+  function addSaved(saved) {
+    const choice = asChoice(saved);
+    choices.push(choice);
+    savedGroup.append(h('option', { value: saved.name }, `${saved.name} (${saved.base})`));
+    savedGroup.hidden = false;
+    systemSel.value = saved.name;
+    applyPreset();
+  }
+
+  /** What the form holds as a saved system's definition: the base preset and every value that differs from it. */
+  function definition() {
+    const chosen = preset();
+    const base = chosen.base || chosen.name;
+    const basePreset = schema.systems.find((s) => s.name === base);
+    return { base, params: changedParams(rawParams(), basePreset.params) };
   }
 
   // --- the values valid for the system beside each argument field, as n_parents changes -----
@@ -339,7 +363,7 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
 
   /** Fill the inputs from an experiment as read() gives it (the preset first, then its changes). */
   function load(experiment) {
-    if (!experiment || !schema.systems.some((s) => s.name === experiment.system)) return;
+    if (!experiment || !choices.some((s) => s.name === experiment.system)) return;
     systemSel.value = experiment.system;
     applyPreset();
     if (Array.isArray(experiment.algorithms)) showAlgorithms(experiment.algorithms);
@@ -442,7 +466,7 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
 
   return {
     fieldBlock, errorEls, systemSel, systemDesc, algoFieldset, algoBoxes, argumentFields, seedsIn, episodesIn, advanced,
-    paramInputs, preset, applyPreset, read, load, clearErrors, showErrors, keptNote, budgetBlock, updateBudget,
+    paramInputs, preset, applyPreset, read, load, addSaved, definition, clearErrors, showErrors, keptNote, budgetBlock, updateBudget,
     currentForm, described: () => described, onValid: (listener) => validListeners.push(listener),
     onPreset: (listener) => presetListeners.push(listener),
   };
