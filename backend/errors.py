@@ -36,9 +36,14 @@ class InvalidSpec(Exception):
     @classmethod
     def from_config_error(cls, error: ConfigError, *, params: Collection[str] = ()) -> InvalidSpec:
         """Locate a core :class:`ConfigError` in the request body (``params`` are the override names)."""
+        base, *path = re.findall(r"^\w+|\[\d+\]|\.\w+", error.field) or [error.field]
+        steps: list[str | int] = [int(p[1:-1]) if p.startswith("[") else p[1:] for p in path]
         match = re.fullmatch(r"(\w+)\[(\d+)\]", error.field)
-        if match:
-            loc: list[str | int] = ["body", match.group(1), int(match.group(2))]
+        loc: list[str | int]
+        if (base in params or base in PARAMETERS_BY_NAME) and steps:  # an item of a list parameter, its field
+            loc = ["body", "params", base, *steps]
+        elif match:
+            loc = ["body", match.group(1), int(match.group(2))]
         elif error.field in params or error.field in PARAMETERS_BY_NAME:
             loc = ["body", "params", error.field]
         else:

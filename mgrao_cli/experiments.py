@@ -37,6 +37,26 @@ def _parse_sets(values: tuple[str, ...]) -> dict[str, str]:
     return overrides
 
 
+def read_params_file(path: str) -> tuple[str | None, dict[str, Any]]:
+    """A file of parameter values: a JSON object of them, or a saved system's file (``base`` and ``params``).
+
+    Lists and event lists are JSON values there as in the API (``"schedule": [{"episode": 50, ...}]``).
+    Returns the saved system's base preset (None for a plain object) and the parameter values.
+    """
+    try:
+        with open(path, encoding="utf-8") as handle:
+            data = json.load(handle)
+    except OSError as error:
+        raise click.BadParameter(f"cannot read {path}: {error.strerror}", param_hint="--params-file") from None
+    except ValueError as error:
+        raise click.BadParameter(f"{path} is not JSON: {error}", param_hint="--params-file") from None
+    if not isinstance(data, dict):
+        raise click.BadParameter(f"{path} must hold a JSON object of parameter values", param_hint="--params-file")
+    if "base" in data and isinstance(data.get("params"), dict):  # a saved system's file (mgrao systems export)
+        return str(data["base"]), data["params"]
+    return None, data
+
+
 def _fmt(value: float | None, digits: int = 1) -> str:
     if value is None or (isinstance(value, float) and math.isnan(value)):
         return "-"
@@ -118,23 +138,32 @@ def _seed_range(count: int, first: int) -> int | list[int]:
 
 
 @click.command()
-@click.option("--system", required=True, type=click.Choice(list(PRESETS)), help="Preset to start from.")
+@click.option("--system", type=click.Choice(list(PRESETS)),
+              help="Preset to start from (default: the base of a saved system's --params-file).")
 @click.option("--algorithms", help="Comma-separated labels, e.g. uniform,mgrao-1:1,mgrao-5:1,mgrao-max "
               "(default: the paper's for the system).")
 @click.option("--seeds", default=30, show_default=True, type=int, help="Number of seeds (F .. F+S-1).")
 @click.option("--first-seed", default=0, show_default=True, type=click.IntRange(0, MAX_SEED_VALUE),
               help="The first seed F (e.g. 10000 for the calibration seeds).")
 @click.option("--episodes", default=100, show_default=True, type=int, help="Episodes per run.")
-@click.option("--set", "sets", multiple=True, metavar="NAME=VALUE", help="Override a parameter (repeatable).")
+@click.option("--set", "sets", multiple=True, metavar="NAME=VALUE",
+              help="Override a parameter (repeatable); a list or event list as JSON: --set schedule='[...]'.")
+@click.option("--params-file", metavar="FILE",
+              help="Parameter values from a JSON file: an object of them, or a saved system's file (mgrao "
+              "systems export); --set applies on top.")
 @click.option("--format", "fmt", default="table", show_default=True, type=click.Choice(["table", "json", "csv"]))
 @click.option("--out", type=click.Path(dir_okay=False, writable=True), callback=_check_out,
               help="Write to FILE instead of stdout.")
-def run(system: str, algorithms: str | None, seeds: int, first_seed: int, episodes: int, sets: tuple[str, ...],
-        fmt: str, out: str | None) -> None:
+def run(system: str | None, algorithms: str | None, seeds: int, first_seed: int, episodes: int,
+        sets: tuple[str, ...], params_file: str | None, fmt: str, out: str | None) -> None:
     """Simulate one system with several algorithms and seeds; print the summary or every episode."""
     labels = _algorithm_labels(algorithms)
+    base, overrides = read_params_file(params_file) if params_file else (None, {})
+    system = system or base
+    if system is None:
+        raise click.UsageError("give --system, or a saved system's file as --params-file")
     try:
-        spec = make_spec(system, labels, _seed_range(seeds, first_seed), episodes, _parse_sets(sets))
+        spec = make_spec(system, labels, _seed_range(seeds, first_seed), episodes, overrides | _parse_sets(sets))
     except ConfigError as error:
         _fail(error)
     load_engine()

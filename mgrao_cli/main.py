@@ -19,6 +19,7 @@ COMMANDS = {
     "dispatcher": "mgrao_cli.service_commands:dispatcher",
     "migrate": "mgrao_cli.service_commands:migrate",
     "study": "mgrao_cli.studies:study",
+    "systems": "mgrao_cli.systems:systems",
     "log": "mgrao_cli.logging_command:log",
 }
 """Subcommand name to ``module:attribute`` of its click command."""

@@ -43,7 +43,8 @@ class Api:
             request.add_header("Authorization", f"Bearer {self.token}")
         try:
             with urllib.request.urlopen(request, timeout=60) as response:  # noqa: S310 - the user's own service
-                return json.loads(response.read())
+                raw = response.read()
+                return json.loads(raw) if raw else None  # 204: no content
         except urllib.error.HTTPError as error:
             raise click.ClickException(_http_error(error)) from None
         except (urllib.error.URLError, OSError) as error:

@@ -11,7 +11,7 @@ A pure library: numpy and numba, no I/O, no web, no database. :mod:`mgrao_core.e
 from mgrao_core.algorithms import Algorithm, divisors, parent_groups, parse_algorithm
 from mgrao_core.budget import MAX_CHUNK_BYTES, MAX_RESULT_BYTES, plan_chunks
 from mgrao_core.errors import Cancelled, ConfigError, MgraoError, NumericalError, WorkLimitError
-from mgrao_core.params import PARAMETERS, Parameter, SystemParams, make_params
+from mgrao_core.params import PARAMETERS, Parameter, SystemParams, complete_params, identity_params, make_params
 from mgrao_core.presets import PAPER_SYSTEMS, PRESETS, Preset, get_preset
 from mgrao_core.results import ExperimentResult, Run
 from mgrao_core.spec import (
@@ -76,10 +76,12 @@ __all__ = [
     "Run",
     "SystemParams",
     "WorkLimitError",
+    "complete_params",
     "divisors",
     "episode_band",
     "final_utilities",
     "get_preset",
+    "identity_params",
     "make_params",
     "make_spec",
     "parent_groups",

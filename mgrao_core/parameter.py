@@ -17,7 +17,9 @@ from dataclasses import dataclass
 from typing import Any
 
 _VALUE_KINDS = ("int", "float", "bool", "choice")
-_EXTRA = ("item_kind", "min_items", "max_items", "fields")
+_EXTRA = ("item_kind", "min_items", "max_items", "fields", "identity")
+IDENTITIES = ("always", "when-set")
+"""The values of :attr:`Parameter.identity`."""
 """The fields only ``"list"`` and ``"events"`` parameters describe (absent from the others' :meth:`as_dict`)."""
 
 
@@ -42,6 +44,10 @@ class Parameter:
         max_items: most items of a list or an event list.
         fields: an event list's fields, one nested parameter each (a default of ``None`` on a field that is
             not nullable makes it required).
+        identity: how the parameter enters a configuration's identity (its stored ``params`` and its
+            ``config_hash``): ``"always"`` (the parameters the service had before issue 20: every stored
+            configuration names them) or ``"when-set"`` (every parameter added since: named only when it differs
+            from ``default``, so that adding it leaves the hash of every existing configuration unchanged).
     """
 
     name: str
@@ -58,8 +64,11 @@ class Parameter:
     min_items: int | None = None
     max_items: int | None = None
     fields: tuple[Parameter, ...] = ()
+    identity: str = "when-set"
 
     def __post_init__(self) -> None:
+        if self.identity not in IDENTITIES:
+            raise ValueError(f"parameter {self.name}: identity must be one of {', '.join(IDENTITIES)}")
         if self.kind == "list" and self.item_kind not in ("int", "float"):
             raise ValueError(f"{self.name}: a list's item_kind is 'int' or 'float' (got {self.item_kind!r})")
         if self.kind == "events" and (not self.fields or any(f.kind not in _VALUE_KINDS for f in self.fields)):

@@ -31,57 +31,57 @@ MAX_PERIOD = 1000
 
 _ENVIRONMENT: tuple[Parameter, ...] = (
     # The system (paper section 3, appendix "General parameter values").
-    Parameter("n_types", "int", 20, "Number of atomic task types.", "system", 2, 200),
-    Parameter("n_composite_types", "int", 10, "Number of composite task types.", "system", 1, 1000),
+    Parameter("n_types", "int", 20, "Number of atomic task types.", "system", 2, 200, identity="always"),
+    Parameter("n_composite_types", "int", 10, "Number of composite task types.", "system", 1, 1000, identity="always"),
     Parameter(
         "types_per_composite", "int", 5,
-        "Distinct atomic types in each composite type (at most n_types).", "system", 1, 200,
+        "Distinct atomic types in each composite type (at most n_types).", "system", 1, 200, identity="always",
     ),
-    Parameter("n_parents", "int", 10, "Number of parent agents.", "system", 1, 3000),
-    Parameter("n_children", "int", 1, "Number of child agents.", "system", 1, 100),
+    Parameter("n_parents", "int", 10, "Number of parent agents.", "system", 1, 3000, identity="always"),
+    Parameter("n_children", "int", 1, "Number of child agents.", "system", 1, 100, identity="always"),
     Parameter(
         "resource_mean", "float", 0.5,
         "Mean of each child's resource amount, Normal(mean, sd) clipped into (0, 1].",
-        "system", 0.001, 1.0,
+        "system", 0.001, 1.0, identity="always",
     ),
     Parameter("resource_sd", "float", 0.2, "Standard deviation of each child's resource amount.",
-              "system", 0.0, 1.0),
+              "system", 0.0, 1.0, identity="always"),
     # Values and quality: docs/model.md ("Value of atomic tasks", "Quality").
     Parameter(
         "value_concentration", "float", 1.0,
         "Dirichlet concentration of each parent's fixed value profile.",
-        "values", 0.01, 100.0,
+        "values", 0.01, 100.0, identity="always",
     ),
     Parameter(
         "value_noise", "float", 0.1,
-        "Log-normal noise on each task instance's proportional values.", "values", 0.0, 5.0,
+        "Log-normal noise on each task instance's proportional values.", "values", 0.0, 5.0, identity="always",
     ),
     # Quality of an atomic task: docs/model.md ("Quality", "Environment readings").
     Parameter(
         "quality_model", "choice", "hyperbolic",
         "Atomic task quality from the resource x = w[type] * ar given to the type: hyperbolic x/(x+h), "
         "exponential 1-exp(-x/h), or relative-linear min(1, quality_at_uniform * n_types * w[type]).",
-        "quality", choices=QUALITY_MODELS,
+        "quality", choices=QUALITY_MODELS, identity="always",
     ),
     Parameter(
         "half_saturation", "float", 0.2,
         "h: the resource at which hyperbolic quality is 1/2 (exponential: 1-1/e); unused by relative-linear.",
-        "quality", 0.001, 10.0,
+        "quality", 0.001, 10.0, identity="always",
     ),
     Parameter(
         "load_sharing", "bool", False,
         "Divide a type's resource among the instances of that type the child receives in the episode.",
-        "quality",
+        "quality", identity="always",
     ),
     Parameter(
         "quality_at_uniform", "float", 0.3,
         "relative-linear only: atomic task quality when a type gets exactly the uniform share.",
-        "quality", 0.001, 1.0,
+        "quality", 0.001, 1.0, identity="always",
     ),
     Parameter(
         "quality_floor", "float", 1e-6,
         "Smallest atomic task quality, so that quality stays in (0, 1].",
-        "quality", 1e-12, 0.1,
+        "quality", 1e-12, 0.1, identity="always",
     ),
 )
 _ALLOCATION: tuple[Parameter, ...] = (
@@ -91,52 +91,52 @@ _ALLOCATION: tuple[Parameter, ...] = (
         "With several children: a parent gives its whole composite task to one child chosen by the "
         "composite quality it got back (per-composite), or chooses a child for each atomic task by the "
         "value it got back for that type (per-task).",
-        "allocation", choices=ROUTINGS,
+        "allocation", choices=ROUTINGS, identity="always",
     ),
     Parameter(
         "epsilon", "float", 0.1,
-        "Probability that a parent chooses a non-greedy child.", "allocation", 0.0, 1.0,
+        "Probability that a parent chooses a non-greedy child.", "allocation", 0.0, 1.0, identity="always",
     ),
     Parameter(
         "boltzmann_temperature", "float", 0.1,
         "Temperature of the Boltzmann choice among the non-greedy children.",
-        "allocation", 1e-4, 100.0,
+        "allocation", 1e-4, 100.0, identity="always",
     ),
     Parameter(
         "initial_estimate", "float", 1.0,
         "Value a parent assumes for a child it has not tried yet (optimistic start).",
-        "allocation", 0.0, 10.0,
+        "allocation", 0.0, 10.0, identity="always",
     ),
     Parameter(
         "tie_break", "choice", "random",
         "How a parent breaks ties between equally good children.", "allocation",
-        choices=("random", "first"),
+        choices=("random", "first"), identity="always",
     ),
     # Volatility (the volatile system).
     Parameter(
         "leave_probability", "float", 0.0,
-        "Probability per episode that an active parent leaves.", "volatility", 0.0, 1.0,
+        "Probability per episode that an active parent leaves.", "volatility", 0.0, 1.0, identity="always",
     ),
     Parameter(
         "join_probability", "float", 0.0,
-        "Probability per episode that an absent parent rejoins.", "volatility", 0.0, 1.0,
+        "Probability per episode that an absent parent rejoins.", "volatility", 0.0, 1.0, identity="always",
     ),
     Parameter(
         "rejoin_profile", "choice", "same",
         "Whether a rejoining parent keeps its value profile or brings a newly drawn one.",
-        "volatility", choices=("same", "new"),
+        "volatility", choices=("same", "new"), identity="always",
     ),
     Parameter(
         "absent_tasks", "choice", "excluded",
         "An absent parent's composite task: not received at all (excluded), or counted in system "
         "utility at absent_quality without involving any child (counted).",
-        "volatility", choices=ABSENT_TASKS,
+        "volatility", choices=ABSENT_TASKS, identity="always",
     ),
     Parameter(
         "absent_quality", "float", None,
         "Composite quality of an absent parent's task under absent_tasks=counted; empty means the "
         "quality of a uniform allocation at resource_mean.",
-        "volatility", 0.0, 1.0, nullable=True,
+        "volatility", 0.0, 1.0, nullable=True, identity="always",
     ),
 )
 
@@ -218,14 +218,47 @@ class _Derived:
         return float(quality.atomic_quality(1.0 / self.n_types, self.resource_mean, self))
 
     def as_dict(self) -> dict[str, Any]:
-        """All parameters as plain JSON-ready data (a list as a list, an event list as a list of objects)."""
+        """All parameters as plain JSON-ready data (a list's or event list's value as a JSON list)."""
         return {f.name: _plain(getattr(self, f.name)) for f in dataclasses.fields(self)}
+
+    def as_config(self) -> dict[str, Any]:
+        """The parameters that make a configuration's identity: what a job stores and ``config_hash`` hashes.
+
+        Every ``identity="always"`` parameter, and each ``"when-set"`` one only when it differs from its
+        default (:func:`identity_params`).
+        """
+        return identity_params(self.as_dict())
 
 
 def _plain(value: Any) -> Any:
-    if isinstance(value, tuple):
-        return [v.as_dict() if isinstance(v, Record) else v for v in value]
+    """A parameter's value as plain JSON data: tuples (a list, an event list) as lists, events as objects."""
+    if isinstance(value, Record):
+        return value.as_dict()
+    if isinstance(value, tuple | list):
+        return [_plain(v) for v in value]
+    if isinstance(value, Mapping):
+        return {k: _plain(v) for k, v in value.items()}
     return value
+
+
+def identity_params(values: Mapping[str, Any], parameters: tuple[Parameter, ...] | None = None) -> dict[str, Any]:
+    """``values`` without the ``identity="when-set"`` parameters that are at their default.
+
+    Adding a parameter thus leaves the stored ``params`` and the ``config_hash`` of every configuration
+    that keeps it at its default as they were (docs/model.md, "Adding a parameter").
+    """
+    schema = {p.name: p for p in (PARAMETERS if parameters is None else parameters)}
+    return {k: v for k, v in values.items()
+            if k not in schema or schema[k].identity == "always" or _plain(v) != _plain(schema[k].default)}
+
+
+def complete_params(stored: Mapping[str, Any], parameters: tuple[Parameter, ...] | None = None) -> dict[str, Any]:
+    """A stored configuration's ``params`` with each absent ``"when-set"`` parameter at its default.
+
+    The inverse of :func:`identity_params` (an absent parameter means its schema default, not a preset's).
+    """
+    schema = PARAMETERS if parameters is None else parameters
+    return {p.name: _plain(p.default) for p in schema if p.identity == "when-set"} | dict(stored)
 
 
 _TYPES = {"int": int, "float": float, "bool": bool, "choice": str, "list": tuple, "events": tuple}
@@ -236,14 +269,18 @@ def _field(param: Parameter) -> tuple[str, Any, Any]:
     return param.name, kind | None if param.nullable else kind, dataclasses.field(default=param.default)
 
 
-SystemParams = dataclasses.make_dataclass(
-    "SystemParams", [_field(p) for p in PARAMETERS], bases=(_Derived,), frozen=True,
-)
-SystemParams.__module__ = __name__  # where pickle finds it (make_dataclass takes no module before Python 3.12)
-SystemParams.__doc__ = """A complete, validated parameter set (build it with :func:`make_params`).
+def system_params_class(parameters: tuple[Parameter, ...]) -> type:
+    """The class of complete parameter sets of ``parameters`` (:class:`SystemParams` is that of :data:`PARAMETERS`)."""
+    made = dataclasses.make_dataclass("SystemParams", [_field(p) for p in parameters], bases=(_Derived,), frozen=True)
+    made.__module__ = __name__  # where pickle finds it (make_dataclass takes no module before Python 3.12)
+    made.__doc__ = """A complete, validated parameter set (build it with :func:`make_params`).
 
 One field per entry of :data:`PARAMETERS`, in its order, defaulting to the entry's default (so a family's
 parameters are fields without an edit here), and the derived values of :class:`_Derived`."""
+    return made
+
+
+SystemParams = system_params_class(PARAMETERS)
 
 
 _TRUE = ("true", "on", "yes", "1")
@@ -351,6 +388,8 @@ def _coerce(param: Parameter, value: Any) -> Any:
     return value
 
 
+
+
 def make_params(overrides: Mapping[str, Any] | None = None, base: SystemParams | None = None) -> SystemParams:
     """Validate ``overrides`` on top of ``base`` (the defaults of docs/model.md when omitted).
 
@@ -373,7 +412,7 @@ def make_params(overrides: Mapping[str, Any] | None = None, base: SystemParams |
         param = PARAMETERS_BY_NAME.get(name)
         if param is None:
             raise ConfigError(name, "unknown parameter (see the parameter schema for valid names)")
-        values[name] = _coerce(param, value)
+        values[name] = _plain(_coerce(param, value))
     if values["types_per_composite"] > values["n_types"]:
         raise ConfigError(
             "types_per_composite",

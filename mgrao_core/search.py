@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -323,6 +324,9 @@ def _dimension(name: str, spec: Any, method: str, n_parents: Sequence[int]) -> D
         if param is None:
             raise ConfigError(field, "unknown parameter (any parameter of the schema, or groups)")
         kind = param.kind
+        if kind not in ("int", "float", "bool", "choice"):
+            raise ConfigError(field, f"{name} is a {kind} parameter: a study varies numeric, boolean or choice "
+                                     "parameters only (hold a list or event list fixed in base.params)")
     if "values" in spec:
         if set(spec) - {"values"}:
             raise ConfigError(field, "give either values or a range (low, high), not both")
@@ -426,7 +430,8 @@ def make_plan(data: Mapping[str, Any]) -> StudyPlan:
         try:
             make_spec(system, algorithms, seeds, episodes, params)
         except ConfigError as error:
-            where = "base.params" if error.field in PARAMETERS_BY_NAME or error.field in params else "base"
+            named = re.split(r"[\[.]", error.field, maxsplit=1)[0]  # schedule of schedule[2].fraction
+            where = "base.params" if named in PARAMETERS_BY_NAME or named in params else "base"
             raise ConfigError(f"{where}.{error.field}", error.message) from None
     seed_list = tuple(make_spec(systems[0], algorithms, seeds, 1, params).seeds)
     if len(seed_list) > MAX_SEEDS:

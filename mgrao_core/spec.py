@@ -9,7 +9,7 @@ from typing import Any
 from mgrao_core.algorithms import Algorithm, parse_algorithms
 from mgrao_core.budget import MAX_CHUNK_BYTES, MAX_RESULT_BYTES, chunk_cost, result_bytes
 from mgrao_core.errors import ConfigError, WorkLimitError
-from mgrao_core.params import SystemParams, make_params
+from mgrao_core.params import SystemParams, complete_params, make_params
 from mgrao_core.presets import get_preset
 
 MAX_SEEDS = 1000
@@ -63,10 +63,14 @@ class ExperimentSpec:
         return len(self.seeds) * per_run * sum(a.n_groups for a in self.parsed_algorithms)
 
     def as_dict(self) -> dict[str, Any]:
-        """The specification as JSON-ready data (round-trips through :func:`spec_from_dict`)."""
+        """The specification as JSON-ready data (round-trips through :func:`spec_from_dict`).
+
+        ``params`` is :meth:`SystemParams.as_config`: a parameter added since issue 20 is named only when it is
+        away from its default, so that a job's ``config_hash`` does not change when parameters are added.
+        """
         return {
             "system": self.system,
-            "params": self.params.as_dict(),
+            "params": self.params.as_config(),
             "algorithms": list(self.algorithms),
             "seeds": list(self.seeds),
             "episodes": self.episodes,
@@ -159,8 +163,13 @@ def make_spec(
 
 
 def spec_from_dict(data: Mapping[str, Any], memory_budget: int = MAX_CHUNK_BYTES) -> ExperimentSpec:
-    """Rebuild (and re-validate) a specification from :meth:`ExperimentSpec.as_dict` data."""
+    """Rebuild (and re-validate) a specification from :meth:`ExperimentSpec.as_dict` data.
+
+    A ``"when-set"`` parameter absent from ``params`` is at its schema default (even where the preset sets
+    another value): :func:`~mgrao_core.params.complete_params`.
+    """
     preset = get_preset(data["system"]).params.as_dict()
-    overrides = {k: v for k, v in data.get("params", {}).items() if preset.get(k, object()) != v}
+    stored = complete_params(data.get("params", {}))
+    overrides = {k: v for k, v in stored.items() if preset.get(k, object()) != v}
     return make_spec(data["system"], data["algorithms"], list(data["seeds"]), data["episodes"], overrides,
                      memory_budget=memory_budget)

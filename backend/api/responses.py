@@ -241,6 +241,7 @@ class Systems(BaseModel):
     """``GET /api/systems``: presets, the parameter schema, algorithm labels, limits, the studies' limits."""
 
     systems: list[dict[str, Any]]
+    saved: list[dict[str, Any]] = Field(default_factory=list, description="Saved systems (GET /api/systems/saved).")
     parameters: list[dict[str, Any]]
     algorithms: dict[str, Any] = Field(description="From the algorithm registry (GET /api/algorithms): fixed "
                                                    "(labels for the form's boxes), pattern (labels with an "

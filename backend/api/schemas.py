@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from typing import Annotated, Any, Literal
 
 from pydantic import (
+    AfterValidator,
     BaseModel,
     ConfigDict,
     Field,
@@ -18,6 +19,7 @@ from pydantic import (
 from pydantic.json_schema import JsonSchemaValue, SkipJsonSchema
 from pydantic_core import PydanticCustomError, core_schema
 
+from backend.services.saved_systems import NAME_PATTERN as SAVED_NAME_PATTERN
 from backend.store.external import MAX_BATCH_ENTRIES, MAX_PIECE_VALUES
 from backend.store.models import has_nul
 from mgrao_core import MAX_ALGORITHMS, MAX_EPISODES, MAX_SEEDS, PARAMETERS, PRESETS, search
@@ -72,9 +74,34 @@ def text_keys(schema: JsonSchemaValue) -> None:
         schema["propertyNames"] = schema.get("propertyNames", {}) | {"pattern": pattern}
 
 
+MAX_LIST_ITEMS = 1000
+"""Most items of a list or event-list parameter's value in a body (a parameter's own ``max_items`` may be fewer)."""
+MAX_EVENT_FIELDS = 32
+"""Most fields of one event of an event-list parameter in a body."""
+
+
+def _sequence_schema(parameter: Any) -> JsonSchemaValue:
+    """A ``list`` or ``events`` parameter's value: a JSON array of numbers, or of objects of its fields."""
+    if parameter.kind == "list":
+        item_kind = parameter.item_kind or "float"
+        items: JsonSchemaValue = {"type": "integer" if item_kind == "int" else "number"}
+        items |= {k: v for k, v in (("minimum", parameter.minimum), ("maximum", parameter.maximum)) if v is not None}
+    else:
+        items = {"type": "object", "additionalProperties": False,
+                 "properties": {f.name: _parameter_schema(f) for f in parameter.fields},
+                 "required": [f.name for f in parameter.fields if f.default is None and not f.nullable]}
+        if not items["required"]:
+            del items["required"]
+    most = MAX_LIST_ITEMS if parameter.max_items is None else min(parameter.max_items, MAX_LIST_ITEMS)
+    return {"type": "array", "items": items, "minItems": parameter.min_items, "maxItems": most,
+            "description": parameter.help}
+
+
 def _parameter_schema(parameter: Any) -> JsonSchemaValue:
     """One parameter's value as the core reads it: its kind and limits, or text (``"0.5"``, ``"on"``)."""
     text = {"type": "string", "maxLength": 64, "pattern": NO_NUL_PATTERN}
+    if parameter.kind in ("list", "events"):
+        return _sequence_schema(parameter)
     if parameter.kind == "choice":
         branches: list[JsonSchemaValue] = [{"type": "string", "enum": list(parameter.choices)}]
     elif parameter.kind == "bool":
@@ -109,7 +136,21 @@ ParamName = Annotated[str, StringConstraints(max_length=64), NoNul()]
 Seed = Annotated[StrictInt, Field(ge=0, le=MAX_SEED_VALUE)]
 SeedCount = Annotated[StrictInt, Field(ge=1, le=MAX_SEEDS)]
 SeedList = Annotated[list[Seed], Field(min_length=1, max_length=MAX_SEEDS)]
-ParamValue = StrictBool | StrictInt | float | ParamName | None
+ScalarValue = StrictBool | StrictInt | float | ParamName | None
+
+
+def _at_most(limit: int, what: str) -> Any:
+    def check(value: Any) -> Any:
+        if len(value) > limit:
+            raise PydanticCustomError("value_error", f"must have at most {limit} {what} (got {len(value)})")
+        return value
+    return AfterValidator(check)
+
+
+Event = Annotated[dict[ParamName, ScalarValue], _at_most(MAX_EVENT_FIELDS, "fields")]
+ListValue = Annotated[list[StrictBool | StrictInt | float | ParamName | Event], _at_most(MAX_LIST_ITEMS, "items")]
+"""A list or event-list parameter's value (the core checks it against the parameter's own schema)."""
+ParamValue = ScalarValue | ListValue
 Params = Annotated[dict[ParamName, ParamValue], Field(max_length=len(PARAMETERS), json_schema_extra=parameters_schema)]
 Status = Literal["queued", "running", "succeeded", "failed", "cancelled", "open"]
 Kind = Literal["simulation", "external"]
@@ -217,6 +258,8 @@ class Health(BaseModel):
 # ---- studies (docs/studies.md): the shape and the bounds; mgrao_core.search.make_plan checks the rest ----------
 
 Preset = Literal[tuple(PRESETS)]  # type: ignore[valid-type]
+SavedName = Annotated[str, StringConstraints(pattern=SAVED_NAME_PATTERN)]
+"""A saved system's name (``/api/systems/saved``); which exist is known only to the service (else 422)."""
 Unset = Field(default=None, json_schema_extra=lambda schema: schema.pop("default", None))
 """An optional field without a default of its own: left out, the core's default applies (null is refused)."""
 SpaceName = Annotated[str, StringConstraints(max_length=64), NoNul()]
@@ -225,7 +268,8 @@ SpaceName = Annotated[str, StringConstraints(max_length=64), NoNul()]
 def _space_names(schema: JsonSchemaValue) -> None:
     """A study's space: keyed by a parameter of the schema or ``groups`` (the core names an unknown one)."""
     text_keys(schema)
-    schema["propertyNames"] = {"enum": [p.name for p in PARAMETERS] + [search.GROUPS]}
+    swept = [p.name for p in PARAMETERS if p.kind not in ("list", "events")]  # a list is held fixed in base
+    schema["propertyNames"] = {"enum": [*swept, search.GROUPS]}
 
 
 class StudyBase(BaseModel):
@@ -233,7 +277,7 @@ class StudyBase(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    system: Preset | Annotated[list[Preset], Field(min_length=1, max_length=len(PRESETS))] = "single"
+    system: Preset | SavedName | Annotated[list[Preset], Field(min_length=1, max_length=len(PRESETS))] = "single"
     algorithms: Annotated[list[Label], Field(min_length=1, max_length=MAX_ALGORITHMS)] | None = None
     seeds: SeedCount | SeedList = 10
     first_seed: Seed = 0
@@ -246,7 +290,7 @@ class StudyDimension(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    values: Annotated[list[ParamValue], Field(min_length=1, max_length=search.MAX_VALUES)] | SkipJsonSchema[None] \
+    values: Annotated[list[ScalarValue], Field(min_length=1, max_length=search.MAX_VALUES)] | SkipJsonSchema[None] \
         = Unset
     low: float | SkipJsonSchema[None] = Unset
     high: float | SkipJsonSchema[None] = Unset
@@ -341,3 +385,31 @@ class ExternalBatchIn(BaseModel):
     key: ClientKey = Field(description="The client's key of this batch: sent again (a retry), it stores nothing twice.")
     utilities: Annotated[list[UtilityPiece], Field(max_length=MAX_BATCH_ENTRIES)] = Field(default_factory=list)
     weights: Annotated[list[SeedWeightsIn], Field(max_length=MAX_BATCH_ENTRIES)] = Field(default_factory=list)
+
+
+# ---- saved systems (issue 20, "Your own system") ---------------------------------------------------------------
+
+class SavedSystemIn(BaseModel):
+    """Body of ``POST /api/systems/saved`` (and of ``PUT``): a name, a base preset and its overrides.
+
+    It is also the file ``mgrao systems export`` writes and the dashboard downloads.
+    """
+
+    model_config = ConfigDict(extra="forbid")
+
+    name: SavedName = Field(description="1-32 characters: a lowercase letter, then lowercase letters, digits or "
+                                        "'-'; no preset's name.")
+    description: Annotated[str, StringConstraints(strip_whitespace=True, max_length=MAX_NAME), NoNul()] = ""
+    base: Preset
+    params: Params = Field(default_factory=dict)
+
+
+class SavedSystemOut(BaseModel):
+    """A saved system: its definition, its resolved parameters and its base preset's algorithms."""
+
+    name: str
+    description: str
+    base: str
+    params: dict[str, Any]
+    resolved: dict[str, Any]
+    algorithms: list[str]

@@ -26,7 +26,15 @@ from backend.services.cache import AnswerCache
 from backend.services.memory import trim
 from backend.store.crud import get_job, job_dict
 from backend.store.models import RUN_READ_BATCH, SUCCEEDED, Job, Run
-from mgrao_core import PRESETS, ConfigError, EpisodeStats, final_utilities, paired_pct_from_uniform, summarise
+from mgrao_core import (
+    PRESETS,
+    ConfigError,
+    EpisodeStats,
+    complete_params,
+    final_utilities,
+    paired_pct_from_uniform,
+    summarise,
+)
 from mgrao_core.algorithms import describe_label
 from mgrao_core.reproduction import PAPER_EPISODES
 from mgrao_core.stats import BASELINE
@@ -60,7 +68,7 @@ def paper_figures(job: Job) -> dict[str, float] | None:
     "after 100 episodes"); any other job has no published figure to stand beside.
     """
     preset = PRESETS[job.system]
-    if job.config["params"] != preset.params.as_dict() or job.config["episodes"] != PAPER_EPISODES:
+    if complete_params(job.config["params"]) != preset.params.as_dict() or job.config["episodes"] != PAPER_EPISODES:
         return None
     figures = {a: preset.paper_pct_from_uniform[a] for a in job.config["algorithms"]
                if a in preset.paper_pct_from_uniform}

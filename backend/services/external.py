@@ -101,7 +101,7 @@ def external_config(body: RunDefinition) -> dict[str, Any]:
         raise InvalidSpec(["body", "results"], "results",
                           f"results: the run's utilities and weights would take {stored / 1024**2:,.0f} MiB, over "
                           f"the limit of {MAX_RESULT_BYTES // 1024**2:,} MiB per experiment (fewer seeds or episodes)")
-    return {"system": body.system, "params": params.as_dict(), "algorithms": [body.label], "seeds": seeds,
+    return {"system": body.system, "params": params.as_config(), "algorithms": [body.label], "seeds": seeds,
             "episodes": body.episodes}
 
 

@@ -16,7 +16,7 @@ import mgrao_core
 from backend.errors import Conflict, NotFound
 from backend.store.job_order import parse_sort
 from backend.store.models import CANCELLED, QUEUED, RUNNING, SIMULATION, Job, JobTag, utcnow
-from mgrao_core import ExperimentSpec
+from mgrao_core import ExperimentSpec, complete_params
 
 
 def config_hash(config: dict[str, Any]) -> str:
@@ -45,7 +45,7 @@ def job_dict(job: Job | Row, config: dict[str, Any] | None = None) -> dict[str, 
     return {
         "id": job.id, "name": job.name, "tags": list(job.tags), "notes": job.notes,
         "system": job.system, "algorithms": config["algorithms"], "seeds": config["seeds"],
-        "episodes": config["episodes"], "params": config["params"], "config_hash": job.config_hash,
+        "episodes": config["episodes"], "params": complete_params(config["params"]), "config_hash": job.config_hash,
         "status": job.status, "progress": job.progress, "attempts": job.attempts, "error": job.error,
         "requeue_reason": job.requeue_reason,
         "created_at": iso(job.created_at), "started_at": iso(job.started_at),

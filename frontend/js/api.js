@@ -157,6 +157,12 @@ export const api = {
     if (!systemsCache) systemsCache = request('GET', '/systems').catch((e) => { systemsCache = null; throw e; });
     return systemsCache;
   },
+  /** Save a named system (a base preset and overrides); the systems' cache is read again after. */
+  saveSystem: async (body) => {
+    const saved = await request('POST', '/systems/saved', { body });
+    systemsCache = null;
+    return saved;
+  },
   listJobs: (query, opts) => request('GET', '/jobs', { query, ...opts }),
   jobChanges: (since, opts) => request('GET', '/jobs/changes', { query: { since }, ...opts }),
   getJob: (id, opts) => request('GET', `/jobs/${id}`, opts),

@@ -11,6 +11,11 @@ import { argumentForms, argumentOf, argumentProblem, families, fmtBytes, labelFo
 export const STUDY_DRAFT = 'mgrao-study-draft';
 
 export function rangeText(p) {
+  if (p.kind === 'list' || p.kind === 'events') {
+    const items = p.max_items === null || p.max_items === undefined ? `at least ${p.min_items}` : `${p.min_items} to ${p.max_items}`;
+    const each = p.kind === 'list' ? `, each ${p.item_kind === 'int' ? 'a whole number' : 'a number'} in ${rangeText({ ...p, kind: p.item_kind })}` : '';
+    return `${items} ${p.kind === 'list' ? 'items' : 'events'}${each}`;
+  }
   if (p.kind === 'choice') return `one of ${p.choices.join(', ')}`;
   if (p.kind === 'bool') return 'on or off';
   const lo = p.minimum === null || p.minimum === undefined ? '−∞' : p.minimum;
@@ -21,6 +26,101 @@ export function rangeText(p) {
 /** A form's template as people read it: `mgrao-<x>:1`. */
 export function templateText(form) {
   return form.template.replace(`{${form.argument}}`, `<${form.argument}>`);
+}
+
+/** A scalar input for one parameter (or one field of an event): a select, a checkbox or a number box. */
+function scalarInput(p, name) {
+  if (p.kind === 'choice') return h('select', { name }, p.choices.map((c) => h('option', { value: c }, c)));
+  if (p.kind === 'bool') return h('input', { type: 'checkbox', name });
+  return h('input', { type: 'number', name, step: p.kind === 'int' ? 1 : 'any',
+    min: p.minimum ?? undefined, max: p.maximum ?? undefined, placeholder: p.nullable ? 'auto' : undefined });
+}
+
+/** A scalar input's value as the API takes it ('' of a number goes to the server, which explains). */
+function scalarValue(p, input) {
+  if (p.kind === 'bool') return input.checked;
+  const raw = input.value.trim();
+  if (p.kind === 'choice') return raw;
+  if (raw === '') return p.nullable ? null : raw;
+  return Number.isFinite(Number(raw)) ? Number(raw) : raw;
+}
+
+function setScalar(p, input, value) {
+  if (p.kind === 'bool') input.checked = Boolean(value);
+  else input.value = value === null || value === undefined ? '' : String(value);
+}
+
+/** A `list` parameter's input: numbers separated by commas; `get()` gives the list (an item that is no number as typed). */
+export function listInput(p) {
+  const input = h('input', { type: 'text', name: p.name, class: 'list-values', placeholder: 'e.g. 1, 2, 4', inputmode: 'decimal' });
+  const get = () => input.value.split(',').map((x) => x.trim()).filter((x) => x !== '')
+    .map((x) => (x !== '' && Number.isFinite(Number(x)) ? Number(x) : x));
+  const set = (value) => { input.value = Array.isArray(value) ? value.join(', ') : ''; };
+  return { control: input, get, set };
+}
+
+/**
+ * An `events` parameter's editor: a row per event with an input per field of `p.fields` (their kinds and
+ * limits from the schema), a button to remove each row and one to add a row (at most `p.max_items`).
+ * `get()` gives the events as the API takes them (a number field left empty is left out: its default applies).
+ */
+export function eventsInput(p) {
+  const rows = [];
+  const body = h('tbody');
+  const add = h('button', { type: 'button', class: 'small secondary add-event' }, 'Add an event');
+  const control = h('div', { class: 'event-list', role: 'group', tabindex: '-1', dataset: { param: p.name } },
+    h('table', { class: 'event-table' },
+      h('thead', {}, h('tr', {}, p.fields.map((f) => h('th', { scope: 'col', title: f.help }, f.name)), h('th', {}, h('span', { class: 'visually-hidden' }, 'remove')))),
+      body),
+    add);
+  const refresh = () => {
+    rows.forEach((row, i) => {
+      for (const { f, input } of row.inputs) {
+        input.dataset.field = `params.${p.name}[${i}].${f.name}`;
+        input.setAttribute('aria-label', `${p.name} ${i + 1}: ${f.name}`);
+      }
+      row.remove.setAttribute('aria-label', `Remove ${p.name} ${i + 1}`);
+    });
+    add.disabled = p.max_items !== null && p.max_items !== undefined && rows.length >= p.max_items;
+  };
+  const addRow = (event = {}) => {
+    const inputs = p.fields.map((f) => {
+      const input = scalarInput(f, `${p.name}.${f.name}`);
+      setScalar(f, input, f.name in event ? event[f.name] : f.default);
+      return { f, input };
+    });
+    const remove = h('button', { type: 'button', class: 'small secondary remove-event' }, '×');
+    const tr = h('tr', {}, inputs.map(({ input }) => h('td', {}, input)), h('td', {}, remove));
+    const row = { tr, inputs, remove };
+    remove.addEventListener('click', () => {
+      rows.splice(rows.indexOf(row), 1);
+      tr.remove();
+      refresh();
+      control.dispatchEvent(new Event('input', { bubbles: true }));
+    });
+    rows.push(row);
+    body.append(tr);
+    refresh();
+  };
+  add.addEventListener('click', () => {
+    addRow();
+    control.dispatchEvent(new Event('input', { bubbles: true }));
+    rows[rows.length - 1].inputs[0]?.input.focus();
+  });
+  const get = () => rows.map((row) => {
+    const event = {};
+    for (const { f, input } of row.inputs) {
+      const value = scalarValue(f, input);
+      if (value !== '') event[f.name] = value;
+    }
+    return event;
+  });
+  const set = (value) => {
+    rows.splice(0).forEach((row) => row.tr.remove());
+    for (const event of Array.isArray(value) ? value : []) addRow(event);
+    refresh();
+  };
+  return { control, get, set };
 }
 
 /**
@@ -52,9 +152,15 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
       helpText ? h('small', { id: helpId, class: 'help' }, helpText) : null, error);
   };
 
-  // --- preset -----------------------------------------------------------------------------
+  // --- preset, or a saved system (a base preset and overrides: GET /api/systems' `saved`) -------
+  const asChoice = (saved) => ({ name: saved.name, base: saved.base, overrides: saved.params, params: saved.resolved,
+    algorithms: saved.algorithms, description: saved.description || `Saved: ${saved.base} with ${Object.keys(saved.params).join(', ') || 'no changes'}.` });
+  const choices = [...schema.systems, ...(schema.saved || []).map(asChoice)];
+  const savedGroup = h('optgroup', { label: 'Saved systems' }, (schema.saved || []).map((s) =>
+    h('option', { value: s.name, selected: s.name === params.system }, `${s.name} (${s.base})`)));
   const systemSel = h('select', { name: 'system' }, schema.systems.map((s) =>
-    h('option', { value: s.name, selected: s.name === (params.system || 'single') }, s.name)));
+    h('option', { value: s.name, selected: s.name === (params.system || 'single') }, s.name)), savedGroup);
+  savedGroup.hidden = !savedGroup.children.length;
   const systemDesc = h('p', { class: 'help', id: nextId('sysdesc') });
 
   // --- algorithms: a box per literal label, a field of values per form with an argument ------
@@ -91,24 +197,36 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
     h('p', { class: 'help' }, 'Prefilled with the chosen preset’s values. Only values you change are sent as overrides.'),
     Object.entries(groups).map(([group, ps]) => h('fieldset', { class: 'param-group' }, h('legend', {}, group),
       ps.map((p) => {
-        let input;
-        if (p.kind === 'choice') {
-          input = h('select', { name: p.name }, p.choices.map((c) => h('option', { value: c }, c)));
-        } else if (p.kind === 'bool') {
-          input = h('input', { type: 'checkbox', name: p.name });
-        } else {
-          input = h('input', { type: 'number', name: p.name, step: p.kind === 'int' ? 1 : 'any',
-            min: p.minimum ?? undefined, max: p.maximum ?? undefined, placeholder: p.nullable ? 'auto' : undefined });
-        }
-        paramInputs.set(p.name, { p, input });
-        const def = p.default === null ? 'auto' : p.kind === 'bool' ? (p.default ? 'on' : 'off') : p.default;
+        const sequence = p.kind === 'list' ? listInput(p) : p.kind === 'events' ? eventsInput(p) : null;
+        const input = sequence ? sequence.control : scalarInput(p, p.name);
+        paramInputs.set(p.name, sequence ? { p, input, get: sequence.get, set: sequence.set } : { p, input });
+        const def = p.default === null ? 'auto' : p.kind === 'bool' ? (p.default ? 'on' : 'off')
+          : Array.isArray(p.default) ? (p.default.length ? JSON.stringify(p.default) : 'none') : p.default;
         const block = fieldBlock(`params.${p.name}`, p.name, input, `${p.help} Default ${def}; ${rangeText(p)}${p.nullable ? '; empty = auto' : ''}.`);
-        if (decorate) decorate(p, block, input);
+        if (decorate && !sequence) decorate(p, block, input); // a list or event list is held fixed (never swept)
         return block;
       }))));
 
   function preset() {
-    return schema.systems.find((s) => s.name === systemSel.value) || schema.systems[0];
+    return choices.find((s) => s.name === systemSel.value) || schema.systems[0];
+  }
+
+  /** A system just saved (POST /api/systems/saved's answer): in the picker, chosen. */
+  function addSaved(saved) {
+    const choice = asChoice(saved);
+    choices.push(choice);
+    savedGroup.append(h('option', { value: saved.name }, `${saved.name} (${saved.base})`));
+    savedGroup.hidden = false;
+    systemSel.value = saved.name;
+    applyPreset();
+  }
+
+  /** What the form holds as a saved system's definition: the base preset and every value that differs from it. */
+  function definition() {
+    const chosen = preset();
+    const base = chosen.base || chosen.name;
+    const basePreset = schema.systems.find((s) => s.name === base);
+    return { base, params: changedParams(rawParams(), basePreset.params) };
   }
 
   // --- the values valid for the system beside each argument field, as n_parents changes -----
@@ -202,8 +320,8 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
 
   function setParam(name, value) {
     const entry = paramInputs.get(name);
-    if (entry.p.kind === 'bool') entry.input.checked = Boolean(value);
-    else entry.input.value = value === null || value === undefined ? '' : String(value);
+    if (entry.set) entry.set(value);
+    else setScalar(entry.p, entry.input, value);
   }
 
   function applyPreset() {
@@ -228,7 +346,8 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
   /** Every parameter input's value as the API takes it. */
   function rawParams() {
     const values = {};
-    for (const { p, input } of paramInputs.values()) {
+    for (const { p, input, get } of paramInputs.values()) {
+      if (get) { values[p.name] = get(); continue; }
       if (p.kind === 'bool') { values[p.name] = input.checked; continue; }
       const raw = input.value.trim();
       if (p.kind === 'choice') values[p.name] = raw;
@@ -244,17 +363,14 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
 
   /** Fill the inputs from an experiment as read() gives it (the preset first, then its changes). */
   function load(experiment) {
-    if (!experiment || !schema.systems.some((s) => s.name === experiment.system)) return;
+    if (!experiment || !choices.some((s) => s.name === experiment.system)) return;
     systemSel.value = experiment.system;
     applyPreset();
     if (Array.isArray(experiment.algorithms)) showAlgorithms(experiment.algorithms);
     if (experiment.seeds !== undefined) seedsIn.value = String(experiment.seeds);
     if (experiment.episodes !== undefined) episodesIn.value = String(experiment.episodes);
     for (const [name, value] of Object.entries(experiment.params || {})) {
-      const entry = paramInputs.get(name);
-      if (!entry) continue;
-      if (entry.p.kind === 'bool') entry.input.checked = Boolean(value);
-      else entry.input.value = value === null ? '' : String(value);
+      if (paramInputs.has(name)) setParam(name, value);
     }
   }
 
@@ -350,7 +466,7 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
 
   return {
     fieldBlock, errorEls, systemSel, systemDesc, algoFieldset, algoBoxes, argumentFields, seedsIn, episodesIn, advanced,
-    paramInputs, preset, applyPreset, read, load, clearErrors, showErrors, keptNote, budgetBlock, updateBudget,
+    paramInputs, preset, applyPreset, read, load, addSaved, definition, clearErrors, showErrors, keptNote, budgetBlock, updateBudget,
     currentForm, described: () => described, onValid: (listener) => validListeners.push(listener),
     onPreset: (listener) => presetListeners.push(listener),
   };

@@ -151,7 +151,65 @@ export async function mount(root, params, ctx) {
     }
   });
 
-  root.append(form,
+  // --- your own system: save the form's system and values under a name, import or export its file ---
+  const savedName = h('input', { type: 'text', name: 'saved-name', maxlength: 32, placeholder: 'e.g. rush-hour',
+    pattern: '[a-z][a-z0-9-]{0,31}' });
+  const savedDesc = h('input', { type: 'text', name: 'saved-description', maxlength: 200 });
+  const saveBtn = h('button', { type: 'button', class: 'secondary' }, 'Save as a system');
+  const importIn = h('input', { type: 'file', accept: 'application/json,.json', id: nextId('import') });
+  const exportLink = h('a', { class: 'export-system', hidden: true }, 'Download this saved system’s file');
+  const saveStatus = h('p', { class: 'help', 'aria-live': 'polite' });
+  const saveSummary = h('div', { class: 'error-summary', 'aria-live': 'assertive' });
+  const saveErrors = { name: savedName, description: savedDesc };
+  const showSaveError = (e) => {
+    const items = Array.isArray(e.detail) ? e.detail.map((d) => d.msg) : [e.message];
+    saveSummary.replaceChildren(h('div', { class: 'notice error', role: 'alert' },
+      h('p', {}, 'The system was not saved.'), h('ul', {}, items.map((m) => h('li', {}, m)))));
+    for (const d of Array.isArray(e.detail) ? e.detail : []) saveErrors[d.field]?.setAttribute('aria-invalid', 'true');
+  };
+  const save = async (body) => {
+    saveSummary.replaceChildren();
+    for (const input of Object.values(saveErrors)) input.removeAttribute('aria-invalid');
+    try {
+      const saved = await api.saveSystem(body);
+      fields.addSaved(saved);
+      saveStatus.textContent = `Saved “${saved.name}”: ${saved.base} with ${Object.keys(saved.params).length} changed values. It is chosen above.`;
+    } catch (e) {
+      showSaveError(e);
+    }
+  };
+  saveBtn.addEventListener('click', () => save({ name: savedName.value.trim(), description: savedDesc.value.trim(),
+    ...fields.definition() }));
+  importIn.addEventListener('change', async () => {
+    const file = importIn.files[0];
+    if (!file) return;
+    let body;
+    try { body = JSON.parse(await file.text()); } catch (e) { showSaveError({ message: `${file.name} is not JSON: ${e.message}` }); return; }
+    await save(body);
+    importIn.value = '';
+  });
+  const refreshExport = () => {
+    const chosen = fields.preset();
+    exportLink.hidden = !chosen.base;
+    if (!chosen.base) return;
+    const file = { name: chosen.name, description: chosen.description, base: chosen.base, params: chosen.overrides };
+    exportLink.href = `data:application/json,${encodeURIComponent(`${JSON.stringify(file, null, 2)}\n`)}`;
+    exportLink.download = `${chosen.name}.json`;
+  };
+  fields.onPreset(refreshExport);
+  const ownBox = h('section', { class: 'own-system', 'aria-labelledby': 'own-h' },
+    h('h2', { id: 'own-h' }, 'Your own system'),
+    h('p', { class: 'help' }, 'Save the chosen system with the values changed in this form (lists and events included) ' +
+      'under a name: it then appears among the systems, and runs, compares and sweeps like a preset.'),
+    saveSummary,
+    h('div', { class: 'row' },
+      fields.fieldBlock('saved.name', 'System name', savedName, 'Lowercase letters, digits and -; no preset’s name.'),
+      fields.fieldBlock('saved.description', 'Description', savedDesc, 'One line for the system picker.')),
+    h('div', { class: 'actions' }, saveBtn,
+      h('label', { for: importIn.id, class: 'import-system' }, 'Import a system file ', importIn), exportLink),
+    saveStatus);
+
+  root.append(form, ownBox,
     h('section', { class: 'paper-box', 'aria-labelledby': 'paper-h' },
       h('h2', { id: 'paper-h' }, 'Full reproduction'),
       h('p', {}, `The paper’s four systems, each with its published configurations, ${PAPER_SEEDS} seeds × ${PAPER_EPISODES} episodes.`),

@@ -236,6 +236,13 @@ export function seedCount(job) {
 /** Two parameter values are the same (floats compared to 1e-12 relative, as the server resolves them). */
 export function sameValue(a, b) {
   if (a === b) return true;
+  if (Array.isArray(a) || Array.isArray(b)) { // a list or event list: item by item, field by field
+    return Array.isArray(a) && Array.isArray(b) && a.length === b.length && a.every((x, i) => sameValue(x, b[i]));
+  }
+  if (a && b && typeof a === 'object' && typeof b === 'object') {
+    const keys = new Set([...Object.keys(a), ...Object.keys(b)]);
+    return [...keys].every((k) => sameValue(a[k], b[k]));
+  }
   return isFiniteNumber(a) && isFiniteNumber(b) && Math.abs(a - b) <= 1e-12 * Math.max(1, Math.abs(b));
 }
 

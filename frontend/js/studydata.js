@@ -43,6 +43,7 @@ export function pageOf(items, page, size) {
 export function fmtParam(v) {
   if (typeof v === 'number' && !Number.isInteger(v)) return String(Number(v.toPrecision(4)));
   if (typeof v === 'boolean') return v ? 'on' : 'off';
+  if (v !== null && typeof v === 'object') return JSON.stringify(v); // a list or event list
   return v === null || v === undefined ? '–' : String(v);
 }
 

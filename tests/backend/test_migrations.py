@@ -285,3 +285,26 @@ def test_jobs_stored_before_external_runs_are_simulations_and_downgrade_drops_ex
             assert session.execute(text("SELECT kind FROM jobs")).scalars().all() == ["simulation"]
     finally:
         db.dispose()
+
+
+def test_saved_systems_table_comes_with_0010_and_goes_on_downgrade(db_url: str) -> None:
+    db = Database(db_url)
+    db.migrate()
+    try:
+        from backend.services import saved_systems
+
+        with db.write() as session:
+            saved_systems.create_saved(session, name="mine", description="d", base="single",
+                                       params={"n_parents": 12})
+        with db.session() as session:
+            assert [s.params for s in saved_systems.list_saved(session)] == [{"n_parents": 12}]
+        db.dispose()
+        _alembic(db_url, command.downgrade, "0009")
+        engine = create_engine(db_url)
+        assert "saved_systems" not in sa.inspect(engine).get_table_names()
+        engine.dispose()
+        db.migrate()
+        with db.session() as session:
+            assert saved_systems.list_saved(session) == []
+    finally:
+        db.dispose()

@@ -16,12 +16,13 @@ from pydantic import ValidationError
 from sqlalchemy import and_, func, or_, select
 from sqlalchemy.orm import Session
 
-from backend.api.deps import SessionDep, SettingsDep
+from backend.api.deps import DatabaseDep, SessionDep, SettingsDep
 from backend.api.responses import JobChanges, JobCheck, JobStatus, answers
 from backend.api.schemas import JobCreate
 from backend.api.validation import validation_details
 from backend.errors import InvalidSpec
 from backend.execution import presence
+from backend.services import saved_systems
 from backend.store import crud
 from backend.store.models import MAX_JOB_ID, OPEN, QUEUED, RUNNING, Job, Run
 from mgrao_core import MAX_WORK, ConfigError, make_spec
@@ -92,7 +93,7 @@ def job_status(job_id: Annotated[int, Path(ge=1, le=MAX_JOB_ID, description="A j
 
 
 @router.post("/check", response_model=JobCheck, response_model_exclude_unset=True, responses=answers(write=True))
-def check_job(body: Annotated[dict[str, Any], Body()], settings: SettingsDep) -> dict:
+def check_job(body: Annotated[dict[str, Any], Body()], settings: SettingsDep, db: DatabaseDep) -> dict:
     """Validate a ``POST /api/jobs`` body without queuing it; 200 either way.
 
     ``{"valid": true, "work", "max_work"}``, or ``{"valid": false, "detail": [...]}`` with the very
@@ -104,8 +105,13 @@ def check_job(body: Annotated[dict[str, Any], Body()], settings: SettingsDep) ->
         raw = [{**item, "loc": ("body", *item["loc"])} for item in error.errors()]
         return {"valid": False, "detail": validation_details(raw)}
     try:
-        spec = make_spec(job.system, job.algorithms, job.seeds, job.episodes, job.params,
+        with db.session() as session:  # a saved system as POST /api/jobs reads it
+            system, overrides, _ = saved_systems.resolve(session, job.system, job.params)
+        spec = make_spec(system, job.algorithms, job.seeds, job.episodes, overrides,
                          memory_budget=settings.job_memory_bytes)
+    except InvalidSpec as refused:
+        return {"valid": False, "detail": [{"loc": refused.loc, "field": refused.field, "msg": refused.msg,
+                                            "type": "value_error"}]}
     except ConfigError as error:
         refused = InvalidSpec.from_config_error(error, params=job.params)
         return {"valid": False, "detail": [{"loc": refused.loc, "field": refused.field, "msg": refused.msg,

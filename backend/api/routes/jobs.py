@@ -17,7 +17,7 @@ from backend.api.deps import Authorized, DatabaseDep, SessionDep, SettingsDep
 from backend.api.responses import LOCATION, EpisodeRow, Results, Weights, answers, links
 from backend.api.schemas import JobBatch, JobBatchCreate, JobCreate, JobOut, JobPage, JobPatch, Kind, Status, Text
 from backend.errors import BadQuery, InvalidSpec
-from backend.services import analysis, studies, weights
+from backend.services import analysis, saved_systems, studies, weights
 from backend.services.cache import SharedBuilds
 from backend.store import crud, summaries
 from backend.store.job_order import SORT_HELP
@@ -47,14 +47,17 @@ Seed = Annotated[int | None, Query(ge=0, le=MAX_SEED_VALUE,
                                                         "links": JOB_LINKS}}))
 def submit_job(body: JobCreate, db: DatabaseDep, settings: SettingsDep, response: Response) -> dict:
     """Queue an experiment; answers once the job is committed."""
+    with db.session() as session:  # a saved system: its base preset and overrides, the body's on top
+        system, overrides, saved = saved_systems.resolve(session, body.system, body.params)
     try:
-        spec = make_spec(body.system, body.algorithms, body.seeds, body.episodes, body.params,
+        spec = make_spec(system, body.algorithms, body.seeds, body.episodes, overrides,
                          memory_budget=settings.job_memory_bytes)
     except ConfigError as error:
-        raise InvalidSpec.from_config_error(error, params=body.params) from None
+        raise InvalidSpec.from_config_error(error, params=overrides) from None
+    tags = [*body.tags, f"{saved_systems.TAG_PREFIX}{saved}"] if saved else body.tags
     db.require_room()
     with db.write() as session:
-        job = crud.create_job(session, spec=spec, name=body.name, tags=body.tags, notes=body.notes)
+        job = crud.create_job(session, spec=spec, name=body.name, tags=tags, notes=body.notes)
         session.flush()
         out = crud.job_dict(job)
     response.headers["Location"] = f"/api/jobs/{out['id']}"

@@ -12,7 +12,7 @@ from backend.api.deps import Authorized, DatabaseDep, SessionDep
 from backend.api.responses import LOCATION, StudyDetail, StudyPage, StudyPlots, answers, links
 from backend.api.schemas import StudyCreate, Text
 from backend.errors import InvalidSpec
-from backend.services import analysis, studies
+from backend.services import analysis, saved_systems, studies
 from backend.services.cache import AnswerCache
 from backend.services.study_plots import study_plots
 from backend.store.keyset import Keyset
@@ -42,8 +42,15 @@ def _json(data: Any, code: int = 200) -> Response:
                                                         "links": STUDY_LINKS}}))
 def submit_study(db: DatabaseDep, body: StudyCreate) -> Response:
     """Validate a study (docs/studies.md), store it and queue its first trials."""
+    data = body.model_dump(exclude_unset=True)
+    base = data.get("base", {})
+    if isinstance(base.get("system"), str):  # a saved system: its base preset, its overrides under the base's params
+        with db.session() as session:
+            system, params, _ = saved_systems.resolve(session, base["system"], base.get("params", {}),
+                                                      ["body", "base", "system"])
+        data["base"] = base | {"system": system, "params": params}
     try:
-        plan = make_plan(body.model_dump(exclude_unset=True))
+        plan = make_plan(data)
     except ConfigError as error:
         raise InvalidSpec(_location(error.field), error.field, str(error)) from None
     db.require_room()

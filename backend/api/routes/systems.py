@@ -3,11 +3,15 @@
 from __future__ import annotations
 
 from functools import cache
+from typing import Annotated
 
-from fastapi import APIRouter
+from fastapi import APIRouter, Path, Response, status
 
-from backend.api.deps import SettingsDep
-from backend.api.responses import Systems, answers
+from backend.api.deps import Authorized, DatabaseDep, SettingsDep
+from backend.api.responses import LOCATION, Systems, answers
+from backend.api.schemas import SavedSystemIn, SavedSystemOut
+from backend.errors import InvalidSpec
+from backend.services import saved_systems
 from backend.store.crud import config_hash
 from mgrao_core import (
     MAX_ALGORITHMS,
@@ -53,13 +57,17 @@ router = APIRouter(prefix="/api", tags=["systems"])
 
 
 @router.get("/systems", response_model=Systems, responses=answers(invalid=False))
-def systems(settings: SettingsDep) -> dict:
-    """What can be submitted: systems, parameters, algorithm labels, limits and the studies' limits.
+def systems(settings: SettingsDep, db: DatabaseDep) -> dict:
+    """What can be submitted: systems, saved systems, parameters, algorithm labels, limits and the studies' limits.
 
     ``limits.max_work`` bounds the product of ``limits.work_factors``: the number of seeds and of
     algorithms, the episodes and the named parameters (the form shows the budget as it fills).
+    ``saved``: the researchers' saved systems (``/api/systems/saved``), each usable as a ``system``.
     """
+    with db.session() as session:
+        saved = [saved_systems.saved_dict(s) for s in saved_systems.list_saved(session)]
     return {
+        "saved": saved,
         "systems": [
             {"name": p.name, "description": p.description, "params": p.params.as_dict(),
              "algorithms": list(p.algorithms), "paper": dict(p.paper_pct_from_uniform),
@@ -76,3 +84,56 @@ def systems(settings: SettingsDep) -> dict:
                     "max_dimensions": search.MAX_DIMENSIONS, "max_steps": search.MAX_STEPS,
                     "max_values": search.MAX_VALUES, "group_label": search.GROUP_LABEL},
     }
+
+
+SavedName = Annotated[str, Path(pattern=saved_systems.NAME_PATTERN, description="The saved system's name.")]
+
+
+@router.get("/systems/saved", response_model=list[SavedSystemOut], responses=answers(invalid=False))
+def list_saved_systems(db: DatabaseDep) -> list[dict]:
+    """Every saved system, by name."""
+    with db.session() as session:
+        return [saved_systems.saved_dict(s) for s in saved_systems.list_saved(session)]
+
+
+@router.post("/systems/saved", status_code=status.HTTP_201_CREATED, response_model=SavedSystemOut,
+             dependencies=[Authorized],
+             responses=answers(write=True, conflict=True, extra={201: {"description": "Saved.", "headers": LOCATION}}))
+def save_system(body: SavedSystemIn, db: DatabaseDep, response: Response) -> dict:
+    """Save a named system: a base preset and overrides (validated on it), usable as a job's or study's system."""
+    db.require_room()
+    with db.write() as session:
+        saved = saved_systems.create_saved(session, name=body.name, description=body.description, base=body.base,
+                                           params=body.params)
+        out = saved_systems.saved_dict(saved)
+    response.headers["Location"] = f"/api/systems/saved/{body.name}"
+    return out
+
+
+@router.get("/systems/saved/{name}", response_model=SavedSystemOut, responses=answers(found=True))
+def read_saved_system(name: SavedName, db: DatabaseDep) -> dict:
+    """One saved system (its ``name``, ``description``, ``base`` and ``params`` are its file)."""
+    with db.session() as session:
+        return saved_systems.saved_dict(saved_systems.get_saved(session, name=name))
+
+
+@router.put("/systems/saved/{name}", response_model=SavedSystemOut, dependencies=[Authorized],
+            responses=answers(write=True, found=True))
+def replace_saved_system(name: SavedName, body: SavedSystemIn, db: DatabaseDep) -> dict:
+    """Replace a saved system's description, base and overrides (the body's name must be the path's)."""
+    if body.name != name:
+        raise InvalidSpec(["body", "name"], "name", f"name: must be the saved system's name {name!r} (got "
+                                                    f"{body.name!r}); save under another name with POST")
+    with db.write() as session:
+        saved = saved_systems.replace_saved(session, name=name, description=body.description, base=body.base,
+                                            params=body.params)
+        return saved_systems.saved_dict(saved)
+
+
+@router.delete("/systems/saved/{name}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[Authorized],
+               responses=answers(write=True, found=True))
+def delete_saved_system(name: SavedName, db: DatabaseDep) -> Response:
+    """Forget a saved system; the jobs run from it keep their configuration and their tag."""
+    with db.write() as session:
+        saved_systems.delete_saved(session, name=name)
+    return Response(status_code=status.HTTP_204_NO_CONTENT)

@@ -56,15 +56,15 @@ class Mgrao(Family):
     rank = 1
     parameters = (
         Parameter("learning_rate", "float", 0.1, "Learning rate alpha of the MG-RAO update.",
-                  "mgrao", 0.0, 1.0),
+                  "mgrao", 0.0, 1.0, identity="always"),
         Parameter(
             "trace_decay", "float", 0.9, "Decay gamma of the replacing eligibility trace.",
-            "mgrao", 0.001, 0.999,
+            "mgrao", 0.001, 0.999, identity="always",
         ),
         Parameter(
             "temperature", "float", None,
             "Softmax temperature of the combined weights; empty means 1/n_types, 1 is paper-literal.",
-            "mgrao", 1e-4, 100.0, nullable=True,
+            "mgrao", 1e-4, 100.0, nullable=True, identity="always",
         ),
     )
     state = (  # each child's PW and trace in lazy form (see the compiled module), its active rows and counts
