@@ -412,7 +412,7 @@ def make_params(overrides: Mapping[str, Any] | None = None, base: SystemParams |
         param = PARAMETERS_BY_NAME.get(name)
         if param is None:
             raise ConfigError(name, "unknown parameter (see the parameter schema for valid names)")
-        values[name] = _plain(_coerce(param, value))
+        values[name] = _coerce(param, value)
     if values["types_per_composite"] > values["n_types"]:
         raise ConfigError(
             "types_per_composite",

@@ -44,7 +44,12 @@ def _other_value(param):
         return next(c for c in param.choices if c != param.default)
     if param.kind in ("int", "float"):
         return param.maximum if param.default != param.maximum else param.minimum
-    pytest.skip(f"{param.name}: a {param.kind} parameter has no generic other value here")
+    if param.kind == "list":  # one item more than the default, at the items' smallest value
+        return [*param.default, param.minimum]
+    if param.kind == "events":  # one event of every field's default, or its first allowed value when required
+        return [{f.name: f.default if f.default is not None else (f.choices[0] if f.choices else f.minimum)
+                 for f in param.fields}]
+    pytest.fail(f"{param.name}: a {param.kind} parameter has no other value here")
 
 
 def test_every_parameter_of_before_issue_20_is_always_part_of_the_identity():
@@ -109,7 +114,7 @@ def test_identity_and_completion_are_inverse():
     schema = (*PARAMETERS, *EXAMPLES)
     full = {p.name: p.as_dict()["default"] for p in schema} | {"example_rate": 0.9}
     stored = identity_params(full, schema)
-    assert set(stored) == {p.name for p in PARAMETERS} | {"example_rate"}
+    assert set(stored) == {p.name for p in PARAMETERS if p.identity == "always"} | {"example_rate"}
     assert complete_params(stored, schema) == full
     assert EXAMPLE_SCHEDULE.name not in identity_params({EXAMPLE_SCHEDULE.name: ()}, schema)
     assert EXAMPLE_RATE.name in identity_params({EXAMPLE_RATE.name: 0.0}, schema)

@@ -287,7 +287,7 @@ def test_jobs_stored_before_external_runs_are_simulations_and_downgrade_drops_ex
         db.dispose()
 
 
-def test_saved_systems_table_comes_with_0010_and_goes_on_downgrade(db_url: str) -> None:
+def test_saved_systems_table_comes_with_0011_and_goes_on_downgrade(db_url: str) -> None:
     db = Database(db_url)
     db.migrate()
     try:
@@ -299,7 +299,7 @@ def test_saved_systems_table_comes_with_0010_and_goes_on_downgrade(db_url: str) 
         with db.session() as session:
             assert [s.params for s in saved_systems.list_saved(session)] == [{"n_parents": 12}]
         db.dispose()
-        _alembic(db_url, command.downgrade, "0009")
+        _alembic(db_url, command.downgrade, "0010")
         engine = create_engine(db_url)
         assert "saved_systems" not in sa.inspect(engine).get_table_names()
         engine.dispose()
