@@ -36,7 +36,7 @@ class GradientBandit(Family):
                    "no parent groups. A standard baseline for MG-RAO.")
     rank = 3  # after MG-RAO (1) and independent-q (2), before the oracle (10)
     parameters = (
-        Parameter("bandit_step", "float", 1.0,
+        Parameter("bandit_step", "float", 0.1,
                   "Step size of the gradient bandit's preference update (alpha of Sutton and Barto 2.8).",
                   LABEL, 0.0, 10_000.0),
     )

@@ -30,7 +30,7 @@ class IndependentQ(Family):
                    "a softmax share of its resource: a standard independent learner, a baseline for MG-RAO.")
     rank = 2  # after MG-RAO (1), before the bandit (3) and the oracle (10)
     parameters = (
-        Parameter("q_learning_rate", "float", 0.1,
+        Parameter("q_learning_rate", "float", 0.001,
                   "Step of independent-q's running value per type: Q[t] += rate * (atv - Q[t]).",
                   LABEL, 0.0, 1.0),
         Parameter("q_temperature", "float", 0.01,
