@@ -5,7 +5,9 @@ The families, in the order an unknown label's error lists them:
 * :mod:`~mgrao_core.algorithms.uniform`: the uniform allocation (the baseline);
 * :mod:`~mgrao_core.algorithms.oracle`: the best fixed allocation (an upper bound);
 * :mod:`~mgrao_core.algorithms.mgrao`: MG-RAO, ``mgrao-x:1`` and ``mgrao-max`` (paper table
-  "Summary of algorithm labels").
+  "Summary of algorithm labels");
+* :mod:`~mgrao_core.algorithms.independent_q`: ``independent-q``, a standard independent learner;
+* :mod:`~mgrao_core.algorithms.bandit`: ``bandit``, a gradient bandit over atomic types.
 
 :func:`parse_algorithm` turns a label into an :class:`Algorithm` by asking each family in turn;
 :func:`describe_label` and :func:`registry` are what the API's ``GET /api/algorithms`` and
@@ -17,7 +19,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from mgrao_core.algorithms import mgrao, oracle, uniform
+from mgrao_core.algorithms import bandit, independent_q, mgrao, oracle, uniform
 from mgrao_core.algorithms.base import PALETTE_SLOTS, Algorithm, Family
 from mgrao_core.algorithms.mgrao import MAX_LABEL as MGRAO_MAX
 from mgrao_core.algorithms.mgrao import divisors, parent_groups
@@ -26,7 +28,7 @@ from mgrao_core.algorithms.state import System
 from mgrao_core.algorithms.uniform import LABEL as UNIFORM
 from mgrao_core.errors import ConfigError
 
-FAMILIES: tuple[Family, ...] = (uniform.FAMILY, oracle.FAMILY, mgrao.FAMILY)
+FAMILIES: tuple[Family, ...] = (uniform.FAMILY, oracle.FAMILY, mgrao.FAMILY, independent_q.FAMILY, bandit.FAMILY)
 """Every registered family. A new family is a module with a ``FAMILY`` and a line here."""
 FAMILIES_BY_NAME: dict[str, Family] = {f.name: f for f in FAMILIES}
 KINDS: dict[str, int] = {f.name: code for code, f in enumerate(FAMILIES)}
@@ -89,7 +91,7 @@ def sort_key(label: str) -> tuple[int, int, str]:
     try:
         algorithm = parse_algorithm(label, None)
     except ConfigError:
-        return (len(FAMILIES) + 1, 0, str(label))
+        return (max(f.rank for f in FAMILIES) + 1, 0, str(label))
     return (*family_of(algorithm).sort_key(algorithm), algorithm.label)
 
 

@@ -31,7 +31,7 @@ class Oracle(FixedFamily):
     title = "Oracle"
     description = ("Each child's best fixed allocation given the true expected task values: no learner with a "
                    "fixed allocation does better in a stationary system.")
-    rank = 2
+    rank = 10  # last: families between MG-RAO (1) and the oracle take 2 to 9
     streams = {"oracle": 5}
     _form = LabelForm(LABEL, "^oracle$", "the best fixed allocation")
 

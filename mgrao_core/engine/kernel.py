@@ -33,6 +33,8 @@ import numpy as np
 from numba import njit, prange
 
 from mgrao_core.algorithms import KINDS
+from mgrao_core.algorithms.bandit import compiled as bandit
+from mgrao_core.algorithms.independent_q import compiled as independent_q
 from mgrao_core.algorithms.mgrao import compiled as mgrao
 from mgrao_core.engine.environment import (
     allocate_atomic_tasks,
@@ -45,6 +47,8 @@ from mgrao_core.engine.environment import (
 )
 
 MGRAO = KINDS["mgrao"]
+INDEPENDENT_Q = KINDS["independent-q"]
+BANDIT = KINDS["bandit"]
 
 
 class Lanes(NamedTuple):
@@ -104,11 +108,12 @@ class Draws(NamedTuple):
 
 
 @njit(cache=True, parallel=True)
-def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes):
+def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes, independent_q_lanes, bandit_lanes):
     """Run every lane through the episodes of one block.
 
     The system utility of each lane and episode goes into ``utilities (lanes, episodes)``;
-    ``mgrao_lanes`` are the MG-RAO family's (:class:`~mgrao_core.algorithms.mgrao.compiled.MgraoLanes`).
+    ``mgrao_lanes``, ``independent_q_lanes`` and ``bandit_lanes`` are each learner family's compiled lanes
+    (:class:`~mgrao_core.algorithms.mgrao.compiled.MgraoLanes` and the like), in registry order.
     """
     n_lanes = lanes.seed_index.shape[0]
     n_episodes = utilities.shape[1]
@@ -137,6 +142,10 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes):
             for c in range(n_children):
                 if kind == MGRAO:
                     mgrao.allocate(mgrao_lanes, mgrao_views, m, c, weights[c])
+                elif kind == INDEPENDENT_Q:
+                    independent_q.allocate(independent_q_lanes, lane, m, c, weights[c])
+                elif kind == BANDIT:
+                    bandit.allocate(bandit_lanes, lane, m, c, weights[c])
                 else:
                     weights[c, :] = lanes.fixed_weights[lane, c, :]
             # 2-3. Parents decompose their composite tasks and allocate the atomic tasks.
@@ -174,11 +183,21 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes):
                 if kind == MGRAO:
                     mgrao.learn(mgrao_lanes, mgrao_views, m, p, n_parents, child_of[p], parent_types[p],
                                 values[p])
+                elif kind == INDEPENDENT_Q:
+                    independent_q.learn(independent_q_lanes, lane, m, p, n_parents, child_of[p],
+                                        worlds.parent_types[s, p], values[p])
+                elif kind == BANDIT:
+                    bandit.learn(bandit_lanes, lane, m, p, n_parents, child_of[p], worlds.parent_types[s, p],
+                                 values[p], weights)
 
 
 @njit(cache=True)
-def finish(lanes, mgrao_lanes):
+def finish(lanes, mgrao_lanes, independent_q_lanes, bandit_lanes):
     """Materialise every learner lane's final state and allocation (after the last episode)."""
     for lane in range(lanes.kind.shape[0]):
         if lanes.kind[lane] == MGRAO:
             mgrao.finish(mgrao_lanes, lane, lanes.groups[lane], lanes.weights[lane])
+        elif lanes.kind[lane] == INDEPENDENT_Q:
+            independent_q.finish(independent_q_lanes, lane, lanes.groups[lane], lanes.weights[lane])
+        elif lanes.kind[lane] == BANDIT:
+            bandit.finish(bandit_lanes, lane, lanes.groups[lane], lanes.weights[lane])

@@ -26,7 +26,7 @@ test('labels described by the server: order by sort key, undescribed last by spe
 });
 
 test('the pickers come from the label forms: literal labels and forms with an argument', () => {
-  assert.deepEqual(literalLabels(FIXTURE.families).sort(), ['mgrao-max', 'oracle', 'uniform']);
+  assert.deepEqual(literalLabels(FIXTURE.families).sort(), ['bandit', 'independent-q', 'mgrao-max', 'oracle', 'uniform']);
   const [{ form }] = argumentForms(FIXTURE.families);
   assert.equal(labelFor(form, 5), 'mgrao-5:1');
   assert.equal(argumentOf(form, 'MGRAO-05:1'), 5);
@@ -49,7 +49,8 @@ test('a value the system does not allow is refused with the form\'s own words an
 test('memory per child: shown when the registry gives it, nothing when it does not (yet)', () => {
   assert.deepEqual(memoryPerChild(FIXTURE.families), {});
   const withMemory = FIXTURE.families.map((f, i) => ({ ...f, memory_per_child: i ? { [f.examples[0]]: 1000 * i } : null }));
-  assert.deepEqual(memoryPerChild(withMemory), { [FIXTURE.families[1].examples[0]]: 1000, [FIXTURE.families[2].examples[0]]: 2000 });
+  const expected = Object.fromEntries(FIXTURE.families.slice(1).map((f, i) => [f.examples[0], 1000 * (i + 1)]));
+  assert.deepEqual(memoryPerChild(withMemory), expected);
   assert.equal(fmtBytes(512), '512 B');
   assert.equal(fmtBytes(2048), '2.0 kB');
   assert.equal(fmtBytes(3_400_000), '3.4 MB');
