@@ -184,11 +184,11 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes, independent_q_l
                     mgrao.learn(mgrao_lanes, mgrao_views, m, p, n_parents, child_of[p], parent_types[p],
                                 values[p])
                 elif kind == INDEPENDENT_Q:
-                    independent_q.learn(independent_q_lanes, lane, m, p, n_parents, child_of[p],
-                                        worlds.parent_types[s, p], values[p])
+                    independent_q.learn(independent_q_lanes, lane, m, p, n_parents, child_of[p], parent_types[p],
+                                        values[p])
                 elif kind == BANDIT:
-                    bandit.learn(bandit_lanes, lane, m, p, n_parents, child_of[p], worlds.parent_types[s, p],
-                                 values[p], weights)
+                    bandit.learn(bandit_lanes, lane, m, p, n_parents, child_of[p], parent_types[p], values[p],
+                                 weights)
 
 
 @njit(cache=True)
