@@ -24,6 +24,21 @@ export function remember(descriptions, labels = null, knownRoles = null) {
   if (knownRoles) roles = { ...roles, ...knownRoles };
 }
 
+/**
+ * Keep the descriptions an answer carries (`GET /api/compare`, a job's results) for its `labels`: the
+ * server described every label it could, so a label of `labels` left without one is outside the
+ * registry (a run logged from outside) and is never asked for.
+ */
+export function rememberAnswer(descriptions, labels = []) {
+  remember(descriptions || []);
+  for (const label of labels) if (typeof label === 'string' && !described.has(label)) described.set(label, null);
+}
+
+/** Labels outside the registry (a run logged from outside, `kind` external): never asked for. */
+export function outsideRegistry(labels = []) {
+  rememberAnswer([], labels);
+}
+
 /** Forget every description and role (tests). */
 export function forget() {
   described.clear();

@@ -6,7 +6,7 @@ import { api } from './api.js';
 import { h, notice, nextId, kindBadge } from './ui.js';
 import { draw, purge, loadPlotly, meanBandTraces, utilityLayout, pctBarTrace, bandsBelow, bandAlpha } from './charts.js';
 import { parseIds, badIds, DEFINITIONS, groupKey, pctErrorBars, fmtNumber, fmtPct, fmtCI, seedCount, smoothingNote, episodesPerPoint, bandCaution } from './stats.js';
-import { compareLabels, ready, remember } from './algorithms.js';
+import { compareLabels, ready, rememberAnswer } from './algorithms.js';
 import { configurations, groupLabels, diffTable, facets, lineStyles, legendLayout, barsLayout } from './comparegroups.js';
 import { axisControls, withAxis, syncZoom, tableCsvButton } from './chartcontrols.js';
 
@@ -75,7 +75,7 @@ export async function mount(root, params, ctx) {
     body.replaceChildren(notice('error', `Cannot compare jobs ${state.jobs.join(', ')}: ${e.message}`));
     return () => { stopped = true; controller.abort(); };
   }
-  remember(data.algorithms || []); // described by the server with the data: no request
+  rememberAnswer(data.algorithms, data.groups.map((g) => g.algorithm)); // described with the data: no request
   await ready(data.groups.map((g) => g.algorithm)); // their order and colours
   if (stopped) return null;
   const groups = data.groups.slice().sort((a, b) => String(a.system).localeCompare(String(b.system))

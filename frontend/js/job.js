@@ -6,7 +6,7 @@ import { h, statusCell, jobMeta, notice, editJobDialog, confirmDialog, cancelCon
 import { draw, purge, loadPlotly, meanBandTraces, seedTraces, utilityLayout, bandsBelow, bandAlpha, withEvents } from './charts.js';
 import { fmtNumber, fmtPct, fmtCI, pctProgress, waitingMessage, smoothingNote, episodesPerPoint, bandCaution, DEFINITIONS } from './stats.js';
 import { algorithmStyles } from './colours.js';
-import { compareLabels, ready, remember } from './algorithms.js';
+import { compareLabels, ready, rememberAnswer } from './algorithms.js';
 import { axisControls, withAxis, tableCsvButton } from './chartcontrols.js';
 import { fmtParam } from './studydata.js';
 import { configRows, differenceSummary, summaryCsv, configJson } from './jobconfig.js';
@@ -169,7 +169,7 @@ export async function mount(root, params, ctx) {
     const signature = r.configurations.map((c) => `${c.algorithm}:${c.seeds_done}`).join(',');
     if (signature === storedSignature) return;
     storedSignature = signature;
-    remember(r.algorithms || []); // described by the server with the results: no request
+    rememberAnswer(r.algorithms, [...job.algorithms, ...r.configurations.map((c) => c.algorithm)]); // no request
     await ready([...job.algorithms, ...r.configurations.map((c) => c.algorithm)]); // their order and colours
     r.configurations.sort((a, b) => compareLabels(a.algorithm, b.algorithm));
     if (showSeeds) { seedResults = r; results = null; } else { results = r; seedResults = null; }
@@ -214,7 +214,7 @@ export async function mount(root, params, ctx) {
     if (withSeeds && seedResults) return seedResults;
     if (!withSeeds && results) return results;
     const r = await api.results(id, { points: POINTS, include_seeds: withSeeds ? 'true' : undefined });
-    remember(r.algorithms || []); // described by the server with the results: no request
+    rememberAnswer(r.algorithms, [...job.algorithms, ...r.configurations.map((c) => c.algorithm)]); // no request
     await ready([...job.algorithms, ...r.configurations.map((c) => c.algorithm)]); // their order and colours
     r.configurations.sort((a, b) => compareLabels(a.algorithm, b.algorithm));
     if (withSeeds) seedResults = r; else results = r;

@@ -5,7 +5,7 @@
 import { api } from './api.js';
 import { h, notice } from './ui.js';
 import { fmtPct, fmtCI } from './stats.js';
-import { compareLabels, ready, remember } from './algorithms.js';
+import { compareLabels, ready, rememberAnswer } from './algorithms.js';
 import { algorithmStyles } from './colours.js';
 import { paperRows, agreement, choosePaperJob, fmtSeedPercentile } from './paperdata.js';
 import { tableCsvButton } from './chartcontrols.js';
@@ -68,7 +68,7 @@ export async function mount(root, params, ctx) {
       h('a', { class: 'button primary', href: '#/new' }, 'Reproduce the paper')));
     return () => { stopped = true; };
   }
-  for (const r of Object.values(results)) remember(r.algorithms || []); // described with the results
+  for (const r of Object.values(results)) rememberAnswer(r.algorithms, r.configurations.map((c) => c.algorithm));
   await ready(Object.values(results).flatMap((r) => r.configurations.map((c) => c.algorithm))); // order, colours
   if (stopped) return null;
   const rows = paperRows(schema, results);

@@ -3,7 +3,7 @@
 import { api } from './api.js';
 import { h, statusCell, confirmDialog, promptDialog, cancelConsequence, keepLabel, editJobDialog, notice, debounce, nextId } from './ui.js';
 import { fmtDate, fmtDuration, seedCount, parseTags } from './stats.js';
-import { ready, sortLabels } from './algorithms.js';
+import { outsideRegistry, ready, sortLabels } from './algorithms.js';
 import { columnsFromQuery, sortKey, nextSort, sortState, cellText, cellInterval, refreshLimit, sameJob, progressOnly } from './runcolumns.js';
 
 const STATUSES = ['queued', 'running', 'succeeded', 'failed', 'cancelled', 'open'];
@@ -279,6 +279,7 @@ export async function mount(root, params, ctx) {
     try {
       page = await api.listJobs({ status: filters.status, system: filters.system, tag: filters.tag, q: filters.q,
         sort: filters.sort, limit: PAGE, cursor: reset ? undefined : cursor });
+      outsideRegistry(page.data.filter((job) => job.kind === 'external').flatMap((job) => job.algorithms || []));
       await ready(page.data.flatMap((job) => job.algorithms || [])); // the configurations' order in each row
     } catch (e) {
       if (token === loadToken) { showError(e); root.removeAttribute('aria-busy'); moreBtn.disabled = false; }
@@ -329,6 +330,7 @@ export async function mount(root, params, ctx) {
     try {
       page = await api.listJobs({ status: filters.status, system: filters.system, tag: filters.tag, q: filters.q,
         sort: filters.sort, limit });
+      outsideRegistry(page.data.filter((job) => job.kind === 'external').flatMap((job) => job.algorithms || []));
       await ready(page.data.flatMap((job) => job.algorithms || []));
     } catch { /* unreachable or refused: the next change tries again */ }
     refreshing = false;

@@ -31,7 +31,7 @@ def test_preset_change_keeps_edits_and_the_x_field_lists_valid_counts(page, serv
     page.fill("input.argument-values", "5, 4")
     expect(help_text).to_contain_text("mgrao-5:1 is not valid here")
     expect(help_text).to_contain_text("(valid: 1, 2, 3, 4, 6, 12)")
-    assert "mgrao-4:1" not in help_text.inner_text()
+    assert "mgrao-4:1 is not valid" not in help_text.inner_text()  # 4 divides 12 (the memory line may name it)
     page.select_option("select[name=system]", "multi")
     kept = page.locator(".kept-edits")
     assert "learning_rate 0.05" in kept.inner_text() and "n_parents 12" in kept.inner_text()
