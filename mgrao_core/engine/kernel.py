@@ -32,6 +32,7 @@ import numpy as np
 from numba import njit, prange
 
 from mgrao_core.algorithms import KINDS
+from mgrao_core.algorithms.adaptive import compiled as adaptive
 from mgrao_core.algorithms.mgrao import compiled as mgrao
 from mgrao_core.engine.environment import (
     allocate_atomic_tasks,
@@ -42,6 +43,7 @@ from mgrao_core.engine.environment import (
 )
 
 MGRAO = KINDS["mgrao"]
+ADAPTIVE = KINDS["mgrao-adaptive"]
 
 
 class Lanes(NamedTuple):
@@ -94,11 +96,12 @@ class Draws(NamedTuple):
 
 
 @njit(cache=True, parallel=True)
-def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes):
+def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes, adaptive_lanes):
     """Run every lane through the episodes of one block.
 
     The system utility of each lane and episode goes into ``utilities (lanes, episodes)``;
-    ``mgrao_lanes`` are the MG-RAO family's (:class:`~mgrao_core.algorithms.mgrao.compiled.MgraoLanes`).
+    ``mgrao_lanes`` are the MG-RAO family's (:class:`~mgrao_core.algorithms.mgrao.compiled.MgraoLanes`),
+    ``adaptive_lanes`` mgrao-adaptive's (:class:`~mgrao_core.algorithms.adaptive.compiled.AdaptiveLanes`).
     """
     n_lanes = lanes.seed_index.shape[0]
     n_episodes = utilities.shape[1]
@@ -111,6 +114,7 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes):
         weights = lanes.weights[lane]
         m = lanes.groups[lane]
         mgrao_views = mgrao.lane_of(mgrao_lanes, lane)
+        adaptive_views = adaptive.lane_of(adaptive_lanes, lane)
         child_of = np.zeros((n_parents, types_per_composite), dtype=np.int64)
         ctv = np.zeros((n_parents, types_per_composite))
         values = np.zeros((n_parents, types_per_composite))
@@ -122,6 +126,8 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes):
             for c in range(n_children):
                 if kind == MGRAO:
                     mgrao.allocate(mgrao_lanes, mgrao_views, m, c, weights[c])
+                elif kind == ADAPTIVE:
+                    adaptive.allocate(adaptive_lanes, adaptive_views, m, c, weights[c])
                 else:
                     weights[c, :] = lanes.fixed_weights[lane, c, :]
             # 2-3. Parents decompose their composite tasks and allocate the atomic tasks.
@@ -159,11 +165,16 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes):
                 if kind == MGRAO:
                     mgrao.learn(mgrao_lanes, mgrao_views, m, p, n_parents, child_of[p], worlds.parent_types[s, p],
                                 values[p])
+                elif kind == ADAPTIVE:
+                    adaptive.learn(adaptive_lanes, adaptive_views, m, p, n_parents, child_of[p],
+                                   worlds.parent_types[s, p], values[p])
 
 
 @njit(cache=True)
-def finish(lanes, mgrao_lanes):
+def finish(lanes, mgrao_lanes, adaptive_lanes):
     """Materialise every learner lane's final state and allocation (after the last episode)."""
     for lane in range(lanes.kind.shape[0]):
         if lanes.kind[lane] == MGRAO:
             mgrao.finish(mgrao_lanes, lane, lanes.groups[lane], lanes.weights[lane])
+        elif lanes.kind[lane] == ADAPTIVE:
+            adaptive.finish(adaptive_lanes, lane, lanes.groups[lane], lanes.weights[lane])
