@@ -57,7 +57,8 @@ def _check_memberships(result):
     ("multi", ["mgrao-adaptive:5"], [2], 30, {"regroup_every": 3, "routing": "per-task"}),
     ("volatile", ["mgrao-adaptive:5"], [3, 4], 40, {"regroup_every": 5}),
     ("large", ["mgrao-adaptive:5", "mgrao-adaptive:7"], [5], 30, {}),
-    ("large", ["mgrao-adaptive:10"], [6], 30, {"regroup_by": "predictability"}),
+    ("large", ["mgrao-adaptive:10"], [6], 30, {"regroup_by": "types"}),
+    ("single", ["mgrao-adaptive:4"], [8], 30, {"regroup_by": "types", "regroup_every": 2}),
 ])
 def test_engine_matches_the_dense_reference(system, algorithms, seeds, episodes, overrides):
     result = run_experiment(make_spec(system, algorithms, seeds=seeds, episodes=episodes, overrides=overrides))

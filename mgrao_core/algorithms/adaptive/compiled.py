@@ -21,7 +21,6 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from mgrao_core.algorithms.adaptive.family import RULES
 from mgrao_core.algorithms.mgrao import compiled as mgrao
 from mgrao_core.algorithms.state import System
 
@@ -74,7 +73,7 @@ class AdaptiveLanes(NamedTuple):
 def lanes_of(arrays: Mapping[str, np.ndarray], params: System) -> AdaptiveLanes:
     """The kernel's view of the chunk's adaptive arrays (by name, as declared) and of a validated parameter set."""
     return AdaptiveLanes(*mgrao.lanes_of(arrays, params), *(arrays[name] for name in _OWN),
-                         int(params.regroup_every), params.regroup_by == RULES[0])
+                         int(params.regroup_every), params.regroup_by == "types")
 
 
 @njit(cache=True, inline="always")

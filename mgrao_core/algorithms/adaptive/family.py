@@ -15,9 +15,9 @@ from what it has seen of each parent, O(1) numbers per parent:
 
 The grouping rule (``regroup_by``):
 
-* ``types`` (default): order the parents by (signature variance, signature mean, spread variance,
-  parent), a parent never heard from last;
-* ``predictability``: order them by (signature variance, spread variance, parent), likewise.
+* ``predictability`` (default): order the parents by (signature variance, spread variance, parent),
+  a parent never heard from last;
+* ``types``: order them by (signature variance, signature mean, spread variance, parent), likewise.
 
 Then the ordered parents are cut into x consecutive groups of sizes as equal as possible (the
 parent at place ``r`` goes to group ``floor(r * x / n_parents)``, so x need not divide
@@ -51,7 +51,9 @@ SNAPSHOTS = 32
 """Memberships a child records over a run (the first, then after regroups): when they are full, every
 other one is dropped and the child records every second regroup from then on (so the history spans the
 run at even steps whatever its length)."""
-RULES = ("types", "predictability")
+RULES = ("predictability", "types")
+"""The grouping rules (``regroup_by``), the default first (chosen on the calibration seeds 100-199;
+docs/algorithms.md, "Adaptive parent groups")."""
 _LABEL = re.compile(r"^mgrao-adaptive:0*(\d{1,9})$")
 
 
@@ -83,9 +85,10 @@ class Adaptive(Family):
     parameters = (
         Parameter("regroup_every", "int", 10, "Episodes between two regroupings of mgrao-adaptive's parent groups.",
                   NAME, 1, 1_000_000),
-        Parameter("regroup_by", "choice", "types",
-                  "mgrao-adaptive's grouping rule: types (type signature, then value predictability) or "
-                  "predictability (type and value predictability only).", NAME, choices=RULES),
+        Parameter("regroup_by", "choice", "predictability",
+                  "mgrao-adaptive's grouping rule: predictability (how predictable the types and values a parent "
+                  "returns are) or types (type predictability, then which types, then value predictability).",
+                  NAME, choices=RULES),
     )
     state = (*MGRAO.state,  # MG-RAO's arrays (shared with its lanes: the same declarations)
              StateArray("membership", ("lanes", "children", "tracked_parents"), "int64",

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from mgrao_core.algorithms.adaptive.family import RULES
 from mgrao_core.algorithms.base import Algorithm, ReferenceChild, World
 from mgrao_core.algorithms.mgrao.family import parent_groups
 from mgrao_core.algorithms.mgrao.reference import Child as MgraoChild
@@ -81,7 +80,7 @@ class Child(MgraoChild):
             sig_var = np.where(seen, np.array([s[1] for s in self.signature]) / self.returns, np.inf)
             spread_var = np.where(seen, np.array([s[1] for s in self.spread]) / self.returns, np.inf)
         sig_mean = np.array([s[0] for s in self.signature])
-        keys = (np.arange(n), spread_var, sig_mean, sig_var) if self.params.regroup_by == RULES[0] else (
+        keys = (np.arange(n), spread_var, sig_mean, sig_var) if self.params.regroup_by == "types" else (
             np.arange(n), spread_var, sig_var)
         order = np.lexsort(keys)
         run = np.empty(n, dtype=np.int64)
