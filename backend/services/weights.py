@@ -106,7 +106,7 @@ def of_seed(session: Session, *, job_id: int, seed: int | None = None) -> dict[s
             blob = session.scalar(select(Run.group_weights).where(Run.id == run_id))
             groups = np.frombuffer(blob, dtype="<f8")
         answer = {"algorithm": algorithm} | _answer(np.frombuffer(combined_blob, dtype="<f8"), groups, shape)
-        if meta:
-            answer["membership"] = _membership(session.scalar(select(Run.membership).where(Run.id == run_id)), meta)
+        answer["membership"] = None if not meta else _membership(
+            session.scalar(select(Run.membership).where(Run.id == run_id)), meta)
         configurations.append(answer)
     return {"job_id": job_id, "seed": chosen, "seeds": stored, "configurations": configurations}

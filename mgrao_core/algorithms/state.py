@@ -29,13 +29,14 @@ class System(Protocol):
     def __getattr__(self, name: str) -> Any: ...  # noqa: D105
 
 SIZES = ("lanes", "children", "groups", "n_types", "n_parents", "choices", "types_per_composite",
-         "tracked_parents", "snapshots")
+         "tracked_parents", "tracked_children", "snapshots")
 """The sizes a shape may name: the chunk's lanes, the system's children, the most parent groups of
 the chunk's algorithms (at least 1), atomic types, parents, a parent's child choices per composite
 (:func:`mgrao_core.world.routing_choices`) and atomic types per composite; and two a family asks for
 (:meth:`Family.sizes <mgrao_core.algorithms.base.Family.sizes>`, the largest over the chunk's
-algorithms, else 0): parents a learner keeps statistics of, and records of a bounded history."""
-FAMILY_SIZES = ("tracked_parents", "snapshots")
+algorithms, else 0): parents and children a learner keeps statistics or counters of, and records of a
+bounded history. So a chunk that runs no such family holds none of those arrays."""
+FAMILY_SIZES = ("tracked_parents", "tracked_children", "snapshots")
 """The sizes of :data:`SIZES` a family's :meth:`~mgrao_core.algorithms.base.Family.sizes` sets (else 0)."""
 
 

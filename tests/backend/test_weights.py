@@ -63,5 +63,5 @@ def test_adaptive_groups_give_their_recorded_membership(client: TestClient, work
     assert by["uniform"]["membership"] is None and by["mgrao-5:1"]["membership"] is None
     membership = by["mgrao-adaptive:5"]["membership"]
     assert membership["every"] == 5
-    assert np.array_equal(np.array(membership["children"]), expected.membership)  # (1 child, 6 records, 50 parents)
-    assert np.array(membership["children"]).shape == (1, 6, 50)
+    assert np.array_equal(np.array(membership["children"]), expected.membership)
+    assert np.array(membership["children"]).shape == (1, 5, 50)  # episode 0 and the regroups at 5, 10, 15, 20

@@ -32,8 +32,8 @@ def test_memory_stays_near_fixed_groups_and_far_below_max():
     adaptive = FAMILY.memory_per_child(parse_algorithm("mgrao-adaptive:5", 50), params)
     fixed = FAMILIES_BY_NAME["mgrao"].memory_per_child(parse_algorithm("mgrao-5:1", 50), params)
     most = FAMILIES_BY_NAME["mgrao"].memory_per_child(parse_algorithm("mgrao-max", 50), params)
-    assert adaptive - fixed == 6 * 8 * params.n_parents + 8 + 9 * 5  # six numbers per parent; an episode count,
-    # and a count and flag per row while regrouping
+    assert adaptive - fixed == 6 * 8 * params.n_parents + 9 * params.n_parents + 8  # six numbers per parent, an
+    # episode count, and a count and a flag per parent (the first x used as rows' while regrouping)
     assert adaptive < most / 3
 
 

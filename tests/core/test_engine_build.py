@@ -69,10 +69,12 @@ def test_editing_an_inlined_engine_file_recompiles_the_kernel(tmp_path: Path) ->
     # in the user's cache (never beside the package, where an uninstall would leave it), in numba's
     # directory for this copy of the engine: named by its absolute path, so that copies keep apart
     mine = _engine_cache(root)
-    steps = root / "mgrao_core" / "algorithms" / "mgrao"  # MG-RAO's compiled steps: their own directory
-    theirs = root / "cache" / "mgrao" / "numba" / f"mgrao_{hashlib.sha1(str(steps).encode()).hexdigest()}"
-    assert list(mine.glob("kernel.run_block*.nbi")) and list(theirs.glob("compiled.*.nbi"))
-    assert {p.parent for p in (root / "cache").rglob("*.nbi")} == {mine, theirs}
+    theirs = set()  # each learner's compiled steps (MG-RAO's, mgrao-adaptive's): their own directory
+    for family in ("mgrao", "adaptive"):
+        steps = root / "mgrao_core" / "algorithms" / family
+        theirs.add(root / "cache" / "mgrao" / "numba" / f"{family}_{hashlib.sha1(str(steps).encode()).hexdigest()}")
+    assert list(mine.glob("kernel.run_block*.nbi")) and all(list(t.glob("compiled.*.nbi")) for t in theirs)
+    assert {p.parent for p in (root / "cache").rglob("*.nbi")} == {mine} | theirs
     assert not list(root.joinpath("mgrao_core").rglob("*.nb[ci]"))
     _edit(root / "mgrao_core" / "engine" / "environment.py",
           "taq += ctv[k] * atomic_task_quality(weights[c, t], resources[c], load[c, t], env)", "taq += ctv[k] * 0.5")

@@ -191,7 +191,7 @@ def welford(count, mean, m2, p, x):
     m2[p] += delta * (x - mean[p])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def observe(returns, signature_mean, signature_m2, spread_mean, spread_m2, c, p, children, task_types, values):
     """Child ``c``'s statistics of parent ``p`` take in the atomic tasks of its composite that ``c`` performed.
 

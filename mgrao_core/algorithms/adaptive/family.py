@@ -65,10 +65,10 @@ def adaptive_label(groups: int) -> str:
 def record_state() -> tuple[StateArray, ...]:
     """The arrays that record memberships for the job view (not the learner's memory)."""
     return (
-        StateArray("membership_history", ("lanes", "children", "snapshots", "tracked_parents"), "int16",
+        StateArray("membership_history", ("lanes", "children", "snapshots", "tracked_parents"), "int64",
                    help="each recorded membership: each parent's row"),
-        StateArray("n_snapshots", ("lanes", "children"), "int64", help="memberships recorded"),
-        StateArray("snapshot_stride", ("lanes", "children"), "int64", fill=1,
+        StateArray("n_snapshots", ("lanes", "tracked_children"), "int64", help="memberships recorded"),
+        StateArray("snapshot_stride", ("lanes", "tracked_children"), "int64", fill=1,
                    help="regroups between two recorded memberships"),
     )
 
@@ -103,9 +103,10 @@ class Adaptive(Family):
                         help="running mean of each parent's value spread"),
              StateArray("spread_m2", ("lanes", "children", "tracked_parents"),
                         help="sum of squared deviations of each parent's value spread"),
-             StateArray("episodes_seen", ("lanes", "children"), "int64", help="episodes begun"),
-             StateArray("votes", ("lanes", "groups"), "int64", help="members shared with each row, regrouping"),
-             StateArray("taken", ("lanes", "groups"), "bool", help="rows taken, while regrouping"),
+             StateArray("episodes_seen", ("lanes", "tracked_children"), "int64", help="episodes begun"),
+             StateArray("votes", ("lanes", "tracked_parents"), "int64",
+                        help="members shared with each row (the first x), while regrouping"),
+             StateArray("taken", ("lanes", "tracked_parents"), "bool", help="rows taken (the first x), regrouping"),
              *record_state())
     steps = "mgrao_core.algorithms.adaptive.compiled"
     reference = "mgrao_core.algorithms.adaptive.reference:children"
@@ -147,19 +148,19 @@ class Adaptive(Family):
         return 2**62 + algorithm.n_groups
 
     def sizes(self, algorithm: Algorithm, params: System) -> dict[str, int]:
-        """Statistics of every parent and :data:`SNAPSHOTS` recorded memberships."""
-        return {"tracked_parents": params.n_parents, "snapshots": SNAPSHOTS}
+        """Statistics of every parent, counters of every child and :data:`SNAPSHOTS` recorded memberships."""
+        return {"tracked_parents": params.n_parents, "tracked_children": params.n_children, "snapshots": SNAPSHOTS}
 
     def memory_per_child(self, algorithm: Algorithm, params: System) -> int:
         """Bytes of one child's learner state: MG-RAO's for x groups and the per-parent statistics.
 
-        The recorded memberships (the job view's figure, ``SNAPSHOTS * n_parents`` int16) are not the
+        The recorded memberships (the job view's figure, ``SNAPSHOTS * n_parents`` int64) are not the
         learner's memory and are left out.
         """
         recorded = {a.name for a in record_state()}
         learner = tuple(a for a in self.state if a.name not in recorded)
         return nbytes(learner, sizes_of(params, 1, algorithm.n_groups, self.sizes(algorithm, params))
-                      | {"children": 1})
+                      | {"children": 1, "tracked_children": 1})
 
     def initialise(self, arrays: Mapping[str, np.ndarray], lanes: np.ndarray, params: System) -> None:
         """MG-RAO's initial rows; parent ``p`` in group ``floor(p * x / n_parents)``, the first recorded membership."""
