@@ -138,13 +138,12 @@ export function weightsSection({ jobId, results, plots, state }) {
   };
 
   const drawMembership = (c, child, height) => {
-    const adaptive = /^mgrao-adaptive:/.test(c.algorithm);
+    // Only algorithms whose groups change store a membership (the weights answer says so: null otherwise);
+    // the mean over seeds has none, since every seed groups its own parents.
     if (!c.membership || !c.membership.children[child]) {
       purge(member);
       member.hidden = true;
-      memberNote.textContent = adaptive
-        ? (c.membership ? `Child ${child}’s membership was not stored (only the first children fit the bound).`
-          : 'Choose a seed to see how this child re-formed its parent groups over the run.')
+      memberNote.textContent = c.membership ? `Child ${child}’s membership was not stored (only the first children fit the bound).`
         : '';
       return;
     }
