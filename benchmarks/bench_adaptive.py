@@ -66,8 +66,8 @@ def main() -> None:
     seeds = 200 if args.quick else 1000
     print(f"Kernel time, large (50 parents), {seeds:,} seeds x 100 episodes, one algorithm per run:")
     base = None
-    for algorithm in ("mgrao-1:1", "mgrao-5:1", "mgrao-adaptive:2", "mgrao-adaptive:5", "mgrao-adaptive:10",
-                      "mgrao-adaptive:25", "mgrao-max"):
+    for algorithm in ("mgrao-1:1", "mgrao-5:1", "mgrao-10:1", "mgrao-25:1", "mgrao-adaptive:2", "mgrao-adaptive:5",
+                      "mgrao-adaptive:10", "mgrao-adaptive:25", "mgrao-max"):
         point = measure(algorithm, seeds, {}, args.repeat)
         base = base or point["kernel"]
         print(f"  {algorithm:<20} kernel {point['kernel']:7.2f} s  ({point['kernel'] / base:4.2f}x mgrao-1:1)"
