@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from mgrao_core.algorithms import FAMILIES, KINDS, Algorithm
+from mgrao_core.algorithms import FAMILIES, FAMILIES_BY_NAME, KINDS, Algorithm
 from mgrao_core.algorithms.state import StateArray, allocate, nbytes, sizes_of
 
 if TYPE_CHECKING:
@@ -54,8 +54,16 @@ def declarations() -> tuple[StateArray, ...]:
 
 
 def chunk_sizes(params: SystemParams, algorithms: Sequence[Algorithm], n_seeds: int) -> dict[str, int]:
-    """The named sizes of a chunk of ``n_seeds`` seeds running every one of ``algorithms``."""
-    return sizes_of(params, n_seeds * len(algorithms), max([a.n_groups for a in algorithms] + [1]))
+    """The named sizes of a chunk of ``n_seeds`` seeds running every one of ``algorithms``.
+
+    A size a family asks for (:meth:`Family.sizes <mgrao_core.algorithms.base.Family.sizes>`) is the
+    largest any of ``algorithms`` asks for, and 0 when none does (so other chunks hold none of it).
+    """
+    wanted: dict[str, int] = {}
+    for algorithm in algorithms:
+        for name, size in FAMILIES_BY_NAME[algorithm.kind].sizes(algorithm, params).items():
+            wanted[name] = max(wanted.get(name, 0), size)
+    return sizes_of(params, n_seeds * len(algorithms), max([a.n_groups for a in algorithms] + [1]), wanted)
 
 
 def lane_bytes(params: SystemParams, algorithms: Sequence[Algorithm], n_seeds: int) -> int:

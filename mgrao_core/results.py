@@ -21,6 +21,9 @@ class Run:
         group_weights: ``(n_children, m, n_types)`` each child's final PW matrix (empty for
             uniform and oracle, whose weights are fixed).
         combined_weights: ``(n_children, n_types)`` each child's final combined weights.
+        membership: ``(n_children, snapshots, n_parents)`` each parent's group in each recorded
+            membership, for an algorithm whose groups change (``mgrao-adaptive:x``); None otherwise.
+        membership_every: episodes between two recorded memberships (the first is at episode 0).
     """
 
     algorithm: str
@@ -28,6 +31,8 @@ class Run:
     utilities: np.ndarray
     group_weights: np.ndarray
     combined_weights: np.ndarray
+    membership: np.ndarray | None = None
+    membership_every: int = 0
 
 
 @dataclass(frozen=True)

@@ -125,12 +125,15 @@ def run_chunk(
         for seed_index, seed in enumerate(seeds):
             lane = seed_index * n_algorithms + algorithm_index
             group_weights = family.group_weights(arrays, lane, algorithm)
+            membership, every = family.membership(arrays, lane, algorithm, p) or (None, 0)
             runs.append(Run(
                 algorithm=algorithm.label,
                 seed=seed,
                 utilities=utilities[lane],
                 group_weights=no_groups.copy() if group_weights is None else group_weights,
                 combined_weights=lanes.weights[lane].copy(),
+                membership=membership,
+                membership_every=every,
             ))
     check_finite(runs)
     return tuple(runs)

@@ -191,10 +191,19 @@ class Results(BaseModel):
     configurations: list[ResultConfiguration]
 
 
+class Membership(BaseModel):
+    """The parent groups of an algorithm whose groups change, as its children recorded them over the run."""
+
+    every: int = Field(description="Episodes between two records; the first record is at episode 0.")
+    children: list[list[list[int]]] = Field(description="Per child (the first that fit the storage bound), per "
+                                                        "record, each parent's group.")
+
+
 class SeedWeights(MeanWeights):
-    """One configuration's final weights for one seed."""
+    """One configuration's final weights for one seed (and, for adaptive groups, its recorded memberships)."""
 
     algorithm: str
+    membership: Membership | None = None
 
 
 class Weights(BaseModel):

@@ -41,6 +41,12 @@ def _answer(combined: np.ndarray, groups: np.ndarray | None, shape: list[int]) -
     return out
 
 
+def _membership(blob: bytes, meta: dict[str, Any]) -> dict[str, Any]:
+    """A run's recorded memberships: per child, per record, each parent's group; and the episodes between records."""
+    history = np.frombuffer(blob, dtype="<i2").reshape(meta["shape"])
+    return {"every": meta["every"], "children": history.tolist()}
+
+
 def mean_over_seeds(session: Session, job_id: int, algorithm: str) -> dict[str, Any]:
     """The mean over the stored seeds of a configuration's final weights (see :func:`_answer`).
 
@@ -72,6 +78,8 @@ def mean_over_seeds(session: Session, job_id: int, algorithm: str) -> dict[str, 
 def of_seed(session: Session, *, job_id: int, seed: int | None = None) -> dict[str, Any]:
     """``GET /api/jobs/{id}/weights`` (docs/api.md "Weights"): every configuration's final weights for one seed.
 
+    A configuration whose parent groups change (``mgrao-adaptive:x``) also gives its recorded memberships.
+
     ``seed`` None: the job's first seed that has stored runs. A seed that is not the job's is
     refused (422 naming ``seed``); one of its seeds with no run stored yet is a conflict (409).
     """
@@ -87,16 +95,18 @@ def of_seed(session: Session, *, job_id: int, seed: int | None = None) -> dict[s
     chosen = stored[0] if seed is None else seed
     if chosen not in stored:
         raise Conflict(f"seed {chosen} of job {job_id} has no stored runs yet ({len(stored):,} seeds stored)")
-    rows = session.execute(select(Run.id, Run.algorithm, Run.combined_weights, Run.group_shape)
+    rows = session.execute(select(Run.id, Run.algorithm, Run.combined_weights, Run.group_shape, Run.membership_meta)
                            .where(Run.job_id == job_id, Run.seed == chosen)).all()
     rank = {a: i for i, a in enumerate(job.config["algorithms"])}
     configurations = []
-    for run_id, algorithm, combined_blob, group_shape in sorted(rows, key=lambda r: rank.get(r[1], len(rank))):
+    for run_id, algorithm, combined_blob, group_shape, meta in sorted(rows, key=lambda r: rank.get(r[1], len(rank))):
         shape = list(group_shape)
         groups = None
         if _shown(shape):  # a PW too large to show is never read
             blob = session.scalar(select(Run.group_weights).where(Run.id == run_id))
             groups = np.frombuffer(blob, dtype="<f8")
-        configurations.append({"algorithm": algorithm}
-                              | _answer(np.frombuffer(combined_blob, dtype="<f8"), groups, shape))
+        answer = {"algorithm": algorithm} | _answer(np.frombuffer(combined_blob, dtype="<f8"), groups, shape)
+        answer["membership"] = None if not meta else _membership(
+            session.scalar(select(Run.membership).where(Run.id == run_id)), meta)
+        configurations.append(answer)
     return {"job_id": job_id, "seed": chosen, "seeds": stored, "configurations": configurations}

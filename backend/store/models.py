@@ -129,6 +129,10 @@ class Run(Base):
     combined_weights: Mapped[bytes] = mapped_column(LargeBinary)
     group_weights: Mapped[bytes] = mapped_column(LargeBinary)
     group_shape: Mapped[list[int]] = mapped_column(JSON)
+    membership: Mapped[bytes | None] = mapped_column(LargeBinary, nullable=True, default=None)
+    """Recorded parent-group memberships (int16) of an algorithm whose groups change; null otherwise."""
+    membership_meta: Mapped[dict[str, Any] | None] = mapped_column(JSON, nullable=True, default=None)
+    """``{"shape": [children, records, parents], "every": episodes between two records}``."""
 
 
 class ExternalRun(Base):

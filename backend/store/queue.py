@@ -169,12 +169,32 @@ def _blob(array: np.ndarray) -> bytes:
     return np.ascontiguousarray(array, dtype="<f8").tobytes()
 
 
+MAX_MEMBERSHIP_VALUES = 100_000
+"""Recorded memberships stored per run (children x records x parents, int16): the first children that fit,
+at least one (records are at most :data:`mgrao_core.algorithms.adaptive.SNAPSHOTS`)."""
+
+
+def _membership(run: SimulatedRun) -> dict[str, Any]:
+    """A run's recorded memberships as int16 bytes and their shape (the first children within the bound)."""
+    history = getattr(run, "membership", None)
+    if history is None:
+        return {"membership": None, "membership_meta": None}
+    per_child = max(1, history.shape[1] * history.shape[2])
+    kept = history[: max(1, MAX_MEMBERSHIP_VALUES // per_child)]
+    return {"membership": np.ascontiguousarray(kept, dtype="<i2").tobytes(),
+            "membership_meta": {"shape": list(kept.shape), "every": int(run.membership_every)}}
+
+
 def run_rows(job_id: int, runs: Iterable[SimulatedRun]) -> list[dict[str, Any]]:
-    """The ``runs`` table rows of simulated runs (utilities and weights as little-endian float64)."""
+    """The ``runs`` table rows of simulated runs (utilities and weights as little-endian float64).
+
+    A run whose groups change also keeps its recorded memberships (:func:`_membership`).
+    """
     return [
         {"job_id": job_id, "algorithm": run.algorithm, "seed": run.seed, "episodes": len(run.utilities),
          "utilities": _blob(run.utilities), "combined_weights": _blob(run.combined_weights),
          "group_weights": _blob(run.group_weights), "group_shape": list(run.group_weights.shape)}
+        | _membership(run)
         for run in runs
     ]
 

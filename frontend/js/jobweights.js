@@ -1,6 +1,8 @@
 // The job view's learned weights: one seed's final weights (or the mean over seeds), a heatmap of a
 // child's parent-group weights (PW) and its combined weights beside the oracle's allocation.
 // Every seed draws its own composite types and value profiles, so one seed shows what the mean hides.
+// An algorithm whose parent groups change (mgrao-adaptive:x) also shows a child's group membership over
+// the run: parents by recorded regroupings, each cell the parent's group (the paper's adaptive groups).
 
 import { api } from './api.js';
 import { h, notice, nextId } from './ui.js';
@@ -17,6 +19,20 @@ export function weightsNote(seed, nSeeds) {
       'so the mean washes out the structure a learner found: choose a seed to see it.';
   }
   return `Seed ${seed}: its final weights (every seed draws its own composite types and value profiles).`;
+}
+
+/**
+ * The membership heatmap's data for one child: `z[p][r]` is parent p's group in record r, recorded at
+ * episode `episodes[r]` (the first record at episode 0, one every `membership.every` episodes after).
+ */
+export function membershipFigure(membership, child) {
+  const records = (membership && membership.children[child]) || [];
+  const nParents = records.length ? records[0].length : 0;
+  return {
+    z: Array.from({ length: nParents }, (_, p) => records.map((r) => r[p])),
+    episodes: records.map((_, i) => i * membership.every),
+    parents: Array.from({ length: nParents }, (_, p) => p),
+  };
 }
 
 /**
@@ -42,7 +58,10 @@ export function weightsSection({ jobId, results, plots, state }) {
   const bars = h('div', { class: 'chart bars', id: 'weights-bars', role: 'img', 'aria-label': 'A child’s combined weights per task type, beside the oracle’s allocation' });
   const seedNote = h('p', { class: 'help', id: 'weights-seed-note', 'aria-live': 'polite' });
   const heatNote = h('p', { class: 'help', id: 'weights-heat-note', 'aria-live': 'polite' });
-  plots.push(heat, bars);
+  const member = h('div', { class: 'chart heat', id: 'membership-heatmap', role: 'img', hidden: true,
+    'aria-label': 'Heatmap of a child’s parent-group membership over the run: parents by regroupings' });
+  const memberNote = h('p', { class: 'help', id: 'membership-note', 'aria-live': 'polite' });
+  plots.push(heat, bars, member);
 
   let answer = null; // the weights of the chosen seed ({configurations}), or the means
   const meanAnswer = { seed: MEAN, configurations: configs.map((c) => ({ algorithm: c.algorithm, ...c.weights })) };
@@ -105,6 +124,7 @@ export function weightsSection({ jobId, results, plots, state }) {
       heatNote.textContent = c.groups === null ? `${c.algorithm}: ${c.groups_omitted}.`
         : `${c.algorithm} learns no group weights; only its combined weights are shown.`;
     }
+    drawMembership(c, child, height);
     const shown = [c, ...answer.configurations.filter((x) => x.algorithm === bestFixed && x !== c)];
     draw(bars, shown.map((x) => ({
       type: 'bar', name: x.algorithm === bestFixed ? `${x.algorithm} (best fixed allocation)` : x.algorithm, x: types, y: x.combined[child],
@@ -114,6 +134,32 @@ export function weightsSection({ jobId, results, plots, state }) {
       barmode: 'group', showlegend: true, legend: { orientation: 'h', y: 1.12 }, hovermode: 'closest',
       xaxis: { title: { text: `Task type (child ${child})` }, ...indexAxis(nTypes, width - 100, 22) },
       yaxis: { title: { text: 'Combined weight' } },
+    });
+  };
+
+  const drawMembership = (c, child, height) => {
+    // Only algorithms whose groups change store a membership (the weights answer says so: null otherwise);
+    // the mean over seeds has none, since every seed groups its own parents.
+    if (!c.membership || !c.membership.children[child]) {
+      purge(member);
+      member.hidden = true;
+      memberNote.textContent = c.membership ? `Child ${child}’s membership was not stored (only the first children fit the bound).`
+        : '';
+      return;
+    }
+    const f = membershipFigure(c.membership, child);
+    member.hidden = false;
+    memberNote.textContent = `Group membership of child ${child} under ${c.algorithm}, seed ${answer.seed}: ` +
+      `each parent’s group at episode 0 and after regroupings (a record every ${c.membership.every} episodes). ` +
+      'Parents that stay in one group form stable models; a parent that keeps moving is one the child finds unpredictable.';
+    draw(member, [{
+      type: 'heatmap', z: f.z, x: f.episodes, y: f.parents, colorscale: 'Viridis',
+      colorbar: { title: { text: 'group' } }, meta: { kind: 'membership', config: c.algorithm, child },
+      hovertemplate: 'parent %{y}, episode %{x}: group %{z}<extra></extra>',
+    }], {
+      xaxis: { title: { text: 'Episode (record)' } },
+      yaxis: { title: { text: 'Parent' }, autorange: 'reversed', ...indexAxis(f.parents.length, height - 110, 12) },
+      hovermode: 'closest',
     });
   };
 
@@ -134,5 +180,6 @@ export function weightsSection({ jobId, results, plots, state }) {
       h('label', { for: ids.cfg }, 'Configuration'), cfgSel,
       h('label', { for: ids.child }, 'Child'), childSel),
     seedNote, heatNote,
-    h('div', { class: 'grid2' }, heat, bars));
+    h('div', { class: 'grid2' }, heat, bars),
+    memberNote, member);
 }

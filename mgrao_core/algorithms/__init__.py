@@ -6,6 +6,8 @@ The families, in the order an unknown label's error lists them:
 * :mod:`~mgrao_core.algorithms.oracle`: the best fixed allocation (an upper bound);
 * :mod:`~mgrao_core.algorithms.mgrao`: MG-RAO, ``mgrao-x:1`` and ``mgrao-max`` (paper table
   "Summary of algorithm labels");
+* :mod:`~mgrao_core.algorithms.adaptive`: MG-RAO with adaptive parent groups, ``mgrao-adaptive:x``
+  (the paper's future work);
 * :mod:`~mgrao_core.algorithms.independent_q`: ``independent-q``, a standard independent learner;
 * :mod:`~mgrao_core.algorithms.bandit`: ``bandit``, a gradient bandit over atomic types.
 
@@ -19,7 +21,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from mgrao_core.algorithms import bandit, independent_q, mgrao, oracle, uniform
+from mgrao_core.algorithms import adaptive, bandit, independent_q, mgrao, oracle, uniform
 from mgrao_core.algorithms.base import PALETTE_SLOTS, Algorithm, Family
 from mgrao_core.algorithms.mgrao import MAX_LABEL as MGRAO_MAX
 from mgrao_core.algorithms.mgrao import divisors, parent_groups
@@ -28,7 +30,8 @@ from mgrao_core.algorithms.state import System
 from mgrao_core.algorithms.uniform import LABEL as UNIFORM
 from mgrao_core.errors import ConfigError
 
-FAMILIES: tuple[Family, ...] = (uniform.FAMILY, oracle.FAMILY, mgrao.FAMILY, independent_q.FAMILY, bandit.FAMILY)
+FAMILIES: tuple[Family, ...] = (uniform.FAMILY, oracle.FAMILY, mgrao.FAMILY, adaptive.FAMILY, independent_q.FAMILY,
+                                bandit.FAMILY)
 """Every registered family. A new family is a module with a ``FAMILY`` and a line here."""
 FAMILIES_BY_NAME: dict[str, Family] = {f.name: f for f in FAMILIES}
 KINDS: dict[str, int] = {f.name: code for code, f in enumerate(FAMILIES)}
@@ -106,7 +109,7 @@ def describe_label(label: Any, params: System | None = None, field: str = "label
     algorithm = parse_algorithm(label, None if params is None else params.n_parents, field)
     family = family_of(algorithm)
     return {"label": algorithm.label, "family": family.name, "title": family.title,
-            "groups": algorithm.n_groups if family.name == mgrao.FAMILY.name and algorithm.n_groups else None,
+            "groups": algorithm.n_groups or None,
             "description": family.description, "colour_key": family.colour_key(algorithm),
             "sort_key": list(family.sort_key(algorithm)),
             "memory_per_child": None if params is None else family.memory_per_child(algorithm, params)}

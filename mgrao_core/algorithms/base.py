@@ -153,9 +153,14 @@ class Family:
         """Whether the family's children learn (it has compiled steps)."""
         return self.steps is not None
 
+    def sizes(self, algorithm: Algorithm, params: System) -> dict[str, int]:
+        """The sizes of :data:`~mgrao_core.algorithms.state.FAMILY_SIZES` that ``algorithm``'s lanes need (none)."""
+        return {}
+
     def memory_per_child(self, algorithm: Algorithm, params: System) -> int:
         """Bytes of one child's state (:attr:`state`) for ``algorithm`` in a system."""
-        return nbytes(self.state, sizes_of(params, 1, algorithm.n_groups) | {"children": 1})
+        return nbytes(self.state, sizes_of(params, 1, algorithm.n_groups, self.sizes(algorithm, params))
+                      | {"children": 1})
 
     def preparation_bytes(self, params: System, n_seeds: int) -> int:
         """Bytes the family allocates, beyond its lane state, to prepare a chunk of ``n_seeds`` seeds."""
@@ -178,6 +183,15 @@ class Family:
 
     def group_weights(self, arrays: Mapping[str, np.ndarray], lane: int, algorithm: Algorithm) -> np.ndarray | None:
         """A lane's final per-group weights ``(children, n_groups, n_types)`` to store, if the family has any."""
+        return None
+
+    def membership(self, arrays: Mapping[str, np.ndarray], lane: int, algorithm: Algorithm,
+                   params: System) -> tuple[np.ndarray, int] | None:
+        """A lane's recorded parent-group memberships to store, if the family's groups change (None: they do not).
+
+        ``(history, every)``: ``history (children, snapshots, n_parents)`` each parent's group in each
+        record, the first at episode 0 and one every ``every`` episodes after it.
+        """
         return None
 
     def reference_children(self, params: System, algorithm: Algorithm, world: World,

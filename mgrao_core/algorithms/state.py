@@ -28,10 +28,16 @@ class System(Protocol):
 
     def __getattr__(self, name: str) -> Any: ...  # noqa: D105
 
-SIZES = ("lanes", "children", "groups", "n_types", "n_parents", "choices", "types_per_composite")
+SIZES = ("lanes", "children", "groups", "n_types", "n_parents", "choices", "types_per_composite",
+         "tracked_parents", "tracked_children", "snapshots")
 """The sizes a shape may name: the chunk's lanes, the system's children, the most parent groups of
 the chunk's algorithms (at least 1), atomic types, parents, a parent's child choices per composite
-(:func:`mgrao_core.world.routing_choices`) and atomic types per composite."""
+(:func:`mgrao_core.world.routing_choices`) and atomic types per composite; and two a family asks for
+(:meth:`Family.sizes <mgrao_core.algorithms.base.Family.sizes>`, the largest over the chunk's
+algorithms, else 0): parents and children a learner keeps statistics or counters of, and records of a
+bounded history. So a chunk that runs no such family holds none of those arrays."""
+FAMILY_SIZES = ("tracked_parents", "tracked_children", "snapshots")
+"""The sizes of :data:`SIZES` a family's :meth:`~mgrao_core.algorithms.base.Family.sizes` sets (else 0)."""
 
 
 @dataclass(frozen=True)
@@ -79,11 +85,15 @@ def routing_choices(params: System) -> int:
     return 1 if params.routing == "per-composite" else params.types_per_composite
 
 
-def sizes_of(params: System, lanes: int, groups: int) -> dict[str, int]:
-    """The named sizes (:data:`SIZES`) of ``lanes`` lanes of a system whose algorithms have at most ``groups``."""
+def sizes_of(params: System, lanes: int, groups: int, family_sizes: Mapping[str, int] | None = None) -> dict[str, int]:
+    """The named sizes (:data:`SIZES`) of ``lanes`` lanes of a system whose algorithms have at most ``groups``.
+
+    ``family_sizes`` gives those of :data:`FAMILY_SIZES` the chunk's algorithms ask for (the others are 0).
+    """
     return {"lanes": lanes, "children": params.n_children, "groups": max(groups, 1), "n_types": params.n_types,
             "n_parents": params.n_parents, "choices": routing_choices(params),
-            "types_per_composite": params.types_per_composite}
+            "types_per_composite": params.types_per_composite} | {name: 0 for name in FAMILY_SIZES} | dict(
+                family_sizes or {})
 
 
 def nbytes(arrays: Iterable[StateArray], sizes: Mapping[str, int]) -> int:

@@ -33,6 +33,7 @@ import numpy as np
 from numba import njit, prange
 
 from mgrao_core.algorithms import KINDS
+from mgrao_core.algorithms.adaptive import compiled as adaptive
 from mgrao_core.algorithms.bandit import compiled as bandit
 from mgrao_core.algorithms.independent_q import compiled as independent_q
 from mgrao_core.algorithms.mgrao import compiled as mgrao
@@ -47,6 +48,7 @@ from mgrao_core.engine.environment import (
 )
 
 MGRAO = KINDS["mgrao"]
+ADAPTIVE = KINDS["mgrao-adaptive"]
 INDEPENDENT_Q = KINDS["independent-q"]
 BANDIT = KINDS["bandit"]
 
@@ -108,12 +110,13 @@ class Draws(NamedTuple):
 
 
 @njit(cache=True, parallel=True)
-def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes, independent_q_lanes, bandit_lanes):
+def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes, adaptive_lanes, independent_q_lanes, bandit_lanes):
     """Run every lane through the episodes of one block.
 
     The system utility of each lane and episode goes into ``utilities (lanes, episodes)``;
-    ``mgrao_lanes``, ``independent_q_lanes`` and ``bandit_lanes`` are each learner family's compiled lanes
-    (:class:`~mgrao_core.algorithms.mgrao.compiled.MgraoLanes` and the like), in registry order.
+    ``mgrao_lanes``, ``adaptive_lanes``, ``independent_q_lanes`` and ``bandit_lanes`` are each learner
+    family's compiled lanes (:class:`~mgrao_core.algorithms.mgrao.compiled.MgraoLanes` and the like), in
+    registry order.
     """
     n_lanes = lanes.seed_index.shape[0]
     n_episodes = utilities.shape[1]
@@ -128,6 +131,7 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes, independent_q_l
         weights = lanes.weights[lane]
         m = lanes.groups[lane]
         mgrao_views = mgrao.lane_of(mgrao_lanes, lane)
+        adaptive_views = adaptive.lane_of(adaptive_lanes, lane)
         child_of = np.zeros((n_parents, types_per_composite), dtype=np.int64)
         ctv = np.zeros((n_parents, types_per_composite))
         values = np.zeros((n_parents, types_per_composite))
@@ -142,6 +146,8 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes, independent_q_l
             for c in range(n_children):
                 if kind == MGRAO:
                     mgrao.allocate(mgrao_lanes, mgrao_views, m, c, weights[c])
+                elif kind == ADAPTIVE:
+                    adaptive.allocate(adaptive_lanes, adaptive_views, m, c, weights[c])
                 elif kind == INDEPENDENT_Q:
                     independent_q.allocate(independent_q_lanes, lane, m, c, weights[c])
                 elif kind == BANDIT:
@@ -183,6 +189,9 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes, independent_q_l
                 if kind == MGRAO:
                     mgrao.learn(mgrao_lanes, mgrao_views, m, p, n_parents, child_of[p], parent_types[p],
                                 values[p])
+                elif kind == ADAPTIVE:
+                    adaptive.learn(adaptive_lanes, adaptive_views, m, p, n_parents, child_of[p],
+                                   parent_types[p], values[p])
                 elif kind == INDEPENDENT_Q:
                     independent_q.learn(independent_q_lanes, lane, m, p, n_parents, child_of[p], parent_types[p],
                                         values[p])
@@ -192,11 +201,13 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes, independent_q_l
 
 
 @njit(cache=True)
-def finish(lanes, mgrao_lanes, independent_q_lanes, bandit_lanes):
+def finish(lanes, mgrao_lanes, adaptive_lanes, independent_q_lanes, bandit_lanes):
     """Materialise every learner lane's final state and allocation (after the last episode)."""
     for lane in range(lanes.kind.shape[0]):
         if lanes.kind[lane] == MGRAO:
             mgrao.finish(mgrao_lanes, lane, lanes.groups[lane], lanes.weights[lane])
+        elif lanes.kind[lane] == ADAPTIVE:
+            adaptive.finish(adaptive_lanes, lane, lanes.groups[lane], lanes.weights[lane])
         elif lanes.kind[lane] == INDEPENDENT_Q:
             independent_q.finish(independent_q_lanes, lane, lanes.groups[lane], lanes.weights[lane])
         elif lanes.kind[lane] == BANDIT:

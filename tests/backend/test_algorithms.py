@@ -27,7 +27,8 @@ def test_registry_for_a_system_gives_its_valid_arguments(client: TestClient) -> 
     assert set(PRESETS["large"].algorithms) <= set(examples)
     # a form's parent count beside the preset's
     twelve = client.get("/api/algorithms", params={"system": "single", "n_parents": 12}).json()["data"]
-    assert [form["valid"] for f in twelve for form in f["forms"] if form["argument"]] == [[1, 2, 3, 4, 6, 12]]
+    valid = {f["name"]: form["valid"] for f in twelve for form in f["forms"] if form["argument"]}
+    assert valid == {"mgrao": [1, 2, 3, 4, 6, 12], "mgrao-adaptive": list(range(1, 13))}  # adaptive: any x
 
 
 def test_unknown_system_or_parents_without_one_is_a_422_naming_the_field(client: TestClient) -> None:
@@ -67,8 +68,9 @@ def test_bad_label_is_a_422_naming_label_with_the_cores_message(client: TestClie
 
 def test_systems_algorithms_come_from_the_registry(client: TestClient) -> None:
     algorithms = client.get("/api/systems").json()["algorithms"]
-    assert algorithms["fixed"] == ["uniform", "mgrao-1:1", "mgrao-max", "independent-q", "bandit",
-                                   "oracle"]  # spelling and values of before, and issue 21's learners
-    assert algorithms["pattern"] == "mgrao-<x>:1"
+    # spelling and values of before, with the examples of families added since (issue 21's) in view order
+    assert algorithms["fixed"] == ["uniform", "mgrao-1:1", "mgrao-max", "mgrao-adaptive:2", "mgrao-adaptive:5",
+                                   "independent-q", "bandit", "oracle"]
+    assert algorithms["pattern"] == "mgrao-<x>:1, mgrao-adaptive:<x>"
     assert (algorithms["baseline"], algorithms["reference"], algorithms["best_fixed"]) == (
         "uniform", "mgrao-max", "oracle")

@@ -50,3 +50,18 @@ def test_a_seed_not_of_the_job_or_not_stored_is_refused(client: TestClient, work
         assert response.status_code == 422 and "seed" in response.text, bad
     assert client.get(f"/api/jobs/{queued['id']}/weights?seed=0").status_code == 409
     assert client.get("/api/jobs/999999/weights").status_code == 404
+
+
+def test_adaptive_groups_give_their_recorded_membership(client: TestClient, worker: Worker) -> None:
+    algorithms = ["uniform", "mgrao-5:1", "mgrao-adaptive:5"]
+    body = {"system": "large", "algorithms": algorithms, "seeds": [2], "episodes": 25, "params": {"regroup_every": 5}}
+    job = client.post("/api/jobs", json=body).json()
+    assert job.get("id"), job
+    drain(worker)
+    expected = run_experiment(make_spec("large", algorithms, [2], 25, {"regroup_every": 5})).runs[-1]
+    by = {c["algorithm"]: c for c in client.get(f"/api/jobs/{job['id']}/weights").json()["configurations"]}
+    assert by["uniform"]["membership"] is None and by["mgrao-5:1"]["membership"] is None
+    membership = by["mgrao-adaptive:5"]["membership"]
+    assert membership["every"] == 5
+    assert np.array_equal(np.array(membership["children"]), expected.membership)
+    assert np.array(membership["children"]).shape == (1, 5, 50)  # episode 0 and the regroups at 5, 10, 15, 20

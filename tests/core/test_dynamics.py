@@ -17,7 +17,7 @@ from mgrao_core.world import NEW_COMPOSITE, NEW_PROFILE, EpisodeStreams, composi
 
 from ._helpers import assert_matches_reference
 
-ALGORITHMS = ["uniform", "oracle", "mgrao-1:1", "mgrao-2:1", "mgrao-max", "independent-q", "bandit"]
+ALGORITHMS = ["uniform", "oracle", "mgrao-1:1", "mgrao-2:1", "mgrao-max", "mgrao-adaptive:3", "independent-q", "bandit"]
 SCHEDULE = [{"episode": 4, "change": "new-profiles", "fraction": 0.3},
             {"episode": 9, "change": "new-composites", "fraction": 0.5},
             {"episode": 12, "change": "frequencies", "fraction": 0.5, "period": 3},

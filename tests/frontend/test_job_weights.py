@@ -78,3 +78,27 @@ def test_a_job_without_the_oracle_says_so(page, server):
     page.locator("#weights-bars .main-svg").first.wait_for(timeout=60000)
     wait_for(lambda: "did not run the oracle" in page.locator("#weights-seed-note").inner_text(), 30, "the note")
     assert set(bars(page)) == {"mgrao-max"}
+
+
+def test_adaptive_groups_show_their_membership_over_the_run(page, server, screenshots):
+    job = post_job(server, {"system": "large", "algorithms": ["uniform", "mgrao-5:1", "mgrao-adaptive:5"],
+                            "seeds": [3], "episodes": 60, "params": {"regroup_every": 5},
+                            "name": "adaptive membership"})
+    wait_for(lambda: get(server, f"/api/jobs/{job['id']}")["status"] == "succeeded", 120, "the job to finish")
+    stored = {c["algorithm"]: c for c in get(server, f"/api/jobs/{job['id']}/weights")["configurations"]}
+    membership = stored["mgrao-adaptive:5"]["membership"]
+    page.set_viewport_size({"width": 1280, "height": 1200})
+    page.goto(f"/#/jobs/{job['id']}")
+    page.locator("#weights-bars .main-svg").first.wait_for(timeout=60000)
+    configuration = page.get_by_label("Configuration", exact=True).and_(page.locator("select"))
+    configuration.select_option("mgrao-5:1")
+    assert page.locator("#membership-heatmap").is_hidden()  # fixed groups: no membership
+    configuration.select_option("mgrao-adaptive:5")
+    page.locator("#membership-heatmap .main-svg").first.wait_for(timeout=30000)
+    figure = page.eval_on_selector("#membership-heatmap", "el => ({z: el.data[0].z, x: Array.from(el.data[0].x)})")
+    records = membership["children"][0]  # 12 records: episode 0 and the regroups at 5, 10, ..., 55
+    assert figure["x"] == [i * membership["every"] for i in range(len(records))] and len(records) == 12
+    assert figure["z"] == [[r[p] for r in records] for p in range(50)]  # parents by records, as stored
+    assert "Group membership of child 0 under mgrao-adaptive:5, seed 3" in page.locator("#membership-note").inner_text()
+    page.locator("#membership-heatmap").scroll_into_view_if_needed()
+    page.screenshot(path=str(screenshots / "adaptive-membership.png"), full_page=True)
