@@ -115,6 +115,34 @@ class FixedChild(ReferenceChild):
         return self.weights
 
 
+
+class OneLabel:
+    """The label side of a family with a single label, its own name (``uniform``, ``oracle``, ``bandit``...).
+
+    Put it first among a family's bases: ``class Uniform(OneLabel, FixedFamily)``; the family then sets
+    ``form_description`` (the label form's few words) beside its ``name``.
+    """
+
+    name: str = ""
+    form_description: str = ""
+
+    def parse(self, text: str, n_parents: int | None, field: str) -> Algorithm | None:
+        """The family's one algorithm when ``text`` is its name, else None."""
+        return Algorithm(self.name, self.name) if text == self.name else None
+
+    def forms(self, n_parents: int | None) -> list[dict[str, Any]]:
+        """One literal form: the name."""
+        return [LabelForm(self.name, f"^{self.name}$", self.form_description).as_dict()]
+
+    def examples(self, n_parents: int | None) -> list[str]:
+        """The name."""
+        return [self.name]
+
+    def hint(self, n_parents: int | None) -> str:
+        """The name."""
+        return self.name
+
+
 class Family:
     """An algorithm family; each family's module defines one subclass and an instance (``FAMILY``).
 

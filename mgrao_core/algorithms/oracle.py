@@ -6,11 +6,10 @@ The allocation itself is computed by :mod:`mgrao_core.oracle`, from the seed's o
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 
-from mgrao_core.algorithms.base import Algorithm, FixedFamily, LabelForm, World, load
+from mgrao_core.algorithms.base import Algorithm, FixedFamily, OneLabel, World, load
 from mgrao_core.algorithms.state import System
 
 LABEL = "oracle"
@@ -24,7 +23,7 @@ ORACLE_DRAWS = 262_144
 is more; ``should_stop`` is polled between draws."""
 
 
-class Oracle(FixedFamily):
+class Oracle(OneLabel, FixedFamily):
     """The best fixed allocation of each child, knowing every parent's expected values."""
 
     name = LABEL
@@ -33,23 +32,7 @@ class Oracle(FixedFamily):
                    "fixed allocation does better in a stationary system.")
     rank = 10  # last: families between MG-RAO (1) and the oracle take 2 to 9
     streams = {"oracle": 5}
-    _form = LabelForm(LABEL, "^oracle$", "the best fixed allocation")
-
-    def parse(self, text: str, n_parents: int | None, field: str) -> Algorithm | None:
-        """This family's algorithm for ``text``, or None (see :meth:`Family.parse`)."""
-        return Algorithm(LABEL, LABEL) if text == LABEL else None
-
-    def forms(self, n_parents: int | None) -> list[dict[str, Any]]:
-        """The family's label forms (see :meth:`Family.forms`)."""
-        return [self._form.as_dict()]
-
-    def examples(self, n_parents: int | None) -> list[str]:
-        """Labels valid for the system (see :meth:`Family.examples`)."""
-        return [LABEL]
-
-    def hint(self, n_parents: int | None) -> str:
-        """How the family's labels are written."""
-        return LABEL
+    form_description = "the best fixed allocation"
 
     def colour_key(self, algorithm: Algorithm) -> int:
         """The palette slot of the configuration: sky blue (6), beside 1:1's darker blue."""

@@ -14,11 +14,9 @@ total. A real family replaces the four parts marked below:
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
-from mgrao_core.algorithms.base import Algorithm, Family, LabelForm, ReferenceChild, World
+from mgrao_core.algorithms.base import Algorithm, Family, OneLabel, ReferenceChild, World
 from mgrao_core.algorithms.state import StateArray, System
 from mgrao_core.parameter import Parameter
 
@@ -42,7 +40,7 @@ class TemplateChild(ReferenceChild):
         self.totals[task_type] += value
 
 
-class Template(Family):
+class Template(OneLabel, Family):
     """A trivial learner: shares proportional to ``1 +`` each type's total returned value."""
 
     name = LABEL
@@ -57,24 +55,9 @@ class Template(Family):
     )
     steps = "mgrao_core.algorithms.template_steps"  # 4. the compiled steps the kernel calls (an entry: loaded
     reference = "mgrao_core.algorithms.template:reference_children"  # by the layer that runs them) and the dense one
-    _form = LabelForm(LABEL, "^template$", "the template learner")
+    form_description = "the template learner"
 
     # 1. the label grammar
-    def parse(self, text: str, n_parents: int | None, field: str) -> Algorithm | None:
-        """This family's algorithm for ``text``, or None (see :meth:`Family.parse`)."""
-        return Algorithm(LABEL, LABEL) if text == LABEL else None
-
-    def forms(self, n_parents: int | None) -> list[dict[str, Any]]:
-        """The family's label forms (see :meth:`Family.forms`)."""
-        return [self._form.as_dict()]
-
-    def examples(self, n_parents: int | None) -> list[str]:
-        """Labels valid for the system (see :meth:`Family.examples`)."""
-        return [LABEL]
-
-    def hint(self, n_parents: int | None) -> str:
-        """How the family's labels are written."""
-        return LABEL
 
     def colour_key(self, algorithm: Algorithm) -> int:
         """The palette slot of the configuration."""

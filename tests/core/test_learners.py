@@ -20,9 +20,9 @@ BESIDE = ["uniform", "mgrao-1:1", "independent-q", "bandit", "oracle"]
 def test_both_learners_are_registered_after_the_existing_families():
     names = [f.name for f in FAMILIES]
     assert names[:3] == ["uniform", "oracle", "mgrao"]  # the codes of the others do not move
-    assert names[3:5] == LEARNER_LABELS
-    assert [f.name for f in LEARNERS][:3] == ["mgrao", *LEARNER_LABELS]
-    assert KINDS["independent-q"] == 3 and KINDS["bandit"] == 4
+    assert [n for n in names[3:] if n in LEARNER_LABELS] == LEARNER_LABELS  # after them (mgrao-adaptive too)
+    assert LEARNERS[0].name == "mgrao" and {"independent-q", "bandit"} <= {f.name for f in LEARNERS}
+    assert all(KINDS[n] >= 3 for n in LEARNER_LABELS)
 
 
 @pytest.mark.parametrize("label", LEARNER_LABELS)

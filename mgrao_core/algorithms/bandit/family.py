@@ -17,16 +17,14 @@ Memory per child: ``n_types`` preferences and two numbers (the baseline and the 
 
 from __future__ import annotations
 
-from typing import Any
-
-from mgrao_core.algorithms.base import Algorithm, Family, LabelForm
+from mgrao_core.algorithms.base import Algorithm, Family, OneLabel
 from mgrao_core.algorithms.state import StateArray
 from mgrao_core.parameter import Parameter
 
 LABEL = "bandit"
 
 
-class GradientBandit(Family):
+class GradientBandit(OneLabel, Family):
     """A gradient bandit over atomic types: softmax of preferences, moved by each value against a baseline."""
 
     name = LABEL
@@ -47,23 +45,7 @@ class GradientBandit(Family):
     )
     steps = "mgrao_core.algorithms.bandit.compiled"
     reference = "mgrao_core.algorithms.bandit.reference:children"
-    _form = LabelForm(LABEL, "^bandit$", "a gradient bandit over atomic types")
-
-    def parse(self, text: str, n_parents: int | None, field: str) -> Algorithm | None:
-        """This family's algorithm for ``text``, or None (see :meth:`Family.parse`)."""
-        return Algorithm(LABEL, LABEL) if text == LABEL else None
-
-    def forms(self, n_parents: int | None) -> list[dict[str, Any]]:
-        """The family's label forms (see :meth:`Family.forms`)."""
-        return [self._form.as_dict()]
-
-    def examples(self, n_parents: int | None) -> list[str]:
-        """Labels valid for the system (see :meth:`Family.examples`)."""
-        return [LABEL]
-
-    def hint(self, n_parents: int | None) -> str:
-        """How the family's labels are written."""
-        return LABEL
+    form_description = "a gradient bandit over atomic types"
 
     def colour_key(self, algorithm: Algorithm) -> int:
         """Yellow (slot 7), MG-RAO's 8-15 groups' slot: free beside uniform, 1:1, 5:1, max, oracle and independent-q."""

@@ -12,16 +12,14 @@ were chosen (``benchmarks/calibrate_learners.py``).
 
 from __future__ import annotations
 
-from typing import Any
-
-from mgrao_core.algorithms.base import Algorithm, Family, LabelForm
+from mgrao_core.algorithms.base import Algorithm, Family, OneLabel
 from mgrao_core.algorithms.state import StateArray
 from mgrao_core.parameter import Parameter
 
 LABEL = "independent-q"
 
 
-class IndependentQ(Family):
+class IndependentQ(OneLabel, Family):
     """Independent Q-learning over atomic types: one running value per type, softmax allocation."""
 
     name = LABEL
@@ -42,23 +40,7 @@ class IndependentQ(Family):
     )
     steps = "mgrao_core.algorithms.independent_q.compiled"
     reference = "mgrao_core.algorithms.independent_q.reference:children"
-    _form = LabelForm(LABEL, "^independent-q$", "independent Q-learning over atomic types")
-
-    def parse(self, text: str, n_parents: int | None, field: str) -> Algorithm | None:
-        """This family's algorithm for ``text``, or None (see :meth:`Family.parse`)."""
-        return Algorithm(LABEL, LABEL) if text == LABEL else None
-
-    def forms(self, n_parents: int | None) -> list[dict[str, Any]]:
-        """The family's label forms (see :meth:`Family.forms`)."""
-        return [self._form.as_dict()]
-
-    def examples(self, n_parents: int | None) -> list[str]:
-        """Labels valid for the system (see :meth:`Family.examples`)."""
-        return [LABEL]
-
-    def hint(self, n_parents: int | None) -> str:
-        """How the family's labels are written."""
-        return LABEL
+    form_description = "independent Q-learning over atomic types"
 
     def colour_key(self, algorithm: Algorithm) -> int:
         """Bluish green (slot 3), MG-RAO's 2-3 groups' slot.
