@@ -5,6 +5,7 @@ WORKDIR /app
 COPY pyproject.toml README.md ./
 COPY mgrao_core ./mgrao_core
 COPY mgrao_cli ./mgrao_cli
+COPY mgrao_client ./mgrao_client
 COPY backend ./backend
 COPY frontend ./frontend
 COPY docs ./docs
