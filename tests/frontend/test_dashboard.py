@@ -68,7 +68,7 @@ def test_submit_job_progress_chart_table_csv(page, server, screenshots):
     page.get_by_label("System preset").select_option("single")
     page.get_by_label("Seeds (number of runs)").fill("3")
     page.get_by_label("Episodes per run").fill("100")
-    page.get_by_label("Name").fill("browser test job")
+    page.get_by_label("Name", exact=True).fill("browser test job")
     page.get_by_label("Tags").fill("browser, e2e")
     page.screenshot(path=str(screenshots / "new-experiment.png"), full_page=True)
     page.get_by_role("button", name="Run experiment").click()

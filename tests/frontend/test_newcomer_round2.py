@@ -49,7 +49,7 @@ def test_the_work_budget_fills_in_and_marks_what_drives_it(browser, server, scre
         assert set(marked) == {"seeds", "episodes", "algorithms", "params.n_parents", "params.types_per_composite"}
 
         page.get_by_role("button", name="Run experiment").click()
-        summary = page.locator(".error-summary")
+        summary = page.locator(".error-summary:not(.own-system > .error-summary)")  # the form's own
         summary.get_by_text("see the marked fields").wait_for(timeout=10000)
         assert f"over the work limit of {limit} atomic tasks" in summary.inner_text()
         assert "Not sent" in page.locator(".budget .field-error").inner_text()
@@ -64,7 +64,7 @@ def test_the_work_budget_fills_in_and_marks_what_drives_it(browser, server, scre
         page.get_by_label("System preset").select_option("large")
         for box in page.locator("fieldset.algos input[type=checkbox]").all():
             box.set_checked(box.get_attribute("value") == "mgrao-max")
-        page.locator("input.argument-values").fill("")
+        page.locator("input.argument-values[data-template='mgrao-{x}:1']").fill("")
         page.get_by_label("Seeds (number of runs)").fill("1000")
         page.get_by_label("Episodes per run").fill("3500")
         page.wait_for_function("() => !document.querySelector('.budget').classList.contains('over')")
