@@ -52,7 +52,6 @@ def test_the_schema_describes_the_kinds(client: TestClient) -> None:
     assert schedule["kind"] == "events" and [f["name"] for f in schedule["fields"]] == ["episode", "change",
                                                                                          "fraction"]
     assert parameters["example_periods"]["item_kind"] == "int" and parameters["example_periods"]["max_items"] == 50
-    assert parameters["n_types"]["identity"] == "always" and schedule["identity"] == "when-set"
 
 
 def test_a_bad_item_or_field_is_named(client: TestClient) -> None:
@@ -62,11 +61,11 @@ def test_a_bad_item_or_field_is_named(client: TestClient) -> None:
     assert detail["loc"] == ["body", "params", "example_schedule", 1, "fraction"]
     assert "must be in [0, 1] (got 1.5)" in detail["msg"]
     detail = _refused(client, "/api/jobs", BODY | {"params": {"example_schedule": [{"change": "frequencies"}]}})
-    assert detail["field"] == "example_schedule[0].episode" and "must not be empty" in detail["msg"]
+    assert detail["field"] == "example_schedule[0].episode" and "is required" in detail["msg"]
     detail = _refused(client, "/api/jobs", BODY | {"params": {"example_periods": [1, 0]}})
     assert detail["field"] == "example_periods[1]" and "[1, 1000]" in detail["msg"]
     detail = _refused(client, "/api/jobs", BODY | {"params": {"example_periods": [1] * 51}})
-    assert detail["field"] == "example_periods" and "between 0 and 50 items (got 51)" in detail["msg"]
+    assert detail["field"] == "example_periods" and "at most 50 items (got 51)" in detail["msg"]
     detail = _refused(client, "/api/jobs", BODY | {"params": {"example_periods": 3}})
     assert detail["field"] == "example_periods" and "must be a list" in detail["msg"]
 
