@@ -55,6 +55,10 @@ def one_numba_thread() -> Iterator[None]:
         numba.set_num_threads(before)
 
 
+
+SMALL_JOB_BYTES = 64 * 1024**2
+"""The most memory a job run in a batch may take, every seed at once (:func:`mgrao_core.budget.chunk_cost`)."""
+
 class Worker:
     """Claims queued jobs one at a time and runs them chunk by chunk with :func:`mgrao_core.run_chunk`.
 
@@ -102,17 +106,32 @@ class Worker:
         if not claims:
             return 0
         try:
-            if len(claims) == 1 and not self.small(claims[0]):
-                self.execute(claims[0])
-            else:
-                self.execute_batch(claims)
+            alone = [claim for claim in claims if not self.small(claim)]
+            for claim in alone:  # a job big in work or in memory runs chunk by chunk, within its memory budget
+                self.execute(claim)
+            if len(alone) < len(claims):
+                self.execute_batch([claim for claim in claims if claim not in alone])
         except Stopping as error:
             log.warning("jobs %s left to their leases: %s", [c.job_id for c in claims], error)
         return len(claims)
 
     def small(self, claim: queue.Claim) -> bool:
-        """Whether a claimed job is small (``MGRAO_SMALL_JOB_WORK``): it runs as a batch, on one numba thread."""
-        return claim.work is not None and claim.work <= self.settings.small_job_work
+        """Whether a claimed job is small: it runs as a batch, on one numba thread.
+
+        Small in work (``MGRAO_SMALL_JOB_WORK`` atomic tasks) and in memory: a batch holds each job's runs
+        whole, so a job whose every seed at once would take more than :data:`SMALL_JOB_BYTES` (few
+        tasks, but large learner state or stored weights) runs alone, chunk by chunk, within its budget.
+        """
+        if claim.work is None or claim.work > self.settings.small_job_work:
+            return False
+        from mgrao_core import spec_from_dict
+        from mgrao_core.budget import chunk_cost
+
+        try:
+            spec = spec_from_dict(claim.config)
+        except Exception:  # noqa: BLE001  (an invalid configuration fails in execute, with its message)
+            return False
+        return chunk_cost(spec, len(spec.seeds)).total <= SMALL_JOB_BYTES
 
     def execute_batch(self, claims: Sequence[queue.Claim]) -> None:
         """Run a batch of small claimed jobs, each as its own job, then store and end them all at once.
