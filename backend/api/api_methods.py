@@ -15,6 +15,7 @@ from collections.abc import Callable, Iterable
 from starlette.routing import BaseRoute, Route
 from starlette.types import ASGIApp, Receive, Scope, Send
 
+from backend.api.paths import API_PREFIX, under
 from backend.api.security import refuse
 
 
@@ -32,7 +33,7 @@ class ApiMethods:
             401, like any ``/api`` request without the token).
     """
 
-    def __init__(self, app: ASGIApp, routes: Callable[[], Iterable[BaseRoute]], prefix: str = "/api",
+    def __init__(self, app: ASGIApp, routes: Callable[[], Iterable[BaseRoute]], prefix: str = API_PREFIX,
                  authorised: Callable[[Scope], bool] | None = None) -> None:
         self.app = app
         self.routes = routes
@@ -42,7 +43,7 @@ class ApiMethods:
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         """Answer 404/405 for ``/api`` requests no route takes; pass everything else on."""
         path = scope.get("path", "")
-        if (scope["type"] != "http" or not (path == self.prefix or path.startswith(self.prefix + "/"))
+        if (scope["type"] != "http" or not under(path, self.prefix)
                 or (self.authorised is not None and not self.authorised(scope))):
             await self.app(scope, receive, send)
             return

@@ -27,6 +27,8 @@ from fastapi.security.utils import get_authorization_scheme_param
 from starlette.datastructures import Headers, MutableHeaders
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
+from backend.api.paths import API_PREFIX, under
+
 WRITE_METHODS = frozenset({"POST", "PUT", "PATCH", "DELETE"})
 DEFAULT_PORTS = {"http": 80, "https": 443, "ws": 80, "wss": 443}
 WILDCARD_BINDS = frozenset({"", "0.0.0.0", "::"})
@@ -152,7 +154,7 @@ class SameOriginWrites:
     or when it has no ``Origin`` and its ``Content-Type`` is ``application/json`` (even with no body).
     """
 
-    def __init__(self, app: ASGIApp, prefix: str = "/api") -> None:
+    def __init__(self, app: ASGIApp, prefix: str = API_PREFIX) -> None:
         self.app = app
         self.prefix = prefix
 
@@ -160,7 +162,7 @@ class SameOriginWrites:
         """Check Origin and Content-Type of mutating API requests."""
         path = scope.get("path", "")
         if (scope["type"] != "http" or scope.get("method") not in WRITE_METHODS
-                or not (path == self.prefix or path.startswith(self.prefix + "/"))):
+                or not under(path, self.prefix)):
             await self.app(scope, receive, send)
             return
         headers = Headers(scope=scope)
@@ -232,8 +234,8 @@ class TokenRequired:
     ``Retry-After``): nothing about the queue, the workers or the database.
     """
 
-    def __init__(self, app: ASGIApp, token: str, paths: Iterable[str], prefix: str = "/api",
-                 health: str = "/api/health") -> None:
+    def __init__(self, app: ASGIApp, token: str, paths: Iterable[str], prefix: str = API_PREFIX,
+                 health: str = API_PREFIX + "/health") -> None:
         if not token:
             raise ValueError("TokenRequired needs a token")
         self.app = app
@@ -244,7 +246,7 @@ class TokenRequired:
 
     def guarded(self, path: str) -> bool:
         """Whether ``path`` needs the token."""
-        return path == self.prefix or path.startswith(self.prefix + "/") or path in self.paths
+        return under(path, self.prefix) or path in self.paths
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         """Pass a request with the token, or one for a path that holds no data; refuse the others."""

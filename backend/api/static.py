@@ -38,6 +38,8 @@ from starlette.middleware.gzip import GZipMiddleware
 from starlette.staticfiles import PathLike
 from starlette.types import Receive, Scope, Send
 
+from backend.api.paths import under
+
 IMMUTABLE = "public, max-age=31536000, immutable"
 REVALIDATE = "no-cache"
 PLOTLY_ALIAS = "/vendor/plotly.min.js"
@@ -231,7 +233,7 @@ class CompressAssets(GZipMiddleware):
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         """Compress unless the path is under ``/api/`` or the client's Accept-Encoding refuses gzip."""
-        if scope["type"] == "http" and (scope.get("path", "").startswith("/api/")
+        if scope["type"] == "http" and (under(scope.get("path", ""))
                                         or not accepts_gzip(Request(scope))):
             await self.app(scope, receive, send)
             return

@@ -8,6 +8,7 @@ from typing import Annotated, Any, Literal
 import orjson
 from fastapi import APIRouter, Query, Response
 
+from backend.api.paths import API_PREFIX
 from backend.api.responses import Algorithms, answers
 from backend.api.schemas import Label
 from backend.errors import BadQuery
@@ -15,7 +16,7 @@ from mgrao_core import PRESETS, ConfigError
 from mgrao_core.algorithms import describe_label, registry
 from mgrao_core.params import PARAMETERS_BY_NAME, SystemParams, make_params
 
-router = APIRouter(prefix="/api", tags=["algorithms"])
+router = APIRouter(prefix=API_PREFIX, tags=["algorithms"])
 
 MAX_LABELS = 50
 """At most this many ``label`` values in one request (a view describes the configurations it shows)."""

@@ -8,6 +8,7 @@ from fastapi import APIRouter, Query
 from fastapi.responses import Response
 
 from backend.api.deps import SessionDep
+from backend.api.paths import API_PREFIX
 from backend.api.responses import Comparison, answers
 from backend.api.schemas import MAX_COMPARE_JOBS, Text
 from backend.errors import BadQuery
@@ -15,7 +16,7 @@ from backend.services import analysis
 from backend.store.models import MAX_JOB_ID
 from mgrao_core import MAX_EPISODES
 
-router = APIRouter(prefix="/api", tags=["compare"])
+router = APIRouter(prefix=API_PREFIX, tags=["compare"])
 
 
 def parse_ids(text: str) -> list[int]:

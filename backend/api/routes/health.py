@@ -9,6 +9,7 @@ from sqlalchemy.exc import SQLAlchemyError
 import mgrao_core
 from backend.api.deps import DatabaseDep, SettingsDep
 from backend.api.faults import RETRY_AFTER_S
+from backend.api.paths import API_PREFIX
 from backend.api.responses import UNAVAILABLE, answers
 from backend.api.schemas import Health
 from backend.execution import presence
@@ -16,7 +17,7 @@ from backend.store import crud
 from backend.store.dialect import DatabaseUnavailable, reason
 from backend.store.models import QUEUED, RUNNING
 
-router = APIRouter(prefix="/api", tags=["health"])
+router = APIRouter(prefix=API_PREFIX, tags=["health"])
 
 
 @router.get("/health", response_model=Health, responses=answers(invalid=False, extra={503: {

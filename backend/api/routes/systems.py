@@ -8,6 +8,7 @@ from typing import Annotated
 from fastapi import APIRouter, Path, Response, status
 
 from backend.api.deps import Authorized, DatabaseDep, SettingsDep
+from backend.api.paths import API_PREFIX
 from backend.api.responses import LOCATION, Systems, answers
 from backend.api.schemas import SavedSystemIn, SavedSystemOut
 from backend.errors import InvalidSpec
@@ -53,7 +54,7 @@ def algorithm_labels() -> dict:
     return {"fixed": fixed, "pattern": pattern, "baseline": BASELINE, "reference": REFERENCE, "best_fixed": ORACLE}
 
 
-router = APIRouter(prefix="/api", tags=["systems"])
+router = APIRouter(prefix=API_PREFIX, tags=["systems"])
 
 
 @router.get("/systems", response_model=Systems, responses=answers(invalid=False))
