@@ -62,14 +62,20 @@ def kl_to_uniform(weights: np.ndarray) -> np.ndarray:
     return np.maximum(terms.sum(axis=-1), 0.0)
 
 
-def blend_vector(weights: np.ndarray, counts: np.ndarray) -> np.ndarray:
-    """Resource weights blending vector ``B = sumnorm(dkl) + sumnorm(count)``."""
+def blend_vector(weights: np.ndarray, counts: np.ndarray, use_counts: bool = True) -> np.ndarray:
+    """Resource weights blending vector ``B = sumnorm(dkl) + sumnorm(count)``.
+
+    Without ``use_counts`` (``group_blend = dkl-only``, not the paper's) ``B = sumnorm(dkl)``.
+    """
+    if not use_counts:
+        return sumnorm(kl_to_uniform(weights))
     return sumnorm(kl_to_uniform(weights)) + sumnorm(counts)
 
 
-def combined_weights(weights: np.ndarray, counts: np.ndarray, temperature: float) -> np.ndarray:
+def combined_weights(weights: np.ndarray, counts: np.ndarray, temperature: float,
+                     use_counts: bool = True) -> np.ndarray:
     """Combined resource weights ``softmax(sumnorm(B) @ PW / temperature)`` (algorithm 2)."""
-    return softmax(sumnorm(blend_vector(weights, counts)) @ weights, temperature)
+    return softmax(sumnorm(blend_vector(weights, counts, use_counts)) @ weights, temperature)
 
 
 def proportional_values(profile: np.ndarray, noise: np.ndarray, value_noise: float) -> np.ndarray:

@@ -124,6 +124,13 @@ class StudyPlan:
     max_in_flight: int
     seed: int = 0
     _cells: int = field(default=0, compare=False)
+    variants: dict[str, tuple[str, dict[str, Any]]] = field(default_factory=dict)
+    """The base's named systems that are no preset (saved systems, inlined when the study was made): name ->
+    (preset, overrides). Each runs its preset with its overrides, the base's ``params`` and the trial's on top."""
+
+    def preset_of(self, system: str) -> str:
+        """The preset a system of the base runs (itself, or a named system's)."""
+        return self.variants[system][0] if system in self.variants else system
 
     @property
     def planned_trials(self) -> int:
@@ -164,8 +171,14 @@ class StudyPlan:
         """The experiments (one per system) a trial with these parameters runs."""
         return [self._spec(system, params) for system in self.systems]
 
+    def named_specs(self, params: Mapping[str, Any]) -> list[tuple[str, ExperimentSpec]]:
+        """:meth:`specs` with the base's name of each system (a named system's name, not its preset's)."""
+        return [(system, self._spec(system, params)) for system in self.systems]
+
     def _spec(self, system: str, params: Mapping[str, Any], field_prefix: str = "") -> ExperimentSpec:
-        overrides = dict(self.params) | {k: v for k, v in params.items() if k != GROUPS}
+        preset, own = self.variants.get(system, (system, {}))
+        overrides = dict(own) | dict(self.params) | {k: v for k, v in params.items() if k != GROUPS}
+        system = preset
         algorithms = list(self.algorithms or PRESETS[system].algorithms)
         if GROUPS in params:
             label = f"mgrao-{int(params[GROUPS])}:1"
@@ -181,8 +194,10 @@ class StudyPlan:
 
     def as_dict(self) -> dict[str, Any]:
         """The definition as stored and shown (round-trips through :func:`make_plan`)."""
+        systems = [{"name": s, "system": self.variants[s][0], "params": dict(self.variants[s][1])}
+                   if s in self.variants else s for s in self.systems]
         base: dict[str, Any] = {
-            "system": list(self.systems) if len(self.systems) > 1 else self.systems[0],
+            "system": systems if len(systems) > 1 or self.variants else systems[0],
             "seeds": list(self.seeds), "episodes": self.episodes, "params": dict(self.params),
         }
         if self.algorithms is not None:
@@ -410,10 +425,7 @@ def make_plan(data: Mapping[str, Any]) -> StudyPlan:
     unknown = set(base) - {"system", "algorithms", "seeds", "first_seed", "episodes", "params"}
     if unknown:
         raise ConfigError(f"base.{sorted(unknown)[0]}", "unknown field")
-    systems = base.get("system", "single")
-    systems = tuple(systems) if isinstance(systems, list) else (systems,)
-    if not systems or len(set(systems)) != len(systems) or not all(s in PRESETS for s in systems):
-        raise ConfigError("base.system", f"must be one of {', '.join(PRESETS)} or a list of distinct ones")
+    systems, variants = _systems(base.get("system", "single"))
     algorithms = base.get("algorithms")
     seeds = base.get("seeds", 10)
     if "first_seed" in base:  # seeds F, F+1, ... (e.g. 10000 on: the calibration seeds)
@@ -426,29 +438,37 @@ def make_plan(data: Mapping[str, Any]) -> StudyPlan:
     params = base.get("params", {}) or {}
     if not isinstance(params, Mapping):
         raise ConfigError("base.params", "must be an object of parameter values")
+
+    def spec_of(system: str, seeds: Any, episodes: int) -> ExperimentSpec:
+        preset, own = variants.get(system, (system, {}))
+        return make_spec(preset, algorithms, seeds, episodes, dict(own) | dict(params))
+
     for system in systems:  # the base itself must be a valid experiment
         try:
-            make_spec(system, algorithms, seeds, episodes, params)
+            spec_of(system, seeds, episodes)
         except ConfigError as error:
             named = re.split(r"[\[.]", error.field, maxsplit=1)[0]  # schedule of schedule[2].fraction
             where = "base.params" if named in PARAMETERS_BY_NAME or named in params else "base"
+            if system in variants and named not in params and named in variants[system][1]:
+                where = f"base.system.{system}.params"
             raise ConfigError(f"{where}.{error.field}", error.message) from None
-    seed_list = tuple(make_spec(systems[0], algorithms, seeds, 1, params).seeds)
+    seed_list = tuple(spec_of(systems[0], seeds, 1).seeds)
     if len(seed_list) > MAX_SEEDS:
         raise ConfigError("base.seeds", f"at most {MAX_SEEDS}")
-    n_parents = [make_spec(s, algorithms, 1, 1, params).params.n_parents for s in systems]
+    n_parents = [spec_of(s, 1, 1).params.n_parents for s in systems]
     space = data.get("space")
     if not isinstance(space, Mapping) or not space:
         raise ConfigError("space", "must name at least one parameter to vary")
     if len(space) > MAX_DIMENSIONS:
         raise ConfigError("space", f"at most {MAX_DIMENSIONS} dimensions (got {len(space)})")
     dimensions = tuple(_dimension(k, v, method, n_parents) for k, v in space.items())
-    objective = _objective(data.get("objective"), systems, dimensions, algorithms)
+    objective = _objective(data.get("objective"), systems, dimensions, algorithms, variants)
     max_trials = _count("max_trials", data.get("max_trials", 100), 1, MAX_TRIALS)
     max_in_flight = _count("max_in_flight", data.get("max_in_flight", 4), 1, MAX_IN_FLIGHT)
     seed = _count("seed", data.get("seed", 0), 0, 2**32 - 1)
     plan = StudyPlan(name, method, systems, tuple(algorithms) if algorithms is not None else None, seed_list,
-                     episodes, dict(params), dimensions, objective, max_trials, max_in_flight, seed)
+                     episodes, dict(params), dimensions, objective, max_trials, max_in_flight, seed,
+                     variants=variants)
     if method == "grid":
         size = math.prod(len(d.grid()) for d in dimensions)
         if size > MAX_TRIALS:
@@ -464,8 +484,43 @@ def make_plan(data: Mapping[str, Any]) -> StudyPlan:
     return plan
 
 
+def _systems(value: Any) -> tuple[tuple[str, ...], dict[str, tuple[str, dict[str, Any]]]]:
+    """``base.system``: a preset, or a list of distinct systems, each a preset or a named system.
+
+    A named system is ``{"name", "system", "params"}``: a preset and its overrides under a name of its own
+    (what the service makes of a saved system's name in a list). Returns the names and the named systems.
+    """
+    items = value if isinstance(value, list) else [value]
+    message = f"must be one of {', '.join(PRESETS)} or a list of distinct ones (presets or saved systems)"
+    if not items:
+        raise ConfigError("base.system", message)
+    names, variants = [], {}
+    for i, item in enumerate(items):
+        if isinstance(item, Mapping) and isinstance(value, list):
+            unknown = set(item) - {"name", "system", "params"}
+            if unknown:
+                raise ConfigError(f"base.system[{i}].{sorted(unknown)[0]}", "unknown field")
+            name, preset, own = item.get("name"), item.get("system"), item.get("params", {}) or {}
+            if not isinstance(name, str) or not name or len(name) > 64 or name in PRESETS:
+                raise ConfigError(f"base.system[{i}].name", "must be a name of 1 to 64 characters that is no preset's")
+            if preset not in PRESETS:
+                raise ConfigError(f"base.system[{i}].system", f"must be one of {', '.join(PRESETS)}")
+            if not isinstance(own, Mapping):
+                raise ConfigError(f"base.system[{i}].params", "must be an object of parameter values")
+            variants[name] = (preset, dict(own))
+            names.append(name)
+        elif isinstance(item, str) and item in PRESETS:
+            names.append(item)
+        else:
+            raise ConfigError("base.system", message)
+    if len(set(names)) != len(names):
+        raise ConfigError("base.system", message)
+    return tuple(names), variants
+
+
 def _objective(data: Any, systems: tuple[str, ...], dimensions: tuple[Dimension, ...],
-               algorithms: Sequence[str] | None) -> Objective:
+               algorithms: Sequence[str] | None,
+               variants: Mapping[str, tuple[str, Mapping[str, Any]]] | None = None) -> Objective:
     if not isinstance(data, Mapping):
         raise ConfigError("objective", "must be an object: configuration, metric, direction")
     unknown = set(data) - {"configuration", "metric", "direction", "system"}
@@ -479,7 +534,7 @@ def _objective(data: Any, systems: tuple[str, ...], dimensions: tuple[Dimension,
         raise ConfigError("objective.direction", f"must be maximize or minimize (got {direction!r})")
     system = data.get("system")
     if metric == "paper_deviation":
-        missing = [s for s in systems if not PRESETS[s].paper_pct_from_uniform]
+        missing = [s for s in systems if s in (variants or {}) or not PRESETS[s].paper_pct_from_uniform]
         if missing:
             raise ConfigError("base.system", f"{missing[0]} has no figures in the paper")
         return Objective(metric, direction, None, None)
@@ -491,7 +546,7 @@ def _objective(data: Any, systems: tuple[str, ...], dimensions: tuple[Dimension,
     if system is not None and system not in systems:
         raise ConfigError("objective.system", f"must be one of the base's systems ({', '.join(systems)})")
     target = system or systems[0]
-    labels = list(algorithms or PRESETS[target].algorithms)
+    labels = list(algorithms or PRESETS[(variants or {}).get(target, (target,))[0]].algorithms)
     if configuration == GROUP_LABEL:
         if not any(d.name == GROUPS for d in dimensions):
             raise ConfigError("objective.configuration", f"{GROUP_LABEL} needs a groups dimension in the space")

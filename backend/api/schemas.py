@@ -262,6 +262,8 @@ SavedName = Annotated[str, StringConstraints(pattern=SAVED_NAME_PATTERN)]
 """A saved system's name (``/api/systems/saved``); which exist is known only to the service (else 422)."""
 Unset = Field(default=None, json_schema_extra=lambda schema: schema.pop("default", None))
 """An optional field without a default of its own: left out, the core's default applies (null is refused)."""
+MAX_STUDY_SYSTEMS = 16
+"""Most systems (presets and saved systems) in one study's ``base.system`` list."""
 SpaceName = Annotated[str, StringConstraints(max_length=64), NoNul()]
 
 
@@ -277,7 +279,8 @@ class StudyBase(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    system: Preset | SavedName | Annotated[list[Preset], Field(min_length=1, max_length=len(PRESETS))] = "single"
+    system: Preset | SavedName | Annotated[list[Preset | SavedName],
+                                           Field(min_length=1, max_length=MAX_STUDY_SYSTEMS)] = "single"
     algorithms: Annotated[list[Label], Field(min_length=1, max_length=MAX_ALGORITHMS)] | None = None
     seeds: SeedCount | SeedList = 10
     first_seed: Seed = 0
@@ -306,7 +309,7 @@ class StudyObjective(BaseModel):
     metric: Literal[search.METRICS]  # type: ignore[valid-type]
     configuration: Label | SkipJsonSchema[None] = Unset
     direction: Literal[search.DIRECTIONS] | SkipJsonSchema[None] = Unset  # type: ignore[valid-type]
-    system: Preset | SkipJsonSchema[None] = Unset
+    system: Preset | SavedName | SkipJsonSchema[None] = Unset
 
 
 class StudyCreate(BaseModel):

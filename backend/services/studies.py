@@ -29,6 +29,7 @@ from sqlalchemy.orm import Session
 
 import mgrao_core
 from backend.errors import Conflict, NotFound
+from backend.services import saved_systems
 from backend.store import crud
 from backend.store import summaries as job_results
 from backend.store.db import Database
@@ -96,7 +97,7 @@ def _outcomes(session: Session, study: Study, plan: StudyPlan) -> dict[int, dict
     if not trials:
         return {}
     jobs: dict[int, list[Any]] = defaultdict(list)
-    for row in session.execute(select(Job.id, Job.trial_id, Job.system, Job.status, Job.error)
+    for row in session.execute(select(Job.id, Job.trial_id, Job.system, Job.tags, Job.status, Job.error)
                                .where(Job.trial_id.in_([t.id for t in trials]))):
         jobs[row.trial_id].append(row)
     succeeded = [j.id for trial in trials for j in jobs[trial.id] if j.status == SUCCEEDED]
@@ -108,7 +109,8 @@ def _outcomes(session: Session, study: Study, plan: StudyPlan) -> dict[int, dict
             outcomes[trial.id] = {"status": FAILED, "error": "its jobs were deleted"}
             continue
         if statuses == {SUCCEEDED}:
-            summaries = {j.system: stored.get(j.id) or job_results.compute(session, j.id) for j in jobs[trial.id]}
+            summaries = {system_of(plan, j.system, j.tags): stored.get(j.id) or job_results.compute(session, j.id)
+                         for j in jobs[trial.id]}
             value, interval = evaluate(plan, trial.params, summaries)
             runs = sum(s.n_runs for summary in summaries.values() for s in summary.values())
             outcomes[trial.id] = {"status": SUCCEEDED, "value": _finite(value),
@@ -236,7 +238,7 @@ def _make_trials(session: Session, study: Study, plan: StudyPlan, numbered: list
     rows, specs = [], []
     for number, params in numbered:
         try:
-            trial_specs = plan.specs(params)
+            trial_specs = plan.named_specs(params)
         except ConfigError as error:
             rows.append({"study_id": study.id, "number": number, "params": params, "status": FAILED,
                          "error": f"not a valid experiment: {error}", "runs": 0, "created_at": now,
@@ -249,24 +251,39 @@ def _make_trials(session: Session, study: Study, plan: StudyPlan, numbered: list
     ids = list(session.scalars(insert(Trial).returning(Trial.id, sort_by_parameter_order=True), rows))
     name = study.name or "study"
     crud.create_jobs(session, jobs=[
-        {"spec": spec, "name": f"{name} #{number}", "tags": [f"study-{study.id}"], "study_id": study.id,
+        {"spec": spec, "name": f"{name} #{number}", "tags": job_tags(study, plan, system), "study_id": study.id,
          "trial_id": trial_id}
-        for trial_id, (number, _), trial_specs in zip(ids, numbered, specs, strict=True) for spec in trial_specs])
+        for trial_id, (number, _), trial_specs in zip(ids, numbered, specs, strict=True)
+        for system, spec in trial_specs])
+
+
+def job_tags(study: Study, plan: StudyPlan, system: str) -> list[str]:
+    """A trial job's tags: its study's, and for a saved system of the base its name (as a job of it has)."""
+    return [f"study-{study.id}", *([f"{saved_systems.TAG_PREFIX}{system}"] if system in plan.variants else [])]
+
+
+def system_of(plan: StudyPlan, preset: str, tags: Sequence[str] | None) -> str:
+    """Which of the base's systems a trial's job ran: the saved system its tag names, else its preset."""
+    for tag in tags or ():
+        if tag.startswith(saved_systems.TAG_PREFIX) and tag[len(saved_systems.TAG_PREFIX):] in plan.variants:
+            return tag[len(saved_systems.TAG_PREFIX):]
+    return preset
 
 
 def _submit(session: Session, study: Study, plan: StudyPlan, trial: Trial) -> None:
     """The trial's jobs, one per system (or its failure, when its parameters make no valid experiment)."""
     try:
-        specs = plan.specs(trial.params)
+        specs = plan.named_specs(trial.params)
     except ConfigError as error:
         trial.status, trial.error, trial.finished_at = FAILED, f"not a valid experiment: {error}", utcnow()
         return
-    done = set(session.scalars(select(Job.system).where(Job.trial_id == trial.id, Job.status == SUCCEEDED)))
-    for spec in specs:
-        if spec.system in done:  # re-run after a failure elsewhere: the system that succeeded stands
+    done = {system_of(plan, j.system, j.tags) for j in session.execute(
+        select(Job.system, Job.tags).where(Job.trial_id == trial.id, Job.status == SUCCEEDED))}
+    for system, spec in specs:
+        if system in done:  # re-run after a failure elsewhere: the system that succeeded stands
             continue
         crud.create_job(session, spec=spec, name=f"{study.name or 'study'} #{trial.number}",
-                        tags=[f"study-{study.id}"], study_id=study.id, trial_id=trial.id)
+                        tags=job_tags(study, plan, system), study_id=study.id, trial_id=trial.id)
     trial.status, trial.error = QUEUED, None
 
 

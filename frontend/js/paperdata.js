@@ -7,14 +7,16 @@
  * The job whose results stand for `system` (an entry of GET /api/systems) among `jobs` (listed with
  * `config_hash=system.paper_config_hash`, i.e. the preset's parameters unchanged, 100 episodes): a
  * succeeded one of `episodes` 100 that runs every configuration the paper has a figure for, the one
- * with the most seeds, then the newest. Tags play no part: a clone inherits them. Null if none fits.
+ * with the most seeds, then the newest. Tags play no part: a clone inherits them. Null if none fits,
+ * and always for a system that is no paper experiment (its `paper_config_hash` is null).
  */
 export function choosePaperJob(system, jobs) {
+  if (!system.paper_config_hash) return null;
   const wanted = Object.keys(system.paper || {});
   let best = null;
   for (const j of jobs) {
     if (j.status !== 'succeeded' || j.episodes !== 100 || j.system !== system.name) continue;
-    if (system.paper_config_hash && j.config_hash !== system.paper_config_hash) continue;
+    if (j.config_hash !== system.paper_config_hash) continue;
     if (!wanted.every((a) => j.algorithms.includes(a))) continue;
     if (!best || better(j, best)) best = j;
   }

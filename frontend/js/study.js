@@ -101,7 +101,7 @@ export async function mount(root, params, ctx) {
       ['Method', `${s.method}${detail.definition.seed ? ` (seed ${detail.definition.seed})` : ''}`],
       ['Objective', objectiveText(s.objective)],
       ['Best', best ? `${fmtNumber(best.value, 4)} at trial ${best.number}: ${Object.entries(best.params).map(([k, v]) => `${k} ${fmtParam(v)}`).join(', ')}` : '–'],
-      ['Base', `${[].concat(base.system).join(', ')}; ${base.seeds.length} seeds × ${base.episodes} episodes`],
+      ['Base', `${[].concat(base.system).map((s) => (typeof s === 'string' ? s : s.name)).join(', ')}; ${base.seeds.length} seeds × ${base.episodes} episodes`],
       ['Space', dimensions().map((d) => {
         const dim = detail.definition.space[d];
         return dim.values ? `${d} ∈ {${dim.values.map(fmtParam).join(', ')}}`

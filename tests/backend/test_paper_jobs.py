@@ -12,6 +12,7 @@ from fastapi.testclient import TestClient
 
 from backend.execution.worker import Worker
 from mgrao_core import PRESETS, final_utilities
+from mgrao_core.presets import PAPER_SYSTEMS
 
 
 def submit(client: TestClient, **body: object) -> dict:
@@ -22,7 +23,8 @@ def submit(client: TestClient, **body: object) -> dict:
 
 def test_the_paper_configuration_is_listed_whatever_its_tags(client: TestClient) -> None:
     systems = {s["name"]: s for s in client.get("/api/systems").json()["systems"]}
-    assert len({s["paper_config_hash"] for s in systems.values()}) == len(PRESETS)
+    assert len({systems[name]["paper_config_hash"] for name in PAPER_SYSTEMS}) == len(PAPER_SYSTEMS)
+    assert all(len(systems[name]["paper_config_hash"]) == 64 for name in PAPER_SYSTEMS)
     paper = systems["single"]["paper_config_hash"]
     plain = submit(client, name="no tag at all")
     same = submit(client, params={"learning_rate": PRESETS["single"].params.as_dict()["learning_rate"]},
@@ -37,6 +39,19 @@ def test_the_paper_configuration_is_listed_whatever_its_tags(client: TestClient)
     assert client.get("/api/jobs", params={"config_hash": paper, "tag": "paper"}).json()["count"] == 0
     multi = client.get("/api/jobs", params={"config_hash": systems["multi"]["paper_config_hash"]}).json()
     assert [j["id"] for j in multi["data"]] == [other["id"]]
+
+
+def test_a_system_beyond_the_paper_has_no_paper_configuration(client: TestClient) -> None:
+    systems = {s["name"]: s for s in client.get("/api/systems").json()["systems"]}
+    beyond = [name for name in PRESETS if name not in PAPER_SYSTEMS]
+    assert {"drift", "bursty"} <= set(beyond)
+    for name in beyond:
+        assert systems[name]["paper_config_hash"] is None, name
+        assert systems[name]["paper"] == {} and systems[name]["paper_pct_of_max"] == {}
+    # a drift job still has its own config_hash, found like any other configuration's
+    job = submit(client, system="drift", seeds=1, episodes=10)
+    assert len(job["config_hash"]) == 64
+    assert client.get("/api/jobs", params={"config_hash": job["config_hash"]}).json()["count"] == 1
 
 
 @pytest.mark.parametrize("value", ["abc", "A" * 64, "g" * 64, "0" * 65])

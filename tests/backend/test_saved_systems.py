@@ -110,3 +110,41 @@ def test_a_study_sweeps_a_saved_system(client: TestClient, worker: Worker) -> No
     assert all(j["params"]["example_schedule"] == SCHEDULE and j["params"]["n_parents"] == 10 for j in jobs)
     missing = client.post("/api/studies", json=study | {"base": study["base"] | {"system": "nowhere"}})
     assert missing.status_code == 422 and missing.json()["detail"][0]["field"] == "base.system"
+
+
+def test_a_study_over_several_systems_takes_saved_ones_by_name(client: TestClient, worker: Worker) -> None:
+    _save(client)  # rush-hour: single with 12 parents; its jobs run beside single's, whose preset it shares
+    study = {"method": "grid", "base": {"system": ["single", "rush-hour"], "algorithms": ["uniform", "mgrao-max"],
+                                        "seeds": 2, "episodes": 4},
+             "space": {"learning_rate": {"values": [0.1, 0.3]}},
+             "objective": {"metric": "final_mean", "configuration": "mgrao-max", "system": "rush-hour"}}
+    response = client.post("/api/studies", json=study)
+    assert response.status_code == 202, response.text
+    definition = response.json()["definition"]
+    assert definition["base"]["system"][0] == "single"
+    assert definition["base"]["system"][1]["name"] == "rush-hour"
+    assert definition["base"]["system"][1]["system"] == "single"
+    assert definition["base"]["system"][1]["params"]["n_parents"] == 12
+    assert definition["objective"]["system"] == "rush-hour"
+    study_id = response.json()["study"]["id"]
+    for _ in range(50):
+        drain(worker)
+        answer = client.get(f"/api/studies/{study_id}").json()
+        if answer["study"]["status"] != "running":
+            break
+    assert answer["study"]["trials"] == {"succeeded": 2}, answer["study"]
+    for trial in answer["trials"]:
+        jobs = [client.get(f"/api/jobs/{i}").json() for i in trial["job_ids"]]
+        assert sorted(j["params"]["n_parents"] for j in jobs) == [10, 12]
+        assert {j["system"] for j in jobs} == {"single"}
+        [rush] = [j for j in jobs if j["params"]["n_parents"] == 12]
+        assert "system:rush-hour" in rush["tags"] and rush["params"]["example_schedule"] == SCHEDULE
+        assert rush["params"]["learning_rate"] == trial["params"]["learning_rate"]
+        results = client.get(f"/api/jobs/{rush['id']}/results").json()
+        [best] = [c for c in results["configurations"] if c["algorithm"] == "mgrao-max"]
+        assert trial["value"] == pytest.approx(best["summary"]["final_mean"], rel=1e-12)  # rush-hour's, not single's
+    missing = client.post("/api/studies", json=study | {"base": study["base"] | {"system": ["single", "nowhere"]}})
+    assert missing.status_code == 422, missing.text
+    assert missing.json()["detail"][0]["loc"] == ["body", "base", "system", 1]
+    twice = client.post("/api/studies", json=study | {"base": study["base"] | {"system": ["rush-hour", "rush-hour"]}})
+    assert twice.status_code == 422 and twice.json()["detail"][0]["field"] == "base.system", twice.text

@@ -17,6 +17,7 @@ def assert_matches_reference(result, atol=1e-12):
     """
     spec = result.spec
     temperature = spec.params.effective_temperature
+    use_counts = spec.params.group_blend == "dkl-and-count"
     for run in result.runs:
         utilities, children = reference.simulate(spec.params, run.algorithm, run.seed, spec.episodes)
         np.testing.assert_allclose(run.utilities, utilities, rtol=0, atol=atol,
@@ -26,7 +27,8 @@ def assert_matches_reference(result, atol=1e-12):
             pw = np.stack([c.pw for c in children])
             assert run.group_weights.shape == pw.shape
             np.testing.assert_allclose(run.group_weights, pw, rtol=0, atol=atol)
-            on_engine_pw = np.stack([eq.combined_weights(run.group_weights[c], child.counts, temperature)
+            on_engine_pw = np.stack([eq.combined_weights(run.group_weights[c], child.counts, temperature,
+                                                         use_counts)
                                      for c, child in enumerate(children)])
             np.testing.assert_allclose(run.combined_weights, on_engine_pw, rtol=0, atol=atol)
             np.testing.assert_allclose(run.combined_weights, combined, rtol=0, atol=1000 * atol)

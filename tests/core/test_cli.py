@@ -225,7 +225,7 @@ def test_algorithms_json_is_the_registry_for_the_system(runner):
     data = json.loads(result.stdout)["data"]
     assert data == registry(PRESETS["large"].params)
     mgrao = next(entry for entry in data if entry["name"] == "mgrao")
-    assert mgrao["parameters"] == ["learning_rate", "trace_decay", "temperature"]
+    assert mgrao["parameters"] == ["learning_rate", "trace_decay", "temperature", "group_blend"]
     assert mgrao["memory_per_child"]["mgrao-max"] > mgrao["memory_per_child"]["mgrao-1:1"] > 0
 
 

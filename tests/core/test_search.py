@@ -201,3 +201,30 @@ def test_the_example_studies_are_valid(name, trials):
     plan = make_plan(study)
     assert plan.planned_trials == trials
     assert make_plan(plan.as_dict()) == plan
+
+
+def test_a_named_system_in_the_list_runs_its_preset_with_its_overrides_and_round_trips():
+    twelve = {"name": "twelve", "system": "single", "params": {"n_parents": 12}}
+    study = {"method": "grid",
+             "base": {"system": ["single", twelve], "algorithms": ["uniform", "mgrao-max"], "seeds": 2, "episodes": 5,
+                      "params": {"value_noise": 0.2}},
+             "space": {"learning_rate": {"values": [0.1, 0.3]}},
+             "objective": {"metric": "final_mean", "configuration": "mgrao-max", "system": "twelve"}}
+    plan = make_plan(study)
+    assert plan.systems == ("single", "twelve") and plan.preset_of("twelve") == "single"
+    named = plan.named_specs({"learning_rate": 0.3})
+    assert [name for name, _ in named] == ["single", "twelve"]
+    assert [spec.system for _, spec in named] == ["single", "single"]
+    assert [spec.params.n_parents for _, spec in named] == [10, 12]
+    assert all(spec.params.value_noise == 0.2 and spec.params.learning_rate == 0.3 for _, spec in named)
+    assert make_plan(plan.as_dict()) == plan
+    for bad, field in ((["single", {"name": "single", "system": "single"}], "base.system[1].name"),
+                       ([{"name": "x", "system": "nowhere"}], "base.system[0].system"),
+                       ([{"name": "x", "system": "single", "colour": 1}], "base.system[0].colour"),
+                       ([{"name": "x", "system": "single", "params": {"n_parents": 0}}],
+                        "base.system.x.params.n_parents"),
+                       (["single", "single"], "base.system")):
+        with pytest.raises(ConfigError) as error:
+            make_plan(study | {"base": study["base"] | {"system": bad}, "objective": {"metric": "final_mean",
+                                                                                      "configuration": "mgrao-max"}})
+        assert error.value.field == field, (bad, error.value)

@@ -118,3 +118,33 @@ def test_curves_fill_in_and_a_requeued_job_says_why(browser, restless_server, sc
         page.screenshot(path=str(screenshots / "job-requeued.png"), full_page=True)
         # every run stored exactly once; what the killed attempt stored was kept, not recomputed
         assert stored_runs(database, job["id"]) == 24 and kept >= 2
+
+
+def test_a_drift_jobs_utility_chart_marks_its_scheduled_event(page, server, screenshots):
+    plain = post_job(server, {"system": "drift", "seeds": 2, "episodes": 100, "name": "drift preset"})
+    page.goto(f"/#/jobs/{plain['id']}")  # the preset's own event: 30% new profiles at episode 50
+    chart = page.locator("#utility-chart")
+    chart.locator(".main-svg").first.wait_for(timeout=60000)
+    wait_for(lambda: chart.locator(".shapelayer path").count() == 1, 30, "the preset's event line")
+    assert chart.evaluate("gd => gd.layout.shapes.map(s => s.x0)") == [50]
+    assert chart.locator(".annotation-text").evaluate_all("els => els.map(e => e.textContent)") == ["new-profiles 30%"]
+
+    # drift: 30% of the parents draw new value profiles at episode 50; an event past the run's end is not drawn
+    schedule = [{"episode": 50, "change": "new-profiles", "fraction": 0.3},
+                {"episode": 20, "change": "frequencies", "fraction": 0.5, "period": 2},
+                {"episode": 500, "change": "new-profiles"}]
+    job = post_job(server, {"system": "drift", "algorithms": ["uniform", "mgrao-1:1", "mgrao-max"], "seeds": 3,
+                            "episodes": 100, "params": {"schedule": schedule}, "name": "drift marks"})
+    page.goto(f"/#/jobs/{job['id']}")
+    chart = page.locator("#utility-chart")
+    chart.locator(".main-svg").first.wait_for(timeout=60000)
+    wait_for(lambda: get_job(server, job["id"])["status"] == "succeeded", 120, "the drift job to succeed")
+    lines = chart.locator(".shapelayer path")
+    labels = chart.locator(".annotation-text")
+    wait_for(lambda: lines.count() == 2 and labels.count() == 2, 30, "a dashed line per fired event")
+    texts = sorted(labels.evaluate_all("els => els.map(e => e.textContent)"))  # SVG text: no innerText
+    assert texts == ["frequencies → 2 50%", "new-profiles 30%"], texts
+    shapes = chart.evaluate("gd => gd.layout.shapes.map(s => [s.x0, s.line.dash])")
+    assert sorted(shapes) == [[20, "dash"], [50, "dash"]]
+    chart.scroll_into_view_if_needed()
+    page.screenshot(path=str(screenshots / "job-drift-events.png"), full_page=True)

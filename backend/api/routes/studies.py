@@ -17,7 +17,7 @@ from backend.services.cache import AnswerCache
 from backend.services.study_plots import study_plots
 from backend.store.keyset import Keyset
 from backend.store.models import MAX_JOB_ID, Study
-from mgrao_core import ConfigError
+from mgrao_core import PRESETS, ConfigError
 from mgrao_core.search import make_plan
 
 router = APIRouter(prefix="/api/studies", tags=["studies"])
@@ -49,6 +49,10 @@ def submit_study(db: DatabaseDep, body: StudyCreate) -> Response:
             system, params, _ = saved_systems.resolve(session, base["system"], base.get("params", {}),
                                                       ["body", "base", "system"])
         data["base"] = base | {"system": system, "params": params}
+    elif isinstance(base.get("system"), list):  # saved systems among presets: each inlined under its own name
+        with db.session() as session:
+            data["base"] = base | {"system": [name if name in PRESETS else _named(session, name, i)
+                                              for i, name in enumerate(base["system"])]}
     try:
         plan = make_plan(data)
     except ConfigError as error:
@@ -60,6 +64,12 @@ def submit_study(db: DatabaseDep, body: StudyCreate) -> Response:
     response = _json(detail, status.HTTP_202_ACCEPTED)
     response.headers["Location"] = f"/api/studies/{study_id}"
     return response
+
+
+def _named(session: Session, name: str, index: int) -> dict[str, Any]:
+    """A saved system in a study's list of systems, inlined: its name, base preset and overrides (as stored now)."""
+    system, params, _ = saved_systems.resolve(session, name, {}, ["body", "base", "system", index])
+    return {"name": name, "system": system, "params": params}
 
 
 def _location(field: str) -> list[str | int]:

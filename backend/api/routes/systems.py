@@ -26,16 +26,21 @@ from mgrao_core import (
     search,
 )
 from mgrao_core.algorithms import ORACLE, registry, sort_key
+from mgrao_core.presets import PAPER_SYSTEMS
 from mgrao_core.reproduction import PAPER_EPISODES
 from mgrao_core.stats import BASELINE, REFERENCE
 
 
 @cache
-def paper_config_hash(system: str) -> str:
+def paper_config_hash(system: str) -> str | None:
     """The ``config_hash`` of the paper's experiment of ``system``: its preset unchanged, 100 episodes.
 
-    A job has it whatever its seeds, algorithms, name or tags (``GET /api/jobs?config_hash=``).
+    A job has it whatever its seeds, algorithms, name or tags (``GET /api/jobs?config_hash=``). None for
+    a preset that is not one of the paper's four (:data:`~mgrao_core.presets.PAPER_SYSTEMS`: ``drift``,
+    ``bursty`` and later ones are no experiment of the paper).
     """
+    if system not in PAPER_SYSTEMS:
+        return None
     return config_hash(make_spec(system, seeds=1, episodes=PAPER_EPISODES).as_dict())
 
 

@@ -54,6 +54,7 @@ class AdaptiveLanes(NamedTuple):
     gamma_inv_pow: np.ndarray
     trace_tail: float
     min_bounded_groups: int
+    use_counts: bool
     membership: np.ndarray
     returns: np.ndarray
     signature_mean: np.ndarray

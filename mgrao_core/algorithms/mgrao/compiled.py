@@ -89,6 +89,7 @@ class MgraoLanes(NamedTuple):
         trace_tail: ``alpha * gamma / (1 - gamma)``: the most a trace entry of 1 still adds to its
             weight over all later updates (see :func:`trace_is_negligible`).
         min_bounded_groups: :data:`~mgrao_core.algorithms.mgrao.family.MIN_BOUNDED_GROUPS`.
+        use_counts: whether algorithm 2's blend counts the samples (``group_blend = dkl-and-count``).
     """
 
     Y: np.ndarray
@@ -109,6 +110,7 @@ class MgraoLanes(NamedTuple):
     gamma_inv_pow: np.ndarray
     trace_tail: float
     min_bounded_groups: int
+    use_counts: bool
 
 
 def rebase_interval(trace_decay: float) -> int:
@@ -130,7 +132,8 @@ def lanes_of(arrays: Mapping[str, np.ndarray], params: System) -> MgraoLanes:
     gamma_pow = params.trace_decay ** np.arange(rebase_interval(params.trace_decay) + 1, dtype=float)
     state = [arrays[name] for name in MgraoLanes._fields[:12]]
     return MgraoLanes(*state, params.learning_rate, params.effective_temperature, gamma_pow, 1.0 / gamma_pow,
-                      trace_tail(params.learning_rate, params.trace_decay), family.MIN_BOUNDED_GROUPS)
+                      trace_tail(params.learning_rate, params.trace_decay), family.MIN_BOUNDED_GROUPS,
+                      params.group_blend == "dkl-and-count")
 
 
 @njit(cache=True, inline="always")
@@ -189,10 +192,11 @@ def rebase(Y, F, H, cs, G, rows, slot, n_rows, gamma_k, tail, bounded):
 
 
 @njit(cache=True)
-def combined_weights(PW, counts, m, n, temperature, out, scratch):
+def combined_weights(PW, counts, m, n, temperature, out, scratch, use_counts=True):
     """Algorithm 2 on materialised rows: ``softmax(sumnorm(B) @ PW / temperature)`` into ``out``.
 
-    The blending vector is ``B = sumnorm(dkl) + sumnorm(count)``.
+    The blending vector is ``B = sumnorm(dkl) + sumnorm(count)``, or ``sumnorm(dkl)`` without
+    ``use_counts`` (``group_blend = dkl-only``).
     """
     kl_total = 0.0
     count_total = 0.0
@@ -210,8 +214,11 @@ def combined_weights(PW, counts, m, n, temperature, out, scratch):
     blend_total = 0.0
     for i in range(m):
         kl_part = scratch[i] / kl_total if kl_total > 0.0 else 1.0 / m
-        count_part = counts[i] / count_total if count_total > 0.0 else 1.0 / m
-        scratch[i] = kl_part + count_part
+        if use_counts:
+            count_part = counts[i] / count_total if count_total > 0.0 else 1.0 / m
+            scratch[i] = kl_part + count_part
+        else:
+            scratch[i] = kl_part
         blend_total += scratch[i]
     for i in range(m):
         scratch[i] /= blend_total  # sumnorm(B)
@@ -279,13 +286,13 @@ def pw_update(Y, F, H, cs, G, rows, slot, n_rows, c, k, group, task_type, step, 
 
 @njit(cache=True)
 def fix_allocation(Y, F, H, cs, G, rows, slot, n_rows, counts, m, bounded, gamma_k, tail, temperature, weights,
-                   scratch):
+                   scratch, use_counts=True):
     """A child fixes its resource weights for the episode: its PW is materialised, then algorithm 2 writes ``weights``.
 
     Returns the number of active rows.
     """
     n_rows = rebase(Y, F, H, cs, G, rows, slot, n_rows, gamma_k, tail, bounded)
-    combined_weights(Y, counts, m, Y.shape[1], temperature, weights, scratch)
+    combined_weights(Y, counts, m, Y.shape[1], temperature, weights, scratch, use_counts)
     return n_rows
 
 
@@ -300,7 +307,7 @@ def allocate(ml, views, m, c, weights):
     k = views[8][c]
     views[7][c] = fix_allocation(views[0][c], views[1][c], views[2][c], views[3][c], views[4][c], views[5][c],
                                  views[6][c], views[7][c], views[9][c], m, m > ml.min_bounded_groups, ml.gamma_pow[k],
-                                 ml.trace_tail, ml.temperature, weights, views[11])
+                                 ml.trace_tail, ml.temperature, weights, views[11], ml.use_counts)
     views[8][c] = 0
     views[10][c] = False
 

@@ -27,6 +27,9 @@ MIN_BOUNDED_GROUPS = 64
 """Children with at most this many parent groups keep every row active. Below it, dropping
 negligible traces saves little, and the engine then performs exactly the floating-point operations
 of the unbounded lazy update (so results stored by earlier versions re-run bit for bit)."""
+GROUP_BLENDS = ("dkl-and-count", "dkl-only")
+"""Algorithm 2's blending vector (``group_blend``): the paper's ``sumnorm(dkl) + sumnorm(count)`` (the
+default), or ``sumnorm(dkl)`` alone, without the sample counts (docs/model.md, "MG-RAO")."""
 _RATIO = re.compile(r"^mgrao-0*(\d{1,9}):0*(\d{1,9})$")
 
 
@@ -65,6 +68,12 @@ class Mgrao(Family):
             "temperature", "float", None,
             "Softmax temperature of the combined weights; empty means 1/n_types, 1 is paper-literal.",
             "mgrao", 1e-4, 100.0, nullable=True, identity="always",
+        ),
+        Parameter(
+            "group_blend", "choice", GROUP_BLENDS[0],
+            "Algorithm 2's blend of the group rows: dkl-and-count (the paper's sumnorm(dkl) + sumnorm(count)) "
+            "or dkl-only (without the sample counts).",
+            "mgrao", choices=GROUP_BLENDS,
         ),
     )
     state = (  # each child's PW and trace in lazy form (see the compiled module), its active rows and counts

@@ -33,7 +33,8 @@ class Child(ReferenceChild):
 
     def allocation(self) -> np.ndarray:
         """Algorithm 2: the combined resource weights."""
-        return eq.combined_weights(self.pw, self.counts, self.params.effective_temperature)
+        return eq.combined_weights(self.pw, self.counts, self.params.effective_temperature,
+                                   self.params.group_blend == "dkl-and-count")
 
     def learn(self, parent: int, task_type: int, value: float) -> None:
         """Algorithm 1 for one returned absolute value, from a parent of group ``groups[parent]``."""

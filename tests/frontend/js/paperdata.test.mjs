@@ -42,6 +42,9 @@ test('choosePaperJob: the most seeds, then the newest; never a job that is not t
     job(7, 200, { config_hash: 'other' }), job(6, 200, { algorithms: ['uniform', 'mgrao-max'] }),
     job(4, 200, { system: 'multi' }), hundred]).id, 1);
   assert.equal(choosePaperJob(sys, []), null);
+  // a system that is no paper experiment (drift, bursty: paper_config_hash null) has no paper job at all
+  const drift = { name: 'drift', paper: {}, paper_config_hash: null };
+  assert.equal(choosePaperJob(drift, [job(2, 100, { system: 'drift', config_hash: 'd' })]), null);
 });
 
 test('seedPercentile: the share of our seeds below the paper, ties counting half', () => {
