@@ -9,7 +9,7 @@ import { algorithmStyles } from './colours.js';
 import { compareLabels, ready, rememberAnswer } from './algorithms.js';
 import { axisControls, withAxis, tableCsvButton } from './chartcontrols.js';
 import { fmtParam } from './studydata.js';
-import { configRows, differenceSummary, summaryCsv, configJson } from './jobconfig.js';
+import { configRows, differenceSummary, summaryCsv, configJson, listLines } from './jobconfig.js';
 import { weightsSection } from './jobweights.js';
 
 const POINTS = 600;
@@ -94,11 +94,29 @@ export async function mount(root, params, ctx) {
         h('div', { class: 'config-groups' }, groups.map((g) => h('div', { class: 'table-wrap' },
           h('table', { class: 'config-table' },
             h('caption', {}, g.title),
-            h('tbody', {}, g.rows.map((r) => h('tr', { class: r.differs ? 'differs' : null, 'data-param': r.name },
-              h('th', { scope: 'row', title: r.help }, r.name),
-              h('td', { class: 'num' }, fmtParam(r.value)),
-              h('td', { class: 'num preset help' }, r.differs ? `preset ${fmtParam(r.preset)}` : '')))))))),
+            h('tbody', {}, g.rows.map(configRow)))))),
         h('p', { class: 'help' }, `Seeds: ${job.seeds.join(', ')}. Configuration hash ${job.config_hash}.`)));
+  }
+
+  /**
+   * One parameter's row: name, value and the preset's when it differs. A list or event list
+   * (a schedule) takes the card's whole width, one line per item, so it does not wrap a character
+   * column.
+   */
+  function configRow(r) {
+    const cls = r.differs ? 'differs' : null;
+    if (!Array.isArray(r.value)) {
+      return h('tr', { class: cls, 'data-param': r.name },
+        h('th', { scope: 'row', title: r.help }, r.name),
+        h('td', { class: 'num' }, fmtParam(r.value)),
+        h('td', { class: 'num preset help' }, r.differs ? `preset ${fmtParam(r.preset)}` : ''));
+    }
+    const preset = Array.isArray(r.preset) ? listLines(r.preset).join('; ') : fmtParam(r.preset);
+    return h('tr', { class: [cls, 'list-param'].filter(Boolean).join(' '), 'data-param': r.name },
+      h('td', { colspan: 3 },
+        h('div', { class: 'list-name', title: r.help }, r.name),
+        h('ul', { class: 'list-value' }, listLines(r.value).map((line) => h('li', {}, line))),
+        r.differs ? h('div', { class: 'preset help' }, `preset: ${preset}`) : null));
   }
 
   function renderStatus() {

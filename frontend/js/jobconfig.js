@@ -35,12 +35,28 @@ export function configRows(job, schema) {
   return rows;
 }
 
+/**
+ * A list or event-list value, one line per item: a scheduled event as "episode 50: new-profiles,
+ * fraction 0.3" (its episode first, then its change, then its other fields), a plain item as itself.
+ * An empty list reads "none".
+ */
+export function listLines(value) {
+  if (!value.length) return ['none'];
+  return value.map((item) => {
+    if (item === null || typeof item !== 'object' || Array.isArray(item)) return fmtParam(item);
+    const { episode, change, ...rest } = item;
+    const head = [episode === undefined ? null : `episode ${episode}:`, change].filter((x) => x !== undefined && x !== null).join(' ');
+    const tail = Object.entries(rest).map(([k, v]) => `${k} ${fmtParam(v)}`);
+    return [head, ...tail].filter(Boolean).join(', ').replace(':,', ':');
+  });
+}
+
 /** "3 of 27 parameters differ from the single preset: learning_rate 0.05, ..." (or that none does). */
 export function differenceSummary(job, rows) {
   const differ = rows.filter((r) => r.differs);
   if (!differ.length) return `Every parameter is the ${job.system} preset's.`;
   return `${differ.length} of ${rows.length} parameters differ from the ${job.system} preset: ` +
-    differ.map((r) => `${r.name} ${fmtParam(r.value)}`).join(', ') + '.';
+    differ.map((r) => `${r.name} ${Array.isArray(r.value) ? `[${listLines(r.value).join('; ')}]` : fmtParam(r.value)}`).join(', ') + '.';
 }
 
 /**

@@ -146,5 +146,13 @@ def test_a_drift_jobs_utility_chart_marks_its_scheduled_event(page, server, scre
     assert texts == ["frequencies → 2 50%", "new-profiles 30%"], texts
     shapes = chart.evaluate("gd => gd.layout.shapes.map(s => [s.x0, s.line.dash])")
     assert sorted(shapes) == [[20, "dash"], [50, "dash"]]
+    # the configuration lists the schedule one event per line across the card, the preset's beside it
+    row = page.locator("tr.list-param[data-param=schedule]")
+    assert row.locator("li").all_inner_texts() == [
+        "episode 50: new-profiles, fraction 0.3, period 1", "episode 20: frequencies, fraction 0.5, period 2",
+        "episode 500: new-profiles, fraction 1, period 1"]
+    assert "preset: episode 50: new-profiles, fraction 0.3, period 1" in row.inner_text()
+    heights = row.locator("li").evaluate_all("els => els.map(e => e.getBoundingClientRect().height)")
+    assert max(heights) < 2 * min(heights) + 1, f"one event per line, not a wrapped character column: {heights}"
     chart.scroll_into_view_if_needed()
     page.screenshot(path=str(screenshots / "job-drift-events.png"), full_page=True)

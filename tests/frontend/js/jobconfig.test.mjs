@@ -1,6 +1,6 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { configRows, differenceSummary, summaryCsv, configJson } from '../../../frontend/js/jobconfig.js';
+import { configRows, differenceSummary, summaryCsv, configJson, listLines } from '../../../frontend/js/jobconfig.js';
 import { sameValue } from '../../../frontend/js/stats.js';
 
 const schema = {
@@ -59,4 +59,11 @@ test('configJson holds what re-running the job needs', () => {
   const parsed = JSON.parse(configJson(job));
   assert.deepEqual(Object.keys(parsed), ['id', 'name', 'system', 'algorithms', 'seeds', 'episodes', 'params', 'config_hash', 'version']);
   assert.equal(parsed.params.learning_rate, 0.05);
+});
+
+test('listLines: an event list one event per line, its episode and change first; a plain list item by item', () => {
+  assert.deepEqual(listLines([{ episode: 50, change: 'new-profiles', fraction: 0.3 }, { change: 'frequencies', period: 2, episode: 0 }]),
+    ['episode 50: new-profiles, fraction 0.3', 'episode 0: frequencies, period 2']);
+  assert.deepEqual(listLines([1, 4, 2.5]), ['1', '4', '2.5']);
+  assert.deepEqual(listLines([]), ['none']);
 });
