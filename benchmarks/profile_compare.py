@@ -74,7 +74,7 @@ WRAP_PLOTLY = """
 SCRIPT_EVENTS = {"EvaluateScript", "v8.evaluateModule", "FunctionCall", "TimerFire", "FireAnimationFrame",
                  "EventDispatch", "RunMicrotasks", "v8.compile", "v8.compileModule", "V8.CompileCode",
                  "v8.produceCache", "v8.produceModuleCache", "XHRReadyStateChange", "FireIdleCallback",
-                 "v8.run", "V8.Execute", "v8.callFunction"}
+                 "v8.run", "V8.Execute", "v8.callFunction", "v8.callAsConstructor"}
 STYLE_LAYOUT = {"UpdateLayoutTree", "Layout", "RecalculateStyles", "UpdateLayerTree",
                 "IntersectionObserverController::computeIntersections"}
 PAINT = {"PrePaint", "Paint", "PaintImage", "Layerize", "Commit", "CompositeLayers", "UpdateLayer",
@@ -153,8 +153,8 @@ def breakdown(trace: dict) -> dict:
                 return "our modules: compile, evaluate"
             if in_plotly_call(e["ts"]):
                 return "Plotly.react: script"
-            for p in reversed(parents):
-                if p.get("_kind", "").startswith(("plotly.js", "our modules", "Plotly.react")):
+            for p in reversed(parents):  # (a module's evaluation event may hold later calls: not inherited)
+                if p.get("_kind", "").startswith(("plotly.js", "Plotly.react")):
                     return p["_kind"]
             return "script: ours and the rest"
         if name in STYLE_LAYOUT:
