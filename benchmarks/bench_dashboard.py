@@ -4,8 +4,10 @@
    navigation to the runs table being rendered and interactive, and the latency of a filter change.
 2. A comparison of 10 jobs x 7 configurations x 30 seeds x 1,000 episodes (the large preset, really
    simulated by `mgrao serve`'s workers; each job gets its own 30 seeds so the pooled groups hold 300
-   runs): time from navigation to both compare plots rendered with plotly.js not in the browser cache
-   (a fresh context each time; target < 1 s) and cached (target < 400 ms), in-app navigation, and the
+   runs): time from navigation to the compare charts on screen drawn (``compare-rendered``; the bars
+   below the fold follow, ``compare-all-drawn``) with plotly.js not in the browser cache (a fresh
+   context each time; target < 1 s) and cached (target < 400 ms; in an incognito context, which keeps
+   no V8 code cache, and in a browser profile on disk, which does), in-app navigation, and the
    /api/compare time alone.
 
 Run:  python benchmarks/bench_dashboard.py [--jobs 10000] [--compare-jobs 10] [--episodes 1000] [--repeat 5]
