@@ -119,9 +119,10 @@ def breakdown(trace: dict) -> dict:
     mark = max((e for e in marks if e.get("name") == "compare-rendered"), key=lambda e: e["ts"])
     end = mark["ts"]
     start = end - mark["args"]["data"]["startTime"] * 1000  # the page's time origin (navigation start)
+    marks = [e for e in marks if e.get("pid") == mark["pid"]]  # this page's renderer, not another's
     first = [e["ts"] for e in marks if e.get("name") == "compare-first-chart" and e["ts"] > start]
     all_drawn = [e["ts"] for e in marks if e.get("name") == "compare-all-drawn" and e["ts"] > start]
-    pid, tid = main_thread(events)
+    pid, tid = mark["pid"], mark["tid"]  # the mark is made on the page's main thread
     main = sorted((e for e in events if e.get("pid") == pid and e.get("tid") == tid and e.get("ph") == "X"
                    and "dur" in e and e["ts"] < end and e["ts"] + e["dur"] > start),
                   key=lambda e: (e["ts"], -e["dur"]))
@@ -209,7 +210,8 @@ def breakdown(trace: dict) -> dict:
         busy += max(0.0, min(e["_end"], end) - max(e["ts"], start))
         add_self(e)
     # fetches: resource send -> finish
-    sends = {e["args"]["data"]["requestId"]: e for e in events if e.get("name") == "ResourceSendRequest"}
+    sends = {e["args"]["data"]["requestId"]: e for e in events
+             if e.get("name") == "ResourceSendRequest" and e.get("pid") == pid}
     finishes = {e["args"]["data"]["requestId"]: e for e in events if e.get("name") == "ResourceFinish"}
     fetches = []
     for rid, s in sends.items():
