@@ -175,9 +175,18 @@ document.querySelector('.skip-link').addEventListener('click', (ev) => {
 if (!location.hash) history.replaceState(null, '', '#/runs');
 ready(); // the algorithm roles (GET /api/systems), asked for while the first view loads its data
 render();
-checkHealth();
-setInterval(checkHealth, 10000);
-startJobsPoll();
+// The header's health and the jobs poll start once the first view has drawn what it shows (or after
+// 1.5 s): their requests and answers then do not compete with the view's own on a cold load.
+let headerStarted = false;
+function startHeader() {
+  if (headerStarted) return;
+  headerStarted = true;
+  checkHealth();
+  setInterval(checkHealth, 10000);
+  startJobsPoll();
+}
+window.addEventListener('view-mounted', startHeader, { once: true });
+setTimeout(startHeader, 1500);
 window.addEventListener('jobs-live', (ev) => {
   header.running = ev.detail.running;
   header.queued = ev.detail.queued;

@@ -72,7 +72,88 @@ export async function draw(el, traces, layout, config = {}) {
 }
 
 export function purge(el) {
+  forgetDraw(el);
   if (plotlyReady() && el) window.Plotly.purge(el);
+}
+
+// Charts drawn when seen: el -> {drawn, pending, promise, resolve, observer}
+const lazy = new WeakMap();
+
+/** True when `el` has a box on screen within `margin` pixels of the viewport. */
+export function nearViewport(el, margin = 0) {
+  const r = el.getBoundingClientRect();
+  if (!r.width && !r.height) return false;
+  return r.top < window.innerHeight + margin && r.bottom > -margin && r.left < window.innerWidth + margin && r.right > -margin;
+}
+
+/** When the page is next idle after its next frame (requestIdleCallback, else a timeout); returns a cancel. */
+function afterFirstPaint(fn) {
+  let cancelled = false;
+  const run = () => { if (!cancelled) fn(); };
+  requestAnimationFrame(() => setTimeout(() => {
+    if (cancelled) return;
+    if (typeof window.requestIdleCallback === 'function') window.requestIdleCallback(run, { timeout: 3000 });
+    else setTimeout(run, 50);
+  }, 0));
+  return () => { cancelled = true; };
+}
+
+/**
+ * Draw a chart now when it is on screen (or within `margin` px of it), else when it scrolls near
+ * (IntersectionObserver) or, whichever comes first, in idle time after the page's first paint: a
+ * chart below the fold does not hold up the ones a reader sees first, and every chart is drawn.
+ * `drawFn()` draws it (returns a promise); called again before the chart was drawn, only the last
+ * `drawFn` runs. Once a chart was drawn, later calls draw at once. Resolves when `drawFn` has drawn;
+ * `el.dataset.drawn` says how it was triggered (`now`, `seen` or `idle`). `options.after`: a promise
+ * (the charts on screen drawn) before which the idle time does not count, so that an off-screen chart
+ * never runs ahead of them; `options.margin`: pixels around the viewport that count as near.
+ */
+export function drawWhenSeen(el, drawFn, options = {}) {
+  const margin = options.margin ?? 100;
+  let state = lazy.get(el);
+  if (!state) {
+    state = { drawn: false, pending: null };
+    lazy.set(el, state);
+  }
+  if (state.drawn || nearViewport(el, margin)) {
+    if (!state.drawn) el.dataset.drawn = 'now';
+    state.drawn = true;
+    return Promise.resolve(drawFn());
+  }
+  state.pending = drawFn;
+  if (!state.promise) {
+    state.promise = new Promise((resolve) => { state.resolve = resolve; });
+    const run = (how) => {
+      if (state.drawn || !state.pending) return;
+      state.drawn = true;
+      state.observer.disconnect();
+      state.cancelIdle();
+      const fn = state.pending;
+      state.pending = null;
+      el.dataset.drawn = how;
+      Promise.resolve(fn()).then(state.resolve, state.resolve);
+    };
+    state.observer = new IntersectionObserver((entries) => {
+      if (entries.some((e) => e.isIntersecting)) run('seen');
+    }, { rootMargin: `${margin}px` });
+    state.observer.observe(el);
+    let cancel = null;
+    let forgotten = false;
+    state.cancelIdle = () => { forgotten = true; if (cancel) cancel(); };
+    Promise.resolve(options.after).catch(() => {}).then(() => {
+      if (!forgotten) cancel = afterFirstPaint(() => run('idle'));
+    });
+  }
+  return state.promise;
+}
+
+/** Stop waiting to draw `el` (the view is left). */
+export function forgetDraw(el) {
+  const state = el && lazy.get(el);
+  if (!state) return;
+  if (state.observer) state.observer.disconnect();
+  if (state.cancelIdle) state.cancelIdle();
+  lazy.delete(el);
 }
 
 // A band light enough to read every line through it, even where the bands of several

@@ -4,7 +4,7 @@
 
 import { api } from './api.js';
 import { h, notice, nextId, kindBadge } from './ui.js';
-import { draw, purge, loadPlotly, meanBandTraces, utilityLayout, pctBarTrace, bandsBelow, bandAlpha } from './charts.js';
+import { draw, drawWhenSeen, purge, loadPlotly, meanBandTraces, utilityLayout, pctBarTrace, bandsBelow, bandAlpha } from './charts.js';
 import { parseIds, badIds, DEFINITIONS, groupKey, pctErrorBars, fmtNumber, fmtPct, fmtCI, seedCount, smoothingNote, episodesPerPoint, bandCaution } from './stats.js';
 import { compareLabels, ready, rememberAnswer } from './algorithms.js';
 import { configurations, groupLabels, diffTable, facets, lineStyles, legendLayout, barsLayout } from './comparegroups.js';
@@ -15,6 +15,7 @@ const SMOOTH_CHOICES = [1, 5, 11, 25, 51, 101]; // episodes, centred
 
 export async function mount(root, params, ctx) {
   const t0 = performance.now();
+  delete root.dataset.allDrawnMs; // set again once every chart of this view is drawn
   loadPlotly(); // start fetching/evaluating plotly.js while the API answers
   const state = {
     jobs: parseIds(params.jobs),
@@ -41,8 +42,9 @@ export async function mount(root, params, ctx) {
   const body = h('div', { 'aria-live': 'polite' });
   root.append(pickForm, picker, body);
 
-  // Recent succeeded jobs to pick from (tick to add/remove).
-  api.listJobs({ status: 'succeeded', limit: 20 }, { signal: controller.signal }).then((page) => {
+  // Recent succeeded jobs to pick from (tick to add/remove): folded away under the charts' jobs, so
+  // asked for once the charts on screen are drawn; at once when no job is given.
+  const loadPicker = () => api.listJobs({ status: 'succeeded', limit: 20 }, { signal: controller.signal }).then((page) => {
     if (stopped || !page.data.length) return;
     const list = h('ul', { class: 'pick-list' }, page.data.map((j) => {
       const cbId = nextId('pick');
@@ -56,6 +58,7 @@ export async function mount(root, params, ctx) {
   }).catch(() => {});
 
   const wrong = badIds(params.jobs);
+  if (wrong.length || !state.jobs.length) loadPicker();
   if (wrong.length) {
     body.append(notice('error', `jobs=${params.jobs}: ${wrong.map((w) => `“${w}”`).join(', ')} ${wrong.length > 1 ? 'are not job ids' : 'is not a job id'}. ` +
       'Give job ids as whole numbers separated by commas, e.g. 3, 5, 8.'));
@@ -73,6 +76,7 @@ export async function mount(root, params, ctx) {
   } catch (e) {
     if (e.name === 'AbortError') return null;
     body.replaceChildren(notice('error', `Cannot compare jobs ${state.jobs.join(', ')}: ${e.message}`));
+    loadPicker();
     return () => { stopped = true; controller.abort(); };
   }
   rememberAnswer(data.algorithms, data.groups.map((g) => g.algorithm)); // described with the data: no request
@@ -82,7 +86,8 @@ export async function mount(root, params, ctx) {
     || compareLabels(a.algorithm, b.algorithm));
   if (!groups.length) {
     body.replaceChildren(notice('empty', 'These jobs have no results to compare (only succeeded jobs have results).'));
-    return () => { stopped = true; };
+    loadPicker();
+    return () => { stopped = true; controller.abort(); };
   }
   const configs = configurations(data.jobs);
   const external = new Set(data.jobs.filter((j) => j.kind === 'external').map((j) => j.id));
@@ -165,7 +170,7 @@ export async function mount(root, params, ctx) {
       h('section', { 'aria-labelledby': 'h-ct' }, h('h2', { id: 'h-ct' }, 'Pooled final utility ', tableCsvButton(pooledTable, 'compare-final-utility.csv')),
         h('div', { class: 'table-wrap' }, pooledTable), h('p', { class: 'help definitions' }, DEFINITIONS))));
 
-  async function redraw() {
+  function redraw() {
     ctx.setQuery({
       jobs: state.jobs.join(','),
       smooth: state.smooth > 1 ? state.smooth : '',
@@ -206,6 +211,9 @@ export async function mount(root, params, ctx) {
     }).filter(Boolean);
     caution.textContent = state.bands ? cautions.join(' ') : '';
     const unlabelled = [];
+    // The charts on screen are drawn first; one below the fold when it scrolls near or once the page is idle.
+    const stampWhenDrawn = (el, drawing) => drawing.then(() => { el.dataset.rendered = String(Date.now()); });
+    const onScreen = [];
     const p1 = Promise.all(charts.map((c, k) => {
       // the plot area keeps its height and the legend its place below the axis title, however many groups
       const names = traces[k].filter((t) => t.meta.kind === 'mean').map((t) => t.name);
@@ -215,24 +223,38 @@ export async function mount(root, params, ctx) {
       const title = systems.length > 1 ? systems[k] : '';
       const layout = { ...utilityLayout(title), ...fit };
       if (title) layout.title = { text: title, x: 0.01, xanchor: 'left', y: 1, yref: 'container', yanchor: 'top', pad: { t: 10 } };
-      return draw(c, bandsBelow(traces[k]), withAxis(layout, axisUi.axis));
+      const drawing = drawWhenSeen(c, () => draw(c, bandsBelow(traces[k]), withAxis(layout, axisUi.axis)), { after: shownFirst });
+      if (c.dataset.drawn === 'now') onScreen.push(drawing);
+      return stampWhenDrawn(c, drawing);
     }));
     const barFit = barsLayout(barIdx.map((i) => labels[i]));
     bars.style.height = `${barFit.height}px`;
-    const p2 = draw(bars, [pctBarTrace(barIdx.map((i) => labels[i]), pctErrorBars(barIdx.map((i) => groups[i].summary)), barIdx.map((i) => styles[i].color))],
+    const barTrace = pctBarTrace(barIdx.map((i) => labels[i]), pctErrorBars(barIdx.map((i) => groups[i].summary)), barIdx.map((i) => styles[i].color));
+    const barDrawing = drawWhenSeen(bars, () => draw(bars, [barTrace],
       { yaxis: { title: { text: '% from uniform' }, zeroline: true }, xaxis: { automargin: true, tickangle: barFit.tickangle },
-        height: barFit.height, margin: barFit.margin, hovermode: 'closest', showlegend: false });
+        height: barFit.height, margin: barFit.margin, hovermode: 'closest', showlegend: false }), { after: shownFirst });
+    if (bars.dataset.drawn === 'now') onScreen.push(barDrawing);
+    const p2 = stampWhenDrawn(bars, barDrawing);
     legendNote.textContent = unlabelled.length ? `${systems.length > 1 ? `${unlabelled.join(', ')}: t` : 'T'}oo many ` +
       'configurations for a legend on the chart: their colours and dashes are those under “Shown configurations” above.' : '';
-    await Promise.all([p1, p2]);
-    const stamp = String(Date.now());
-    for (const c of charts) c.dataset.rendered = stamp;
+    resolveShown(Promise.all(onScreen));
+    return { onScreen: Promise.all(onScreen), all: Promise.all([p1, p2]) };
   }
+  // The first draw's charts on screen: until they are drawn, no chart off screen is drawn in idle time.
+  let resolveShown;
+  const shownFirst = new Promise((resolve) => { resolveShown = resolve; });
 
-  await redraw();
-  if (charts.length > 1) syncZoom(charts);
+  const drawn = redraw();
+  await drawn.onScreen;
+  if (stopped) return null;
+  loadPicker();
   const ms = performance.now() - t0;
-  performance.mark('compare-rendered');
+  performance.mark('compare-rendered'); // what the viewport shows is drawn
   root.dataset.renderMs = ms.toFixed(1);
+  drawn.all.then(() => {
+    if (charts.length > 1) syncZoom(charts); // every chart drawn: each has its plotly_relayout
+    performance.mark('compare-all-drawn'); // and every chart, those below the fold too
+    root.dataset.allDrawnMs = (performance.now() - t0).toFixed(1);
+  });
   return () => { stopped = true; controller.abort(); for (const p of plots) purge(p); };
 }

@@ -31,7 +31,7 @@ export function startJobsPoll() {
   document.addEventListener('visibilitychange', () => {
     if (document.hidden) { clearTimeout(timer); timer = null; } else if (!timer && !asking) tick();
   });
-  tick();
+  if (!timer && !asking) tick(); // pollJobsSoon may have started it already
 }
 
 /** Ask now rather than at the next tick (after a change made by this page). */

@@ -91,6 +91,7 @@ def test_large_jobs_seven_configurations_keep_their_registry_colours_in_job_and_
 
         page.goto(f"/#/compare?jobs={job['id']}")
         page.locator("#compare-chart[data-rendered]").wait_for()
+        page.locator("main[data-all-drawn-ms]").wait_for()  # every chart, those below the fold too
         compared = {t["config"].split(" · ")[-1]: t["color"] for t in traces(page, "#compare-chart", "mean")}
         assert compared == colour  # the same configuration, the same colour
         page.screenshot(path=str(screenshots / "compare-large-seven-colours.png"), full_page=True)

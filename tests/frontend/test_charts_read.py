@@ -151,6 +151,7 @@ def test_compare_with_many_groups_keeps_its_plot_legend_and_titles_apart(browser
         first_is_single = page.get_attribute("#compare-chart", "data-system") == "single"
         single = traces(page, "#compare-chart" if first_is_single else "#compare-chart-2", "mean")
         assert len(single) == 13 and len({t["color"] for t in single}) == 8  # eight colours, then dashes
+        page.locator("#compare-bars[data-rendered]").wait_for()  # below the fold: drawn once the page is idle
         bars = box(page, "#compare-bars .nsewdrag")
         assert bars["height"] >= 240, f"the % from uniform bars are squeezed to {bars['height']} px by their labels"
         links = page.locator("table.summary td.job-links a")

@@ -32,6 +32,7 @@ def test_compare_facets_by_system_and_labels_by_difference(browser, server, scre
     with page_at(browser, server) as page:
         page.goto(f"/#/compare?jobs={','.join(str(j['id']) for j in jobs)}&smooth=11")
         page.locator("#compare-chart[data-rendered]").wait_for()
+        page.locator("main[data-all-drawn-ms]").wait_for()  # every chart, those below the fold too
         page.locator("#compare-chart-2[data-rendered]").wait_for()
         systems = {page.get_attribute(f"#{i}", "data-system"): f"#{i}" for i in ("compare-chart", "compare-chart-2")}
         assert set(systems) == {"single", "large"}  # one chart per system

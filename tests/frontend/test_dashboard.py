@@ -181,6 +181,7 @@ def test_compare_two_jobs_and_reload(page, server, screenshots, two_jobs):
     # Same configuration in both jobs pools into one group per algorithm: 3 lines + 3 bands.
     assert len([t for t in data if t["kind"] == "mean"]) == 3
     assert len([t for t in data if t["kind"] == "band"]) == 3
+    page.locator("#compare-bars[data-rendered]").wait_for()  # below the fold: drawn once the page is idle
     bars = page.eval_on_selector("#compare-bars", "el => el.data[0]")
     assert bars["type"] == "bar" and "arrayminus" in bars["error_y"]
     page.screenshot(path=str(screenshots / "compare.png"), full_page=True)

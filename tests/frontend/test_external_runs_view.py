@@ -58,6 +58,7 @@ def test_an_external_run_is_marked_and_compared_beside_built_in_runs_of_its_worl
 
         page.goto(f"/#/compare?jobs={built_in['id']},{run.id}")
         page.locator("#compare-chart[data-rendered]").wait_for()
+        page.locator("main[data-all-drawn-ms]").wait_for()  # every chart, those below the fold too
         traces = page.eval_on_selector("#compare-chart", """el => el.data.filter(t => t.meta && t.meta.kind === 'mean')
             .map(t => ({config: t.meta.config, color: t.line.color}))""")
         configs = {t["config"]: t["color"] for t in traces}

@@ -49,6 +49,7 @@ def test_the_example_learner_is_compared_beside_uniform_and_mgrao_max(browser, s
     with page_at(browser, server, height=1000) as page:
         page.goto(f"/#/compare?jobs={built_in['id']},{job_id}")
         page.locator("#compare-chart[data-rendered]").wait_for()
+        page.locator("main[data-all-drawn-ms]").wait_for()  # every chart, those below the fold too
         configs = page.eval_on_selector("#compare-chart", """el => el.data
             .filter(t => t.meta && t.meta.kind === 'mean').map(t => t.meta.config)""")
         assert set(configs) == {"single · uniform", "single · mgrao-max", "single · value-prop · external"}

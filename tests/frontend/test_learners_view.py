@@ -56,6 +56,7 @@ def test_a_job_with_the_learners_draws_them_in_job_and_compare_views(browser, se
 
         page.goto(f"/#/compare?jobs={job['id']}")
         page.locator("#compare-chart[data-rendered]").wait_for()
+        page.locator("main[data-all-drawn-ms]").wait_for()  # every chart, those below the fold too
         compared = {t["config"].split(" · ")[-1]: t["color"] for t in traces(page, "#compare-chart", "mean")}
         assert compared == expected
         page.screenshot(path=str(screenshots / "compare-standard-learners.png"), full_page=True)

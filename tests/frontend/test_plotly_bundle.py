@@ -62,6 +62,7 @@ def test_every_chart_of_every_view_uses_a_trace_type_the_served_bundle_registers
     page.locator("#weights-heatmap .main-svg").first.wait_for(timeout=60000)
     seen["job"] = _traces(page, "job view")
     page.goto(f"/#/compare?jobs={first['id']},{second['id']}")
+    page.locator("main[data-all-drawn-ms]").wait_for(timeout=60000)  # the bars below the fold too
     seen["compare"] = _traces(page, "compare view")
     page.goto(f"/#/studies/{study}")
     wait_for(lambda: page.evaluate("() => document.querySelectorAll('.js-plotly-plot').length") >= 4, 60,
