@@ -1,0 +1,80 @@
+"""Several resources: what each added resource costs in kernel time and in memory.
+
+Run: ``python benchmarks/bench_resources.py [--seeds 20] [--repeats 5]``. For 1, 2, 4 and 8 resources, each in a
+fresh subprocess after a warm-up that loads (or compiles) the kernel: ``large`` (50 parents, one child) with
+uniform, mgrao-1:1 and mgrao-max (MG-RAO keeps a PW per resource), 100 episodes, under ``resource_credit =
+by-share`` (the costlier credit: each resource's PW learns its own share). Prints the median wall time of
+``run_experiment``, the peak of the memory numpy allocates while it runs (``tracemalloc``, which sees every
+array the runner and the budget count) and the budget's own count (``chunk_cost``), then the cost of each
+added resource as a multiple of the single-resource run: ``(value(R) - value(1)) / ((R - 1) * value(1))``.
+The target: at most 1 (each added resource costs at most the single-resource run again).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
+_POINT = textwrap.dedent(
+    """
+    import json, sys, time, tracemalloc
+    from mgrao_core import make_spec, run_experiment
+    from mgrao_core.budget import chunk_cost
+    args = json.loads(sys.argv[1])
+    overrides = {"n_resources": args["resources"]}
+    if args["resources"] > 1:
+        overrides["resource_credit"] = "by-share"
+    run_experiment(make_spec("large", ["uniform", "mgrao-1:1", "mgrao-max"], seeds=1, episodes=2,
+                             overrides=overrides))  # load the compiled kernel
+    spec = make_spec("large", ["uniform", "mgrao-1:1", "mgrao-max"], seeds=args["seeds"], episodes=100,
+                     overrides=overrides)
+    times = []
+    for _ in range(args["repeats"]):
+        start = time.perf_counter()
+        run_experiment(spec)
+        times.append(time.perf_counter() - start)
+    tracemalloc.start()
+    run_experiment(spec)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    print(json.dumps({"seconds": sorted(times)[len(times) // 2], "peak": peak,
+                      "counted": chunk_cost(spec, len(spec.seeds)).total}))
+    """
+)
+RESOURCES = (1, 2, 4, 8)
+
+
+def measure(resources: int, seeds: int, repeats: int) -> dict:
+    """One point in a fresh interpreter of this checkout."""
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    env = {**os.environ, "PYTHONPATH": root}
+    out = subprocess.run([sys.executable, "-c", _POINT, json.dumps({"resources": resources, "seeds": seeds,
+                                                                    "repeats": repeats})],
+                         env=env, check=True, capture_output=True, text=True, cwd=root)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=20)
+    parser.add_argument("--repeats", type=int, default=5)
+    args = parser.parse_args()
+    points = {r: measure(r, args.seeds, args.repeats) for r in RESOURCES}
+    base = points[1]
+    print(f"large, uniform + mgrao-1:1 + mgrao-max, {args.seeds} seeds x 100 episodes, median of {args.repeats}")
+    print(f"{'resources':>9} {'time (s)':>9} {'peak (MiB)':>11} {'counted (MiB)':>14} "
+          f"{'time/added':>11} {'peak/added':>11}")
+    for r, point in points.items():
+        added = [(point[k] - base[k]) / ((r - 1) * base[k]) if r > 1 else float("nan") for k in ("seconds", "peak")]
+        print(f"{r:>9} {point['seconds']:>9.3f} {point['peak'] / 2**20:>11.1f} {point['counted'] / 2**20:>14.1f} "
+              f"{added[0]:>11.2f} {added[1]:>11.2f}")
+    worst = max((points[r][k] - base[k]) / ((r - 1) * base[k]) for r in RESOURCES[1:] for k in ("seconds", "peak"))
+    print(f"worst cost of an added resource: {worst:.2f} x the single-resource run (target: at most 1)")
+
+
+if __name__ == "__main__":
+    main()
