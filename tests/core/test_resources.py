@@ -238,3 +238,24 @@ def test_bad_input_names_the_field_and_the_limit(overrides, field, message):
         make_params(overrides)
     assert info.value.field == field
     assert message in info.value.message
+
+
+@pytest.mark.parametrize("n_resources", [1, 2, 8])
+def test_the_budget_bounds_what_a_chunk_allocates(n_resources):
+    # what numpy allocates while a chunk runs (tracemalloc sees every array of the runner and the oracle)
+    # stays within what budget.chunk_cost counts for it, at every number of resources
+    import tracemalloc
+
+    from mgrao_core.budget import chunk_cost
+    from mgrao_core.runner import run_chunk
+
+    spec = make_spec("multi", ALGORITHMS, seeds=[0, 1, 2], episodes=30,
+                     overrides={"n_resources": n_resources, "resource_credit": "by-share"})
+    run_chunk(spec, spec.seeds)  # compiled already: the peak is the chunk's own
+    tracemalloc.start()
+    try:
+        run_chunk(spec, spec.seeds)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak <= chunk_cost(spec, len(spec.seeds)).total
