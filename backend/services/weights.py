@@ -28,9 +28,18 @@ def _shown(shape: list[int]) -> bool:
     return bool(shape) and shape[1] > 0 and math.prod(shape) <= MAX_WEIGHT_VALUES
 
 
-def n_resources_of(config: dict[str, Any]) -> int:
-    """The resources of a job's system (``n_resources`` is stored only away from its default, 1)."""
-    return int((config.get("params") or {}).get("n_resources", 1))
+def n_resources_of(config: dict[str, Any], shape: list[int]) -> int:
+    """The resources whose weights a run of a job stored: 1, or ``n_resources`` when stored resource-major.
+
+    ``n_resources`` is in a job's params only away from its default, 1. A simulated run of several resources
+    stores ``n_resources * n_children`` rows (:func:`backend.store.queue._weights`); an external run's
+    weights are one allocation per child whatever its system says.
+    """
+    params = config.get("params") or {}
+    n_resources = int(params.get("n_resources", 1))
+    if n_resources > 1 and shape and shape[0] == n_resources * int(params.get("n_children", -1)):
+        return n_resources
+    return 1
 
 
 def _answer(combined: np.ndarray, groups: np.ndarray | None, shape: list[int], n_resources: int = 1) -> dict[str, Any]:
@@ -89,7 +98,8 @@ def mean_over_seeds(session: Session, job_id: int, algorithm: str) -> dict[str, 
         count += 1
     if combined is None:  # deleted meanwhile
         return {"combined": [], "groups": []}
-    return _answer(combined / count, None if groups is None else groups / count, shape, n_resources_of(job.config))
+    return _answer(combined / count, None if groups is None else groups / count, shape,
+                   n_resources_of(job.config, shape))
 
 
 def of_seed(session: Session, *, job_id: int, seed: int | None = None) -> dict[str, Any]:
@@ -123,7 +133,7 @@ def of_seed(session: Session, *, job_id: int, seed: int | None = None) -> dict[s
             blob = session.scalar(select(Run.group_weights).where(Run.id == run_id))
             groups = np.frombuffer(blob, dtype="<f8")
         answer = {"algorithm": algorithm} | _answer(np.frombuffer(combined_blob, dtype="<f8"), groups, shape,
-                                                    n_resources_of(job.config))
+                                                    n_resources_of(job.config, shape))
         answer["membership"] = None if not meta else _membership(
             session.scalar(select(Run.membership).where(Run.id == run_id)), meta)
         configurations.append(answer)
