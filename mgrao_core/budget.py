@@ -101,6 +101,12 @@ def chunk_cost(spec: Experiment, n_seeds: int) -> ChunkCost:
     per_seed_world = _F * (p.n_composite_types * types + 2 * parents * per_composite + children
                            + 2 * children * types)  # capability, resource per type
     worlds = n_seeds * (per_seed_world + _F * children * types)  # the stacked resources per type
+    resources = p.n_resources
+    if resources > 1:  # several resources: amounts, needs, each resource per type (and its stacked copy),
+        # the one-split resource per type (the oracle's); the kernel's per-lane shares of each task's quality
+        worlds += n_seeds * _F * (children * resources + types * resources + 2 * children * resources * types
+                                  + children * types)
+        worlds += _F * lanes * (parents * per_composite * resources + 2 * resources + 2 * per_composite)
     block = block_episodes(spec, n_seeds)
     volatile = p.leave_probability > 0 or p.join_probability > 0
     per_episode = parents * (
@@ -116,6 +122,8 @@ def chunk_cost(spec: Experiment, n_seeds: int) -> ChunkCost:
     families = {family_of(a).name: family_of(a) for a in algorithms}
     preparation = sum(f.preparation_bytes(p, n_seeds) for f in families.values())
     weights = sum(children * (a.n_groups + 1) * types for a in algorithms) * n_seeds
+    if p.n_resources > 1:  # each resource's final allocation and PW beside the first's
+        weights *= 1 + p.n_resources
     results = _F * (2 * weights + lanes * spec.episodes)
     return ChunkCost(state, worlds, draws, utilities, preparation, results)
 
@@ -124,6 +132,8 @@ def result_bytes(spec: Experiment) -> int:
     """Bytes of every run's stored utilities and final weights (what :data:`MAX_RESULT_BYTES` bounds)."""
     p = spec.params
     per_seed = sum(p.n_children * (a.n_groups + 1) * p.n_types for a in spec.parsed_algorithms)
+    if p.n_resources > 1:  # each resource's final allocation and PW beside the first's
+        per_seed *= 1 + p.n_resources
     return _F * len(spec.seeds) * (len(spec.algorithms) * spec.episodes + per_seed)
 
 

@@ -101,6 +101,9 @@ class MgraoParallelEnv(ParallelEnv):
         self.episodes = int(episodes)
         self.render_mode = None
         p = self.params
+        if p.n_resources > 1:  # an action is one allocation; several resources would need one per resource
+            raise ConfigError("n_resources", f"the PettingZoo environment supports one resource (got {p.n_resources}): "
+                                             "its action is one allocation over the atomic types (docs/platform.md)")
         self.possible_agents = [f"child_{c}" for c in range(p.n_children)]
         self.agents: list[str] = []
         self._index = {agent: c for c, agent in enumerate(self.possible_agents)}

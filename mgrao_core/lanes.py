@@ -26,6 +26,8 @@ ENVIRONMENT: tuple[StateArray, ...] = (
     StateArray("groups", ("lanes",), "int64", help="parent groups per child of the lane's algorithm (0: none)"),
     StateArray("weights", ("lanes", "children", "n_types"), fill="uniform",
                help="each child's allocation in the current episode"),
+    StateArray("resource_weights", ("lanes", "children", "extra_resources", "n_types"), fill="uniform",
+               help="with several resources, each child's allocation of each resource in the current episode"),
     StateArray("estimates", ("lanes", "n_parents", "choices", "children"),
                help="each parent's running mean of what each child gave back"),
     StateArray("tries", ("lanes", "n_parents", "choices", "children"), "int64",

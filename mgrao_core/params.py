@@ -27,6 +27,9 @@ CHANGES = ("new-profiles", "new-composites", "frequencies")
 LAST_EPISODE = 99_999
 """The last episode an event may name: :data:`mgrao_core.spec.MAX_EPISODES` - 1 (spec imports this module)."""
 MAX_PERIOD = 1000
+MAX_RESOURCES = 8
+RESOURCE_COMBINATIONS = ("scarcest", "weighted")
+RESOURCE_CREDITS = ("shared", "by-share")
 
 
 _ENVIRONMENT: tuple[Parameter, ...] = (
@@ -187,14 +190,41 @@ _DYNAMICS: tuple[Parameter, ...] = (
         "system", 0.0, 3.0,
     ),
 )
+_RESOURCES: tuple[Parameter, ...] = (
+    # Several resources (issue 20, point 1): docs/model.md ("Several resources").
+    Parameter(
+        "n_resources", "int", 1,
+        "Resources each child owns, each drawn like the first (Normal(resource_mean, resource_sd) clipped into "
+        "(0, 1]); 1 is the paper's experiments.",
+        "resources", 1, MAX_RESOURCES,
+    ),
+    Parameter(
+        "need_concentration", "float", 1.0,
+        "Dirichlet concentration of each atomic type's needs of the resources (drawn per seed; unused with one "
+        "resource).",
+        "resources", 0.01, 100.0,
+    ),
+    Parameter(
+        "resource_combination", "choice", "scarcest",
+        "How several resources make one atomic task's quality: the scarcest relative to the type's need decides "
+        "(scarcest), or a need-weighted geometric mean of the resources relative to their needs (weighted).",
+        "resources", choices=RESOURCE_COMBINATIONS,
+    ),
+    Parameter(
+        "resource_credit", "choice", "shared",
+        "MG-RAO with several resources: every resource's PW learns the whole returned value (shared, the paper "
+        "literally) or its share of it, the resource's output elasticity in the combination (by-share).",
+        "resources", choices=RESOURCE_CREDITS,
+    ),
+)
 
 PARAMETERS: tuple[Parameter, ...] = (
-    *_ENVIRONMENT, *(p for f in FAMILIES for p in f.parameters), *_ALLOCATION, *_DYNAMICS,
+    *_ENVIRONMENT, *(p for f in FAMILIES for p in f.parameters), *_ALLOCATION, *_DYNAMICS, *_RESOURCES,
 )
 """Every parameter: the system's, values' and quality's, then each algorithm family's own (MG-RAO's
 ``learning_rate``, ``trace_decay``, ``temperature``, declared in :mod:`mgrao_core.algorithms.mgrao`), then
 the parents' allocation and volatility, then the system's dynamics (frequencies, schedule, unpredictable
-parents, capability)."""
+parents, capability), then several resources (``n_resources`` and how they combine)."""
 PARAMETERS_BY_NAME: dict[str, Parameter] = {p.name: p for p in PARAMETERS}
 
 

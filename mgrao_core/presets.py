@@ -87,6 +87,12 @@ PRESETS: dict[str, Preset] = {
         {"n_parents": 50, "n_children": 1, "frequency_profile": "two-speed", "slow_period": 4},
         ("uniform", "mgrao-1:1", "mgrao-2:1", "mgrao-5:1", "mgrao-10:1", "mgrao-25:1", "mgrao-max"),
     ),
+    "multi-resource": Preset(
+        "multi-resource",
+        "single, but each child owns two resources and each atomic type needs them in its own proportions.",
+        {"n_parents": 10, "n_children": 1, "n_resources": 2, "need_concentration": 1.0},
+        ("uniform", "mgrao-1:1", "mgrao-max"),
+    ),
 }
 PAPER_SYSTEMS: tuple[str, ...] = ("single", "multi", "volatile", "large")
 """The paper's four systems, in its order: what ``mgrao reproduce`` and the paper view run."""
@@ -96,7 +102,7 @@ def get_preset(name: str) -> Preset:
     """The preset called ``name``.
 
     Raises:
-        ConfigError: ``name`` is no preset's (single, multi, volatile, large, drift, bursty).
+        ConfigError: ``name`` is no preset's (single, multi, volatile, large, drift, bursty, multi-resource).
     """
     try:
         return PRESETS[name]

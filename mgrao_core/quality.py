@@ -136,6 +136,98 @@ def relative_linear_full_quality_share(loads: np.ndarray, n_types: int, quality_
     return loads / (quality_at_uniform * n_types)
 
 
+# ---- several resources: one effective (weight, resource) pair per atomic task -----------------------
+#
+# docs/model.md ("Several resources"). A child gives type ``t`` the weight ``w[r]`` of each resource ``r``;
+# ``a[r]`` is its amount of ``r`` per unit of weight relative to the type's need, ``ar[r] / (f * R * need[r])``
+# (:attr:`mgrao_core.world.World.resource_per_type`), so that ``x[r] = w[r] * a[r]`` is the resource given
+# in units of "enough for the type's need". The combination makes one pair ``(w, a)`` from them, and the
+# quality model is applied to it exactly as to the single resource (relative-linear reads ``w`` alone).
+# ``shares[r]`` is each resource's share of the quality achieved: its output elasticity, ``d log x / d log
+# x[r]``, which sums to 1 (``resource_credit = by-share``).
+
+SCARCEST = 0
+WEIGHTED = 1
+RESOURCE_COMBINATION_CODES = {"scarcest": SCARCEST, "weighted": WEIGHTED}
+
+
+def combine_resources(weights: np.ndarray, per_weight: np.ndarray, needs: np.ndarray,
+                      combination: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The effective weight and resource of tasks, and each resource's share (numpy form; last axis the resource).
+
+    ``scarcest``: the resource with the least ``x[r] = w[r] * a[r]`` (the first of ties) decides; its share is 1.
+    ``weighted``: ``w = prod_r w[r] ** need[r]`` and ``a = prod_r a[r] ** need[r]`` (so ``w * a`` is the
+    need-weighted geometric mean of the ``x[r]``, a Cobb-Douglas production), shares ``need[r]``.
+    """
+    weights, per_weight, needs = np.broadcast_arrays(np.asarray(weights, dtype=float), per_weight, needs)
+    if combination == "scarcest":
+        best = np.argmin(weights * per_weight, axis=-1)[..., None]
+        shares = np.zeros(weights.shape)
+        np.put_along_axis(shares, best, 1.0, axis=-1)
+        return (np.take_along_axis(weights, best, -1)[..., 0], np.take_along_axis(per_weight, best, -1)[..., 0],
+                shares)
+    if combination != "weighted":
+        raise ConfigError("resource_combination", f"unknown resource combination {combination!r}")
+    w_eff = np.ones(weights.shape[:-1])
+    a_eff = np.ones(weights.shape[:-1])
+    for r in range(weights.shape[-1]):  # in the compiled form's order
+        w_eff = w_eff * weights[..., r] ** needs[..., r]
+        a_eff = a_eff * per_weight[..., r] ** needs[..., r]
+    return w_eff, a_eff, needs.copy()
+
+
+def combined_resources(weights, per_weight, needs, combination, shares):
+    """Compiled form of :func:`combine_resources` for one task: returns ``(w, a)``, writes ``shares``.
+
+    ``weights``, ``per_weight``, ``needs`` and ``shares`` have one entry per resource; ``combination`` is a
+    code of :data:`RESOURCE_COMBINATION_CODES`.
+    """
+    n = weights.shape[0]
+    if combination == WEIGHTED:
+        w_eff = 1.0
+        a_eff = 1.0
+        for r in range(n):
+            w_eff *= weights[r] ** needs[r]
+            a_eff *= per_weight[r] ** needs[r]
+            shares[r] = needs[r]
+        return w_eff, a_eff
+    best = 0
+    least = weights[0] * per_weight[0]
+    for r in range(1, n):
+        x = weights[r] * per_weight[r]
+        if x < least:
+            least = x
+            best = r
+    for r in range(n):
+        shares[r] = 0.0
+    shares[best] = 1.0
+    return weights[best], per_weight[best]
+
+
+def single_split_resource(per_weight: np.ndarray, needs: np.ndarray, combination: str) -> np.ndarray:
+    """``(n_children, n_types)``: the effective resource per unit of weight when one split serves every resource.
+
+    ``per_weight (n_children, n_resources, n_types)``. With ``w[r] = w`` for every ``r``, scarcest's ``min_r w *
+    a[r]`` is ``w * min_r a[r]`` and weighted's ``prod_r (w a[r]) ** need[r]`` is ``w * prod_r a[r] ** need[r]``
+    (the needs sum to 1): one resource per type, which the oracle's water-filling takes as it takes ``ar / f``.
+    """
+    if combination == "scarcest":
+        return per_weight.min(axis=1)
+    out = np.ones((per_weight.shape[0], per_weight.shape[2]))
+    for r in range(per_weight.shape[1]):
+        out = out * per_weight[:, r, :] ** needs[None, :, r]
+    return out
+
+
+@functools.cache
+def compiled_combined_resources() -> Any:
+    """The compiled :func:`combined_resources`, numba's, inlined where it is called (numba loads here)."""
+    import mgrao_core._numba_cache  # noqa: F401, I001  (before numba: picks its cache directory)
+    from numba import njit
+
+    return njit(inline="always")(combined_resources)
+
+
 # ---- the registry ----------------------------------------------------------------------------------
 
 

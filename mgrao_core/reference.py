@@ -23,7 +23,7 @@ from mgrao_core import equations as eq
 from mgrao_core.algorithms import family_of, parse_algorithm
 from mgrao_core.algorithms.base import ReferenceChild
 from mgrao_core.params import SystemParams
-from mgrao_core.quality import atomic_quality
+from mgrao_core.quality import atomic_quality, combine_resources
 from mgrao_core.world import NEW_COMPOSITE, NEW_PROFILE, EpisodeDraws, EpisodeStreams, draw_world, is_dynamic
 
 
@@ -99,6 +99,8 @@ class Episode:
             returned (0 for an absent parent).
         taqs: ``(n_parents,)`` each composite task's quality (0 for an absent parent).
         order: the present parents, in the order their values came back (paper step 5).
+        shares: with several resources, ``(n_parents, types_per_composite, n_resources)`` each resource's share
+            of each atomic task's quality (docs/model.md, "Several resources"); None with one.
     """
 
     utility: float
@@ -108,6 +110,7 @@ class Episode:
     values: np.ndarray
     taqs: np.ndarray
     order: list[int]
+    shares: np.ndarray | None = None
 
     def returns(self) -> Iterator[tuple[int, int, int, float]]:
         """Every returned value in the order it came back: ``(parent, k, child, atv)``.
@@ -168,6 +171,9 @@ class SeedEnvironment:
     def step(self, weights: Sequence[np.ndarray]) -> Episode:
         """One episode with each child's allocation ``weights[c]`` (``n_types`` weights) held throughout.
 
+        With several resources ``weights[c]`` is ``(n_resources, n_types)``, one allocation per resource, or
+        ``(n_types,)``, one split for every resource.
+
         Paper steps 1 (parents leave and rejoin) to 5 (the parents' estimates of their children take
         the returned values); the values themselves are in the answer, for the children.
         """
@@ -204,15 +210,27 @@ class SeedEnvironment:
         taqs[:] = 0.0
         for p in present:
             child_of[p] = assigned[p]
-        allocation = np.asarray(weights, dtype=float).reshape(params.n_children, params.n_types)
         children, types = child_of[present], self._task_types[present]
         load = 1.0
         if params.load_sharing:  # the instances of each type each child received this episode
             counts = np.zeros((params.n_children, params.n_types))
             np.add.at(counts, (children, types), 1.0)
             load = counts[children, types]
-        resources = world.resources[children] / world.capability[children, types]  # capability scales h per type
-        quality = atomic_quality(allocation[children, types], resources, params, load)
+        shares = None
+        if params.n_resources == 1:
+            allocation = np.asarray(weights, dtype=float).reshape(params.n_children, params.n_types)
+            resources = world.resources[children] / world.capability[children, types]  # capability scales h per type
+            quality = atomic_quality(allocation[children, types], resources, params, load)
+        else:  # several resources: the combination's effective weight and resource (docs/model.md)
+            allocation = np.stack([np.broadcast_to(np.asarray(w, dtype=float), (params.n_resources, params.n_types))
+                                   for w in weights])  # (children, R, n_types)
+            per_weight = world.resource_per_type  # (children, R, n_types)
+            w_eff, a_eff, task_shares = combine_resources(
+                allocation[children, :, types], per_weight[children, :, types], world.needs[types],
+                params.resource_combination)
+            quality = atomic_quality(w_eff, a_eff, params, load)
+            shares = np.zeros((params.n_parents, params.types_per_composite, params.n_resources))
+            shares[present] = task_shares
         self._present[:] = False
         self._present[present] = True
         row = 0  # of quality: the present parents in order
@@ -232,7 +250,7 @@ class SeedEnvironment:
         if params.n_children > 1:
             for p in order:
                 parents[p].observe(assigned[p], values[p], taqs[p], params)
-        return Episode(utility, self._present, self._task_types, child_of, values, taqs, order)
+        return Episode(utility, self._present, self._task_types, child_of, values, taqs, order, shares)
 
 
 def simulate(params: SystemParams, algorithm: str, seed: int,
@@ -246,5 +264,8 @@ def simulate(params: SystemParams, algorithm: str, seed: int,
         episode = environment.step([child.allocation() for child in children])
         utilities[e] = episode.utility
         for p, k, c, value in episode.returns():
-            children[c].learn(p, int(episode.task_types[p, k]), value)
+            if episode.shares is None:
+                children[c].learn(p, int(episode.task_types[p, k]), value)
+            else:
+                children[c].learn_resources(p, int(episode.task_types[p, k]), value, episode.shares[p, k])
     return utilities, children

@@ -24,6 +24,10 @@ class Run:
         membership: ``(n_children, snapshots, n_parents)`` each parent's group in each recorded
             membership, for an algorithm whose groups change (``mgrao-adaptive:x``); None otherwise.
         membership_every: episodes between two recorded memberships (the first is at episode 0).
+        resource_weights: with several resources, ``(n_resources, n_children, n_types)`` each child's final
+            allocation of each resource (``combined_weights`` is the first's); None with one.
+        resource_group_weights: with several resources, ``(n_resources, n_children, m, n_types)`` each
+            resource's final PW (MG-RAO keeps one per resource; ``group_weights`` is the first's); None with one.
     """
 
     algorithm: str
@@ -33,6 +37,8 @@ class Run:
     combined_weights: np.ndarray
     membership: np.ndarray | None = None
     membership_every: int = 0
+    resource_weights: np.ndarray | None = None
+    resource_group_weights: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

@@ -47,6 +47,18 @@ def _build_lanes(spec: ExperimentSpec, worlds: Sequence[World], seeds: Sequence[
     return arrays, kernel_lanes, tuple(f.compiled_lanes(arrays, p) for f in LEARNERS)
 
 
+def _worlds(p, worlds: Sequence[World]) -> engine.Worlds:
+    """The kernel's worlds: each seed's resource per type, and with several resources each one's and the needs."""
+    several = p.n_resources > 1
+    return engine.Worlds(
+        resources=np.ascontiguousarray(np.stack([w.type_resources_single for w in worlds])),
+        per_resource=np.ascontiguousarray(np.stack([w.resource_per_type for w in worlds]) if several else
+                                          np.zeros((len(worlds), p.n_children, 0, p.n_types))),
+        needs=np.ascontiguousarray(np.stack([w.needs for w in worlds]) if several else
+                                   np.zeros((len(worlds), p.n_types, 0))),
+    )
+
+
 def _stack(draws: list[EpisodeDraws], name: str) -> np.ndarray:
     return np.ascontiguousarray(np.stack([getattr(d, name) for d in draws]))
 
@@ -100,7 +112,7 @@ def run_chunk(
     seeds = tuple(seeds)
     worlds = [draw_world(p, seed) for seed in seeds]
     arrays, lanes, learners = _build_lanes(spec, worlds, seeds, should_stop)
-    world = engine.Worlds(resources=np.ascontiguousarray(np.stack([w.type_resources for w in worlds])))
+    world = _worlds(p, worlds)
     environment = engine.environment_of(p)
     streams = [EpisodeStreams(p, seed, world) for seed, world in zip(seeds, worlds, strict=True)]
     utilities = np.zeros((len(lanes.kind), spec.episodes))
@@ -126,6 +138,16 @@ def run_chunk(
             lane = seed_index * n_algorithms + algorithm_index
             group_weights = family.group_weights(arrays, lane, algorithm)
             membership, every = family.membership(arrays, lane, algorithm, p) or (None, 0)
+            resource_group_weights = resource_weights = None
+            if p.n_resources > 1:
+                resource_weights = lanes.resource_weights[lane].transpose(1, 0, 2).copy()
+                if group_weights is not None and family.name == "mgrao":  # learner c * R + r: child c, resource r
+                    resource_group_weights = group_weights.reshape(
+                        p.n_children, p.n_resources, *group_weights.shape[1:]).transpose(1, 0, 2, 3).copy()
+                    group_weights = resource_group_weights[0].copy()
+                elif group_weights is not None:  # one PW for every resource
+                    group_weights = group_weights[: p.n_children]
+                    resource_group_weights = np.stack([group_weights] * p.n_resources)
             runs.append(Run(
                 algorithm=algorithm.label,
                 seed=seed,
@@ -134,6 +156,8 @@ def run_chunk(
                 combined_weights=lanes.weights[lane].copy(),
                 membership=membership,
                 membership_every=every,
+                resource_weights=resource_weights,
+                resource_group_weights=resource_group_weights,
             ))
     check_finite(runs)
     return tuple(runs)

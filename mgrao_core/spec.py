@@ -60,7 +60,9 @@ class ExperimentSpec:
         """Algorithm-1 row updates the experiment needs (what :data:`MAX_GROUP_UPDATES` bounds)."""
         p = self.params
         per_run = self.episodes * p.n_parents * p.types_per_composite
-        return len(self.seeds) * per_run * sum(a.n_groups for a in self.parsed_algorithms)
+        # MG-RAO keeps a PW per resource (docs/model.md, "Several resources"): each value updates every one
+        per_resource = {"mgrao": p.n_resources}
+        return len(self.seeds) * per_run * sum(a.n_groups * per_resource.get(a.kind, 1) for a in self.parsed_algorithms)
 
     def as_dict(self) -> dict[str, Any]:
         """The specification as JSON-ready data (round-trips through :func:`spec_from_dict`).

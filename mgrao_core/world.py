@@ -16,12 +16,16 @@ from mgrao_core.algorithms.state import routing_choices
 from mgrao_core.params import SystemParams
 
 _STREAM_IDS = {"world": 0, "noise": 1, "order": 2, "volatility": 3, "routing": 4, "profiles": 6,
-               "arrivals": 16, "schedule": 17, "unpredictable": 18, "capability": 19} | {
+               "arrivals": 16, "schedule": 17, "unpredictable": 18, "capability": 19, "resources": 20,
+               "needs": 21} | {
     name: number for family in FAMILIES for name, number in family.streams.items()}
 """Each stream's number in its seed sequence: the environment's, then each family's own (the oracle's
 ``"oracle"``, 5); a number, once used, is never given to another stream. The system's dynamics took 16 to
-19 (arrival phases, scheduled events, unpredictable parents, capability), leaving 7 to 15 to families."""
+19 (arrival phases, scheduled events, unpredictable parents, capability), several resources 20 and 21 (the
+amounts of resources after the first, the types' needs), leaving 7 to 15 to families."""
 RESOURCE_FLOOR = 1e-6
+NEED_FLOOR = 1e-6
+"""Smallest need of a type for a resource (a Dirichlet draw at a small concentration may underflow to 0)."""
 NEW_PROFILE = 1
 """A parent change (:attr:`EpisodeDraws.changes`): the parent takes the value profile of ``event_profiles``."""
 NEW_COMPOSITE = 2
@@ -46,6 +50,11 @@ class World:
         capability: ``(n_children, n_types)`` the factor on each child's half-saturation per type,
             ``exp(capability_spread * N(0, 1))`` from the ``"capability"`` stream (exactly 1 at spread 0,
             drawing nothing).
+        amounts: ``(n_children, n_resources)`` each child's amount of each resource (the first is
+            ``resources``, the others from the ``"resources"`` stream); None with one resource.
+        needs: ``(n_types, n_resources)`` each type's needs, Dirichlet(``need_concentration``) from the
+            ``"needs"`` stream, summing to 1; None with one resource.
+        combination: ``resource_combination``.
     """
 
     composite_types: np.ndarray
@@ -53,15 +62,47 @@ class World:
     profiles: np.ndarray
     resources: np.ndarray
     capability: np.ndarray
+    amounts: np.ndarray | None = None
+    needs: np.ndarray | None = None
+    combination: str = "scarcest"
+
+    @property
+    def n_resources(self) -> int:
+        """How many resources each child owns."""
+        return 1 if self.amounts is None else self.amounts.shape[1]
+
+    @property
+    def resource_per_type(self) -> np.ndarray:
+        """``(n_children, n_resources, n_types)``: ``ar[c, r] / (capability[c, t] * R * need[t, r])``.
+
+        A child's amount of resource ``r`` per unit of weight of type ``t``, relative to the type's need of it
+        (docs/model.md, "Several resources"). With one resource it is :attr:`type_resources` exactly (no
+        division by ``R * need = 1`` is made).
+        """
+        if self.amounts is None or self.needs is None:
+            return self.type_resources_single[:, None, :]
+        relative = self.n_resources * self.needs.T  # (R, n_types)
+        return self.amounts[:, :, None] / self.capability[:, None, :] / relative[None]
+
+    @property
+    def type_resources_single(self) -> np.ndarray:
+        """``(n_children, n_types)``: ``ar[c] / capability[c, t]`` for the first resource."""
+        return self.resources[:, None] / self.capability
 
     @property
     def type_resources(self) -> np.ndarray:
         """``(n_children, n_types)``: ``ar[c] / capability[c, t]``, a child's resource per unit of weight of a type.
 
         Quality ``x' / (x' + h)`` at ``x' = w * ar / f`` equals ``x / (x + h * f)``: scaling the half-saturation by
-        ``f`` is scaling the resource by ``1 / f`` (exactly ``ar`` at ``f = 1``).
+        ``f`` is scaling the resource by ``1 / f`` (exactly ``ar`` at ``f = 1``). With several resources, the
+        resource per unit of weight of one split applied to every resource
+        (:func:`mgrao_core.quality.single_split_resource`): what the oracle allocates.
         """
-        return self.resources[:, None] / self.capability
+        if self.amounts is None:
+            return self.type_resources_single
+        from mgrao_core.quality import single_split_resource
+
+        return single_split_resource(self.resource_per_type, self.needs, self.combination)
 
 
 def draw_world(params: SystemParams, seed: int) -> World:
@@ -79,7 +120,18 @@ def draw_world(params: SystemParams, seed: int) -> World:
     shape = (params.n_children, params.n_types)
     capability = (np.exp(params.capability_spread * stream(seed, "capability").standard_normal(shape))
                   if params.capability_spread > 0 else np.ones(shape))
-    return World(composite_types, np.ascontiguousarray(parent_types), profiles, resources, capability)
+    if params.n_resources == 1:
+        return World(composite_types, np.ascontiguousarray(parent_types), profiles, resources, capability)
+    more = np.clip(stream(seed, "resources").normal(params.resource_mean, params.resource_sd,
+                                                    (params.n_children, params.n_resources - 1)),
+                   RESOURCE_FLOOR, 1.0)
+    amounts = np.concatenate([resources[:, None], more], axis=1)
+    needs = stream(seed, "needs").dirichlet(np.full(params.n_resources, params.need_concentration),
+                                            size=params.n_types)
+    needs = np.maximum(needs, NEED_FLOOR)
+    needs /= needs.sum(axis=1, keepdims=True)
+    return World(composite_types, np.ascontiguousarray(parent_types), profiles, resources, capability,
+                 amounts, needs, params.resource_combination)
 
 
 def composite_periods(params: SystemParams) -> np.ndarray:

@@ -132,15 +132,27 @@ class SeedCurve(BaseModel):
     utility: list[Number]
 
 
+class ResourceWeights(BaseModel):
+    """One resource's final weights (a system with several resources): combined per child, and per parent group."""
+
+    resource: int
+    combined: list[Any]
+    groups: list[Any] | None
+
+
 class MeanWeights(BaseModel):
     """Final weights: combined per child, and per parent group.
 
     ``groups`` is empty for uniform and oracle, or null when omitted beyond the size limit (with the reason).
+    With several resources (``n_resources`` > 1), ``combined`` and ``groups`` are the first resource's and
+    ``resources`` lists every resource's (MG-RAO keeps a PW per resource; the other families one split for
+    every resource); null with one resource.
     """
 
     combined: list[Any]
     groups: list[Any] | None
     groups_omitted: str | None = None
+    resources: list[ResourceWeights] | None = None
 
 
 class SeedPct(BaseModel):

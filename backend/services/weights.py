@@ -28,16 +28,41 @@ def _shown(shape: list[int]) -> bool:
     return bool(shape) and shape[1] > 0 and math.prod(shape) <= MAX_WEIGHT_VALUES
 
 
-def _answer(combined: np.ndarray, groups: np.ndarray | None, shape: list[int]) -> dict[str, Any]:
-    """``combined`` per child, ``groups`` per child and group ([] when the algorithm learns none)."""
-    n_children = shape[0] if shape else 1
-    out: dict[str, Any] = {"combined": combined.reshape(n_children, -1).tolist(), "groups": []}
+def n_resources_of(config: dict[str, Any], shape: list[int]) -> int:
+    """The resources whose weights a run of a job stored: 1, or ``n_resources`` when stored resource-major.
+
+    ``n_resources`` is in a job's params only away from its default, 1. A simulated run of several resources
+    stores ``n_resources * n_children`` rows (:func:`backend.store.queue._weights`); an external run's
+    weights are one allocation per child whatever its system says.
+    """
+    params = config.get("params") or {}
+    n_resources = int(params.get("n_resources", 1))
+    if n_resources > 1 and shape and shape[0] == n_resources * int(params.get("n_children", -1)):
+        return n_resources
+    return 1
+
+
+def _answer(combined: np.ndarray, groups: np.ndarray | None, shape: list[int], n_resources: int = 1) -> dict[str, Any]:
+    """``combined`` per child, ``groups`` per child and group ([] when the algorithm learns none).
+
+    With several resources the stored rows are resource-major (:func:`backend.store.queue._weights`): the answer's
+    ``combined`` and ``groups`` are the first resource's, and ``resources`` gives each one's.
+    """
+    n_rows = shape[0] if shape else 1
+    per_resource = combined.reshape(n_resources, n_rows // n_resources if n_resources > 1 else n_rows, -1)
+    out: dict[str, Any] = {"combined": per_resource[0].tolist(), "groups": []}
+    group_rows: np.ndarray | None = None
     if groups is not None:
-        out["groups"] = groups.reshape(shape).tolist()
+        group_rows = groups.reshape(n_resources, -1, *shape[1:]) if n_resources > 1 else groups.reshape(1, *shape)
+        out["groups"] = group_rows[0].tolist()
     elif shape and shape[1] > 0:
         out["groups"] = None
         out["groups_omitted"] = (f"{math.prod(shape):,} parent-group weights per run exceed the "
                                  f"{MAX_WEIGHT_VALUES:,} shown")
+    if n_resources > 1 and per_resource.shape[0] == n_resources:
+        out["resources"] = [{"resource": r, "combined": per_resource[r].tolist(),
+                             "groups": out["groups"] if out["groups"] in ([], None) else group_rows[r].tolist()}
+                            for r in range(n_resources)]
     return out
 
 
@@ -52,6 +77,7 @@ def mean_over_seeds(session: Session, job_id: int, algorithm: str) -> dict[str, 
 
     Every run of a configuration has the same shape: PW too large to show are never read.
     """
+    job = get_job(session, job_id=job_id)
     of_config = (Run.job_id == job_id, Run.algorithm == algorithm)
     first = session.scalar(select(Run.group_shape).where(*of_config).limit(1))
     if first is None:
@@ -72,7 +98,8 @@ def mean_over_seeds(session: Session, job_id: int, algorithm: str) -> dict[str, 
         count += 1
     if combined is None:  # deleted meanwhile
         return {"combined": [], "groups": []}
-    return _answer(combined / count, None if groups is None else groups / count, shape)
+    return _answer(combined / count, None if groups is None else groups / count, shape,
+                   n_resources_of(job.config, shape))
 
 
 def of_seed(session: Session, *, job_id: int, seed: int | None = None) -> dict[str, Any]:
@@ -105,7 +132,8 @@ def of_seed(session: Session, *, job_id: int, seed: int | None = None) -> dict[s
         if _shown(shape):  # a PW too large to show is never read
             blob = session.scalar(select(Run.group_weights).where(Run.id == run_id))
             groups = np.frombuffer(blob, dtype="<f8")
-        answer = {"algorithm": algorithm} | _answer(np.frombuffer(combined_blob, dtype="<f8"), groups, shape)
+        answer = {"algorithm": algorithm} | _answer(np.frombuffer(combined_blob, dtype="<f8"), groups, shape,
+                                                    n_resources_of(job.config, shape))
         answer["membership"] = None if not meta else _membership(
             session.scalar(select(Run.membership).where(Run.id == run_id)), meta)
         configurations.append(answer)

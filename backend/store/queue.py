@@ -192,11 +192,27 @@ def run_rows(job_id: int, runs: Iterable[SimulatedRun]) -> list[dict[str, Any]]:
     """
     return [
         {"job_id": job_id, "algorithm": run.algorithm, "seed": run.seed, "episodes": len(run.utilities),
-         "utilities": _blob(run.utilities), "combined_weights": _blob(run.combined_weights),
-         "group_weights": _blob(run.group_weights), "group_shape": list(run.group_weights.shape)}
-        | _membership(run)
+         "utilities": _blob(run.utilities)} | _weights(run) | _membership(run)
         for run in runs
     ]
+
+
+def _weights(run: SimulatedRun) -> dict[str, Any]:
+    """A run's final weights as stored: with several resources, resource-major.
+
+    One resource: ``combined (children, n_types)``, ``group (children, m, n_types)``, ``group_shape [children,
+    m, n_types]``, as ever. ``R`` resources: ``combined (R, children, n_types)`` and ``group (R, children, m,
+    n_types)``, ``group_shape [R * children, m, n_types]``: the first ``children`` rows are the first resource's,
+    so a reader that does not know the resources reads the first one (``n_resources`` is in the job's params).
+    """
+    if run.resource_weights is None:
+        return {"combined_weights": _blob(run.combined_weights), "group_weights": _blob(run.group_weights),
+                "group_shape": list(run.group_weights.shape)}
+    groups = run.group_weights if run.resource_group_weights is None else run.resource_group_weights
+    n_resources, children, n_types = run.resource_weights.shape
+    return {"combined_weights": _blob(run.resource_weights),
+            "group_weights": _blob(groups) if groups.shape[-2] else b"",
+            "group_shape": [n_resources * children, int(groups.shape[-2]), n_types]}
 
 
 def store_runs(db: Database, *, claim: Claim, rows: Sequence[dict[str, Any]], progress: float) -> bool:

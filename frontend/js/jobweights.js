@@ -3,6 +3,8 @@
 // Every seed draws its own composite types and value profiles, so one seed shows what the mean hides.
 // An algorithm whose parent groups change (mgrao-adaptive:x) also shows a child's group membership over
 // the run: parents by recorded regroupings, each cell the parent's group (the paper's adaptive groups).
+// A system with several resources (n_resources > 1) shows one heatmap per resource, titled by resource:
+// MG-RAO keeps a PW per resource (the paper's pgw_{c,r,t}); the answer's `resources` lists each one's.
 
 import { api } from './api.js';
 import { h, notice, nextId } from './ui.js';
@@ -61,6 +63,7 @@ export function weightsSection({ jobId, results, plots, state }) {
   const member = h('div', { class: 'chart heat', id: 'membership-heatmap', role: 'img', hidden: true,
     'aria-label': 'Heatmap of a child’s parent-group membership over the run: parents by regroupings' });
   const memberNote = h('p', { class: 'help', id: 'membership-note', 'aria-live': 'polite' });
+  const resourceHeats = h('div', { class: 'grid2', id: 'weights-resource-heatmaps', hidden: true });
   plots.push(heat, bars, member);
 
   let answer = null; // the weights of the chosen seed ({configurations}), or the means
@@ -109,7 +112,14 @@ export function weightsSection({ jobId, results, plots, state }) {
     const g = (c.groups || [])[child];
     const width = heat.clientWidth || 600;
     const height = heat.clientHeight || 380;
-    if (g && g.length) {
+    const perResource = (c.resources || []).filter((r) => ((r.groups || [])[child] || []).length);
+    drawResourceHeats(c, child, perResource, types);
+    if (perResource.length > 1) {
+      purge(heat);
+      heat.hidden = true;
+      heatNote.textContent = `${g.length} parent groups of child ${child} under ${c.algorithm}, one heatmap per ` +
+        `resource (a PW per resource)` + (answer.seed === MEAN ? ', mean over seeds.' : `, seed ${answer.seed}.`);
+    } else if (g && g.length) {
       heat.hidden = false;
       heatNote.textContent = `${g.length} parent groups of child ${child} under ${c.algorithm}` +
         (answer.seed === MEAN ? ', mean over seeds.' : `, seed ${answer.seed}.`);
@@ -132,9 +142,34 @@ export function weightsSection({ jobId, results, plots, state }) {
       hovertemplate: `${x.algorithm}, type %{x}: %{y:.4f}<extra></extra>`,
     })), {
       barmode: 'group', showlegend: true, legend: { orientation: 'h', y: 1.12 }, hovermode: 'closest',
-      xaxis: { title: { text: `Task type (child ${child})` }, ...indexAxis(nTypes, width - 100, 22) },
+      xaxis: { title: { text: `Task type (child ${child}${c.resources ? ", resource 0" : ""})` }, ...indexAxis(nTypes, width - 100, 22) },
       yaxis: { title: { text: 'Combined weight' } },
     });
+  };
+
+  const drawResourceHeats = (c, child, perResource, types) => {
+    // one heatmap per resource, each titled by its resource; none with one resource
+    for (const old of resourceHeats.children) { purge(old); const i = plots.indexOf(old); if (i >= 0) plots.splice(i, 1); }
+    resourceHeats.replaceChildren();
+    resourceHeats.hidden = perResource.length < 2;
+    if (perResource.length < 2) return;
+    for (const r of perResource) {
+      const g = r.groups[child];
+      const div = h('div', { class: 'chart heat', id: `weights-heatmap-resource-${r.resource}`, role: 'img',
+        'data-testid': 'weights-resource-heatmap', 'data-resource': String(r.resource),
+        'aria-label': `Heatmap of child ${child}’s parent-group weights of resource ${r.resource} per task type` });
+      resourceHeats.append(div);
+      plots.push(div);
+      const width = div.clientWidth || 600;
+      const height = div.clientHeight || 380;
+      draw(div, [heatmapTrace(g, g.map((_, i) => i), types)], {
+        title: { text: `Resource ${r.resource}: parent-group weights (PW)`, y: 0.98, yanchor: "top" },
+        margin: { l: 64, r: 16, t: 44, b: 52 },
+        xaxis: { title: { text: 'Task type' }, ...indexAxis(types.length, width - 160, 22) },
+        yaxis: { title: { text: 'Parent group' }, autorange: 'reversed', ...indexAxis(g.length, height - 110, 16) },
+        hovermode: 'closest',
+      });
+    }
   };
 
   const drawMembership = (c, child, height) => {
@@ -181,5 +216,6 @@ export function weightsSection({ jobId, results, plots, state }) {
       h('label', { for: ids.child }, 'Child'), childSel),
     seedNote, heatNote,
     h('div', { class: 'grid2' }, heat, bars),
+    resourceHeats,
     memberNote, member);
 }

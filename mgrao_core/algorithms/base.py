@@ -103,6 +103,13 @@ class ReferenceChild:
     def learn(self, parent: int, task_type: int, value: float) -> None:
         """The child receives the absolute ``value`` of an atomic task of ``task_type`` from ``parent``."""
 
+    def learn_resources(self, parent: int, task_type: int, value: float, shares: np.ndarray) -> None:
+        """With several resources: ``shares[r]`` is resource ``r``'s share of the task's quality.
+
+        By default a child learns the whole value, as with one resource (one split for every resource).
+        """
+        self.learn(parent, task_type, value)
+
 
 class FixedChild(ReferenceChild):
     """A reference child that keeps one allocation and never learns."""
@@ -187,8 +194,8 @@ class Family:
 
     def memory_per_child(self, algorithm: Algorithm, params: System) -> int:
         """Bytes of one child's state (:attr:`state`) for ``algorithm`` in a system."""
-        return nbytes(self.state, sizes_of(params, 1, algorithm.n_groups, self.sizes(algorithm, params))
-                      | {"children": 1})
+        sizes = sizes_of(params, 1, algorithm.n_groups, self.sizes(algorithm, params))
+        return nbytes(self.state, sizes | {"children": 1, "learners": sizes["resources"]})
 
     def preparation_bytes(self, params: System, n_seeds: int) -> int:
         """Bytes the family allocates, beyond its lane state, to prepare a chunk of ``n_seeds`` seeds."""

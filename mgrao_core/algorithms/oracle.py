@@ -29,7 +29,9 @@ class Oracle(OneLabel, FixedFamily):
     name = LABEL
     title = "Oracle"
     description = ("Each child's best fixed allocation given the true expected task values: no learner with a "
-                   "fixed allocation does better in a stationary system.")
+                   "fixed allocation does better in a stationary system. With several resources it is the best "
+                   "single split applied to every resource: not optimal, and no upper bound for a learner that "
+                   "splits each resource on its own.")
     rank = 10  # last: families between MG-RAO (1) and the oracle take 2 to 9
     streams = {"oracle": 5}
     form_description = "the best fixed allocation"

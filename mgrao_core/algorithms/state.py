@@ -29,13 +29,16 @@ class System(Protocol):
     def __getattr__(self, name: str) -> Any: ...  # noqa: D105
 
 SIZES = ("lanes", "children", "groups", "n_types", "n_parents", "choices", "types_per_composite",
-         "tracked_parents", "tracked_children", "snapshots")
+         "tracked_parents", "tracked_children", "snapshots", "learners", "resources", "extra_resources")
 """The sizes a shape may name: the chunk's lanes, the system's children, the most parent groups of
 the chunk's algorithms (at least 1), atomic types, parents, a parent's child choices per composite
 (:func:`mgrao_core.world.routing_choices`) and atomic types per composite; and two a family asks for
 (:meth:`Family.sizes <mgrao_core.algorithms.base.Family.sizes>`, the largest over the chunk's
 algorithms, else 0): parents and children a learner keeps statistics or counters of, and records of a
-bounded history. So a chunk that runs no such family holds none of those arrays."""
+bounded history. So a chunk that runs no such family holds none of those arrays. With several resources
+(docs/model.md, "Several resources"): ``learners``, a child's learners, one per resource (``n_children *
+n_resources``: MG-RAO keeps a PW per resource), ``resources`` (``n_resources``) and ``extra_resources``
+(``n_resources`` when above 1, else 0: what one resource needs no array of)."""
 FAMILY_SIZES = ("tracked_parents", "tracked_children", "snapshots")
 """The sizes of :data:`SIZES` a family's :meth:`~mgrao_core.algorithms.base.Family.sizes` sets (else 0)."""
 
@@ -90,10 +93,12 @@ def sizes_of(params: System, lanes: int, groups: int, family_sizes: Mapping[str,
 
     ``family_sizes`` gives those of :data:`FAMILY_SIZES` the chunk's algorithms ask for (the others are 0).
     """
+    resources = getattr(params, "n_resources", 1)
     return {"lanes": lanes, "children": params.n_children, "groups": max(groups, 1), "n_types": params.n_types,
             "n_parents": params.n_parents, "choices": routing_choices(params),
-            "types_per_composite": params.types_per_composite} | {name: 0 for name in FAMILY_SIZES} | dict(
-                family_sizes or {})
+            "types_per_composite": params.types_per_composite, "learners": params.n_children * resources,
+            "resources": resources, "extra_resources": resources if resources > 1 else 0} | {
+                name: 0 for name in FAMILY_SIZES} | dict(family_sizes or {})
 
 
 def nbytes(arrays: Iterable[StateArray], sizes: Mapping[str, int]) -> int:

@@ -17,11 +17,18 @@ import numpy as np
 from numba import njit
 
 from mgrao_core.params import SystemParams
-from mgrao_core.quality import compiled_atomic_quality, quality_model
+from mgrao_core.quality import (
+    RESOURCE_COMBINATION_CODES,
+    compiled_atomic_quality,
+    compiled_combined_resources,
+    quality_model,
+)
 from mgrao_core.world import NEW_COMPOSITE, NEW_PROFILE, is_dynamic
 
 atomic_task_quality = compiled_atomic_quality()
 """Quality of an atomic task under the environment's quality model (see :mod:`mgrao_core.quality`)."""
+combined_resources = compiled_combined_resources()
+"""Several resources' effective (weight, resource) of a task and their shares (see :mod:`mgrao_core.quality`)."""
 
 
 class Environment(NamedTuple):
@@ -44,6 +51,9 @@ class Environment(NamedTuple):
     absent_counted: bool
     absent_quality: float
     dynamic: bool
+    n_resources: int
+    resource_combination: int
+    by_share: bool
 
 
 def environment_of(params: SystemParams) -> Environment:
@@ -66,6 +76,9 @@ def environment_of(params: SystemParams) -> Environment:
         absent_counted=params.absent_tasks == "counted",
         absent_quality=params.effective_absent_quality,
         dynamic=is_dynamic(params),
+        n_resources=params.n_resources,
+        resource_combination=RESOURCE_COMBINATION_CODES[params.resource_combination],
+        by_share=params.resource_credit == "by-share",
     )
 
 
@@ -206,6 +219,31 @@ def perform_composite_task(ctv, child_of, task_types, weights, resources, load, 
         c = child_of[k]
         t = task_types[k]
         taq += ctv[k] * atomic_task_quality(weights[c, t], resources[c, t], load[c, t], env)
+    for k in range(ctv.shape[0]):
+        values[k] = taq * ctv[k]
+    return taq
+
+
+@njit(cache=True, inline="always")
+def perform_composite_task_resources(ctv, child_of, task_types, weights, resources, needs, load, env, values, shares,
+                                     w, a):
+    """:func:`perform_composite_task` with several resources: returns ``taq``.
+
+    ``weights (children, R, n_types)`` each child's allocation of each resource, ``resources (children, R,
+    n_types)`` its amount per unit of weight relative to the type's need, ``needs (n_types, R)``. Each task's
+    quality is the quality model at the combination's effective weight and resource; each resource's share
+    of it goes into ``shares[k]``; ``w`` and ``a`` are scratch (one entry per resource).
+    """
+    taq = 0.0
+    n_resources = w.shape[0]
+    for k in range(ctv.shape[0]):
+        c = child_of[k]
+        t = task_types[k]
+        for r in range(n_resources):
+            w[r] = weights[c, r, t]
+            a[r] = resources[c, r, t]
+        w_eff, a_eff = combined_resources(w, a, needs[t], env.resource_combination, shares[k])
+        taq += ctv[k] * atomic_task_quality(w_eff, a_eff, load[c, t], env)
     for k in range(ctv.shape[0]):
         values[k] = taq * ctv[k]
     return taq

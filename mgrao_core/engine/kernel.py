@@ -43,6 +43,7 @@ from mgrao_core.engine.environment import (
     composite_tasks_arrive,
     parents_leave_and_join,
     perform_composite_task,
+    perform_composite_task_resources,
     proportional_values,
     update_estimates,
 )
@@ -61,7 +62,10 @@ class Lanes(NamedTuple):
         kind: the code of the lane's family (:data:`mgrao_core.algorithms.KINDS`).
         groups: parent groups ``m`` per child of the lane's algorithm.
         fixed_weights: ``(lanes, children, n_types)`` the allocation of a fixed family's lanes.
-        weights: ``(lanes, children, n_types)`` each child's allocation in this episode.
+        weights: ``(lanes, children, n_types)`` each child's allocation in this episode (with several
+            resources: of the first resource).
+        resource_weights: ``(lanes, children, R, n_types)`` with several resources (``R > 1``), each child's
+            allocation of each resource; ``(lanes, children, 0, n_types)`` with one.
         estimates, tries: ``(lanes, parents, choices, children)`` each parent's running mean of
             what each child gave back, and how often it tried it.
         active: ``(lanes, parents)`` which parents are present.
@@ -74,6 +78,7 @@ class Lanes(NamedTuple):
     groups: np.ndarray
     fixed_weights: np.ndarray
     weights: np.ndarray
+    resource_weights: np.ndarray
     estimates: np.ndarray
     tries: np.ndarray
     active: np.ndarray
@@ -85,11 +90,16 @@ class Worlds(NamedTuple):
     """What each seed drew once.
 
     ``resources (seeds, children, n_types)``: each child's resource per unit of weight of each type,
-    ``ar[c] / capability[c, t]`` (:attr:`mgrao_core.world.World.type_resources`). A parent's atomic types are
-    the lane's (``Lanes.parent_types``), since the task stream may change them.
+    ``ar[c] / capability[c, t]`` (:attr:`mgrao_core.world.World.type_resources_single`). A parent's atomic types
+    are the lane's (``Lanes.parent_types``), since the task stream may change them. With several resources
+    (``R > 1``; docs/model.md, "Several resources"), ``per_resource (seeds, children, R, n_types)``
+    (:attr:`mgrao_core.world.World.resource_per_type`) and ``needs (seeds, n_types, R)``; with one, their
+    resource axis is empty.
     """
 
     resources: np.ndarray
+    per_resource: np.ndarray
+    needs: np.ndarray
 
 
 class Draws(NamedTuple):
@@ -137,6 +147,13 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes, adaptive_lanes,
         values = np.zeros((n_parents, types_per_composite))
         taq = np.zeros(n_parents)
         load = np.ones((n_children, lanes.weights.shape[2]))
+        n_resources = env.n_resources
+        resource_weights = lanes.resource_weights[lane]
+        shares = np.zeros((n_parents, types_per_composite, n_resources))
+        w_scratch = np.zeros(n_resources)
+        a_scratch = np.zeros(n_resources)
+        learner_of = np.zeros(types_per_composite, dtype=np.int64)
+        credit = np.zeros(types_per_composite)
         for e in range(n_episodes):
             # 1. Composite tasks arrive at the parents present whose composite type arrives.
             apply_changes(lanes.profiles[lane], parent_types, draws.changes[s, e], draws.event_profiles[s, e],
@@ -144,6 +161,11 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes, adaptive_lanes,
             parents_leave_and_join(active, lanes.profiles[lane], draws.volatility[s, e], draws.new_profiles[s, e], env)
             composite_tasks_arrive(active, draws.arrives[s, e], env, sending)
             for c in range(n_children):
+                if kind == MGRAO and n_resources > 1:  # one PW, and one allocation, per resource
+                    for r in range(n_resources):
+                        mgrao.allocate(mgrao_lanes, mgrao_views, m, c * n_resources + r, resource_weights[c, r])
+                    weights[c, :] = resource_weights[c, 0, :]
+                    continue
                 if kind == MGRAO:
                     mgrao.allocate(mgrao_lanes, mgrao_views, m, c, weights[c])
                 elif kind == ADAPTIVE:
@@ -154,6 +176,8 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes, adaptive_lanes,
                     bandit.allocate(bandit_lanes, lane, m, c, weights[c])
                 else:
                     weights[c, :] = lanes.fixed_weights[lane, c, :]
+                for r in range(n_resources if n_resources > 1 else 0):  # one split for every resource
+                    resource_weights[c, r, :] = weights[c, :]
             # 2-3. Parents decompose their composite tasks and allocate the atomic tasks.
             for p in range(n_parents):
                 if sending[p]:
@@ -171,7 +195,12 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes, adaptive_lanes,
             # 4. Children perform the atomic tasks; composite qualities make the system utility.
             utility = 0.0
             for p in range(n_parents):
-                if sending[p]:
+                if sending[p] and n_resources > 1:
+                    taq[p] = perform_composite_task_resources(ctv[p], child_of[p], parent_types[p], resource_weights,
+                                                              worlds.per_resource[s], worlds.needs[s], load, env,
+                                                              values[p], shares[p], w_scratch, a_scratch)
+                    utility += taq[p]
+                elif sending[p]:
                     taq[p] = perform_composite_task(ctv[p], child_of[p], parent_types[p],
                                                     weights, worlds.resources[s], load, env, values[p])
                     utility += taq[p]
@@ -186,7 +215,13 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes, adaptive_lanes,
                 if n_children > 1:
                     update_estimates(lanes.estimates[lane, p], lanes.tries[lane, p], child_of[p], values[p], taq[p],
                                      env.per_composite)
-                if kind == MGRAO:
+                if kind == MGRAO and n_resources > 1:  # each resource's PW: the value, or its share of it
+                    for r in range(n_resources):
+                        for k in range(types_per_composite):
+                            learner_of[k] = child_of[p, k] * n_resources + r
+                            credit[k] = values[p, k] * shares[p, k, r] if env.by_share else values[p, k]
+                        mgrao.learn(mgrao_lanes, mgrao_views, m, p, n_parents, learner_of, parent_types[p], credit)
+                elif kind == MGRAO:
                     mgrao.learn(mgrao_lanes, mgrao_views, m, p, n_parents, child_of[p], parent_types[p],
                                 values[p])
                 elif kind == ADAPTIVE:
@@ -203,8 +238,12 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes, adaptive_lanes,
 @njit(cache=True)
 def finish(lanes, mgrao_lanes, adaptive_lanes, independent_q_lanes, bandit_lanes):
     """Materialise every learner lane's final state and allocation (after the last episode)."""
+    n_resources = lanes.resource_weights.shape[2]
     for lane in range(lanes.kind.shape[0]):
-        if lanes.kind[lane] == MGRAO:
+        if lanes.kind[lane] == MGRAO and n_resources > 1:
+            mgrao.finish_resources(mgrao_lanes, lane, lanes.groups[lane], lanes.resource_weights[lane])
+            lanes.weights[lane, :, :] = lanes.resource_weights[lane, :, 0, :]
+        elif lanes.kind[lane] == MGRAO:
             mgrao.finish(mgrao_lanes, lane, lanes.groups[lane], lanes.weights[lane])
         elif lanes.kind[lane] == ADAPTIVE:
             adaptive.finish(adaptive_lanes, lane, lanes.groups[lane], lanes.weights[lane])
@@ -212,3 +251,6 @@ def finish(lanes, mgrao_lanes, adaptive_lanes, independent_q_lanes, bandit_lanes
             independent_q.finish(independent_q_lanes, lane, lanes.groups[lane], lanes.weights[lane])
         elif lanes.kind[lane] == BANDIT:
             bandit.finish(bandit_lanes, lane, lanes.groups[lane], lanes.weights[lane])
+        if lanes.kind[lane] != MGRAO:
+            for r in range(n_resources):  # one split for every resource (empty with one resource)
+                lanes.resource_weights[lane, :, r, :] = lanes.weights[lane]

@@ -65,3 +65,34 @@ def test_adaptive_groups_give_their_recorded_membership(client: TestClient, work
     assert membership["every"] == 5
     assert np.array_equal(np.array(membership["children"]), expected.membership)
     assert np.array(membership["children"]).shape == (1, 5, 50)  # episode 0 and the regroups at 5, 10, 15, 20
+
+
+def test_several_resources_answer_one_set_of_weights_per_resource(client: TestClient, worker: Worker) -> None:
+    # resource-major storage: the answer's combined and groups are the first resource's (as before), and
+    # resources gives each one's, bit for bit the core's; with one resource resources is null
+    algorithms = ["uniform", "oracle", "mgrao-1:1", "mgrao-max"]
+    params = {"resource_credit": "by-share"}
+    job = client.post("/api/jobs", json={"system": "multi-resource", "algorithms": algorithms, "seeds": [4, 1],
+                                         "episodes": 10, "params": params}).json()
+    assert job.get("id"), job
+    drain(worker)
+    expected = run_experiment(make_spec("multi-resource", algorithms, [4, 1], 10, overrides=params))
+    answer = client.get(f"/api/jobs/{job['id']}/weights?seed=1").json()
+    for config in answer["configurations"]:
+        run = next(r for r in expected.runs if r.algorithm == config["algorithm"] and r.seed == 1)
+        assert np.array_equal(np.array(config["combined"]), run.combined_weights)
+        assert [r["resource"] for r in config["resources"]] == [0, 1]
+        for r, resource in enumerate(config["resources"]):
+            assert np.array_equal(np.array(resource["combined"]), run.resource_weights[r])
+            if config["algorithm"].startswith("mgrao"):
+                assert np.array_equal(np.array(resource["groups"]), run.resource_group_weights[r])
+            else:
+                assert resource["groups"] == []
+    results = client.get(f"/api/jobs/{job['id']}/results").json()["configurations"]
+    mean = next(c for c in results if c["algorithm"] == "mgrao-max")["weights"]
+    runs = [r for r in expected.runs if r.algorithm == "mgrao-max"]
+    assert np.allclose(mean["resources"][1]["groups"], np.mean([r.resource_group_weights[1] for r in runs], axis=0))
+    one = client.post("/api/jobs", json={"system": "single", "algorithms": ["mgrao-1:1"], "seeds": [0],
+                                         "episodes": 5}).json()
+    drain(worker)
+    assert "resources" not in client.get(f"/api/jobs/{one['id']}/weights").json()["configurations"][0]

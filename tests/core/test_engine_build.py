@@ -106,7 +106,7 @@ def test_editing_an_algorithm_module_or_the_quality_models_recompiles_the_kernel
 
 def test_no_index_is_out_of_bounds_in_any_system(tmp_path: Path) -> None:
     root = _copy_package(tmp_path)
-    _run(root, "single,multi,volatile,large,drift,bursty", NUMBA_BOUNDSCHECK="1")  # drift, bursty: the dynamics
+    _run(root, "single,multi,volatile,large,drift,bursty,multi-resource", NUMBA_BOUNDSCHECK="1")  # dynamics, resources
 
 
 LEAN = """

@@ -19,6 +19,10 @@ CASES = [
     ("large", ["mgrao-max"], 1, {}),
     ("single", ["uniform"], 4, {}),
 ]
+RESOURCE_CASES = [
+    ("multi", ["uniform", "mgrao-1:1", "mgrao-max", "oracle", "mgrao-adaptive:2", "bandit"], 2, {"n_resources": 3}),
+    ("single", ["mgrao-2:1", "independent-q"], 3, {"n_resources": 8, "resource_credit": "by-share"}),
+]
 
 
 def _before(spec, n_seeds):
@@ -35,7 +39,7 @@ def _before(spec, n_seeds):
     ) + lanes * p.n_parents
 
 
-@pytest.mark.parametrize(("system", "algorithms", "seeds", "overrides"), CASES)
+@pytest.mark.parametrize(("system", "algorithms", "seeds", "overrides"), CASES + RESOURCE_CASES)
 def test_the_budget_counts_exactly_what_the_runner_allocates(system, algorithms, seeds, overrides):
     spec = make_spec(system, algorithms, seeds=seeds, episodes=5, overrides=overrides)
     arrays = allocate_lanes(spec.params, spec.parsed_algorithms, seeds)
@@ -61,6 +65,23 @@ def test_the_budget_grows_only_by_the_kernel_temporaries_it_now_counts(system, a
     added = nbytes(later, chunk_sizes(spec.params, spec.parsed_algorithms, seeds))
     assert chunk_cost(spec, seeds).state == (_before(spec, seeds) + lanes * (spec.params.n_children + 8 * groups
                                                                               + parent_types) + added)
+
+
+@pytest.mark.parametrize(("system", "algorithms", "seeds", "overrides"), RESOURCE_CASES)
+def test_several_resources_grow_the_learners_state_and_nothing_at_one(system, algorithms, seeds, overrides):
+    # MG-RAO's (and mgrao-adaptive's shared) arrays hold one learner per (child, resource), the allocation in
+    # force one row per resource; one resource adds no byte (its resource axis is empty)
+    one = make_spec(system, algorithms, seeds=seeds, episodes=5, overrides={**overrides, "n_resources": 1})
+    several = make_spec(system, algorithms, seeds=seeds, episodes=5, overrides=overrides)
+    r = several.params.n_resources
+    arrays_one = allocate_lanes(one.params, one.parsed_algorithms, seeds)
+    arrays = allocate_lanes(several.params, several.parsed_algorithms, seeds)
+    assert arrays_one["resource_weights"].nbytes == 0
+    assert arrays["resource_weights"].shape[2] == r
+    assert arrays["Y"].shape[1] == r * arrays_one["Y"].shape[1]
+    assert chunk_cost(several, seeds).state > chunk_cost(one, seeds).state
+    assert chunk_cost(several, seeds).worlds > chunk_cost(one, seeds).worlds
+    assert chunk_cost(several, seeds).results > chunk_cost(one, seeds).results
 
 
 def test_lanes_are_seed_major_with_their_family_codes_and_groups():

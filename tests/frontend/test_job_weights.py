@@ -102,3 +102,35 @@ def test_adaptive_groups_show_their_membership_over_the_run(page, server, screen
     assert "Group membership of child 0 under mgrao-adaptive:5, seed 3" in page.locator("#membership-note").inner_text()
     page.locator("#membership-heatmap").scroll_into_view_if_needed()
     page.screenshot(path=str(screenshots / "adaptive-membership.png"), full_page=True)
+
+
+def test_several_resources_show_one_heatmap_per_resource(page, server, screenshots):
+    # the system picker offers the multi-resource preset (learned from GET /api/systems), and its job view draws
+    # one heatmap of the parent-group weights per resource, titled by resource, each as stored
+    page.goto("/#/new")
+    picker = page.get_by_label("System preset")
+    picker.wait_for(timeout=30000)
+    assert "multi-resource" in picker.locator("option").all_inner_texts() or "multi-resource" in [
+        o.get_attribute("value") for o in picker.locator("option").all()]
+    job = post_job(server, {"system": "multi-resource", "algorithms": ALGORITHMS, "seeds": [2, 5], "episodes": 30,
+                            "params": {"resource_credit": "by-share"}, "name": "weights per resource"})
+    wait_for(lambda: get(server, f"/api/jobs/{job['id']}")["status"] == "succeeded", 120, "the job to finish")
+    stored = {c["algorithm"]: c for c in get(server, f"/api/jobs/{job['id']}/weights?seed=2")["configurations"]}
+    page.set_viewport_size({"width": 1280, "height": 1200})
+    page.goto(f"/#/jobs/{job['id']}")
+    page.locator("#weights-bars .main-svg").first.wait_for(timeout=60000)
+    heatmaps = page.locator("[data-testid=weights-resource-heatmap]")
+    wait_for(lambda: heatmaps.count() == 2, 30, "one heatmap per resource")
+    page.locator("#weights-heatmap-resource-1 .main-svg").first.wait_for(timeout=30000)
+    for r in (0, 1):
+        drawn = page.eval_on_selector(f"#weights-heatmap-resource-{r}",
+                                      "el => ({z: el.data[0].z, title: el.layout.title.text})")
+        assert drawn["title"].startswith(f"Resource {r}")
+        assert drawn["z"] == stored["mgrao-max"]["resources"][r]["groups"][0]
+    assert stored["mgrao-max"]["resources"][0]["groups"] != stored["mgrao-max"]["resources"][1]["groups"]
+    assert page.locator("#weights-heatmap").is_hidden()  # the single heatmap gives way to one per resource
+    page.locator("#weights-resource-heatmaps").scroll_into_view_if_needed()
+    page.screenshot(path=str(screenshots / "weights-resources.png"))
+    # a configuration without group weights draws none
+    page.get_by_label("Configuration", exact=True).and_(page.locator("select")).select_option("uniform")
+    wait_for(lambda: heatmaps.count() == 0, 30, "no heatmap for uniform")

@@ -239,5 +239,5 @@ def finish(al, lane, m, weights):
     MG-RAO's final allocation, without a regrouping (no episode follows).
     """
     views = mgrao.lane_of(al, lane)
-    for c in range(al.Y.shape[1]):
+    for c in range(weights.shape[0]):  # the first children of MG-RAO's learners (one split for every resource)
         mgrao.allocate(al, views, m, c, weights[c])

@@ -159,8 +159,8 @@ class Adaptive(Family):
         """
         recorded = {a.name for a in record_state()}
         learner = tuple(a for a in self.state if a.name not in recorded)
-        return nbytes(learner, sizes_of(params, 1, algorithm.n_groups, self.sizes(algorithm, params))
-                      | {"children": 1, "tracked_children": 1})
+        sizes = sizes_of(params, 1, algorithm.n_groups, self.sizes(algorithm, params))
+        return nbytes(learner, sizes | {"children": 1, "tracked_children": 1, "learners": sizes["resources"]})
 
     def initialise(self, arrays: Mapping[str, np.ndarray], lanes: np.ndarray, params: System) -> None:
         """MG-RAO's initial rows; parent ``p`` in group ``floor(p * x / n_parents)``, the first recorded membership."""

@@ -367,3 +367,13 @@ def finish(ml, lane, m, weights):
     views = lane_of(ml, lane)
     for c in range(ml.Y.shape[1]):
         allocate(ml, views, m, c, weights[c])
+
+
+@njit(cache=True)
+def finish_resources(ml, lane, m, weights):
+    """:func:`finish` with several resources: learner ``c * R + r`` into ``weights[c, r]`` (``(children, R, n)``)."""
+    views = lane_of(ml, lane)
+    n_resources = weights.shape[1]
+    for c in range(weights.shape[0]):
+        for r in range(n_resources):
+            allocate(ml, views, m, c * n_resources + r, weights[c, r])

@@ -76,18 +76,19 @@ class Mgrao(Family):
             "mgrao", choices=GROUP_BLENDS,
         ),
     )
-    state = (  # each child's PW and trace in lazy form (see the compiled module), its active rows and counts
-        StateArray("Y", ("lanes", "children", "groups", "n_types"), fill="uniform", help="PW, lazily"),
-        StateArray("F", ("lanes", "children", "groups", "n_types"), help="the eligibility trace, lazily"),
-        StateArray("H", ("lanes", "children", "groups"), help="each active row's pending update"),
-        StateArray("cs", ("lanes", "children", "groups"), fill=1.0, help="each active row's scale"),
-        StateArray("G", ("lanes", "children", "groups"), help="each active row's trace sum"),
-        StateArray("k_since_rebase", ("lanes", "children"), "int64", help="updates since the last rebase"),
-        StateArray("rows", ("lanes", "children", "groups"), "int64", help="the active rows, first n_rows"),
-        StateArray("slot", ("lanes", "children", "groups"), "int64", help="each row's place in rows (-1: inactive)"),
-        StateArray("n_rows", ("lanes", "children"), "int64", help="how many rows are active"),
-        StateArray("counts", ("lanes", "children", "groups"), help="parent agent sample counts"),
-        StateArray("rebase_due", ("lanes", "children"), "bool", help="a scale nears underflow: rebase first"),
+    state = (  # each child's PW and trace in lazy form (see the compiled module), its active rows and counts;
+        # one learner per (child, resource): learner c * n_resources + r keeps child c's PW of resource r
+        StateArray("Y", ("lanes", "learners", "groups", "n_types"), fill="uniform", help="PW, lazily"),
+        StateArray("F", ("lanes", "learners", "groups", "n_types"), help="the eligibility trace, lazily"),
+        StateArray("H", ("lanes", "learners", "groups"), help="each active row's pending update"),
+        StateArray("cs", ("lanes", "learners", "groups"), fill=1.0, help="each active row's scale"),
+        StateArray("G", ("lanes", "learners", "groups"), help="each active row's trace sum"),
+        StateArray("k_since_rebase", ("lanes", "learners"), "int64", help="updates since the last rebase"),
+        StateArray("rows", ("lanes", "learners", "groups"), "int64", help="the active rows, first n_rows"),
+        StateArray("slot", ("lanes", "learners", "groups"), "int64", help="each row's place in rows (-1: inactive)"),
+        StateArray("n_rows", ("lanes", "learners"), "int64", help="how many rows are active"),
+        StateArray("counts", ("lanes", "learners", "groups"), help="parent agent sample counts"),
+        StateArray("rebase_due", ("lanes", "learners"), "bool", help="a scale nears underflow: rebase first"),
         StateArray("scratch", ("lanes", "groups"), help="algorithm 2's blending vector, while it is computed"),
     )
     steps = "mgrao_core.algorithms.mgrao.compiled"

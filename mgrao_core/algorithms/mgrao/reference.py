@@ -44,7 +44,39 @@ class Child(ReferenceChild):
         self.pw = eq.pw_update(self.pw, self.trace, value, self.params.learning_rate)
 
 
+class ResourceChild(ReferenceChild):
+    """A child with several resources: one :class:`Child` (PW, trace, counts) per resource, the paper's ``pgw_{c,r,t}``.
+
+    Under ``resource_credit = shared`` every resource's PW learns the whole returned value (so they never differ);
+    under ``by-share`` resource ``r`` learns ``value * shares[r]`` (docs/model.md, "Several resources").
+    """
+
+    def __init__(self, n_groups: int, groups: np.ndarray, params: System) -> None:
+        self.params = params
+        self.resources = [Child(n_groups, groups, params) for _ in range(params.n_resources)]
+
+    def allocation(self) -> np.ndarray:
+        """``(n_resources, n_types)``: algorithm 2 on each resource's PW."""
+        return np.stack([child.allocation() for child in self.resources])
+
+    def learn(self, parent: int, task_type: int, value: float) -> None:
+        """The whole value to every resource."""
+        for child in self.resources:
+            child.learn(parent, task_type, value)
+
+    def learn_resources(self, parent: int, task_type: int, value: float, shares: np.ndarray) -> None:
+        """Algorithm 1 on each resource's PW with its credit."""
+        by_share = self.params.resource_credit == "by-share"
+        for child, share in zip(self.resources, shares, strict=True):
+            child.learn(parent, task_type, value * share if by_share else value)
+
+
 def children(params: System, algorithm: Algorithm, world: World, seed: int) -> list[ReferenceChild]:
-    """One :class:`Child` per child of the system, for ``algorithm`` (``mgrao-x:1`` or ``mgrao-max``)."""
+    """One :class:`Child` per child of the system, for ``algorithm`` (``mgrao-x:1`` or ``mgrao-max``).
+
+    With several resources, one :class:`ResourceChild` per child.
+    """
     groups = parent_groups(params.n_parents, algorithm.n_groups)
+    if params.n_resources > 1:
+        return [ResourceChild(algorithm.n_groups, groups, params) for _ in range(params.n_children)]
     return [Child(algorithm.n_groups, groups, params) for _ in range(params.n_children)]
