@@ -18,9 +18,9 @@ import logging
 import os
 import socket
 import threading
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 from backend.execution.heartbeats import Heartbeats
 from backend.execution.lifecycle import Ended, Lifecycle
@@ -30,6 +30,9 @@ from backend.settings import Settings
 from backend.store import queue, summaries
 from backend.store.db import Database
 from backend.store.retry import Backoff, HealthClock, OutageLog, Stopping
+
+if TYPE_CHECKING:
+    from mgrao_core import ExperimentSpec
 
 log = logging.getLogger("mgrao.worker")
 T = TypeVar("T")
@@ -106,34 +109,37 @@ class Worker:
         if not claims:
             return 0
         try:
-            alone = [claim for claim in claims if not self.small(claim)]
-            for claim in alone:  # a job big in work or in memory runs chunk by chunk, within its memory budget
-                self.execute(claim)
-            if len(alone) < len(claims):
-                self.execute_batch([claim for claim in claims if claim not in alone])
+            specs = {claim.job_id: self.small_spec(claim) for claim in claims}
+            for claim in claims:  # a job big in work or in memory runs chunk by chunk, within its memory budget
+                if specs[claim.job_id] is None:
+                    self.execute(claim)
+            batch = [claim for claim in claims if specs[claim.job_id] is not None]
+            if batch:
+                self.execute_batch(batch, specs)
         except Stopping as error:
             log.warning("jobs %s left to their leases: %s", [c.job_id for c in claims], error)
         return len(claims)
 
-    def small(self, claim: queue.Claim) -> bool:
-        """Whether a claimed job is small: it runs as a batch, on one numba thread.
+    def small_spec(self, claim: queue.Claim) -> ExperimentSpec | None:
+        """A claimed small job's validated configuration, parsed once for its batch; None when it runs alone.
 
         Small in work (``MGRAO_SMALL_JOB_WORK`` atomic tasks) and in memory: a batch holds each job's runs
         whole, so a job whose every seed at once would take more than :data:`SMALL_JOB_BYTES` (few
         tasks, but large learner state or stored weights) runs alone, chunk by chunk, within its budget.
         """
         if claim.work is None or claim.work > self.settings.small_job_work:
-            return False
+            return None
         from mgrao_core import spec_from_dict
         from mgrao_core.budget import chunk_cost
 
         try:
-            spec = spec_from_dict(claim.config)
+            spec = spec_from_dict(claim.config, memory_budget=self.settings.job_memory_bytes)
         except Exception:  # noqa: BLE001  (an invalid configuration fails in execute, with its message)
-            return False
-        return chunk_cost(spec, len(spec.seeds)).total <= SMALL_JOB_BYTES
+            return None
+        return spec if chunk_cost(spec, len(spec.seeds)).total <= SMALL_JOB_BYTES else None
 
-    def execute_batch(self, claims: Sequence[queue.Claim]) -> None:
+    def execute_batch(self, claims: Sequence[queue.Claim],
+                      specs: Mapping[int, ExperimentSpec | None] | None = None) -> None:
         """Run a batch of small claimed jobs, each as its own job, then store and end them all at once.
 
         Each job ends exactly as alone: succeeded (every run stored in the batch's transaction,
@@ -166,7 +172,7 @@ class Worker:
             held = 0
 
         try:
-            plans = lifecycle.plan_batch(claims)
+            plans = lifecycle.plan_batch(claims, specs)
             with one_numba_thread():
                 for claim in claims:
                     plan = plans[claim.job_id]

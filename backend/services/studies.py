@@ -24,7 +24,7 @@ from collections.abc import Sequence
 from typing import Any
 
 import orjson
-from sqlalchemy import delete, func, insert, select, update
+from sqlalchemy import bindparam, delete, func, insert, or_, select, update
 from sqlalchemy.orm import Session
 
 import mgrao_core
@@ -154,14 +154,15 @@ def advance(db: Database, study_id: int) -> None:
         study = _hold(session, study_id)
         if study is None or study.status != STUDY_RUNNING:
             return
-        changed = False
+        changed = _record_outcomes(session, outcomes)
         for trial_id, outcome in outcomes.items():
-            ended = outcome["status"] in ENDED
-            values = dict(outcome) | ({"finished_at": utcnow()} if ended else {})
-            result = session.execute(update(Trial).where(Trial.id == trial_id, Trial.status.in_((QUEUED, RUNNING)),
-                                                         Trial.status != outcome["status"]).values(**values))
+            if outcome["status"] not in (FAILED, CANCELLED):
+                continue
+            values = dict(outcome) | {"finished_at": utcnow()}
+            result = session.execute(update(Trial).where(Trial.id == trial_id, Trial.status.in_((QUEUED, RUNNING)))
+                                     .values(**values).execution_options(synchronize_session=False))
             changed |= result.rowcount == 1
-            if result.rowcount == 1 and outcome["status"] in (FAILED, CANCELLED):
+            if result.rowcount == 1:
                 # a trial over several systems that lost one job: its other jobs have nothing to add
                 session.execute(update(Job).where(Job.trial_id == trial_id, Job.status.in_((QUEUED, RUNNING)))
                                 .values(status=CANCELLED, lease=None, finished_at=utcnow()))
@@ -174,6 +175,37 @@ def advance(db: Database, study_id: int) -> None:
         if changed:
             _update_best(session, study, plan)
             study.revision += 1
+
+
+_SUCCEEDED_TRIAL = update(Trial.__table__).where(
+    Trial.__table__.c.id == bindparam("trial"),
+    or_(Trial.__table__.c.status == QUEUED, Trial.__table__.c.status == RUNNING)).values(
+    status=SUCCEEDED, value=bindparam("b_value"), low=bindparam("b_low"), high=bindparam("b_high"),
+    runs=bindparam("b_runs"), finished_at=bindparam("b_finished_at"))
+
+
+def _record_outcomes(session: Session, outcomes: dict[int, dict[str, Any]]) -> bool:
+    """Record the trials that succeeded (one statement run for all) and those now running (one); whether any changed.
+
+    Each row changes only while its trial is still queued or running, exactly as one ``UPDATE`` each
+    would; failed and cancelled trials (rare) are recorded one by one by the caller, which also
+    cancels their other jobs.
+    """
+    changed = False
+    now = utcnow()
+    succeeded = [{"trial": trial_id, "b_value": o["value"], "b_low": o["low"], "b_high": o["high"],
+                  "b_runs": o["runs"], "b_finished_at": now}
+                 for trial_id, o in outcomes.items() if o["status"] == SUCCEEDED]
+    if succeeded:
+        result = session.connection().execute(_SUCCEEDED_TRIAL, succeeded)
+        sane = session.get_bind().dialect.supports_sane_multi_rowcount
+        changed |= result.rowcount > 0 if sane else True
+    running = [trial_id for trial_id, o in outcomes.items() if o["status"] == RUNNING]
+    if running:
+        result = session.execute(update(Trial).where(Trial.id.in_(running), Trial.status == QUEUED)
+                                 .values(status=RUNNING).execution_options(synchronize_session=False))
+        changed |= result.rowcount > 0
+    return changed
 
 
 def _made(session: Session, study_id: int) -> int:
