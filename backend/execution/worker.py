@@ -22,6 +22,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from typing import TYPE_CHECKING, TypeVar
 
+from backend import wakeup
 from backend.execution.heartbeats import Heartbeats
 from backend.execution.lifecycle import Ended, Lifecycle
 from backend.execution.lifeline import stop_on_signals
@@ -76,6 +77,7 @@ class Worker:
         self.db = Database(settings.database_url, settings.db_busy_timeout_s)
         self.worker_id = worker_id or f"{socket.gethostname()}:{os.getpid()}"
         self.shutdown = threading.Event()
+        self.wake: wakeup.Listener | None = None
         self.health = HealthClock()
         self.lifecycle = Lifecycle(self.db, settings, owner_id=self.worker_id, shutdown=self.shutdown,
                                    health=self.health, on_ended=on_ended)
@@ -83,6 +85,8 @@ class Worker:
     def stop(self, *_: object) -> None:
         """Ask the worker to stop (the running job is handed back to the queue)."""
         self.shutdown.set()
+        if self.wake is not None:
+            self.wake.poke()
 
     def install_signal_handlers(self) -> None:
         """Stop cleanly on SIGTERM and SIGINT."""
@@ -272,10 +276,13 @@ class Worker:
         try:
             if warm_up:
                 self.warm_up()
+            self.wake = wakeup.Listener.open(f"{wakeup.WORKER_PREFIX}{os.getpid()}")
             presence.ready()
             log.info("worker %s ready", self.worker_id)
             self._poll()
         finally:
+            if self.wake is not None:
+                self.wake.close()
             presence.close()
             self.db.dispose()
 
@@ -293,7 +300,14 @@ class Worker:
                 self.shutdown.wait(backoff.next())
                 continue
             if not ran:
-                self.shutdown.wait(self.settings.poll_s)
+                self.idle()
+
+    def idle(self) -> None:
+        """Wait for work: until woken (jobs were queued, :mod:`backend.wakeup`), or ``poll_s`` at most."""
+        if self.wake is None:
+            self.shutdown.wait(self.settings.poll_s)
+        elif not self.shutdown.is_set():
+            self.wake.wait(self.settings.poll_s)
 
 
 def main(settings: Settings | None = None, *, on_ended: Sequence[Ended] = ()) -> None:

@@ -19,6 +19,7 @@ import functools
 import logging
 import math
 import threading
+import time
 from collections import defaultdict
 from collections.abc import Sequence
 from typing import Any
@@ -28,6 +29,7 @@ from sqlalchemy import bindparam, delete, func, insert, or_, select, update
 from sqlalchemy.orm import Session
 
 import mgrao_core
+from backend import wakeup
 from backend.errors import Conflict, NotFound
 from backend.store import crud
 from backend.store import summaries as job_results
@@ -166,7 +168,8 @@ def advance(db: Database, study_id: int) -> None:
                 # a trial over several systems that lost one job: its other jobs have nothing to add
                 session.execute(update(Job).where(Job.trial_id == trial_id, Job.status.in_((QUEUED, RUNNING)))
                                 .values(status=CANCELLED, lease=None, finished_at=utcnow()))
-        changed |= _fill(session, study, plan, made, suggestions)
+        submitted = _fill(session, study, plan, made, suggestions)
+        changed |= submitted
         open_trials = session.scalar(select(func.count()).select_from(Trial).where(
             Trial.study_id == study_id, Trial.status.in_(OPEN))) or 0
         if open_trials == 0 and _made(session, study_id) >= study.planned:
@@ -175,6 +178,8 @@ def advance(db: Database, study_id: int) -> None:
         if changed:
             _update_best(session, study, plan)
             study.revision += 1
+    if submitted:  # committed: idle local workers claim the new trials' jobs now, not at their next poll
+        wakeup.wake_workers()
 
 
 _SUCCEEDED_TRIAL = update(Trial.__table__).where(
@@ -327,6 +332,20 @@ def advance_after(db: Database, job_ids: Sequence[int]) -> None:
         log.warning("advancing the studies of jobs %s failed; the study driver will", list(job_ids), exc_info=True)
 
 
+def hand_over_or_advance(db: Database, job_ids: Sequence[int]) -> None:
+    """Hand the studies of jobs that just ended to the API's :class:`StudyDriver`, or advance them here.
+
+    Under ``mgrao serve`` (a wake-up directory, :mod:`backend.wakeup`) the job ids go to the driver, which advances
+    their studies on the API's core while this process runs its next jobs; when no driver takes them (none
+    listening, its buffer full) they advance here, as :func:`advance_after`. A hand-over lost afterwards (the API
+    killed) only delays: the driver advances every running study every ``MGRAO_STUDY_POLL_S``, after any restart.
+    """
+    payload = ",".join(str(job_id) for job_id in job_ids).encode()
+    if job_ids and len(payload) < 60_000 and wakeup.send(wakeup.STUDIES, payload):
+        return
+    advance_after(db, job_ids)
+
+
 def advance_study_quietly(db: Database, study_id: int) -> None:
     """:func:`advance`, leaving a failure to the :class:`StudyDriver`."""
     try:
@@ -457,14 +476,33 @@ class StudyDriver(threading.Thread):
         super().__init__(name="study-driver", daemon=True)
         self.db, self.period_s = db, period_s
         self.stopping = threading.Event()
+        self.listener = wakeup.Listener.open(wakeup.STUDIES)  # jobs that ended, handed over by local workers
 
     def run(self) -> None:
-        """Advance until stopped; a failing database only delays the next round (logged once per outage)."""
+        """Advance until stopped; a failing database only delays the next round (logged once per outage).
+
+        Every ``period_s`` every running study; in between, as soon as a local worker hands them over
+        (:func:`hand_over_or_advance`), the studies of the jobs that ended.
+        """
         outage = OutageLog(log, "advancing studies")
-        while not self.stopping.wait(self.period_s):
+        next_round = time.monotonic() + self.period_s
+        while not self.stopping.is_set():
+            left = next_round - time.monotonic()
+            if self.listener is None:
+                self.stopping.wait(max(0.0, left))
+                messages: list[bytes] = []
+            else:
+                messages = self.listener.wait(left)
+            if self.stopping.is_set():
+                break
             try:
-                for study_id in running_studies(self.db):
-                    advance(self.db, study_id)
+                ended = sorted({int(part) for message in messages for part in message.split(b",") if part.strip()})
+                if ended:
+                    advance_for_jobs(self.db, ended)
+                if time.monotonic() >= next_round:
+                    next_round = time.monotonic() + self.period_s
+                    for study_id in running_studies(self.db):
+                        advance(self.db, study_id)
             except Exception as error:  # noqa: BLE001 - the next round retries
                 outage.failed(error)
             else:
@@ -473,5 +511,9 @@ class StudyDriver(threading.Thread):
     def stop(self) -> None:
         """End the thread after its current round."""
         self.stopping.set()
+        if self.listener is not None:
+            self.listener.poke()
         if self.is_alive():
             self.join(timeout=30)
+        if self.listener is not None:
+            self.listener.close()
