@@ -9,7 +9,9 @@ job's progress, and notices a cancel (the job's lease is gone), which makes the 
 Small jobs (``MGRAO_SMALL_JOB_WORK``) are claimed in batches of up to ``MGRAO_BATCH_JOBS``: one
 transaction claims them, each runs as its own job (its own configuration, :func:`mgrao_core.run_chunk`
 on one numba thread), and one transaction stores every run of the batch and marks each job
-succeeded, each conditional on its own lease; then each study of the batch advances once.
+succeeded, each conditional on its own lease; then each study of the batch advances once (handed to
+the API's study driver under ``mgrao serve``: :mod:`backend.wakeup`). An idle worker under ``mgrao serve``
+waits on its wake-up socket, woken when jobs are queued, and polls every ``MGRAO_POLL_S`` all the same.
 """
 
 from __future__ import annotations
