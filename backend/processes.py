@@ -14,8 +14,9 @@ from backend.execution.lifecycle import Ended
 from backend.services import studies
 from backend.settings import Settings
 
-ON_ENDED: tuple[Ended, ...] = (studies.advance_after,)
-"""What is told that a job ended, in every process that runs jobs."""
+ON_ENDED: tuple[Ended, ...] = (studies.hand_over_or_advance,)
+"""What is told that a job ended, in every process that runs jobs (under ``mgrao serve``, the API's study driver
+advances the studies: :mod:`backend.wakeup`)."""
 
 
 def local_worker(settings: Settings, *, worker_id: str | None = None) -> worker.Worker:

@@ -4,8 +4,11 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import os
+import shutil
 import signal
 import socket
+import tempfile
 from collections.abc import Iterator
 from types import FrameType
 from typing import Any
@@ -83,6 +86,7 @@ def serve(host: str | None, port: int | None, workers: int | None, database_url:
     """Serve the REST API and the dashboard, with local workers running the queued jobs."""
     import uvicorn
 
+    from backend import wakeup
     from backend.api.app import create_app
     from backend.settings import Settings
     from backend.store.db import Database
@@ -91,6 +95,10 @@ def serve(host: str | None, port: int | None, workers: int | None, database_url:
                  {"host": host, "port": port, "workers": workers, "database_url": database_url}.items()
                  if v is not None}
     settings = settings_or_exit(Settings, overrides)
+    wake_dir = None
+    if not os.environ.get(wakeup.ENV):  # wake-ups between the API and its workers (backend/wakeup.py)
+        wake_dir = tempfile.mkdtemp(prefix="mgrao-wake-")
+        os.environ[wakeup.ENV] = wake_dir  # read by the API here and inherited by the workers
     sock = listen(settings.host, settings.port)  # first: a busy port fails before anything starts
     _Server = _server_class()  # noqa: N806
     db = Database(settings.database_url)
@@ -114,6 +122,8 @@ def serve(host: str | None, port: int | None, workers: int | None, database_url:
         server.run(sockets=[sock])
     finally:
         pool.stop()
+        if wake_dir is not None:
+            shutil.rmtree(wake_dir, ignore_errors=True)
     click.echo("mgrao: stopped", err=True)
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import logging
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TypeVar
 
@@ -93,11 +93,20 @@ class Lifecycle:
                                  max_attempts=self.settings.max_attempts, requeue=requeue,
                                  small_work=self.settings.small_job_work, limit=self.settings.batch_jobs)
 
-    def plan_batch(self, claims: Sequence[queue.Claim]) -> dict[int, Plan | MgraoError]:
-        """:meth:`plan` of many jobs, their stored runs read in one query; a job no longer valid maps to its error."""
+    def plan_batch(self, claims: Sequence[queue.Claim],
+                   parsed: Mapping[int, ExperimentSpec | None] | None = None) -> dict[int, Plan | MgraoError]:
+        """:meth:`plan` of many jobs, their stored runs read in one query; a job no longer valid maps to its error.
+
+        ``parsed`` holds configurations already validated against the job memory budget (a worker
+        parses each claimed job once, to tell whether it is small).
+        """
         budget = self.settings.job_memory_bytes
         specs: dict[int, ExperimentSpec | MgraoError] = {}
         for claim in claims:
+            known = (parsed or {}).get(claim.job_id)
+            if known is not None:
+                specs[claim.job_id] = known
+                continue
             try:
                 specs[claim.job_id] = spec_from_dict(claim.config, memory_budget=budget)
             except MgraoError as error:

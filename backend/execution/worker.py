@@ -9,7 +9,9 @@ job's progress, and notices a cancel (the job's lease is gone), which makes the 
 Small jobs (``MGRAO_SMALL_JOB_WORK``) are claimed in batches of up to ``MGRAO_BATCH_JOBS``: one
 transaction claims them, each runs as its own job (its own configuration, :func:`mgrao_core.run_chunk`
 on one numba thread), and one transaction stores every run of the batch and marks each job
-succeeded, each conditional on its own lease; then each study of the batch advances once.
+succeeded, each conditional on its own lease; then each study of the batch advances once (handed to
+the API's study driver under ``mgrao serve``: :mod:`backend.wakeup`). An idle worker under ``mgrao serve``
+waits on its wake-up socket, woken when jobs are queued, and polls every ``MGRAO_POLL_S`` all the same.
 """
 
 from __future__ import annotations
@@ -18,10 +20,11 @@ import logging
 import os
 import socket
 import threading
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
+from backend import wakeup
 from backend.execution.heartbeats import Heartbeats
 from backend.execution.lifecycle import Ended, Lifecycle
 from backend.execution.lifeline import stop_on_signals
@@ -30,6 +33,9 @@ from backend.settings import Settings
 from backend.store import queue, summaries
 from backend.store.db import Database
 from backend.store.retry import Backoff, HealthClock, OutageLog, Stopping
+
+if TYPE_CHECKING:
+    from mgrao_core import ExperimentSpec
 
 log = logging.getLogger("mgrao.worker")
 T = TypeVar("T")
@@ -73,6 +79,7 @@ class Worker:
         self.db = Database(settings.database_url, settings.db_busy_timeout_s)
         self.worker_id = worker_id or f"{socket.gethostname()}:{os.getpid()}"
         self.shutdown = threading.Event()
+        self.wake: wakeup.Listener | None = None
         self.health = HealthClock()
         self.lifecycle = Lifecycle(self.db, settings, owner_id=self.worker_id, shutdown=self.shutdown,
                                    health=self.health, on_ended=on_ended)
@@ -80,6 +87,8 @@ class Worker:
     def stop(self, *_: object) -> None:
         """Ask the worker to stop (the running job is handed back to the queue)."""
         self.shutdown.set()
+        if self.wake is not None:
+            self.wake.poke()
 
     def install_signal_handlers(self) -> None:
         """Stop cleanly on SIGTERM and SIGINT."""
@@ -106,34 +115,37 @@ class Worker:
         if not claims:
             return 0
         try:
-            alone = [claim for claim in claims if not self.small(claim)]
-            for claim in alone:  # a job big in work or in memory runs chunk by chunk, within its memory budget
-                self.execute(claim)
-            if len(alone) < len(claims):
-                self.execute_batch([claim for claim in claims if claim not in alone])
+            specs = {claim.job_id: self.small_spec(claim) for claim in claims}
+            for claim in claims:  # a job big in work or in memory runs chunk by chunk, within its memory budget
+                if specs[claim.job_id] is None:
+                    self.execute(claim)
+            batch = [claim for claim in claims if specs[claim.job_id] is not None]
+            if batch:
+                self.execute_batch(batch, specs)
         except Stopping as error:
             log.warning("jobs %s left to their leases: %s", [c.job_id for c in claims], error)
         return len(claims)
 
-    def small(self, claim: queue.Claim) -> bool:
-        """Whether a claimed job is small: it runs as a batch, on one numba thread.
+    def small_spec(self, claim: queue.Claim) -> ExperimentSpec | None:
+        """A claimed small job's validated configuration, parsed once for its batch; None when it runs alone.
 
         Small in work (``MGRAO_SMALL_JOB_WORK`` atomic tasks) and in memory: a batch holds each job's runs
         whole, so a job whose every seed at once would take more than :data:`SMALL_JOB_BYTES` (few
         tasks, but large learner state or stored weights) runs alone, chunk by chunk, within its budget.
         """
         if claim.work is None or claim.work > self.settings.small_job_work:
-            return False
+            return None
         from mgrao_core import spec_from_dict
         from mgrao_core.budget import chunk_cost
 
         try:
-            spec = spec_from_dict(claim.config)
+            spec = spec_from_dict(claim.config, memory_budget=self.settings.job_memory_bytes)
         except Exception:  # noqa: BLE001  (an invalid configuration fails in execute, with its message)
-            return False
-        return chunk_cost(spec, len(spec.seeds)).total <= SMALL_JOB_BYTES
+            return None
+        return spec if chunk_cost(spec, len(spec.seeds)).total <= SMALL_JOB_BYTES else None
 
-    def execute_batch(self, claims: Sequence[queue.Claim]) -> None:
+    def execute_batch(self, claims: Sequence[queue.Claim],
+                      specs: Mapping[int, ExperimentSpec | None] | None = None) -> None:
         """Run a batch of small claimed jobs, each as its own job, then store and end them all at once.
 
         Each job ends exactly as alone: succeeded (every run stored in the batch's transaction,
@@ -166,7 +178,7 @@ class Worker:
             held = 0
 
         try:
-            plans = lifecycle.plan_batch(claims)
+            plans = lifecycle.plan_batch(claims, specs)
             with one_numba_thread():
                 for claim in claims:
                     plan = plans[claim.job_id]
@@ -266,10 +278,13 @@ class Worker:
         try:
             if warm_up:
                 self.warm_up()
+            self.wake = wakeup.Listener.open(f"{wakeup.WORKER_PREFIX}{os.getpid()}")
             presence.ready()
             log.info("worker %s ready", self.worker_id)
             self._poll()
         finally:
+            if self.wake is not None:
+                self.wake.close()
             presence.close()
             self.db.dispose()
 
@@ -287,7 +302,14 @@ class Worker:
                 self.shutdown.wait(backoff.next())
                 continue
             if not ran:
-                self.shutdown.wait(self.settings.poll_s)
+                self.idle()
+
+    def idle(self) -> None:
+        """Wait for work: until woken (jobs were queued, :mod:`backend.wakeup`), or ``poll_s`` at most."""
+        if self.wake is None:
+            self.shutdown.wait(self.settings.poll_s)
+        elif not self.shutdown.is_set():
+            self.wake.wait(self.settings.poll_s)
 
 
 def main(settings: Settings | None = None, *, on_ended: Sequence[Ended] = ()) -> None:

@@ -19,15 +19,17 @@ import functools
 import logging
 import math
 import threading
+import time
 from collections import defaultdict
 from collections.abc import Sequence
 from typing import Any
 
 import orjson
-from sqlalchemy import delete, func, insert, select, update
+from sqlalchemy import bindparam, delete, func, insert, or_, select, update
 from sqlalchemy.orm import Session
 
 import mgrao_core
+from backend import wakeup
 from backend.errors import Conflict, NotFound
 from backend.services import saved_systems
 from backend.store import crud
@@ -156,18 +158,20 @@ def advance(db: Database, study_id: int) -> None:
         study = _hold(session, study_id)
         if study is None or study.status != STUDY_RUNNING:
             return
-        changed = False
+        changed = _record_outcomes(session, outcomes)
         for trial_id, outcome in outcomes.items():
-            ended = outcome["status"] in ENDED
-            values = dict(outcome) | ({"finished_at": utcnow()} if ended else {})
-            result = session.execute(update(Trial).where(Trial.id == trial_id, Trial.status.in_((QUEUED, RUNNING)),
-                                                         Trial.status != outcome["status"]).values(**values))
+            if outcome["status"] not in (FAILED, CANCELLED):
+                continue
+            values = dict(outcome) | {"finished_at": utcnow()}
+            result = session.execute(update(Trial).where(Trial.id == trial_id, Trial.status.in_((QUEUED, RUNNING)))
+                                     .values(**values).execution_options(synchronize_session=False))
             changed |= result.rowcount == 1
-            if result.rowcount == 1 and outcome["status"] in (FAILED, CANCELLED):
+            if result.rowcount == 1:
                 # a trial over several systems that lost one job: its other jobs have nothing to add
                 session.execute(update(Job).where(Job.trial_id == trial_id, Job.status.in_((QUEUED, RUNNING)))
                                 .values(status=CANCELLED, lease=None, finished_at=utcnow()))
-        changed |= _fill(session, study, plan, made, suggestions)
+        submitted = _fill(session, study, plan, made, suggestions)
+        changed |= submitted
         open_trials = session.scalar(select(func.count()).select_from(Trial).where(
             Trial.study_id == study_id, Trial.status.in_(OPEN))) or 0
         if open_trials == 0 and _made(session, study_id) >= study.planned:
@@ -176,6 +180,39 @@ def advance(db: Database, study_id: int) -> None:
         if changed:
             _update_best(session, study, plan)
             study.revision += 1
+    if submitted:  # committed: idle local workers claim the new trials' jobs now, not at their next poll
+        wakeup.wake_workers()
+
+
+_SUCCEEDED_TRIAL = update(Trial.__table__).where(
+    Trial.__table__.c.id == bindparam("trial"),
+    or_(Trial.__table__.c.status == QUEUED, Trial.__table__.c.status == RUNNING)).values(
+    status=SUCCEEDED, value=bindparam("b_value"), low=bindparam("b_low"), high=bindparam("b_high"),
+    runs=bindparam("b_runs"), finished_at=bindparam("b_finished_at"))
+
+
+def _record_outcomes(session: Session, outcomes: dict[int, dict[str, Any]]) -> bool:
+    """Record the trials that succeeded (one statement run for all) and those now running (one); whether any changed.
+
+    Each row changes only while its trial is still queued or running, exactly as one ``UPDATE`` each
+    would; failed and cancelled trials (rare) are recorded one by one by the caller, which also
+    cancels their other jobs.
+    """
+    changed = False
+    now = utcnow()
+    succeeded = [{"trial": trial_id, "b_value": o["value"], "b_low": o["low"], "b_high": o["high"],
+                  "b_runs": o["runs"], "b_finished_at": now}
+                 for trial_id, o in outcomes.items() if o["status"] == SUCCEEDED]
+    if succeeded:
+        result = session.connection().execute(_SUCCEEDED_TRIAL, succeeded)
+        sane = session.get_bind().dialect.supports_sane_multi_rowcount
+        changed |= result.rowcount > 0 if sane else True
+    running = [trial_id for trial_id, o in outcomes.items() if o["status"] == RUNNING]
+    if running:
+        result = session.execute(update(Trial).where(Trial.id.in_(running), Trial.status == QUEUED)
+                                 .values(status=RUNNING).execution_options(synchronize_session=False))
+        changed |= result.rowcount > 0
+    return changed
 
 
 def _made(session: Session, study_id: int) -> int:
@@ -312,6 +349,20 @@ def advance_after(db: Database, job_ids: Sequence[int]) -> None:
         log.warning("advancing the studies of jobs %s failed; the study driver will", list(job_ids), exc_info=True)
 
 
+def hand_over_or_advance(db: Database, job_ids: Sequence[int]) -> None:
+    """Hand the studies of jobs that just ended to the API's :class:`StudyDriver`, or advance them here.
+
+    Under ``mgrao serve`` (a wake-up directory, :mod:`backend.wakeup`) the job ids go to the driver, which advances
+    their studies on the API's core while this process runs its next jobs; when no driver takes them (none
+    listening, its buffer full) they advance here, as :func:`advance_after`. A hand-over lost afterwards (the API
+    killed) only delays: the driver advances every running study every ``MGRAO_STUDY_POLL_S``, after any restart.
+    """
+    payload = ",".join(str(job_id) for job_id in job_ids).encode()
+    if job_ids and len(payload) < 60_000 and wakeup.send(wakeup.STUDIES, payload):
+        return
+    advance_after(db, job_ids)
+
+
 def advance_study_quietly(db: Database, study_id: int) -> None:
     """:func:`advance`, leaving a failure to the :class:`StudyDriver`."""
     try:
@@ -442,14 +493,33 @@ class StudyDriver(threading.Thread):
         super().__init__(name="study-driver", daemon=True)
         self.db, self.period_s = db, period_s
         self.stopping = threading.Event()
+        self.listener = wakeup.Listener.open(wakeup.STUDIES)  # jobs that ended, handed over by local workers
 
     def run(self) -> None:
-        """Advance until stopped; a failing database only delays the next round (logged once per outage)."""
+        """Advance until stopped; a failing database only delays the next round (logged once per outage).
+
+        Every ``period_s`` every running study; in between, as soon as a local worker hands them over
+        (:func:`hand_over_or_advance`), the studies of the jobs that ended.
+        """
         outage = OutageLog(log, "advancing studies")
-        while not self.stopping.wait(self.period_s):
+        next_round = time.monotonic() + self.period_s
+        while not self.stopping.is_set():
+            left = next_round - time.monotonic()
+            if self.listener is None:
+                self.stopping.wait(max(0.0, left))
+                messages: list[bytes] = []
+            else:
+                messages = self.listener.wait(left)
+            if self.stopping.is_set():
+                break
             try:
-                for study_id in running_studies(self.db):
-                    advance(self.db, study_id)
+                ended = sorted({int(part) for message in messages for part in message.split(b",") if part.strip()})
+                if ended:
+                    advance_for_jobs(self.db, ended)
+                if time.monotonic() >= next_round:
+                    next_round = time.monotonic() + self.period_s
+                    for study_id in running_studies(self.db):
+                        advance(self.db, study_id)
             except Exception as error:  # noqa: BLE001 - the next round retries
                 outage.failed(error)
             else:
@@ -458,5 +528,9 @@ class StudyDriver(threading.Thread):
     def stop(self) -> None:
         """End the thread after its current round."""
         self.stopping.set()
+        if self.listener is not None:
+            self.listener.poke()
         if self.is_alive():
             self.join(timeout=30)
+        if self.listener is not None:
+            self.listener.close()

@@ -309,7 +309,8 @@ def finish_batch(db: Database, *, completed: Sequence[Completed]) -> dict[int, s
         for lease, ids in by_lease.items():
             held.update(session.scalars(
                 update(Job).where(Job.id.in_(ids), Job.lease == lease, Job.status == RUNNING)
-                .values(heartbeat_at=now, progress=1.0).returning(Job.id)))
+                .values(heartbeat_at=now, progress=1.0).returning(Job.id)
+                .execution_options(synchronize_session=False)))
         ours = [item for item in completed if item.claim.job_id in held]
         dialect.insert_ignoring_duplicates(session, Run, [row for item in ours for row in item.rows])
         counts = dict(session.execute(select(Run.job_id, func.count()).where(Run.job_id.in_(held))
@@ -317,10 +318,15 @@ def finish_batch(db: Database, *, completed: Sequence[Completed]) -> dict[int, s
         done = [item for item in ours if counts.get(item.claim.job_id, 0) == item.expected_runs]
         for item in ours:
             outcome[item.claim.job_id] = INCOMPLETE
+        done_by_lease: dict[str, list[int]] = {}
         for item in done:  # still held: this transaction updated (and locked) each row above
-            session.execute(update(Job).where(*_held(item.claim))
-                            .values(status=SUCCEEDED, progress=1.0, finished_at=utcnow(), lease=None, error=None))
+            done_by_lease.setdefault(item.claim.lease, []).append(item.claim.job_id)
             outcome[item.claim.job_id] = SUCCEEDED_NOW
+        finished_at = utcnow()
+        for lease, ids in done_by_lease.items():  # one statement per lease (a batch has one), each row on its own
+            session.execute(update(Job).where(Job.id.in_(ids), Job.lease == lease, Job.status == RUNNING)
+                            .values(status=SUCCEEDED, progress=1.0, finished_at=finished_at, lease=None, error=None)
+                            .execution_options(synchronize_session=False))
         summaries.write(session, {item.claim.job_id: summarise(item.finals) for item in done
                                   if item.finals is not None})
         for item in done:

@@ -14,7 +14,7 @@ from collections import Counter
 import pytest
 from backend_helpers import JSON, Service, drain
 from fastapi.testclient import TestClient
-from sqlalchemy import func, select
+from sqlalchemy import func, select, text
 
 from backend.execution.worker import Worker
 from backend.store.db import Database
@@ -22,6 +22,9 @@ from backend.store.models import Job, Run, Trial
 
 SMALL = {"system": "single", "algorithms": ["uniform", "mgrao-max"], "seeds": 1, "episodes": 1500}
 """A small job (work 150,000 atomic tasks, under MGRAO_SMALL_JOB_WORK's 200,000): claimed in batches."""
+
+
+BATCH_LOG = re.compile(r"runs a batch of \d+ jobs")
 
 
 def _jobs(db_url: str, **where: object) -> list[Job]:
@@ -47,6 +50,26 @@ def _runs(db_url: str) -> tuple[dict[int, int], int, int]:
     return per_job, distinct, total
 
 
+def _in_flight_after_kill(db_url: str) -> list[int]:
+    """The jobs still running once the killed worker's last transaction has ended, committed or rolled back.
+
+    On PostgreSQL the server finishes a transaction whose COMMIT the worker sent just before it died: a plain
+    read right after the kill could count as in flight a batch about to succeed at its first attempt (the race
+    that once failed this test). Reading the running rows ``FOR UPDATE`` waits (60 s at most) for the row
+    locks that transaction holds, then sees what it left. On SQLite a transaction is committed or not when its
+    process dies.
+    """
+    db = Database(db_url)
+    try:
+        with db.write() as session:
+            if session.get_bind().dialect.name == "postgresql":
+                session.execute(text("SET LOCAL lock_timeout = '60s'"))
+            return list(session.scalars(select(Job.id).where(Job.status == "running").order_by(Job.id)
+                                        .with_for_update()))
+    finally:
+        db.dispose()
+
+
 def _running(service: Service) -> int:
     return service.get("/api/jobs", params={"status": "running", "limit": 1}).json()["count"]
 
@@ -63,12 +86,13 @@ def test_a_worker_killed_in_the_middle_of_a_batch_leaves_every_job_run_once(serv
     ids = [job["id"] for job in answer.json()["data"]]
     victim = service.start_worker()
     # a batch claimed and being simulated: many jobs running at once, none of them stored yet
-    service.wait_for(lambda: _running(service) >= 10, timeout=120, what="a batch running", step=0.02)
+    # (the log line too: it follows the claim's commit by the time to parse the batch's configurations)
+    service.wait_for(lambda: _running(service) >= 10 and BATCH_LOG.search(service.logs()), timeout=120,
+                     what="a batch claimed and its run begun (logged)", step=0.02)
     victim.send_signal(signal.SIGKILL)
     victim.wait()
-    in_flight = [job.id for job in _jobs(db_url, status="running")]
+    in_flight = _in_flight_after_kill(db_url)
     assert len(in_flight) >= 10, "the worker was not killed in the middle of a batch"
-    assert re.search(r"runs a batch of \d+ jobs", service.logs())
 
     service.start_worker()  # re-queues the dead worker's jobs once their heartbeats are stale (2 s)
     service.wait_for(lambda: _succeeded(service) == len(ids), timeout=240, what="every job succeeded")

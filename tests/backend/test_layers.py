@@ -1,7 +1,7 @@
 """The backend's layers import only downwards: api over services and execution, both over store.
 
 ``backend/processes.py`` (which connects the job runners to the studies) and the API may import any
-layer; ``errors`` and ``settings`` are read by every layer and import none.
+layer; ``errors``, ``settings`` and ``wakeup`` are read by every layer and import none.
 """
 
 from __future__ import annotations
@@ -43,5 +43,5 @@ def test_each_layer_imports_only_the_layers_below_it(layer: str) -> None:
 
 
 def test_the_shared_modules_import_no_layer() -> None:
-    for name in ("errors.py", "settings.py"):
+    for name in ("errors.py", "settings.py", "wakeup.py"):
         assert _backend_imports(BACKEND / name) == [], name

@@ -13,6 +13,7 @@ from fastapi import APIRouter, Path, Query, Response, status
 from fastapi.responses import StreamingResponse
 from sqlalchemy import select
 
+from backend import wakeup
 from backend.api.deps import Authorized, DatabaseDep, SessionDep, SettingsDep
 from backend.api.responses import LOCATION, EpisodeRow, Results, Weights, answers, links
 from backend.api.schemas import JobBatch, JobBatchCreate, JobCreate, JobOut, JobPage, JobPatch, Kind, Status, Text
@@ -60,6 +61,7 @@ def submit_job(body: JobCreate, db: DatabaseDep, settings: SettingsDep, response
         job = crud.create_job(session, spec=spec, name=body.name, tags=tags, notes=body.notes)
         session.flush()
         out = crud.job_dict(job)
+    wakeup.wake_workers()  # committed: an idle local worker claims it now, not at its next poll
     response.headers["Location"] = f"/api/jobs/{out['id']}"
     return out
 
@@ -84,6 +86,7 @@ def submit_jobs(body: JobBatchCreate, db: DatabaseDep, settings: SettingsDep) ->
             for spec, item in zip(specs, body.jobs, strict=True)])
         rows = {job.id: job for job in session.scalars(select(Job).where(Job.id.in_(ids)))}
         out = [crud.job_dict(rows[job_id]) for job_id in ids]
+    wakeup.wake_workers()
     return {"data": out, "count": len(out)}
 
 
