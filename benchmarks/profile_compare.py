@@ -327,14 +327,8 @@ def main() -> None:
                 rows.append(breakdown(json.loads(b"".join(chunks))))
                 page.close()
             cpu = []
-            for _ in range(args.repeat):
+            for _ in range(args.repeat):  # sampled separately: the sampler would slow the traced loads
                 page = ctx.new_page()
-                if not args.profile_dir:  # the browser's own tracing (a CDP session's misses the nesting here)
-                    browser.start_tracing(page=page, categories=CATEGORIES)
-                    load(page)
-                    rows.append(breakdown(json.loads(browser.stop_tracing())))
-                    page.close()
-                    continue
                 cdp = ctx.new_cdp_session(page)
                 cdp.send("Profiler.enable")
                 cdp.send("Profiler.setSamplingInterval", {"interval": 200})
