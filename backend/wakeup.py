@@ -19,7 +19,9 @@ from __future__ import annotations
 import logging
 import os
 import select
+import shutil
 import socket
+import tempfile
 from pathlib import Path
 
 log = logging.getLogger("mgrao.wakeup")
@@ -27,6 +29,43 @@ log = logging.getLogger("mgrao.wakeup")
 ENV = "MGRAO_WAKE_DIR"
 STUDIES = "studies"
 WORKER_PREFIX = "worker-"
+DIR_PREFIX = "mgrao-wake-"
+
+
+def make_directory(parent: Path | None = None) -> Path:
+    """A new wake-up directory for this process (``mgrao-wake-<pid>-<random>``), after sweeping stale ones.
+
+    A directory whose owner was killed (SIGKILL leaves no chance to remove it) names a pid that no longer
+    runs: it is removed here, by the next ``mgrao serve`` of the same user. One of a live pid is left alone.
+    """
+    parent = Path(parent or tempfile.gettempdir())
+    sweep_stale(parent)
+    return Path(tempfile.mkdtemp(prefix=f"{DIR_PREFIX}{os.getpid()}-", dir=parent))
+
+
+def sweep_stale(parent: Path) -> list[Path]:
+    """Remove this user's wake-up directories under ``parent`` whose process is gone; the ones removed."""
+    removed = []
+    for entry in parent.glob(f"{DIR_PREFIX}*-*"):
+        pid = entry.name[len(DIR_PREFIX):].split("-", 1)[0]
+        try:
+            if not pid.isdigit() or entry.stat().st_uid != os.getuid() or not entry.is_dir() or _alive(int(pid)):
+                continue
+        except OSError:
+            continue
+        shutil.rmtree(entry, ignore_errors=True)
+        removed.append(entry)
+    return removed
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # someone else's process: alive
+        return True
+    return True
 
 
 def directory() -> Path | None:

@@ -8,7 +8,6 @@ import os
 import shutil
 import signal
 import socket
-import tempfile
 from collections.abc import Iterator
 from types import FrameType
 from typing import Any
@@ -97,8 +96,8 @@ def serve(host: str | None, port: int | None, workers: int | None, database_url:
     settings = settings_or_exit(Settings, overrides)
     wake_dir = None
     if not os.environ.get(wakeup.ENV):  # wake-ups between the API and its workers (backend/wakeup.py)
-        wake_dir = tempfile.mkdtemp(prefix="mgrao-wake-")
-        os.environ[wakeup.ENV] = wake_dir  # read by the API here and inherited by the workers
+        wake_dir = wakeup.make_directory()
+        os.environ[wakeup.ENV] = str(wake_dir)  # read by the API here and inherited by the workers
     sock = listen(settings.host, settings.port)  # first: a busy port fails before anything starts
     _Server = _server_class()  # noqa: N806
     db = Database(settings.database_url)

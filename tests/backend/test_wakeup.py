@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import time
 from pathlib import Path
 
@@ -71,3 +72,20 @@ def test_under_serve_jobs_and_studies_move_on_wake_ups_not_polls(service: Servic
     service.wait_for(lambda: status()["status"] == "finished", timeout=60,
                      what="the study finished on hand-overs and wake-ups (the driver's own round is 600 s away)")
     assert status()["trials"] == {"succeeded": 40}
+
+
+def test_a_killed_serves_wake_up_directory_is_swept_by_the_next_serve(service: Service, tmp_path: Path) -> None:
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    service.env |= {"TMPDIR": str(tmp)}  # tempfile.gettempdir() in the served processes
+    service.start_server(workers=0)
+    first = sorted(tmp.glob(f"{wakeup.DIR_PREFIX}*"))
+    assert [d.name.split("-")[2] for d in first] == [str(service.server.pid)], first
+    service.kill_server()  # SIGKILL: no chance to remove it
+    assert first[0].is_dir()
+    mine = tmp / f"{wakeup.DIR_PREFIX}{os.getpid()}-live"  # a live process's: left alone
+    mine.mkdir()
+    service.start_server(workers=0)
+    left = sorted(tmp.glob(f"{wakeup.DIR_PREFIX}*"))
+    assert not first[0].exists() and mine in left and len(left) == 2, left
+    assert str(service.server.pid) in {d.name.split("-")[2] for d in left}
