@@ -151,12 +151,16 @@ export async function mount(root, params, ctx) {
   });
   groupsIn.addEventListener('input', updateSize);
 
-  const alsoBoxes = schema.systems.map((s) => h('input', { type: 'checkbox', value: s.name, id: nextId('also') }));
+  // every preset, then every saved system (the server inlines a saved one into the study when it is made)
+  const alsoChoices = [...schema.systems.map((s) => [s.name, s.name]),
+    ...(schema.saved || []).map((s) => [s.name, `${s.name} (saved, ${s.base})`])];
+  const alsoBoxes = alsoChoices.map(([name, label]) =>
+    h('input', { type: 'checkbox', value: name, id: nextId('also'), dataset: { label } }));
   const alsoErr = h('span', { class: 'field-error', 'aria-live': 'polite' });
   fields.errorEls.set('system', { input: fields.systemSel, error: alsoErr });
   const alsoBox = h('fieldset', {}, h('legend', {}, 'Run every trial on'),
-    h('div', { class: 'checks' }, alsoBoxes.map((cb) => h('label', { class: 'check', for: cb.id }, cb, ' ', cb.value))),
-    h('small', { class: 'help' }, 'The preset’s system, and any others: each trial is then a job per system, each with its own preset’s configurations; the paper’s deviation is the worst over them, other objectives read the preset’s system.'),
+    h('div', { class: 'checks' }, alsoBoxes.map((cb) => h('label', { class: 'check', for: cb.id }, cb, ' ', cb.dataset.label))),
+    h('small', { class: 'help' }, 'The chosen system, and any others, presets or saved systems: each trial is then a job per system, each with its own preset’s configurations (a saved system’s changes on top); the paper’s deviation (paper presets only) is the worst over them, other objectives read the chosen system.'),
     alsoErr);
   const syncSystems = () => {
     for (const cb of alsoBoxes) {

@@ -1,8 +1,8 @@
 """Issue 20's plumbing in the dashboard: save your own system and run it; the list and event-list inputs.
 
-The real service has no list or event-list parameter yet (the engine's ``composite_periods`` and
-``schedule`` come with their elements), so the editor's test adds the look-alikes of
-tests/support/extra_params.py to GET /api/systems' schema in the browser and reads what the form sends.
+The editor's test adds the look-alikes of tests/support/extra_params.py to GET /api/systems' schema in
+the browser and reads what the form sends, so that it checks the inputs themselves whatever list
+parameters the engine has (``composite_periods`` and ``schedule`` today).
 """
 
 from __future__ import annotations

@@ -96,6 +96,37 @@ def test_the_new_experiment_form_hands_its_experiment_to_a_new_study(page, serve
     expect(page.get_by_label("Seeds per trial")).to_have_value("7")
 
 
+def test_a_study_over_a_preset_and_a_saved_system_from_the_form(page, server, screenshots):
+    api(server, "POST", "/systems/saved", {"name": "study-twelve", "description": "single with 12 parents",
+                                           "base": "single", "params": {"n_parents": 12}})
+    try:  # the server is shared: other tests list the saved systems
+        study_over_a_preset_and_a_saved_system(page, server, screenshots)
+    finally:
+        api(server, "DELETE", "/systems/saved/study-twelve")
+
+
+def study_over_a_preset_and_a_saved_system(page, server, screenshots):
+    page.goto("/#/studies/new")
+    expect(page.get_by_role("heading", name="New study")).to_be_visible()
+    page.get_by_label("Seeds per trial").fill("1")
+    page.get_by_label("Episodes per run").fill("10")
+    page.get_by_label("Name", exact=True).fill("preset and saved")
+    sweep(page, "learning_rate", "0.05, 0.2")
+    page.get_by_label("study-twelve (saved, single)").check()  # beside the presets' boxes
+    page.screenshot(path=str(screenshots / "study-new-saved-system.png"), full_page=True)
+    page.get_by_role("button", name="Start study").click()
+    page.wait_for_url(re.compile(r"#/studies/\d+$"))
+    study_id = int(page.url.rsplit("/", 1)[1])
+    done = wait_study(server, study_id)
+    assert done["study"]["trials"] == {"succeeded": 2}
+    systems = done["definition"]["base"]["system"]  # the saved one inlined when the study was made
+    assert systems[0] == "single" and systems[1] == {"name": "study-twelve", "system": "single",
+                                                     "params": {"n_parents": 12}}, systems
+    jobs = [api(server, "GET", f"/jobs/{j}") for t in done["trials"] for j in t["job_ids"]]
+    twelve = [j for j in jobs if "system:study-twelve" in j["tags"]]
+    assert len(jobs) == 4 and len(twelve) == 2 and all(j["params"]["n_parents"] == 12 for j in twelve)
+
+
 def test_the_studies_list_shows_progress_and_links(page, server):
     study = api(server, "POST", "/studies", {
         "name": "listed", "method": "random", "max_trials": 2, "max_in_flight": 2,
