@@ -10,7 +10,7 @@ name (``system:<name>``). The definition is the JSON file ``mgrao systems export
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from sqlalchemy import select
@@ -25,6 +25,16 @@ NAME_PATTERN = "^[a-z][a-z0-9-]{0,31}$"
 """A saved system's name: 1-32 characters, a lowercase letter then lowercase letters, digits or ``-``."""
 TAG_PREFIX = "system:"
 """The tag a job of a saved system carries: ``system:<name>``."""
+
+
+def tag(name: str) -> str:
+    """The tag a job of the saved system ``name`` carries."""
+    return f"{TAG_PREFIX}{name}"
+
+
+def tagged(tags: Sequence[str] | None) -> list[str]:
+    """The saved systems that ``tags`` name, in their order (a job carries at most one)."""
+    return [t.removeprefix(TAG_PREFIX) for t in tags or () if t.startswith(TAG_PREFIX)]
 
 
 def check_name(name: str) -> str:

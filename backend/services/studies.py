@@ -296,15 +296,12 @@ def _make_trials(session: Session, study: Study, plan: StudyPlan, numbered: list
 
 def job_tags(study: Study, plan: StudyPlan, system: str) -> list[str]:
     """A trial job's tags: its study's, and for a saved system of the base its name (as a job of it has)."""
-    return [f"study-{study.id}", *([f"{saved_systems.TAG_PREFIX}{system}"] if system in plan.variants else [])]
+    return [f"study-{study.id}", *([saved_systems.tag(system)] if system in plan.variants else [])]
 
 
 def system_of(plan: StudyPlan, preset: str, tags: Sequence[str] | None) -> str:
     """Which of the base's systems a trial's job ran: the saved system its tag names, else its preset."""
-    for tag in tags or ():
-        if tag.startswith(saved_systems.TAG_PREFIX) and tag[len(saved_systems.TAG_PREFIX):] in plan.variants:
-            return tag[len(saved_systems.TAG_PREFIX):]
-    return preset
+    return next((name for name in saved_systems.tagged(tags) if name in plan.variants), preset)
 
 
 def _submit(session: Session, study: Study, plan: StudyPlan, trial: Trial) -> None:

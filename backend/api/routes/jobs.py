@@ -55,7 +55,7 @@ def submit_job(body: JobCreate, db: DatabaseDep, settings: SettingsDep, response
                          memory_budget=settings.job_memory_bytes)
     except ConfigError as error:
         raise InvalidSpec.from_config_error(error, params=overrides) from None
-    tags = [*body.tags, f"{saved_systems.TAG_PREFIX}{saved}"] if saved else body.tags
+    tags = [*body.tags, saved_systems.tag(saved)] if saved else body.tags
     db.require_room()
     with db.write() as session:
         job = crud.create_job(session, spec=spec, name=body.name, tags=tags, notes=body.notes)
