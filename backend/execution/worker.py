@@ -20,8 +20,7 @@ import logging
 import os
 import socket
 import threading
-from collections.abc import Callable, Iterator, Mapping, Sequence
-from contextlib import contextmanager
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, TypeVar
 
 from backend import wakeup
@@ -29,6 +28,7 @@ from backend.execution.heartbeats import Heartbeats
 from backend.execution.lifecycle import Ended, Lifecycle
 from backend.execution.lifeline import stop_on_signals
 from backend.execution.presence import Presence, refresh_interval
+from backend.execution.small_jobs import one_numba_thread, run_small_job
 from backend.settings import Settings
 from backend.store import queue, summaries
 from backend.store.db import Database
@@ -44,26 +44,27 @@ BATCH_BYTES = 64 * 1024**2
 """Run bytes a batch keeps in memory at most: beyond, what is done is stored before the rest runs."""
 
 
-@contextmanager
-def one_numba_thread() -> Iterator[None]:
-    """Run the kernel on one thread, in this block.
-
-    For a small job's few lanes, waking numba's thread pool costs more than the simulation: 3 to 5 ms
-    a call on a busy 2-core machine, against 0.4 ms on one thread.
-    """
-    import numba
-
-    before = numba.get_num_threads()
-    numba.set_num_threads(1)
-    try:
-        yield
-    finally:
-        numba.set_num_threads(before)
-
-
-
 SMALL_JOB_BYTES = 64 * 1024**2
 """The most memory a job run in a batch may take, every seed at once (:func:`mgrao_core.budget.chunk_cost`)."""
+
+def small_spec(settings: Settings, claim: queue.Claim) -> ExperimentSpec | None:
+    """A claimed small job's validated configuration, parsed once for its batch; None when it runs alone.
+
+    Small in work (``MGRAO_SMALL_JOB_WORK`` atomic tasks) and in memory: a batch holds each job's runs
+    whole, so a job whose every seed at once would take more than :data:`SMALL_JOB_BYTES` (few
+    tasks, but large learner state or stored weights) runs alone, chunk by chunk, within its budget.
+    """
+    if claim.work is None or claim.work > settings.small_job_work:
+        return None
+    from mgrao_core import spec_from_dict
+    from mgrao_core.budget import chunk_cost
+
+    try:
+        spec = spec_from_dict(claim.config, memory_budget=settings.job_memory_bytes)
+    except Exception:  # noqa: BLE001  (an invalid configuration fails in execute, with its message)
+        return None
+    return spec if chunk_cost(spec, len(spec.seeds)).total <= SMALL_JOB_BYTES else None
+
 
 class Worker:
     """Claims queued jobs one at a time and runs them chunk by chunk with :func:`mgrao_core.run_chunk`.
@@ -127,22 +128,8 @@ class Worker:
         return len(claims)
 
     def small_spec(self, claim: queue.Claim) -> ExperimentSpec | None:
-        """A claimed small job's validated configuration, parsed once for its batch; None when it runs alone.
-
-        Small in work (``MGRAO_SMALL_JOB_WORK`` atomic tasks) and in memory: a batch holds each job's runs
-        whole, so a job whose every seed at once would take more than :data:`SMALL_JOB_BYTES` (few
-        tasks, but large learner state or stored weights) runs alone, chunk by chunk, within its budget.
-        """
-        if claim.work is None or claim.work > self.settings.small_job_work:
-            return None
-        from mgrao_core import spec_from_dict
-        from mgrao_core.budget import chunk_cost
-
-        try:
-            spec = spec_from_dict(claim.config, memory_budget=self.settings.job_memory_bytes)
-        except Exception:  # noqa: BLE001  (an invalid configuration fails in execute, with its message)
-            return None
-        return spec if chunk_cost(spec, len(spec.seeds)).total <= SMALL_JOB_BYTES else None
+        """:func:`small_spec` under this worker's settings."""
+        return small_spec(self.settings, claim)
 
     def execute_batch(self, claims: Sequence[queue.Claim],
                       specs: Mapping[int, ExperimentSpec | None] | None = None) -> None:
@@ -153,7 +140,7 @@ class Worker:
         meanwhile: nothing stored), or handed back when the worker stops. A worker killed at any
         point leaves every job of the batch to its lease (re-queued when stale); none is half-stored.
         """
-        from mgrao_core import Cancelled, MgraoError, run_chunk
+        from mgrao_core import Cancelled, MgraoError
 
         lifecycle = self.lifecycle
         log.info("worker %s runs a batch of %s jobs (%s to %s)", self.worker_id, len(claims), claims[0].job_id,
@@ -191,9 +178,8 @@ class Worker:
                         failed.append((claim, plan))
                         continue
                     try:
-                        runs = [run for chunk in plan.chunks for run in run_chunk(
-                            plan.spec, chunk, should_stop=lambda job_id=claim.job_id: beats.lost(job_id)
-                            or self.shutdown.is_set())]
+                        runs = run_small_job(plan.spec, plan.chunks, should_stop=lambda job_id=claim.job_id:
+                                             beats.lost(job_id) or self.shutdown.is_set())
                     except Cancelled:
                         if not beats.lost(claim.job_id):
                             left.append(claim)
