@@ -193,7 +193,7 @@ def optuna_journal(n: int, work: Path) -> float:
 
     from mgrao_core import final_utilities, run_chunk, summarise
 
-    numba.set_num_threads(1)  # as our workers run small jobs (backend/execution/worker.py, one_numba_thread)
+    numba.set_num_threads(1)  # as our workers run small jobs (backend/execution/small_jobs.py, one_numba_thread)
     optuna.logging.set_verbosity(optuna.logging.WARNING)
 
     def objective(trial: optuna.Trial) -> float:

@@ -36,3 +36,26 @@ def simulate_chunk(config: dict[str, Any], seeds: list[int], memory_budget: int)
 
     spec = spec_from_dict(config, memory_budget=memory_budget)
     return list(run_chunk(spec, seeds))
+
+
+def simulate_batch(jobs: list[tuple[int, dict[str, Any], list[list[int]]]],
+                   memory_budget: int) -> list[tuple[int, list | BaseException]]:
+    """A batch of small jobs, each ``(job id, configuration, chunks of seeds left)``, run whole, one after another.
+
+    Each job runs as a local worker runs it in a batch (:func:`backend.execution.small_jobs.run_small_job`,
+    on one numba thread); one job's error is returned in its place, not raised, so that it fails only
+    that job. Nothing here touches the database: the dispatcher stores what comes back.
+    """
+    from backend.execution.small_jobs import one_numba_thread, run_small_job
+    from mgrao_core import MgraoError, spec_from_dict
+
+    results: list[tuple[int, list | BaseException]] = []
+    with one_numba_thread():
+        for job_id, config, chunks in jobs:
+            try:
+                results.append((job_id, run_small_job(spec_from_dict(config, memory_budget=memory_budget), chunks)))
+            except MgraoError as error:
+                results.append((job_id, error))
+            except Exception as error:  # noqa: BLE001 - a bug: its type and message fail that job only
+                results.append((job_id, RuntimeError(f"{type(error).__name__}: {error}")))
+    return results

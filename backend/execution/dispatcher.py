@@ -25,20 +25,21 @@ import os
 import socket
 import threading
 import time
-from collections import deque
+from collections import Counter, deque
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 from distributed import Client, Future, KilledWorker, wait
 
-from backend.execution.dask_tasks import PLUGIN_NAME, WarmUp, simulate_chunk
+from backend.execution.dask_tasks import PLUGIN_NAME, WarmUp, simulate_batch, simulate_chunk
 from backend.execution.heartbeats import Heartbeats
 from backend.execution.lifecycle import Ended, Failure, Lifecycle, Plan, failure
 from backend.execution.lifeline import stop_on_signals
 from backend.execution.presence import Presence, refresh_interval
+from backend.execution.worker import small_spec
 from backend.settings import Settings
-from backend.store import queue
+from backend.store import queue, summaries
 from backend.store.db import Database
 from backend.store.retry import Backoff, HealthClock, OutageLog, Stopping
 from mgrao_core import MgraoError
@@ -73,6 +74,19 @@ class _Job:
         return f"mgrao-{self.claim.job_id}-{self.claim.attempt}-{chunk.index}"
 
 
+@dataclass
+class _Batch:
+    """Small jobs claimed together and run as one Dask task (:func:`simulate_batch`)."""
+
+    claims: list[queue.Claim]
+    plans: dict[int, Plan]
+    future: Future | None = None
+
+    @property
+    def key(self) -> str:
+        return f"mgrao-batch-{self.claims[0].job_id}-{self.claims[0].attempt}-{len(self.claims)}"
+
+
 class Dispatcher:
     """Runs the queue's jobs on a Dask cluster (see the module docstring); tells ``on_ended`` when one ends."""
 
@@ -85,6 +99,7 @@ class Dispatcher:
         self.shutdown = threading.Event()
         self.client: Client | None = None
         self.jobs: dict[int, _Job] = {}
+        self.batches: dict[str, _Batch] = {}
         self.health = HealthClock()
         self.lifecycle = Lifecycle(self.db, settings, owner_id=self.dispatcher_id, shutdown=self.shutdown,
                                    health=self.health, on_ended=on_ended)
@@ -152,6 +167,8 @@ class Dispatcher:
                 chunk.future = None
                 job.pending.appendleft(chunk)
             job.running.clear()
+        for batch in self.batches.values():
+            batch.future = None  # sent again by _fill
         log.info("connected: %s threads", self._cluster_threads())
 
     def _disconnect(self) -> None:
@@ -180,10 +197,15 @@ class Dispatcher:
         return self.lifecycle.persist(call, what)
 
     def _in_flight(self) -> int:
-        return sum(len(job.running) for job in self.jobs.values())
+        return (sum(len(job.running) for job in self.jobs.values())
+                + sum(batch.future is not None for batch in self.batches.values()))
 
     def _fill(self) -> None:
         while not self.shutdown.is_set() and self._in_flight() < self.capacity():
+            batch = next((b for b in self.batches.values() if b.future is None), None)
+            if batch is not None:
+                self._send(batch)
+                continue
             job = next((j for j in self.jobs.values() if j.pending), None)
             if job is None:
                 if not self._claim():
@@ -196,26 +218,62 @@ class Dispatcher:
             job.running[job.key(chunk)] = chunk
 
     def _claim(self) -> bool:
+        """Claim the oldest queued job, or a batch of small ones (:func:`queue.claim_batch`); False when none."""
         requeue = self.lifecycle.may_requeue()
-        claim = self._persist(lambda: self.lifecycle.claim(requeue=requeue), "claiming a job")
-        if claim is None:
+        claims = self._persist(lambda: self.lifecycle.claim_batch(requeue=requeue), "claiming jobs")
+        if not claims:
             return False
+        specs = {claim.job_id: small_spec(self.settings, claim) for claim in claims}
+        small = [claim for claim in claims if specs[claim.job_id] is not None]
+        for claim in claims:  # a job big in work or in memory runs chunk by chunk, as before
+            if specs[claim.job_id] is None:
+                self._start(claim)
+        if small:
+            self._start_batch(small, specs)
+        return True
+
+    def _start(self, claim: queue.Claim) -> None:
         log.info("dispatching job %s (attempt %s)", claim.job_id, claim.attempt)
         try:
             plan = self.lifecycle.plan(claim)
         except MgraoError as error:
             self._fail(claim, failure(error))
-            return True
+            return
         job = _Job(claim, plan, plan.done_seeds, deque(_Chunk(i, chunk) for i, chunk in enumerate(plan.chunks)))
         self.jobs[claim.job_id] = job
         self.beats.add(claim)
         self.beats.set_progress(claim.job_id, job.progress)
         if not plan.chunks:
             self._finish(job)
-        return True
+
+    def _start_batch(self, claims: list[queue.Claim], specs: dict) -> None:
+        """Plan small jobs as a local worker does (:meth:`Lifecycle.plan_batch`) and hold them as one batch."""
+        plans = self.lifecycle.plan_batch(claims, specs)
+        held: list[queue.Claim] = []
+        for claim in claims:
+            plan = plans[claim.job_id]
+            if isinstance(plan, BaseException):
+                self._fail(claim, failure(plan))
+                continue
+            held.append(claim)
+            self.beats.add(claim)
+        if not held:
+            return
+        batch = _Batch(held, {claim.job_id: plans[claim.job_id] for claim in held})
+        self.batches[batch.key] = batch
+        log.info("dispatcher %s runs a batch of %s jobs (%s to %s)", self.dispatcher_id, len(held), held[0].job_id,
+                 held[-1].job_id)
+
+    def _send(self, batch: _Batch) -> None:
+        assert self.client is not None
+        jobs = [(claim.job_id, claim.config, [list(chunk) for chunk in batch.plans[claim.job_id].chunks])
+                for claim in batch.claims]
+        batch.future = self.client.submit(simulate_batch, jobs, self.settings.job_memory_bytes, key=batch.key,
+                                          pure=False)
 
     def _collect(self) -> None:
         futures = [c.future for job in self.jobs.values() for c in job.running.values() if c.future is not None]
+        futures += [batch.future for batch in self.batches.values() if batch.future is not None]
         if not futures:
             self.shutdown.wait(self.settings.poll_s)
             return
@@ -224,6 +282,10 @@ class Dispatcher:
         except TimeoutError:  # nothing completed within the poll
             return
         for future in done:
+            batch = self.batches.get(future.key)
+            if batch is not None and batch.future is future:
+                self._batch_completed(batch, future)
+                continue
             job = next((j for j in self.jobs.values() if future.key in j.running), None)
             if job is not None:
                 self._completed(job, job.running[future.key], future)
@@ -260,6 +322,51 @@ class Dispatcher:
             self._fail(job.claim, failure(error, where=f"{where} failed: "))
         self._drop(job)
 
+    def _batch_completed(self, batch: _Batch, future: Future) -> None:
+        """Store a batch's jobs in one transaction, as a local worker does; a job's error fails that job only."""
+        if future.status in ("cancelled", "lost"):  # not by us: the scheduler went away
+            log.warning("batch %s was lost (%s); it is sent again", batch.key, future.status)
+            batch.future = None
+            return
+        del self.batches[batch.key]
+        claims = {claim.job_id: claim for claim in batch.claims}
+        try:
+            if future.status != "finished":
+                error = future.exception()
+                where = f"its batch of {len(claims)} small jobs"
+                ending = (Failure(f"{where} killed every Dask worker that ran it: {error}")
+                          if isinstance(error, KilledWorker) else failure(error, where=f"{where} failed: "))
+                for claim in batch.claims:
+                    if not self.beats.lost(claim.job_id):
+                        self._fail(claim, ending)
+                return
+            results = future.result()
+            future.release()
+            completed: list[queue.Completed] = []
+            failed: list[tuple[queue.Claim, Failure]] = []
+            for job_id, result in results:
+                claim, plan = claims[job_id], batch.plans[job_id]
+                if self.beats.lost(job_id):  # cancelled or taken over: nothing of it is stored
+                    continue
+                if isinstance(result, BaseException):
+                    failed.append((claim, failure(result)))
+                    continue
+                rows = queue.run_rows(job_id, result)
+                finals = summaries.finals_of_rows(rows) if plan.done_seeds == 0 else None
+                completed.append(queue.Completed(claim, rows, plan.expected_runs, finals))
+            outcome = self.lifecycle.finish_batch(completed)
+            for item in completed:
+                if outcome[item.claim.job_id] == queue.INCOMPLETE:
+                    failed.append((item.claim, Failure(f"job {item.claim.job_id} has runs missing")))
+            for claim, ending in failed:
+                log.warning("job %s failed: %s", claim.job_id, ending.message)
+                self.lifecycle.fail(claim, ending)
+            log.info("batch %s stored: %s", batch.key, dict(Counter(outcome.values())))
+        finally:
+            for claim in batch.claims:
+                self.beats.remove(claim.job_id)
+            self.lifecycle.ended(*claims)
+
     def _finish(self, job: _Job) -> None:
         finished = self.lifecycle.finish(job.claim, job.plan)
         log.info("job %s %s", job.claim.job_id, "succeeded" if finished else "was cancelled or taken over")
@@ -285,12 +392,32 @@ class Dispatcher:
         self.jobs.pop(job.claim.job_id, None)
 
     def _drop_lost_jobs(self) -> None:
+        for batch in [b for b in self.batches.values() if all(self.beats.lost(c.job_id) for c in b.claims)]:
+            log.info("every job of batch %s was cancelled or taken over; its future is cancelled", batch.key)
+            self._drop_batch(batch)
         for job in [j for j in self.jobs.values() if self.beats.lost(j.claim.job_id)]:
             log.info("job %s was cancelled or taken over; its futures are cancelled", job.claim.job_id)
             self._drop(job)
 
+    def _drop_batch(self, batch: _Batch) -> None:
+        """Forget a batch: cancel its future, stop its jobs' heartbeats."""
+        self.batches.pop(batch.key, None)
+        if batch.future is not None and self.client is not None:
+            try:
+                self.client.cancel([batch.future])
+            except Exception:  # noqa: BLE001 - a lost scheduler has forgotten it anyway
+                log.debug("cancelling a batch failed", exc_info=True)
+        for claim in batch.claims:
+            self.beats.remove(claim.job_id)
+
     def _hand_back(self) -> None:
         """On a clean stop: every job goes back to the queue, its stored chunks kept."""
+        for batch in list(self.batches.values()):
+            try:
+                queue.release_many(self.db, claims=batch.claims)
+            except Exception:  # noqa: BLE001 - their leases will lapse instead
+                log.warning("handing back batch %s failed; its leases will lapse", batch.key)
+            self._drop_batch(batch)
         for job in list(self.jobs.values()):
             try:
                 queue.release(self.db, claim=job.claim)

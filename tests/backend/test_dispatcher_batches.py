@@ -1,0 +1,86 @@
+"""Small jobs in batches on Dask (issue 23): the dispatcher claims them together and runs each batch as one task.
+
+Real ``dask scheduler``, ``dask worker`` and ``mgrao dispatcher`` processes, on SQLite and PostgreSQL;
+the dispatcher is killed with SIGKILL in the middle of a batch; every wait has a deadline.
+"""
+
+from __future__ import annotations
+
+import re
+import signal
+from collections import Counter
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from test_batches import SMALL, _in_flight_after_kill, _jobs, _runs
+from test_dispatcher import Topology
+
+from backend.store.db import Database
+from mgrao_core import make_spec
+
+pytestmark = pytest.mark.slow
+
+BATCH_LOG = re.compile(r"dispatcher \S+ runs a batch of (\d+) jobs")
+
+
+@pytest.fixture
+def topology(tmp_path: Path, db_url: str) -> Iterator[Topology]:
+    db = Database(db_url)
+    db.migrate()
+    db.dispose()
+    setup = Topology(tmp_path, db_url)
+    yield setup
+    setup.stop()
+
+
+def _small():  # noqa: ANN202
+    return make_spec(SMALL["system"], SMALL["algorithms"], SMALL["seeds"], SMALL["episodes"])
+
+
+def _submit(topology: Topology, count: int) -> list[int]:
+    return [topology.submit(_small()) for _ in range(count)]
+
+
+def _dispatcher_logs(topology: Topology) -> str:
+    return "".join(p.read_text(errors="replace") for p in sorted(topology.tmp_path.glob("dispatcher-*.log")))
+
+
+def _succeeded(url: str) -> int:
+    return sum(job.status == "succeeded" for job in _jobs(url))
+
+
+def test_small_jobs_run_in_batches_on_dask_with_a_local_workers_numbers(topology: Topology, db_url: str) -> None:
+    ids = _submit(topology, 40)
+    topology.start_cluster(workers=2)
+    topology.start_dispatcher()
+    topology.wait_for(lambda: _succeeded(db_url) == len(ids), "every small job succeeded", timeout=180)
+    sizes = [int(size) for size in BATCH_LOG.findall(_dispatcher_logs(topology))]
+    assert sum(sizes) == len(ids) and max(sizes) > 1, sizes  # claimed and run in batches, each job once
+    jobs = _jobs(db_url)
+    assert {job.attempts for job in jobs} == {1} and all(job.worker_id.startswith("dispatcher:") for job in jobs)
+    spec = _small()  # the numbers a local worker stores (one process: run_experiment)
+    for job_id in ids:
+        topology.assert_stored_exactly_once(job_id, spec)
+
+
+def test_the_dispatcher_killed_in_the_middle_of_a_batch_leaves_every_job_run_once(topology: Topology,
+                                                                                   db_url: str) -> None:
+    ids = _submit(topology, 150)
+    topology.start_cluster(workers=2)
+    victim = topology.start_dispatcher()
+    topology.wait_for(lambda: BATCH_LOG.search(_dispatcher_logs(topology)) and sum(
+        job.status == "running" for job in _jobs(db_url)) >= 10, "a batch claimed and sent (logged)", step=0.02)
+    victim.send_signal(signal.SIGKILL)
+    victim.wait()
+    in_flight = _in_flight_after_kill(db_url)
+    assert len(in_flight) >= 10, "the dispatcher was not killed in the middle of a batch"
+
+    topology.start_dispatcher()  # re-queues the dead dispatcher's jobs once their heartbeats are stale (4 s)
+    topology.wait_for(lambda: _succeeded(db_url) == len(ids), "every job succeeded", timeout=240)
+    jobs = {job.id: job for job in _jobs(db_url)}
+    assert Counter(job.status for job in jobs.values()) == {"succeeded": len(ids)}
+    assert all(jobs[job_id].attempts == 2 for job_id in in_flight)  # re-run once: the killed batches
+    per_job, distinct, total = _runs(db_url)
+    assert per_job == dict.fromkeys(ids, 2)  # none lost
+    assert distinct == total == 2 * len(ids)  # no run stored twice
