@@ -1,7 +1,8 @@
 """Scale-out benchmark: the same work through local workers (SQLite, PostgreSQL) and a Dask cluster.
 
 Run: ``python benchmarks/bench_cluster.py`` (about 10 minutes on 2 cores; ``--small-jobs N`` and
-``--big-seeds N`` to shrink it). Needs PostgreSQL's server binaries (Debian: postgresql).
+``--big-seeds N`` to shrink it; ``--only dask`` runs one deployment, repeatable). Needs PostgreSQL's
+server binaries (Debian: postgresql).
 
 Three deployments, each started here as local processes on 127.0.0.1 and stopped at the end:
 
@@ -136,7 +137,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--small-jobs", type=int, default=1000)
     parser.add_argument("--big-seeds", type=int, default=240)
+    parser.add_argument("--only", action="append", choices=["sqlite", "postgresql", "dask"],
+                        help="run only this deployment (repeatable; default: all three)")
     args = parser.parse_args()
+    chosen = set(args.only or ["sqlite", "postgresql", "dask"])
     reason = why_unavailable()
     if reason:
         raise SystemExit(f"bench_cluster: {reason}")
@@ -148,9 +152,10 @@ def main() -> None:
     try:
         with tempfile.TemporaryDirectory(prefix="mgrao-bench-") as tmp:
             work = Path(tmp)
-            for kind, url in (("local, SQLite", f"sqlite:///{work / 'bench.db'}"),
-                              ("local, PostgreSQL", server.create_database()),
-                              ("dask", server.create_database())):
+            for kind, key in (("local, SQLite", "sqlite"), ("local, PostgreSQL", "postgresql"), ("dask", "dask")):
+                if key not in chosen:
+                    continue
+                url = f"sqlite:///{work / 'bench.db'}" if key == "sqlite" else server.create_database()
                 deployment = Deployment("dask" if kind == "dask" else "local", url, work)
                 deployment.start()
                 try:
@@ -167,10 +172,11 @@ def main() -> None:
     print(f"\n{'deployment':<34}{'small jobs/s':>14}{'big job s':>11}{'x one process':>15}{'p99 ms':>9}")
     for name, rate, wall, p99 in rows:
         print(f"{name:<34}{rate:>14.1f}{wall:>11.1f}{wall / baseline:>15.2f}{p99 * 1000:>9.0f}")
-    local_pg, dask = rows[1], rows[2]
-    per_chunk = 2 / dask[1] - 2 / local_pg[1]  # two executors each side: seconds of one executor per job
-    print(f"\ncost a chunk pays for the cluster (dispatcher's seconds per small job less a local worker's, "
-          f"per executor): {per_chunk * 1000:.0f} ms")
+    if {"postgresql", "dask"} <= chosen:
+        local_pg, dask = rows[-2], rows[-1]
+        per_job = 2 / dask[1] - 2 / local_pg[1]  # two executors each side: seconds of one executor per job
+        print(f"\ncost a small job pays for the cluster (dispatcher's seconds per small job less a local "
+              f"worker's, per executor): {per_job * 1000:.0f} ms")
 
 
 if __name__ == "__main__":

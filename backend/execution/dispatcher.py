@@ -37,7 +37,7 @@ from backend.execution.heartbeats import Heartbeats
 from backend.execution.lifecycle import Ended, Failure, Lifecycle, Plan, failure
 from backend.execution.lifeline import stop_on_signals
 from backend.execution.presence import Presence, refresh_interval
-from backend.execution.worker import small_spec
+from backend.execution.small_jobs import packed, small_spec
 from backend.settings import Settings
 from backend.store import queue, summaries
 from backend.store.db import Database
@@ -247,7 +247,12 @@ class Dispatcher:
             self._finish(job)
 
     def _start_batch(self, claims: list[queue.Claim], specs: dict) -> None:
-        """Plan small jobs as a local worker does (:meth:`Lifecycle.plan_batch`) and hold them as one batch."""
+        """Plan small jobs as a local worker does (:meth:`Lifecycle.plan_batch`) and hold them as batches.
+
+        Each batch is one Dask task whose runs take at most :data:`~backend.execution.small_jobs.BATCH_BYTES`
+        at once (:func:`~backend.execution.small_jobs.packed`): a Dask worker holds a task's results
+        whole until the dispatcher stores them.
+        """
         plans = self.lifecycle.plan_batch(claims, specs)
         held: list[queue.Claim] = []
         for claim in claims:
@@ -257,12 +262,11 @@ class Dispatcher:
                 continue
             held.append(claim)
             self.beats.add(claim)
-        if not held:
-            return
-        batch = _Batch(held, {claim.job_id: plans[claim.job_id] for claim in held})
-        self.batches[batch.key] = batch
-        log.info("dispatcher %s runs a batch of %s jobs (%s to %s)", self.dispatcher_id, len(held), held[0].job_id,
-                 held[-1].job_id)
+        for part in packed(held, specs):
+            batch = _Batch(part, {claim.job_id: plans[claim.job_id] for claim in part})
+            self.batches[batch.key] = batch
+            log.info("dispatcher %s runs a batch of %s jobs (%s to %s)", self.dispatcher_id, len(part),
+                     part[0].job_id, part[-1].job_id)
 
     def _send(self, batch: _Batch) -> None:
         assert self.client is not None

@@ -28,7 +28,7 @@ from backend.execution.heartbeats import Heartbeats
 from backend.execution.lifecycle import Ended, Lifecycle
 from backend.execution.lifeline import stop_on_signals
 from backend.execution.presence import Presence, refresh_interval
-from backend.execution.small_jobs import one_numba_thread, run_small_job
+from backend.execution.small_jobs import BATCH_BYTES, one_numba_thread, run_small_job, small_spec
 from backend.settings import Settings
 from backend.store import queue, summaries
 from backend.store.db import Database
@@ -39,32 +39,6 @@ if TYPE_CHECKING:
 
 log = logging.getLogger("mgrao.worker")
 T = TypeVar("T")
-
-BATCH_BYTES = 64 * 1024**2
-"""Run bytes a batch keeps in memory at most: beyond, what is done is stored before the rest runs."""
-
-
-SMALL_JOB_BYTES = 64 * 1024**2
-"""The most memory a job run in a batch may take, every seed at once (:func:`mgrao_core.budget.chunk_cost`)."""
-
-def small_spec(settings: Settings, claim: queue.Claim) -> ExperimentSpec | None:
-    """A claimed small job's validated configuration, parsed once for its batch; None when it runs alone.
-
-    Small in work (``MGRAO_SMALL_JOB_WORK`` atomic tasks) and in memory: a batch holds each job's runs
-    whole, so a job whose every seed at once would take more than :data:`SMALL_JOB_BYTES` (few
-    tasks, but large learner state or stored weights) runs alone, chunk by chunk, within its budget.
-    """
-    if claim.work is None or claim.work > settings.small_job_work:
-        return None
-    from mgrao_core import spec_from_dict
-    from mgrao_core.budget import chunk_cost
-
-    try:
-        spec = spec_from_dict(claim.config, memory_budget=settings.job_memory_bytes)
-    except Exception:  # noqa: BLE001  (an invalid configuration fails in execute, with its message)
-        return None
-    return spec if chunk_cost(spec, len(spec.seeds)).total <= SMALL_JOB_BYTES else None
-
 
 class Worker:
     """Claims queued jobs one at a time and runs them chunk by chunk with :func:`mgrao_core.run_chunk`.
@@ -116,7 +90,7 @@ class Worker:
         if not claims:
             return 0
         try:
-            specs = {claim.job_id: self.small_spec(claim) for claim in claims}
+            specs = {claim.job_id: small_spec(self.settings, claim) for claim in claims}
             for claim in claims:  # a job big in work or in memory runs chunk by chunk, within its memory budget
                 if specs[claim.job_id] is None:
                     self.execute(claim)
@@ -126,10 +100,6 @@ class Worker:
         except Stopping as error:
             log.warning("jobs %s left to their leases: %s", [c.job_id for c in claims], error)
         return len(claims)
-
-    def small_spec(self, claim: queue.Claim) -> ExperimentSpec | None:
-        """:func:`small_spec` under this worker's settings."""
-        return small_spec(self.settings, claim)
 
     def execute_batch(self, claims: Sequence[queue.Claim],
                       specs: Mapping[int, ExperimentSpec | None] | None = None) -> None:

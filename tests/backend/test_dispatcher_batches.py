@@ -16,7 +16,9 @@ import pytest
 from test_batches import SMALL, _in_flight_after_kill, _jobs, _runs
 from test_dispatcher import Topology
 
+from backend.execution.small_jobs import BATCH_BYTES, packed, run_bytes
 from backend.store.db import Database
+from backend.store.queue import Claim
 from mgrao_core import make_spec
 
 pytestmark = pytest.mark.slow
@@ -84,3 +86,26 @@ def test_the_dispatcher_killed_in_the_middle_of_a_batch_leaves_every_job_run_onc
     per_job, distinct, total = _runs(db_url)
     assert per_job == dict.fromkeys(ids, 2)  # none lost
     assert distinct == total == 2 * len(ids)  # no run stored twice
+
+
+@pytest.mark.parametrize(("seeds", "sizes"), [([1, 1, 1], [3]), ([1, 40, 1, 1, 40, 40, 1], [1, 1, 2, 1, 1, 1]),
+                                              ([40] * 3, [1, 1, 1])])
+def test_a_claimed_batch_is_cut_into_dask_tasks_within_the_memory_bound(seeds: list[int], sizes: list[int]) -> None:
+    """``packed`` keeps the claim order and every job once; a task's runs stay within the bound, or it is one job."""
+    specs = {job_id: make_spec("large", ["uniform", "mgrao-max"], count, 50) for job_id, count in enumerate(seeds)}
+    claims = [Claim(job_id, "lease", {}, 1) for job_id in specs]
+    one, forty = (run_bytes(make_spec("large", ["uniform", "mgrao-max"], count, 50)) for count in (1, 40))
+    assert forty > 4 * one
+    limit = 2 * one + forty // 2  # two one-seed jobs fit beside each other, a forty-seed one with nothing
+    parts = packed(claims, specs, limit=limit)
+    assert [claim for part in parts for claim in part] == claims
+    assert [len(part) for part in parts] == sizes
+    for part in parts:
+        assert len(part) == 1 or sum(run_bytes(specs[claim.job_id]) for claim in part) <= limit, part
+
+
+def test_the_default_bound_packs_the_benchmarks_small_jobs_into_one_task() -> None:
+    specs = {job_id: _small() for job_id in range(64)}
+    claims = [Claim(job_id, "lease", {}, 1) for job_id in specs]
+    assert packed(claims, specs) == [claims]  # the default claim (MGRAO_BATCH_JOBS) is one task
+    assert 64 * run_bytes(_small()) <= BATCH_BYTES
