@@ -29,7 +29,10 @@ def listen(host: str, port: int) -> socket.socket:
         click.ClickException: the port is in use, or the address cannot be bound.
     """
     family = socket.AF_INET6 if ":" in host else socket.AF_INET
-    sock = socket.socket(family, socket.SOCK_STREAM)
+    # IPPROTO_TCP, not 0: asyncio sets TCP_NODELAY only on accepted sockets whose proto says TCP, and an
+    # accepted socket takes the listening one's. Without it every keep-alive request waited for the
+    # client's delayed ACK (about 40 ms) between the response's header and body writes.
+    sock = socket.socket(family, socket.SOCK_STREAM, socket.IPPROTO_TCP)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     try:
         sock.bind((host, port))

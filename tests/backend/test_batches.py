@@ -50,6 +50,16 @@ def _runs(db_url: str) -> tuple[dict[int, int], int, int]:
     return per_job, distinct, total
 
 
+def assert_each_ran_once(db_url: str, ids: list[int], in_flight: list[int]) -> None:
+    """Every job of ``ids`` succeeded, those killed ``in_flight`` at attempt 2; none lost, no run stored twice."""
+    jobs = {job.id: job for job in _jobs(db_url)}
+    assert Counter(job.status for job in jobs.values()) == {"succeeded": len(ids)}
+    assert all(jobs[job_id].attempts == 2 for job_id in in_flight)  # re-run once: the killed batch
+    per_job, distinct, total = _runs(db_url)
+    assert per_job == dict.fromkeys(ids, 2)  # none lost (each job: 1 seed x 2 algorithms)
+    assert distinct == total == 2 * len(ids)  # no run stored twice
+
+
 def _in_flight_after_kill(db_url: str) -> list[int]:
     """The jobs still running once the killed worker's last transaction has ended, committed or rolled back.
 
@@ -96,12 +106,7 @@ def test_a_worker_killed_in_the_middle_of_a_batch_leaves_every_job_run_once(serv
 
     service.start_worker()  # re-queues the dead worker's jobs once their heartbeats are stale (2 s)
     service.wait_for(lambda: _succeeded(service) == len(ids), timeout=240, what="every job succeeded")
-    jobs = {job.id: job for job in _jobs(db_url)}
-    assert Counter(job.status for job in jobs.values()) == {"succeeded": len(ids)}
-    assert all(jobs[job_id].attempts == 2 for job_id in in_flight)  # re-run once: the killed batch
-    per_job, distinct, total = _runs(db_url)
-    assert per_job == dict.fromkeys(ids, 2)  # none lost
-    assert distinct == total == 2 * len(ids)  # no run stored twice
+    assert_each_ran_once(db_url, ids, in_flight)
 
 
 @pytest.mark.slow

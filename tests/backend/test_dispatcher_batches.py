@@ -8,12 +8,11 @@ from __future__ import annotations
 
 import re
 import signal
-from collections import Counter
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from test_batches import SMALL, _in_flight_after_kill, _jobs, _runs
+from test_batches import SMALL, _in_flight_after_kill, _jobs, assert_each_ran_once
 from test_dispatcher import Topology
 
 from backend.execution.small_jobs import BATCH_BYTES, packed, run_bytes
@@ -80,12 +79,7 @@ def test_the_dispatcher_killed_in_the_middle_of_a_batch_leaves_every_job_run_onc
 
     topology.start_dispatcher()  # re-queues the dead dispatcher's jobs once their heartbeats are stale (4 s)
     topology.wait_for(lambda: _succeeded(db_url) == len(ids), "every job succeeded", timeout=240)
-    jobs = {job.id: job for job in _jobs(db_url)}
-    assert Counter(job.status for job in jobs.values()) == {"succeeded": len(ids)}
-    assert all(jobs[job_id].attempts == 2 for job_id in in_flight)  # re-run once: the killed batches
-    per_job, distinct, total = _runs(db_url)
-    assert per_job == dict.fromkeys(ids, 2)  # none lost
-    assert distinct == total == 2 * len(ids)  # no run stored twice
+    assert_each_ran_once(db_url, ids, in_flight)
 
 
 @pytest.mark.parametrize(("seeds", "sizes"), [([1, 1, 1], [3]), ([1, 40, 1, 1, 40, 40, 1], [1, 1, 2, 1, 1, 1]),
