@@ -1,16 +1,21 @@
-"""What runs on a Dask worker: the kernel warm-up, and one chunk of a job.
+"""What runs on a Dask worker: the kernel warm-up, one chunk of a job, and a batch of small jobs.
 
 Only the core is imported here: a Dask worker needs the project installed (the same image as the
 service, so that versions match) but no access to the database. The dispatcher
-(:mod:`backend.execution.dispatcher`) sends each chunk as a task and stores what comes back.
+(:mod:`backend.execution.dispatcher`) sends each chunk or batch as a task and stores what comes back.
 """
 
 from __future__ import annotations
 
-from typing import Any
+import logging
+from typing import TYPE_CHECKING, Any
 
 from distributed import WorkerPlugin
 
+if TYPE_CHECKING:
+    from backend.execution.failures import Failure
+
+log = logging.getLogger("mgrao.dask")
 PLUGIN_NAME = "mgrao-warm-up"
 
 
@@ -39,23 +44,26 @@ def simulate_chunk(config: dict[str, Any], seeds: list[int], memory_budget: int)
 
 
 def simulate_batch(jobs: list[tuple[int, dict[str, Any], list[list[int]]]],
-                   memory_budget: int) -> list[tuple[int, list | BaseException]]:
+                   memory_budget: int) -> list[tuple[int, list | Failure]]:
     """A batch of small jobs, each ``(job id, configuration, chunks of seeds left)``, run whole, one after another.
 
     Each job runs as a local worker runs it in a batch (:func:`backend.execution.small_jobs.run_small_job`,
-    on one numba thread); one job's error is returned in its place, not raised, so that it fails only
-    that job. Nothing here touches the database: the dispatcher stores what comes back.
+    on one numba thread); one job's error is returned in its place as its
+    :class:`~backend.execution.failures.Failure` (mapped here, by the one mapping, and picklable where
+    some of the core's errors are not), not raised, so that it fails only that job. Nothing here
+    touches the database: the dispatcher stores what comes back.
     """
+    from backend.execution.failures import failure
     from backend.execution.small_jobs import one_numba_thread, run_small_job
     from mgrao_core import MgraoError, spec_from_dict
 
-    results: list[tuple[int, list | BaseException]] = []
+    results: list[tuple[int, list | Failure]] = []
     with one_numba_thread():
         for job_id, config, chunks in jobs:
             try:
                 results.append((job_id, run_small_job(spec_from_dict(config, memory_budget=memory_budget), chunks)))
-            except MgraoError as error:
-                results.append((job_id, error))
-            except Exception as error:  # noqa: BLE001 - a bug: its type and message fail that job only
-                results.append((job_id, RuntimeError(f"{type(error).__name__}: {error}")))
+            except Exception as error:  # noqa: BLE001 - it fails that job only
+                if not isinstance(error, MgraoError):  # a bug: its traceback goes to the Dask worker's log
+                    log.exception("job %s failed", job_id)
+                results.append((job_id, failure(error)))
     return results

@@ -5,8 +5,10 @@ itself: each chunk (every algorithm over a block of seeds, :func:`mgrao_core.pla
 one Dask task keyed ``mgrao-<job>-<attempt>-<chunk>``, and each chunk's runs are stored, in one
 conditional transaction, as soon as its future completes. It keeps as many chunks in flight as the
 cluster has threads, plus a small margin, claiming another job whenever the ones it holds have no
-chunk left to send. Dask workers need no database access; the numba kernel is loaded once per
-Dask worker by a plugin (:class:`backend.execution.dask_tasks.WarmUp`).
+chunk left to send. Small jobs are claimed in batches, as a local worker claims them, and each
+batch runs as one Dask task keyed ``mgrao-batch-<lease>-<first job>`` whose jobs are stored in one
+transaction (:func:`backend.execution.dask_tasks.simulate_batch`). Dask workers need no database
+access; the numba kernel is loaded once per Dask worker by a plugin (:class:`backend.execution.dask_tasks.WarmUp`).
 
 What it survives, with every episode stored exactly once:
 
@@ -33,8 +35,9 @@ from typing import Any
 from distributed import Client, Future, KilledWorker, wait
 
 from backend.execution.dask_tasks import PLUGIN_NAME, WarmUp, simulate_batch, simulate_chunk
+from backend.execution.failures import Failure, failure
 from backend.execution.heartbeats import Heartbeats
-from backend.execution.lifecycle import Ended, Failure, Lifecycle, Plan, failure
+from backend.execution.lifecycle import Ended, Lifecycle, Plan
 from backend.execution.lifeline import stop_on_signals
 from backend.execution.presence import Presence, refresh_interval
 from backend.execution.small_jobs import packed, small_spec
@@ -81,10 +84,18 @@ class _Batch:
     claims: list[queue.Claim]
     plans: dict[int, Plan]
     future: Future | None = None
+    fetch_failures: int = 0
+    """Completed futures whose results could not be fetched; the batch is sent again up to :data:`FETCHES`."""
 
     @property
     def key(self) -> str:
-        return f"mgrao-batch-{self.claims[0].job_id}-{self.claims[0].attempt}-{len(self.claims)}"
+        # The lease is new at every claim (an attempt number is not: a hand-back lowers it again), so
+        # a batch claimed anew never takes over an old batch's task still running on a Dask worker.
+        return f"mgrao-batch-{self.claims[0].lease}-{self.claims[0].job_id}"
+
+
+FETCHES = 3
+"""Times a completed batch's results are fetched before its jobs fail (the batch is sent again between)."""
 
 
 class Dispatcher:
@@ -327,49 +338,59 @@ class Dispatcher:
         self._drop(job)
 
     def _batch_completed(self, batch: _Batch, future: Future) -> None:
-        """Store a batch's jobs in one transaction, as a local worker does; a job's error fails that job only."""
+        """Store a batch's jobs in one transaction, as a local worker does; a job's error fails that job only.
+
+        The jobs are told they ended once, together (a study advances once per batch).
+        """
         if future.status in ("cancelled", "lost"):  # not by us: the scheduler went away
             log.warning("batch %s was lost (%s); it is sent again", batch.key, future.status)
             batch.future = None
             return
-        del self.batches[batch.key]
-        claims = {claim.job_id: claim for claim in batch.claims}
-        try:
-            if future.status != "finished":
-                error = future.exception()
-                where = f"its batch of {len(claims)} small jobs"
-                ending = (Failure(f"{where} killed every Dask worker that ran it: {error}")
-                          if isinstance(error, KilledWorker) else failure(error, where=f"{where} failed: "))
-                for claim in batch.claims:
-                    if not self.beats.lost(claim.job_id):
-                        self._fail(claim, ending)
-                return
-            results = future.result()
+        where = f"its batch of {len(batch.claims)} small jobs"
+        ending: Failure | None = None
+        results: dict[int, list | Failure] = {}
+        if future.status == "finished":
+            try:
+                results = dict(future.result())
+            except Exception as error:  # noqa: BLE001 - e.g. the connection went while fetching
+                batch.fetch_failures += 1
+                if batch.fetch_failures < FETCHES:
+                    log.warning("fetching batch %s failed (%s); it is sent again", batch.key, error)
+                    batch.future = None
+                    return
+                ending = failure(error, where=f"fetching {where} failed: ")
             future.release()
+        else:
+            error = future.exception()
+            ending = (Failure(f"{where} killed every Dask worker that ran it: {error}")
+                      if isinstance(error, KilledWorker) else failure(error, where=f"{where} failed: "))
+        del self.batches[batch.key]
+        try:
             completed: list[queue.Completed] = []
             failed: list[tuple[queue.Claim, Failure]] = []
-            for job_id, result in results:
-                claim, plan = claims[job_id], batch.plans[job_id]
-                if self.beats.lost(job_id):  # cancelled or taken over: nothing of it is stored
+            for claim in batch.claims:
+                if self.beats.lost(claim.job_id):  # cancelled or taken over: nothing of it is stored
                     continue
-                if isinstance(result, BaseException):
-                    failed.append((claim, failure(result)))
+                result = results.get(claim.job_id, ending or Failure(f"job {claim.job_id} is missing from {where}"))
+                if isinstance(result, Failure):
+                    failed.append((claim, result))
                     continue
-                rows = queue.run_rows(job_id, result)
+                plan = batch.plans[claim.job_id]
+                rows = queue.run_rows(claim.job_id, result)
                 finals = summaries.finals_of_rows(rows) if plan.done_seeds == 0 else None
                 completed.append(queue.Completed(claim, rows, plan.expected_runs, finals))
-            outcome = self.lifecycle.finish_batch(completed)
+            outcome = self.lifecycle.finish_batch(completed) if completed else {}
             for item in completed:
                 if outcome[item.claim.job_id] == queue.INCOMPLETE:
                     failed.append((item.claim, Failure(f"job {item.claim.job_id} has runs missing")))
-            for claim, ending in failed:
-                log.warning("job %s failed: %s", claim.job_id, ending.message)
-                self.lifecycle.fail(claim, ending)
-            log.info("batch %s stored: %s", batch.key, dict(Counter(outcome.values())))
+            for claim, reason in failed:
+                log.warning("job %s failed: %s", claim.job_id, reason.message)
+                self.lifecycle.fail(claim, reason)
+            log.info("batch %s stored: %s (%s failed)", batch.key, dict(Counter(outcome.values())), len(failed))
         finally:
             for claim in batch.claims:
                 self.beats.remove(claim.job_id)
-            self.lifecycle.ended(*claims)
+        self.lifecycle.ended(*(claim.job_id for claim in batch.claims))
 
     def _finish(self, job: _Job) -> None:
         finished = self.lifecycle.finish(job.claim, job.plan)

@@ -2,10 +2,10 @@
 
 A local worker (:mod:`backend.execution.worker`) and the Dask dispatcher (:mod:`backend.execution.dispatcher`) differ
 only in where a chunk is simulated; both hold their jobs through a :class:`Lifecycle`. Every database
-call of it is retried until it goes through (:func:`backend.store.retry.persist`), and an error that ends a
-job is turned into its stored message by one mapping, :func:`failure`. When a job ends, whatever
-subscribed to ``on_ended`` is told (the studies: a study advances as soon as one of its trials'
-jobs ends); job execution itself knows nothing of what listens.
+call of it is retried until it goes through (:func:`backend.store.retry.persist`), and an error that
+ends a job is turned into its stored message by one mapping (:mod:`backend.execution.failures`).
+When a job ends, whatever subscribed to ``on_ended`` is told (the studies: a study advances as
+soon as one of its trials' jobs ends); job execution itself knows nothing of what listens.
 """
 
 from __future__ import annotations
@@ -16,11 +16,12 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TypeVar
 
+from backend.execution.failures import Failure, failure
 from backend.settings import Settings
 from backend.store import queue
 from backend.store.db import Database
 from backend.store.retry import HealthClock, persist
-from mgrao_core import ExperimentSpec, MgraoError, NumericalError, plan_chunks, spec_from_dict
+from mgrao_core import ExperimentSpec, MgraoError, plan_chunks, spec_from_dict
 
 log = logging.getLogger("mgrao.lifecycle")
 T = TypeVar("T")
@@ -28,27 +29,6 @@ T = TypeVar("T")
 Ended = Callable[[Database, Sequence[int]], None]
 """Told that jobs ended (succeeded, failed, cancelled or taken over): the database and the jobs' ids (a batch's
 jobs are told at once, so that a study advances once per batch)."""
-
-
-@dataclass(frozen=True)
-class Failure:
-    """How a job that raised ends: its stored error message, and whether its stored runs are dropped."""
-
-    message: str
-    discard_runs: bool = False
-
-
-def failure(error: BaseException, *, where: str = "") -> Failure:
-    """The one mapping from an error that ends a job to its failure.
-
-    A numerical error drops the stored runs (their numbers are suspect), an error of the core is
-    its own message, anything else (a bug) names its type, after ``where`` (the chunk it came from).
-    """
-    if isinstance(error, NumericalError):
-        return Failure(str(error), discard_runs=True)
-    if isinstance(error, MgraoError):
-        return Failure(str(error))
-    return Failure(f"{where}{type(error).__name__}: {error}")
 
 
 @dataclass(frozen=True)

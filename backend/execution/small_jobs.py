@@ -57,8 +57,9 @@ def packed(claims: Sequence[Claim], specs: Mapping[int, ExperimentSpec],
            limit: int = BATCH_BYTES) -> list[list[Claim]]:
     """``claims`` in order, cut into batches whose jobs' summed :func:`run_bytes` stays within ``limit``.
 
-    A batch run whole then holds at most ``limit`` of done runs plus the one job running (itself
-    within :data:`SMALL_JOB_BYTES`). A job alone over ``limit`` gets a batch of its own.
+    A batch run whole (one Dask task, on one Dask worker thread) then holds at most ``limit`` of done
+    runs plus the one job running (itself within :data:`SMALL_JOB_BYTES`) until its results are
+    fetched. A job alone over ``limit`` gets a batch of its own.
     """
     batches: list[list[Claim]] = []
     held = limit + 1

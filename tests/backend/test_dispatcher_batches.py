@@ -6,6 +6,7 @@ the dispatcher is killed with SIGKILL in the middle of a batch; every wait has a
 
 from __future__ import annotations
 
+import pickle
 import re
 import signal
 from collections.abc import Iterator
@@ -15,6 +16,8 @@ import pytest
 from test_batches import SMALL, _in_flight_after_kill, _jobs, assert_each_ran_once
 from test_dispatcher import Topology
 
+from backend.execution.dask_tasks import simulate_batch
+from backend.execution.failures import Failure
 from backend.execution.small_jobs import BATCH_BYTES, packed, run_bytes
 from backend.store.db import Database
 from backend.store.queue import Claim
@@ -103,3 +106,13 @@ def test_the_default_bound_packs_the_benchmarks_small_jobs_into_one_task() -> No
     claims = [Claim(job_id, "lease", {}, 1) for job_id in specs]
     assert packed(claims, specs) == [claims]  # the default claim (MGRAO_BATCH_JOBS) is one task
     assert 64 * run_bytes(_small()) <= BATCH_BYTES
+
+
+def test_a_batch_task_returns_a_jobs_error_as_its_picklable_failure_and_runs_the_others() -> None:
+    """One job's error fails that job only, mapped where it happened (a ConfigError does not pickle)."""
+    jobs = [(1, {"system": "no-such-system", "seeds": 1, "episodes": 2}, [[0]]), (2, _small().as_dict(), [[0]])]
+    results = pickle.loads(pickle.dumps(simulate_batch(jobs, memory_budget=256 * 1024**2)))
+    assert [job_id for job_id, _ in results] == [1, 2]
+    assert isinstance(results[0][1], Failure) and "no-such-system" in results[0][1].message
+    assert not results[0][1].message.startswith("ConfigError")  # the core's own message, as a local worker stores
+    assert len(results[1][1]) == len(_small().algorithms)  # the other job ran: one run per algorithm (seed 0)

@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 from sqlalchemy import select, update
 
-from backend.execution.lifecycle import Failure, failure
+from backend.execution.failures import Failure, failure
 from backend.execution.worker import Worker
 from backend.services import studies
 from backend.settings import Settings
