@@ -27,7 +27,7 @@ import os
 import socket
 import threading
 import time
-from collections import Counter, deque
+from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -42,7 +42,7 @@ from backend.execution.lifeline import stop_on_signals
 from backend.execution.presence import Presence, refresh_interval
 from backend.execution.small_jobs import packed, small_spec
 from backend.settings import Settings
-from backend.store import queue, summaries
+from backend.store import queue
 from backend.store.db import Database
 from backend.store.retry import Backoff, HealthClock, OutageLog, Stopping
 from mgrao_core import MgraoError
@@ -375,18 +375,11 @@ class Dispatcher:
                 if isinstance(result, Failure):
                     failed.append((claim, result))
                     continue
-                plan = batch.plans[claim.job_id]
-                rows = queue.run_rows(claim.job_id, result)
-                finals = summaries.finals_of_rows(rows) if plan.done_seeds == 0 else None
-                completed.append(queue.Completed(claim, rows, plan.expected_runs, finals))
-            outcome = self.lifecycle.finish_batch(completed) if completed else {}
-            for item in completed:
-                if outcome[item.claim.job_id] == queue.INCOMPLETE:
-                    failed.append((item.claim, Failure(f"job {item.claim.job_id} has runs missing")))
+                completed.append(batch.plans[claim.job_id].completed(claim, result))
+            failed += self.lifecycle.finish_batch(completed)
             for claim, reason in failed:
                 log.warning("job %s failed: %s", claim.job_id, reason.message)
                 self.lifecycle.fail(claim, reason)
-            log.info("batch %s stored: %s (%s failed)", batch.key, dict(Counter(outcome.values())), len(failed))
         finally:
             for claim in batch.claims:
                 self.beats.remove(claim.job_id)

@@ -12,13 +12,14 @@ from __future__ import annotations
 
 import logging
 import threading
+from collections import Counter
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TypeVar
 
 from backend.execution.failures import Failure, failure
 from backend.settings import Settings
-from backend.store import queue
+from backend.store import queue, summaries
 from backend.store.db import Database
 from backend.store.retry import HealthClock, persist
 from mgrao_core import ExperimentSpec, MgraoError, plan_chunks, spec_from_dict
@@ -43,6 +44,15 @@ class Plan:
     def expected_runs(self) -> int:
         """The runs the finished job stores: every algorithm over every seed."""
         return len(self.spec.seeds) * len(self.spec.algorithms)
+
+    def completed(self, claim: queue.Claim, runs: Sequence) -> queue.Completed:
+        """The job's remaining ``runs``, done, as :meth:`Lifecycle.finish_batch` stores them.
+
+        With every run's final utility when the job stores all its runs now, for its summary.
+        """
+        rows = queue.run_rows(claim.job_id, runs)
+        finals = summaries.finals_of_rows(rows) if self.done_seeds == 0 else None
+        return queue.Completed(claim, rows, self.expected_runs, finals)
 
 
 class Lifecycle:
@@ -107,10 +117,18 @@ class Lifecycle:
             plans[job_id] = Plan(spec, len(spec.seeds) - len(missing), plan_chunks(spec, missing, budget=budget))
         return plans
 
-    def finish_batch(self, completed: Sequence[queue.Completed]) -> dict[int, str]:
-        """Store many completed jobs' runs and mark them succeeded in one transaction (:func:`queue.finish_batch`)."""
-        return self.persist(lambda: queue.finish_batch(self.db, completed=completed),
-                            f"storing a batch of {len(completed)} jobs")
+    def finish_batch(self, completed: Sequence[queue.Completed]) -> list[tuple[queue.Claim, Failure]]:
+        """Store many completed jobs' runs and mark them succeeded in one transaction (:func:`queue.finish_batch`).
+
+        Returns the jobs found with runs missing, each with its failure, for the caller to fail.
+        """
+        if not completed:
+            return []
+        outcome = self.persist(lambda: queue.finish_batch(self.db, completed=completed),
+                               f"storing a batch of {len(completed)} jobs")
+        log.info("a batch of %s jobs stored: %s", len(completed), dict(Counter(outcome.values())))
+        return [(item.claim, failure(RuntimeError(f"job {item.claim.job_id} has runs missing")))
+                for item in completed if outcome[item.claim.job_id] == queue.INCOMPLETE]
 
     def release_many(self, claims: Sequence[queue.Claim]) -> None:
         """Hand jobs back to the queue in one transaction (the process is stopping); their stored runs stay."""

@@ -30,7 +30,7 @@ from backend.execution.lifeline import stop_on_signals
 from backend.execution.presence import Presence, refresh_interval
 from backend.execution.small_jobs import BATCH_BYTES, one_numba_thread, run_small_job, small_spec
 from backend.settings import Settings
-from backend.store import queue, summaries
+from backend.store import queue
 from backend.store.db import Database
 from backend.store.retry import Backoff, HealthClock, OutageLog, Stopping
 
@@ -127,10 +127,7 @@ class Worker:
 
         def store() -> None:
             nonlocal held
-            outcome = lifecycle.finish_batch(completed)
-            for item in completed:
-                if outcome[item.claim.job_id] == queue.INCOMPLETE:
-                    failed.append((item.claim, RuntimeError(f"job {item.claim.job_id} has runs missing")))
+            failed.extend(lifecycle.finish_batch(completed))
             completed.clear()
             held = 0
 
@@ -159,11 +156,9 @@ class Worker:
                             log.exception("job %s failed", claim.job_id)
                         failed.append((claim, error))
                         continue
-                    rows = queue.run_rows(claim.job_id, runs)
-                    finals = summaries.finals_of_rows(rows) if plan.done_seeds == 0 else None
-                    completed.append(queue.Completed(claim, rows, plan.expected_runs, finals))
+                    completed.append(plan.completed(claim, runs))
                     held += sum(len(row["utilities"]) + len(row["combined_weights"]) + len(row["group_weights"])
-                                for row in rows)
+                                for row in completed[-1].rows)
                     if held > BATCH_BYTES:
                         store()
             store()
