@@ -19,6 +19,7 @@ import mgrao_core
 from mgrao_cli.engine_loading import load_engine
 from mgrao_core import ConfigError, MgraoError, make_spec
 from mgrao_core.presets import PAPER_SYSTEMS, PRESETS
+from mgrao_core.report import text_table
 from mgrao_core.reproduction import DEFAULT_SEEDS, READINGS, reproduction_table
 from mgrao_core.reproduction import reproduce as run_reproduction
 from mgrao_core.spec import MAX_SEED_VALUE
@@ -67,14 +68,6 @@ def _interval(pair: list[float] | tuple[float, float] | None, digits: int = 1) -
     if not pair or any(v is None or math.isnan(v) for v in pair):
         return "-"
     return f"[{pair[0]:.{digits}f}, {pair[1]:.{digits}f}]"
-
-
-def _render(headers: list[str], rows: list[list[str]]) -> str:
-    widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(headers)]
-    line = "  ".join(h.ljust(w) for h, w in zip(headers, widths, strict=True))
-    body = ["  ".join(c.rjust(w) if i else c.ljust(w) for i, (c, w) in enumerate(zip(r, widths, strict=True)))
-            for r in rows]
-    return "\n".join([line, "-" * len(line), *body])
 
 
 @contextmanager
@@ -200,7 +193,7 @@ def run(system: str | None, algorithms: str | None, seeds: int, first_seed: int,
         headers = ["algorithm", "final mean", "95% CI", "% from uniform", "95% CI", "% of max"]
         title = (f"{system}: {len(spec.seeds)} seeds x {spec.episodes} episodes, "
                  f"mean of the last 10 episodes ({elapsed:.2f} s)")
-        _emit(f"{title}\n{_render(headers, rows)}", out)
+        _emit(f"{title}\n{text_table(headers, rows)}", out)
 
 
 @click.command()
@@ -249,7 +242,7 @@ def reproduce(seeds: int, first_seed: int, episodes: int, reading: str, sets: tu
         headers = ["algorithm", "% from uniform", "95% CI", "paper", "% of max", "paper"]
         overtakes = table["max_overtakes_1_1_at"][name]
         when = "never" if overtakes is None else f"from episode {overtakes}"
-        blocks.append(f"{name} ({PRESETS[name].description})\n{_render(headers, body)}\n"
+        blocks.append(f"{name} ({PRESETS[name].description})\n{text_table(headers, body)}\n"
                       f"mgrao-max stays ahead of mgrao-1:1 {when} (paper: by about episode 10)")
     footer = (f"{seeds} seeds x {episodes} episodes per configuration, reading {reading}"
               + (f" with {', '.join(f'{k}={v}' for k, v in _parse_sets(sets).items())}" if sets else "")

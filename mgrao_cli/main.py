@@ -12,6 +12,7 @@ import click
 
 COMMANDS = {
     "algorithms": "mgrao_cli.algorithms:algorithms",
+    "compare": "mgrao_cli.compare:compare",
     "run": "mgrao_cli.experiments:run",
     "reproduce": "mgrao_cli.experiments:reproduce",
     "serve": "mgrao_cli.service_commands:serve",

@@ -36,15 +36,19 @@ class Api:
 
     def call(self, method: str, path: str, body: Any = None) -> Any:
         """The JSON answer of ``method path`` with ``body``."""
+        raw = self.read(method, path, body)
+        return json.loads(raw) if raw else None  # 204: no content
+
+    def read(self, method: str, path: str, body: Any = None, timeout: float = 60) -> bytes:
+        """The answer's bytes of ``method path`` with ``body``."""
         data = None if body is None else json.dumps(body).encode()
         request = urllib.request.Request(self.url + path, data=data, method=method,
                                          headers={"Content-Type": "application/json", "Accept": "application/json"})
         if self.token:
             request.add_header("Authorization", f"Bearer {self.token}")
         try:
-            with urllib.request.urlopen(request, timeout=60) as response:  # noqa: S310 - the user's own service
-                raw = response.read()
-                return json.loads(raw) if raw else None  # 204: no content
+            with urllib.request.urlopen(request, timeout=timeout) as response:  # noqa: S310 - the user's own service
+                return response.read()
         except urllib.error.HTTPError as error:
             raise click.ClickException(_http_error(error)) from None
         except (urllib.error.URLError, OSError) as error:
@@ -59,7 +63,7 @@ def _http_error(error: urllib.error.HTTPError) -> str:
     except (ValueError, AttributeError):
         detail = None
     if isinstance(detail, list):  # validation errors: one line each, naming the field
-        return "the service refused the study:\n" + "\n".join(f"  {d.get('msg', d)}" for d in detail)
+        return "the service refused the request:\n" + "\n".join(f"  {d.get('msg', d)}" for d in detail)
     if error.code == 401:
         return "the service needs its API token: pass --token or set MGRAO_API_TOKEN"
     return f"{error.code} {error.reason}: {detail or ''}".rstrip(": ")

@@ -1,9 +1,11 @@
-"""Aggregation of episode utilities: what a result is, docs/model.md ("What a result is").
+"""Aggregation of episode utilities: what a result is, docs/model.md ("What a result is"), docs/statistics.md.
 
 Per configuration: the mean utility of the last :data:`FINAL_EPISODES` episodes of each run,
 averaged over seeds, with a 95% t-interval; "% from uniform" paired seed by seed with the uniform
-run of the same seed (common random numbers); "% of max", the share of ``mgrao-max``'s gain over
-uniform (the paper's column, e.g. 23.4 / 28.0 = 83.6% for single 1:1).
+run of the same seed (common random numbers), over the seeds both have (``n_paired``); "% of max",
+the share of ``mgrao-max``'s gain over uniform on the seeds all three share (the paper's column,
+e.g. 23.4 / 28.0 = 83.6% for single 1:1). Quantiles come from scipy, imported on first use so that
+importing the core (a worker's start) does not load it.
 """
 
 from __future__ import annotations
@@ -19,23 +21,20 @@ from mgrao_core.errors import ConfigError
 FINAL_EPISODES = 10
 BASELINE = "uniform"
 REFERENCE = "mgrao-max"
-
-# Two-sided 95% quantiles of Student's t for 1..30 degrees of freedom.
-_T95 = (
-    12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228,
-    2.201, 2.179, 2.160, 2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086,
-    2.080, 2.074, 2.069, 2.064, 2.060, 2.056, 2.052, 2.048, 2.045, 2.042,
-)
+CONFIDENCE = 0.95
+"""The level of every interval the core gives (two-sided)."""
 
 
-def t95(dof: int) -> float:
-    """Two-sided 95% Student-t quantile (table to 30 dof, Cornish-Fisher expansion beyond)."""
-    if dof < 1:
-        return math.nan
-    if dof <= len(_T95):
-        return _T95[dof - 1]
-    z = 1.959963984540054
-    return z + (z**3 + z) / (4 * dof) + (5 * z**5 + 16 * z**3 + 3 * z) / (96 * dof**2)
+def t_quantile(dof: int | np.ndarray, confidence: float = CONFIDENCE) -> float | np.ndarray:
+    """The two-sided ``confidence`` quantile of Student's t with ``dof`` degrees of freedom (NaN below 1).
+
+    ``t_quantile(9)`` is 2.2622 (scipy's ``stdtrit``, the inverse of the t distribution function).
+    """
+    from scipy.special import stdtrit  # about 0.2 s to import: only where an interval is made
+
+    dof = np.asarray(dof, dtype=float)
+    value = np.where(dof >= 1, stdtrit(np.maximum(dof, 1.0), 0.5 + confidence / 2), math.nan)
+    return float(value) if value.ndim == 0 else value
 
 
 def mean_ci95(samples: np.ndarray) -> tuple[float, float, float]:
@@ -44,7 +43,7 @@ def mean_ci95(samples: np.ndarray) -> tuple[float, float, float]:
     mean = float(samples.mean())
     if samples.size < 2:
         return mean, math.nan, math.nan
-    half = t95(samples.size - 1) * float(samples.std(ddof=1)) / math.sqrt(samples.size)
+    half = t_quantile(samples.size - 1) * float(samples.std(ddof=1)) / math.sqrt(samples.size)
     return mean, mean - half, mean + half
 
 
@@ -56,7 +55,12 @@ def final_utilities(utilities: np.ndarray, last: int = FINAL_EPISODES) -> np.nda
 
 @dataclass(frozen=True)
 class ConfigSummary:
-    """The summary of one configuration (one algorithm of one system and parameter set)."""
+    """The summary of one configuration (one algorithm of one system and parameter set).
+
+    ``n_runs`` seeds make ``final_mean`` and ``ci95``; ``n_paired`` of them, those uniform also ran (with a
+    positive final utility), make ``pct_from_uniform`` and ``pct_ci95``; ``pct_of_max`` is taken on the
+    ``n_paired_max`` seeds that uniform and ``mgrao-max`` also ran.
+    """
 
     algorithm: str
     n_runs: int
@@ -65,9 +69,16 @@ class ConfigSummary:
     pct_from_uniform: float | None
     pct_ci95: tuple[float, float] | None
     pct_of_max: float | None
+    n_paired: int = 0
+    n_paired_max: int = 0
+
+    @property
+    def partial(self) -> bool:
+        """Whether only some of its seeds pair with the baseline (its % from uniform stands on fewer seeds)."""
+        return 0 < self.n_paired < self.n_runs
 
     def as_dict(self) -> dict:
-        """JSON-ready data; NaN becomes None."""
+        """JSON-ready data with :attr:`partial`; NaN becomes None."""
         def clean(value):
             if isinstance(value, float) and math.isnan(value):
                 return None
@@ -75,7 +86,7 @@ class ConfigSummary:
                 return [clean(v) for v in value]
             return value
 
-        return {k: clean(v) for k, v in asdict(self).items()}
+        return {k: clean(v) for k, v in asdict(self).items()} | {"partial": self.partial}
 
 
 def paired_pct_from_uniform(by_seed: Mapping[int, float], baseline: Mapping[int, float] | None) -> dict[int, float]:
@@ -88,39 +99,46 @@ def paired_pct_from_uniform(by_seed: Mapping[int, float], baseline: Mapping[int,
     return {s: 100.0 * (by_seed[s] / baseline[s] - 1.0) for s in common}
 
 
-def summarise(finals: Mapping[str, Mapping[int, float]]) -> dict[str, ConfigSummary]:
+def summarise(finals: Mapping[str, Mapping[int, float]], baseline: str = BASELINE,
+              reference: str = REFERENCE) -> dict[str, ConfigSummary]:
     """Summaries per configuration from each run's final utility.
 
     Args:
-        finals: configuration label -> seed -> final utility (see :func:`final_utilities`).
-            "% from uniform" pairs each seed with the ``uniform`` run of the same seed and uses
-            the seeds both have where uniform's utility is positive (a world where every parent
-            is absent has no ratio); it is None when no seed qualifies.
+        finals: configuration label -> seed -> final utility (see :func:`final_utilities`), the
+            configurations of one world.
+        baseline: the label "% from uniform" pairs with: each seed with the baseline's run of the same
+            seed, over the seeds both have where the baseline's utility is positive (a world where every
+            parent is absent has no ratio); None when no seed qualifies.
+        reference: the label "% of max" divides by: both gains averaged over the seeds the configuration,
+            the baseline and the reference all have.
 
     Returns:
         Label -> :class:`ConfigSummary`, in the order of ``finals``.
     """
-    baseline = finals.get(BASELINE)
-    pct: dict[str, tuple[float, float, float] | None] = {}
-    for label, by_seed in finals.items():
-        paired = paired_pct_from_uniform(by_seed, baseline)
-        pct[label] = mean_ci95(np.array(list(paired.values()))) if paired else None
-    reference = pct.get(REFERENCE)
+    base = finals.get(baseline)
+    paired = {label: paired_pct_from_uniform(by_seed, base) for label, by_seed in finals.items()}
+    of_reference = paired.get(reference, {})
     summaries = {}
     for label, by_seed in finals.items():
         mean, low, high = mean_ci95(np.array(list(by_seed.values())))
-        own = pct[label]
+        own = paired[label]
+        pct = mean_ci95(np.array(list(own.values()))) if own else None
+        shared = [s for s in own if s in of_reference]
         share = None
-        if own is not None and reference is not None and reference[0] != 0:
-            share = 100.0 * own[0] / reference[0]
+        if shared:
+            gain = float(np.mean([of_reference[s] for s in shared]))
+            if gain != 0:
+                share = 100.0 * float(np.mean([own[s] for s in shared])) / gain
         summaries[label] = ConfigSummary(
             algorithm=label,
             n_runs=len(by_seed),
             final_mean=mean,
             ci95=(low, high),
-            pct_from_uniform=None if own is None else own[0],
-            pct_ci95=None if own is None else (own[1], own[2]),
+            pct_from_uniform=None if pct is None else pct[0],
+            pct_ci95=None if pct is None else (pct[1], pct[2]),
             pct_of_max=share,
+            n_paired=len(own),
+            n_paired_max=len(shared),
         )
     return summaries
 
@@ -162,7 +180,8 @@ class EpisodeStats:
         episodes = self.mean.shape[0]
         mean = self.mean
         if self.runs > 1:
-            half = t95(self.runs - 1) * np.sqrt(np.maximum(self._m2, 0.0) / (self.runs - 1)) / math.sqrt(self.runs)
+            spread = np.sqrt(np.maximum(self._m2, 0.0) / (self.runs - 1))
+            half = t_quantile(self.runs - 1) * spread / math.sqrt(self.runs)
         else:
             half = np.zeros(episodes)
         starts = np.arange(episodes)

@@ -104,15 +104,20 @@ Number = float | None
 
 
 class Summary(BaseModel):
-    """A configuration's summary over its seeds."""
+    """A configuration's summary over its seeds (docs/statistics.md, "Pairing")."""
 
     algorithm: str
-    n_runs: int
+    n_runs: int = Field(description="Seeds of the configuration: the final mean and its interval.")
     final_mean: Number
     ci95: list[Number] | None
     pct_from_uniform: Number
     pct_ci95: list[Number] | None
     pct_of_max: Number
+    n_paired: int | None = Field(None, description="Seeds it shares with uniform (positive utility): the % from "
+                                                   "uniform and its interval.")
+    n_paired_max: int | None = Field(None, description="Seeds it shares with uniform and mgrao-max: the % of max.")
+    partial: bool | None = Field(None, description="Only some of its seeds pair with uniform (0 < n_paired < "
+                                                   "n_runs).")
 
 
 class Band(BaseModel):
@@ -238,13 +243,23 @@ class EpisodeRow(BaseModel):
 
 
 class CompareGroup(BaseModel):
-    """A configuration pooled over the compared jobs."""
+    """A configuration (world, algorithm, its own parameters) pooled over the compared jobs."""
 
-    config_hash: str
+    config_hash: str = Field(description="The first contributing job's configuration hash.")
+    config_hashes: list[str] = Field(description="Every contributing job's (jobs that differ in another "
+                                                 "algorithm's parameters share a uniform configuration).")
     algorithm: str
+    label: str = Field(description="The algorithm, and where two configurations of one world share it, what tells "
+                                   "them apart: 'mgrao-1:1 (learning_rate=0.2)', 'hedge (job 12)'.")
     system: str
+    world: str = Field(description="The world's name: its system's, and where worlds share one, what differs.")
+    params: dict[str, Any] = Field(description="The algorithm's own parameters (every learner parameter for a run "
+                                               "logged from outside).")
+    external: bool
     episodes_per_run: int
-    job_ids: list[int]
+    job_ids: list[int] = Field(description="The jobs whose runs it takes.")
+    mismatched_seeds: list[int] = Field(description="Seeds whose pooled runs differ between jobs (the first job's is "
+                                                    "used): built-in runs of one configuration should be identical.")
     summary: Summary
     episodes: Band
 
@@ -256,6 +271,72 @@ class Comparison(BaseModel):
     algorithms: list[AlgorithmLabel] = Field(description="The registry's description of every configuration's "
                                                          "algorithm (as GET /api/algorithms?label= gives it).")
     groups: list[CompareGroup]
+
+
+class Estimate(BaseModel):
+    """A point estimate and its 95% interval."""
+
+    estimate: Number
+    ci95: list[Number]
+
+
+class Anchors(BaseModel):
+    """A system's score anchors: mean final utility of uniform and the oracle on the seeds both ran."""
+
+    uniform: Number
+    oracle: Number
+    gain: Number
+    gain_ci95: list[Number] | None
+    n_seeds: int
+    valid: bool
+    reason: str | None = Field(description="Why the system has no scores (null when it has).")
+    caveats: list[str] = Field(description="Why the oracle is no upper bound here (scores above 1 are possible).")
+
+
+class HeadToHead(BaseModel):
+    """X minus Y in % from uniform on one system, over the seeds both share with uniform."""
+
+    system: str
+    x: str
+    y: str
+    n_paired: int
+    difference: Number
+    ci95: list[Number] | None
+    p_value: Number
+    p_holm: Number
+
+
+class ComparisonStatistics(BaseModel):
+    """``GET /api/compare/statistics`` (docs/statistics.md, "The answer")."""
+
+    jobs: list[int]
+    systems: dict[str, dict[str, Summary]] = Field(description="Per system (world) and configuration label.")
+    normalisation: dict[str, Anchors]
+    scores: dict[str, dict[str, list[float]]] = Field(description="Per aggregated configuration and system, the "
+                                                                 "scores of the aggregated seeds in seed order.")
+    aggregate: dict[str, dict[str, Estimate]] = Field(description="Per configuration: mean, median, iqm, "
+                                                                  "optimality_gap.")
+    aggregated: dict[str, Any] = Field(description="systems, seeds (per system), n_seeds, excluded (label: reason), "
+                                                   "reason (why nothing is aggregated).")
+    performance_profiles: dict[str, Any] = Field(description="tau, and per configuration share, low, high.")
+    probability_of_improvement: dict[str, Estimate] = Field(description="'X>Y': P(X > Y), both orders of every pair.")
+    head_to_head: dict[str, Any] = Field(description="pairs (HeadToHead per system) and tests (Holm's family).")
+    protocol: dict[str, Any]
+    configurations: list[dict[str, Any]] = Field(description="Each configuration's system, label, algorithm, "
+                                                             "params, job_ids, mismatched_seeds.")
+
+
+class SampleEfficiency(BaseModel):
+    """``GET /api/compare/sample-efficiency``: IQM of the scores per bucket of episodes."""
+
+    systems: list[str]
+    seeds: dict[str, list[int]]
+    points: int
+    episodes: dict[str, list[int]] = Field(description="Per system, each bucket's first episode.")
+    curves: dict[str, dict[str, list[Number]]] = Field(description="Per configuration: iqm, low, high.")
+    excluded: dict[str, str]
+    reason: str | None
+    bootstrap: dict[str, Any]
 
 
 class Systems(BaseModel):

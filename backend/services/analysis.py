@@ -1,4 +1,4 @@
-"""Results and comparisons, computed from the stored episodes with the core's aggregation.
+"""Results of a job, computed from the stored episodes with the core's aggregation (comparisons: comparison.py).
 
 Runs are read a few at a time and folded into per-episode statistics, so the memory a request
 needs grows with the episodes of a configuration, not with its runs. Every answer is bounded:
@@ -41,11 +41,12 @@ from mgrao_core.stats import BASELINE
 
 MAX_RESPONSE_VALUES = 1_000_000
 """Numbers in the curves of one results or compare answer (about 20 MB of JSON)."""
-MAX_CONCURRENT_BUILDS = 2
+MAX_CONCURRENTBUILDS = 2
 """Results or comparisons computed at once; more requests wait their turn (each build holds one
 answer's arrays, up to :data:`MAX_RESPONSE_VALUES` numbers)."""
-_BUILDS = threading.BoundedSemaphore(MAX_CONCURRENT_BUILDS)
-_BAND_ARRAYS = 3  # mean, low, high (the episode index is shared)
+BUILDS = threading.BoundedSemaphore(MAX_CONCURRENTBUILDS)
+BAND_ARRAYS = 3
+"""Arrays of one curve's band: mean, low, high (the episode index is shared)."""
 
 
 def utilities(run: Run) -> np.ndarray:
@@ -107,7 +108,7 @@ def _configurations(session: Session, job: Job, points: int | None, include_seed
         select(Run.algorithm, func.count()).where(Run.job_id == job.id).group_by(Run.algorithm)
     ).all()
     seeds_done = {a: 0 for a in algorithms} | {a: n for a, n in stored_seeds}
-    curves = len(algorithms) * _BAND_ARRAYS + (sum(seeds_done.values()) if include_seeds else 0)
+    curves = len(algorithms) * BAND_ARRAYS + (sum(seeds_done.values()) if include_seeds else 0)
     used = choose_points("points" if not include_seeds else "include_seeds", points, episodes, curves)
     per_seed: dict[str, list[dict[str, Any]]] = {a: [] for a in algorithms}
     for algorithm, seed, blob in _stream(session, [job.id], Run.algorithm, Run.seed, Run.utilities):
@@ -185,7 +186,7 @@ def job_results_parts(session: Session, *, job_id: int, points: int | None = Non
     partial = job.status != SUCCEEDED
 
     def build() -> bytes:
-        with _BUILDS:
+        with BUILDS:
             try:
                 return dumps(_configurations(session, job, points, include_seeds, pct_by_seed))
             finally:
@@ -215,81 +216,6 @@ def job_results(session: Session, *, job_id: int, points: int | None = None,
     """``GET /api/jobs/{id}/results`` as data."""
     return json.loads(job_results_json(session, job_id=job_id, points=points, include_seeds=include_seeds,
                                        pct_by_seed=pct_by_seed))
-
-
-def compare_json(session: Session, *, job_ids: Sequence[int], points: int | None = None) -> bytes:
-    """``GET /api/compare`` as JSON: configurations ``(config_hash, algorithm)`` pooled over the jobs' seeds.
-
-    Only succeeded jobs contribute groups; the others are listed in ``jobs`` and add nothing. A
-    seed stored by two jobs of one configuration counts once (the first job's run). Groups are
-    folded one at a time, so memory grows with a group's episodes, not with the jobs compared.
-
-    The groups are kept (:data:`RESULTS_CACHE`) under what they are made of: each job's id, state,
-    end and configuration, in the order asked, and ``points``. A job that ends, is run again or is
-    deleted changes that key (or answers 404), so a kept answer is never stale; the jobs' own
-    records (names, tags) are read afresh every time.
-    """
-    jobs = [get_job(session, job_id=job_id) for job_id in dict.fromkeys(job_ids)]
-    key = ("compare", points, *((job.id, job.status, job.finished_at, job.config_hash) for job in jobs))
-
-    def build() -> bytes:
-        with _BUILDS:
-            try:
-                return dumps(_compare_groups(session, jobs, points))
-            finally:
-                trim()
-
-    groups = RESULTS_CACHE.get_or_build(key, build)
-    head = {"jobs": [job_dict(job) for job in jobs],
-            "algorithms": described(a for job in jobs for a in job.config["algorithms"])}
-    return dumps(head)[:-1] + b',"groups":' + groups + b"}"
-
-
-def compare(session: Session, *, job_ids: Sequence[int], points: int | None = None) -> dict[str, Any]:
-    """``GET /api/compare`` as data (:func:`compare_json`)."""
-    return json.loads(compare_json(session, job_ids=job_ids, points=points))
-
-
-def _compare_groups(session: Session, jobs: list[Job], points: int | None) -> list[dict[str, Any]]:
-    succeeded = [job for job in jobs if job.status == SUCCEEDED]
-    keys = list(dict.fromkeys((job.config_hash, a) for job in succeeded for a in job.config["algorithms"]))
-    finals: dict[tuple[str, str], dict[int, float]] = {}
-    bands: dict[tuple[str, str], dict[str, np.ndarray]] = {}
-    contributors: dict[tuple[str, str], list[Job]] = {}
-    for key in keys:
-        config, algorithm = key
-        members = [job for job in succeeded if job.config_hash == config]
-        episodes = members[0].config["episodes"]
-        stats = EpisodeStats(episodes)
-        finals[key], contributors[key] = {}, []
-        for job in members:
-            statement = (select(Run.seed, Run.utilities).where(Run.job_id == job.id, Run.algorithm == algorithm)
-                         .order_by(Run.id).execution_options(yield_per=RUN_READ_BATCH))
-            for seed, blob in session.execute(statement):
-                if seed in finals[key]:
-                    continue
-                values = np.frombuffer(blob, dtype="<f8")
-                stats.add(values)
-                finals[key][seed] = float(final_utilities(values)[0])
-                if job not in contributors[key]:
-                    contributors[key].append(job)
-        bands[key] = stats.band_arrays(choose_points("points", points, episodes, len(keys) * _BAND_ARRAYS))
-    summaries: dict[str, dict] = {}
-    for config in dict.fromkeys(h for h, _ in keys):
-        summaries[config] = summarise({a: finals[(h, a)] for h, a in keys if h == config and finals[(h, a)]})
-    groups = []
-    for key in keys:
-        if not finals[key]:
-            continue
-        config, algorithm = key
-        first = contributors[key][0]
-        groups.append({
-            "config_hash": config, "algorithm": algorithm, "system": first.system,
-            "episodes_per_run": first.config["episodes"], "job_ids": [job.id for job in contributors[key]],
-            "summary": summaries[config][algorithm].as_dict(),
-            "episodes": bands[key],
-        })
-    return groups
 
 
 def stored_runs(session: Session, *, job_id: int) -> Iterator[tuple[str, int, list[float]]]:

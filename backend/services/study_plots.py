@@ -26,7 +26,7 @@ from sqlalchemy.orm import Session
 
 from backend.services.studies import get_study, plan_of
 from backend.store.models import SUCCEEDED, Trial
-from mgrao_core.stats import t95
+from mgrao_core.stats import t_quantile
 
 MAX_POINTS = 1000
 BINS = 12
@@ -61,7 +61,7 @@ def _mean_ci(values: list[float]) -> tuple[float, float | None, float | None]:
     mean = float(np.mean(values))
     if len(values) < 2:
         return mean, None, None
-    half = t95(len(values) - 1) * float(np.std(values, ddof=1)) / math.sqrt(len(values))
+    half = t_quantile(len(values) - 1) * float(np.std(values, ddof=1)) / math.sqrt(len(values))
     return mean, mean - half, mean + half
 
 

@@ -195,6 +195,10 @@ class JobSummary(Base):
     pct_low: Mapped[float | None] = mapped_column(Float, nullable=True)
     pct_high: Mapped[float | None] = mapped_column(Float, nullable=True)
     pct_of_max: Mapped[float | None] = mapped_column(Float, nullable=True)
+    n_paired: Mapped[int | None] = mapped_column(Integer, nullable=True)
+    """Seeds its % from uniform stands on (``mgrao_core.ConfigSummary.n_paired``)."""
+    n_paired_max: Mapped[int | None] = mapped_column(Integer, nullable=True)
+    """Seeds its % of max stands on."""
 
 
 STUDY_RUNNING, STUDY_FINISHED = "running", "finished"

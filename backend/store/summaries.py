@@ -59,6 +59,7 @@ def _rows(job_id: int, summaries: dict[str, ConfigSummary]) -> list[dict[str, An
             "job_id": job_id, "algorithm": algorithm, "n_runs": s.n_runs, "final_mean": _finite(s.final_mean),
             "final_low": _finite(low), "final_high": _finite(high), "pct_from_uniform": _finite(s.pct_from_uniform),
             "pct_low": _finite(pct_low), "pct_high": _finite(pct_high), "pct_of_max": _finite(s.pct_of_max),
+            "n_paired": s.n_paired, "n_paired_max": s.n_paired_max,
         })
     return rows
 
@@ -90,7 +91,8 @@ def as_config_summary(row: JobSummary | Row) -> ConfigSummary:
     pct_ci = None if row.pct_low is None and row.pct_high is None else (number(row.pct_low), number(row.pct_high))
     return ConfigSummary(algorithm=row.algorithm, n_runs=row.n_runs, final_mean=number(row.final_mean),
                          ci95=(number(row.final_low), number(row.final_high)), pct_from_uniform=row.pct_from_uniform,
-                         pct_ci95=pct_ci, pct_of_max=row.pct_of_max)
+                         pct_ci95=pct_ci, pct_of_max=row.pct_of_max, n_paired=row.n_paired or 0,
+                         n_paired_max=row.n_paired_max or 0)
 
 
 def config_summaries(session: Session, job_ids: Iterable[int]) -> dict[int, dict[str, ConfigSummary]]:
@@ -109,7 +111,8 @@ def as_dict(row: JobSummary | Row) -> dict[str, Any]:
     return {
         "algorithm": row.algorithm, "n_runs": row.n_runs, "final_mean": row.final_mean,
         "ci95": [row.final_low, row.final_high], "pct_from_uniform": row.pct_from_uniform, "pct_ci95": pct_ci,
-        "pct_of_max": row.pct_of_max,
+        "pct_of_max": row.pct_of_max, "n_paired": row.n_paired, "n_paired_max": row.n_paired_max,
+        "partial": None if row.n_paired is None else 0 < row.n_paired < row.n_runs,
     }
 
 

@@ -74,10 +74,12 @@ export function syncZoom(charts) {
   }
 }
 
-/** A button that downloads `table` (its header and body cells, as shown) as a CSV file. */
-export function tableCsvButton(table, filename) {
+/**
+ * A button that downloads a table's data as a CSV file: `rows()` gives its header (units in the column names)
+ * and rows of numbers and plain text, never the cells as shown ("+17.6%", "[5.354, 6.130]").
+ */
+export function tableCsvButton(filename, rows) {
   return h('button', { type: 'button', class: 'small secondary csv-button', 'data-csv': filename, onclick: () => {
-    const rows = [...table.querySelectorAll('tr')].map((tr) => [...tr.children].map((cell) => cell.textContent.trim()));
-    downloadText(filename, 'text/csv', csvOf(rows));
+    downloadText(filename, 'text/csv', csvOf(rows()));
   } }, 'Table as CSV');
 }

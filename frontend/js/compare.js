@@ -1,13 +1,16 @@
-// Compare view: several stored jobs pooled by configuration (server side), per-episode mean and
-// band per group, % from uniform bars with CI error bars. State lives in the URL:
-// #/compare?jobs=1,2&smooth=5&groups=<key>,<key>&bands=0  (groups absent = all shown; bands=0: no 95% bands).
+// Compare view: several stored jobs pooled by configuration and paired by world (server side), per-episode mean
+// and band per group, % from uniform bars with CI error bars, and, once those are drawn, the statistics across
+// systems (statspanel.js). State lives in the URL:
+// #/compare?jobs=1,2&smooth=5&groups=<key>,<key>&bands=0&stats=0  (groups absent = all shown; bands=0: no 95%
+// bands; stats=0: the statistics folded away, not computed).
 
 import { api } from './api.js';
 import { h, notice, nextId, kindBadge } from './ui.js';
 import { draw, drawWhenSeen, purge, loadPlotly, meanBandTraces, utilityLayout, pctBarTrace, bandsBelow, bandAlpha } from './charts.js';
-import { parseIds, badIds, DEFINITIONS, groupKey, pctErrorBars, fmtNumber, fmtPct, fmtCI, seedCount, smoothingNote, episodesPerPoint, bandCaution } from './stats.js';
+import { parseIds, badIds, DEFINITIONS, groupKey, pctErrorBars, fmtNumber, fmtPct, fmtCI, seedCount, smoothingNote, episodesPerPoint, bandCaution, SUMMARY_COLUMNS, summaryCells, pairedText } from './stats.js';
 import { compareLabels, ready, rememberAnswer } from './algorithms.js';
-import { configurations, groupLabels, diffTable, facets, lineStyles, legendLayout, barsLayout } from './comparegroups.js';
+import { configurations, groupLabels, diffTable, facets, facetOf, lineStyles, legendLayout, barsLayout } from './comparegroups.js';
+import { statisticsPanel } from './statspanel.js';
 import { axisControls, withAxis, syncZoom, tableCsvButton } from './chartcontrols.js';
 
 const POINTS = 500;
@@ -23,6 +26,7 @@ export async function mount(root, params, ctx) {
     groups: params.groups ? params.groups.split(',').filter(Boolean) : null,
     points: Math.min(5000, Math.max(10, Number(params.points) || POINTS)),
     bands: params.bands !== '0',
+    stats: params.stats !== '0',
   };
   const plots = [];
   let stopped = false;
@@ -82,8 +86,8 @@ export async function mount(root, params, ctx) {
   rememberAnswer(data.algorithms, data.groups.map((g) => g.algorithm)); // described with the data: no request
   await ready(data.groups.map((g) => g.algorithm)); // their order and colours
   if (stopped) return null;
-  const groups = data.groups.slice().sort((a, b) => String(a.system).localeCompare(String(b.system))
-    || compareLabels(a.algorithm, b.algorithm));
+  const groups = data.groups.slice().sort((a, b) => String(facetOf(a)).localeCompare(String(facetOf(b)))
+    || compareLabels(a.algorithm, b.algorithm) || String(a.label).localeCompare(String(b.label)));
   if (!groups.length) {
     body.replaceChildren(notice('empty', 'These jobs have no results to compare (only succeeded jobs have results).'));
     loadPicker();
@@ -91,7 +95,7 @@ export async function mount(root, params, ctx) {
   }
   const configs = configurations(data.jobs);
   const external = new Set(data.jobs.filter((j) => j.kind === 'external').map((j) => j.id));
-  const labels = groupLabels(groups, configs).map((l, i) => (groups[i].job_ids.some((id) => external.has(id)) ? `${l} · external` : l));
+  const labels = groupLabels(groups).map((l, i) => (groups[i].job_ids.some((id) => external.has(id)) ? `${l} · external` : l));
   const styles = lineStyles(groups, data.jobs);
   const systems = facets(groups);
   const keys = groups.map(groupKey);
@@ -145,15 +149,30 @@ export async function mount(root, params, ctx) {
       h('tbody', {}, diff.rows.map((r) => h('tr', {}, h('th', { scope: 'row' }, r.name),
         r.values.map((v) => h('td', { class: 'num' }, v))))));
   const diffSection = diff.rows.length ? h('section', { 'aria-labelledby': 'h-diff' },
-    h('h2', { id: 'h-diff' }, 'What differs between the configurations ', tableCsvButton(diffTableEl, 'compare-parameters.csv')),
+    h('h2', { id: 'h-diff' }, 'What differs between the configurations ', tableCsvButton('compare-parameters.csv', () => [
+      ['parameter', ...diff.hashes.map((hash) => `${configs[hash].system} ${hash.slice(0, 6)}`)],
+      ...diff.rows.map((r) => [r.name, ...diff.hashes.map((hash) => rawParam(r.name === 'system' ? configs[hash].system
+        : configs[hash][r.name]))])])),
     h('div', { class: 'table-wrap' }, diffTableEl)) : null;
   const jobsLine = h('p', { class: 'help' }, 'Jobs: ', data.jobs.map((j, i) => [i ? ', ' : '',
     h('a', { href: `#/jobs/${j.id}` }, `#${j.id} ${j.name || ''}`), ` (${j.status})`]));
   const tableBody = h('tbody');
-  const pooledTable = h('table', { class: 'summary' },
-    h('thead', {}, h('tr', {}, ['Configuration', 'Jobs', 'Runs', 'Final mean', '95% CI', '% from uniform', '95% CI', '% of max']
-      .map((c) => h('th', { scope: 'col' }, c)))),
+  const pooledTable = h('table', { class: 'summary', id: 'pooled-table' },
+    h('thead', {}, h('tr', {}, ['Configuration', 'Jobs', 'Runs', 'Paired', 'Final mean', '95% CI', '% from uniform', '95% CI', '% of max']
+      .map((c) => h('th', { scope: 'col', title: c === 'Paired' ? 'Seeds shared with uniform: the % from uniform stands on these' : null }, c)))),
     tableBody);
+  const partial = groups.filter((g) => g.summary && g.summary.partial);
+  const mismatched = groups.filter((g) => (g.mismatched_seeds || []).length);
+  const pairingNotes = h('div', { id: 'pairing-notes' },
+    partial.length ? notice('warn', `${partial.map((g) => labels[groups.indexOf(g)]).join(', ')}: only some seeds pair with ` +
+      'uniform (◐ in the table); its % from uniform and % of max stand on the paired seeds, its final mean on all of them.') : null,
+    mismatched.length ? notice('warn', mismatched.map((g) => `${labels[groups.indexOf(g)]}: seeds ${g.mismatched_seeds.join(', ')} ` +
+      'differ between the pooled jobs (the first job’s runs are used): built-in runs of one configuration should be ' +
+      'identical; was one job run on another version?').join(' ')) : null);
+  const stats = statisticsPanel(state.jobs, (label) => {
+    const i = groups.findIndex((g) => (g.label ?? g.algorithm) === label);
+    return i >= 0 ? styles[i].color : '#1d2430';
+  }, { open: state.stats, signal: controller.signal, onToggle: (open) => { state.stats = open; saveQuery(); } });
 
   body.replaceChildren(
     jobsLine,
@@ -167,25 +186,33 @@ export async function mount(root, params, ctx) {
       axisUi.element, h('div', { class: systems.length > 1 ? 'grid2 facets' : '' }, charts), legendNote, smoothNote, caution),
     h('div', { class: 'grid2 wide' },
       h('section', { 'aria-labelledby': 'h-cb' }, h('h2', { id: 'h-cb' }, '% from uniform (95% CI)'), bars),
-      h('section', { 'aria-labelledby': 'h-ct' }, h('h2', { id: 'h-ct' }, 'Pooled final utility ', tableCsvButton(pooledTable, 'compare-final-utility.csv')),
-        h('div', { class: 'table-wrap' }, pooledTable), h('p', { class: 'help definitions' }, DEFINITIONS))));
+      h('section', { 'aria-labelledby': 'h-ct' }, h('h2', { id: 'h-ct' }, 'Pooled final utility ', tableCsvButton('compare-final-utility.csv', () => [
+        ['system', 'configuration', 'job_ids', ...SUMMARY_COLUMNS],
+        ...groups.map((g) => [facetOf(g), g.label ?? g.algorithm, (g.job_ids || []).join(' '), ...summaryCells(g.summary)])])),
+        pairingNotes, h('div', { class: 'table-wrap' }, pooledTable), h('p', { class: 'help definitions' }, DEFINITIONS))),
+    stats.element);
 
-  function redraw() {
+  function saveQuery() {
     ctx.setQuery({
       jobs: state.jobs.join(','),
       smooth: state.smooth > 1 ? state.smooth : '',
       points: state.points !== POINTS ? state.points : '',
       groups: shown.size === keys.length ? '' : (shown.size ? keys.filter((k) => shown.has(k)).join(',') : 'none'),
       bands: state.bands ? '' : '0',
+      stats: state.stats ? '' : '0',
     });
+  }
+
+  function redraw() {
+    saveQuery();
     const traces = systems.map(() => []);
     const barIdx = [];
-    const together = systems.map((system) => groups.filter((g, i) => g.system === system && shown.has(keys[i])).length);
+    const together = systems.map((system) => groups.filter((g, i) => facetOf(g) === system && shown.has(keys[i])).length);
     groups.forEach((g, i) => {
       if (!shown.has(keys[i])) return;
-      traces[systems.indexOf(g.system)].push(...meanBandTraces(labels[i], g.episodes, styles[i].color, state.smooth,
+      traces[systems.indexOf(facetOf(g))].push(...meanBandTraces(labels[i], g.episodes, styles[i].color, state.smooth,
         labels[i], styles[i].dash, { bands: state.bands, symbol: styles[i].symbol,
-          fillAlpha: bandAlpha(together[systems.indexOf(g.system)]) }));
+          fillAlpha: bandAlpha(together[systems.indexOf(facetOf(g))]) }));
       if (g.summary && g.summary.pct_from_uniform !== null && g.summary.pct_from_uniform !== undefined) barIdx.push(i);
     });
     noneShown.replaceChildren(...(shown.size ? [] : [notice('empty',
@@ -198,6 +225,8 @@ export async function mount(root, params, ctx) {
         h('td', { class: 'job-links' }, (g.job_ids || []).map((jobId, k) => [k ? ', ' : '',
           h('a', { href: `#/jobs/${jobId}`, title: `Job ${jobId}` }, `#${jobId}`)])),
         h('td', { class: 'num' }, s.n_runs ?? '–'),
+        h('td', { class: `num paired${s.partial ? ' partial' : ''}`, title: s.partial ? `only ${s.n_paired} of its ${s.n_runs} seeds ` +
+          'pair with uniform' : null }, pairedText(s), s.partial ? ' ◐' : ''),
         h('td', { class: 'num' }, fmtNumber(s.final_mean)),
         h('td', { class: 'num ci' }, fmtCI(s.ci95)),
         h('td', { class: 'num' }, fmtPct(s.pct_from_uniform)),
@@ -205,7 +234,7 @@ export async function mount(root, params, ctx) {
         h('td', { class: 'num' }, fmtPct(s.pct_of_max, 1, false)));
     }));
     const cautions = systems.map((system) => {
-      const text = bandCaution(groups.filter((g, i) => g.system === system && shown.has(keys[i]))
+      const text = bandCaution(groups.filter((g, i) => facetOf(g) === system && shown.has(keys[i]))
         .map((g) => ({ runs: (g.summary || {}).n_runs, episodes: g.episodes })));
       return text && systems.length > 1 ? `${system}: ${text}` : text;
     }).filter(Boolean);
@@ -248,6 +277,7 @@ export async function mount(root, params, ctx) {
   await drawn.onScreen;
   if (stopped) return null;
   loadPicker();
+  stats.load(); // the statistics across systems: asked for once the charts on screen are drawn
   const ms = performance.now() - t0;
   performance.mark('compare-rendered'); // what the viewport shows is drawn
   root.dataset.renderMs = ms.toFixed(1);
@@ -257,4 +287,9 @@ export async function mount(root, params, ctx) {
     root.dataset.allDrawnMs = (performance.now() - t0).toFixed(1);
   });
   return () => { stopped = true; controller.abort(); for (const p of plots) purge(p); };
+}
+
+/** A parameter's value as a CSV cell: numbers and text as they are, lists and objects as JSON. */
+function rawParam(v) {
+  return v !== null && typeof v === 'object' ? JSON.stringify(v) : v;
 }

@@ -27,23 +27,13 @@ export function differingParams(hashes, configs) {
 }
 
 /**
- * Labels for compare groups: "system · algorithm", then, where a system holds several
- * configurations, the parameters that differ between them ("single · mgrao-max · learning_rate
- * 0.09"). A short hash is the last resort (configurations that differ in nothing we were sent).
+ * Labels for compare groups: "world · label", as the server names them (docs/statistics.md, "Pairing"): the
+ * world is its system's name, and where worlds share a system, what differs ("single (episodes=200)"); the label
+ * is the algorithm's, and where two configurations of one world share it, what tells them apart
+ * ("mgrao-1:1 (learning_rate=0.2)", "hedge (job 12)").
  */
-export function groupLabels(groups, configs) {
-  const bySystem = {};
-  for (const g of groups) (bySystem[g.system] ||= []).push(g.config_hash);
-  const differ = Object.fromEntries(Object.entries(bySystem).map(([sys, hashes]) => [sys, differingParams(hashes, configs)]));
-  const base = groups.map((g) => {
-    const names = differ[g.system] || [];
-    const c = configs[g.config_hash];
-    const diff = c && names.length ? ` · ${names.map((n) => `${n} ${fmtParam(c[n])}`).join(', ')}` : '';
-    return `${g.system} · ${g.algorithm}${diff}`;
-  });
-  const counts = {};
-  for (const b of base) counts[b] = (counts[b] || 0) + 1;
-  return groups.map((g, i) => (counts[base[i]] > 1 ? `${base[i]} (${String(g.config_hash || '').slice(0, 6)})` : base[i]));
+export function groupLabels(groups) {
+  return groups.map((g) => `${g.world ?? g.system} · ${g.label ?? g.algorithm}`);
 }
 
 /** Rows of the parameter diff table: `{name, values: [...]}` over the configurations in order. */
@@ -56,9 +46,14 @@ export function diffTable(hashes, configs) {
   return { hashes: unique, rows };
 }
 
-/** Systems in the order their groups come, for one chart per system. */
+/** Worlds (systems) in the order their groups come, for one chart per world. */
 export function facets(groups) {
-  return [...new Set(groups.map((g) => g.system))];
+  return [...new Set(groups.map(facetOf))];
+}
+
+/** The chart a group is drawn on: its world's. */
+export function facetOf(group) {
+  return group.world ?? group.system;
 }
 
 /**
@@ -73,7 +68,7 @@ export function lineStyles(groups, jobs = []) {
   const place = (g) => { const i = order.indexOf(g.config_hash); return i < 0 ? order.length : i; };
   const out = new Array(groups.length);
   for (const system of facets(groups)) {
-    const ranked = groups.map((_, i) => i).filter((i) => groups[i].system === system)
+    const ranked = groups.map((_, i) => i).filter((i) => facetOf(groups[i]) === system)
       .sort((a, b) => place(groups[a]) - place(groups[b])
         || compareLabels(groups[a].algorithm, groups[b].algorithm) || a - b);
     const styles = slotStyles(ranked.map((i) => labelSlot(groups[i].algorithm)));

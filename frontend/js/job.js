@@ -4,7 +4,7 @@
 import { api } from './api.js';
 import { h, statusCell, jobMeta, notice, editJobDialog, confirmDialog, cancelConsequence, keepLabel, nextId, downloadText, downloadWithToken } from './ui.js';
 import { draw, purge, loadPlotly, meanBandTraces, seedTraces, utilityLayout, bandsBelow, bandAlpha, withEvents } from './charts.js';
-import { fmtNumber, fmtPct, fmtCI, pctProgress, waitingMessage, smoothingNote, episodesPerPoint, bandCaution, DEFINITIONS } from './stats.js';
+import { fmtNumber, fmtPct, fmtCI, pctProgress, waitingMessage, smoothingNote, episodesPerPoint, bandCaution, DEFINITIONS, SUMMARY_COLUMNS, summaryCells } from './stats.js';
 import { algorithmStyles } from './colours.js';
 import { compareLabels, ready, rememberAnswer } from './algorithms.js';
 import { axisControls, withAxis, tableCsvButton } from './chartcontrols.js';
@@ -356,7 +356,10 @@ export async function mount(root, params, ctx) {
           paper ? h('td', { class: 'num paper' }, pv === undefined || pv === null ? '–' : fmtPct(pv)) : null);
       })));
     return h('section', { 'aria-labelledby': 'h-sum' },
-      h('h2', { id: 'h-sum' }, 'Final utility ', tableCsvButton(table, `job-${id}-final-utility.csv`)),
+      h('h2', { id: 'h-sum' }, 'Final utility ', tableCsvButton(`job-${id}-final-utility.csv`, () => [
+        ['configuration', ...SUMMARY_COLUMNS, ...(paper ? ['paper_pct_from_uniform_percent'] : [])],
+        ...r.configurations.map((c) => [c.algorithm, ...summaryCells(c.summary),
+          ...(paper ? [paper[c.algorithm] ?? null] : [])])])),
       h('div', { class: 'table-wrap' }, table),
       h('p', { class: 'help definitions' }, DEFINITIONS));
   }

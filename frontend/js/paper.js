@@ -95,7 +95,13 @@ export async function mount(root, params, ctx) {
         h('td', { class: 'num' }, fmtPct(r.oursOfMax, 1, false)),
         h('td', { class: 'num paper' }, r.paperOfMax === null ? '–' : fmtPct(r.paperOfMax, 1, false))))));
   body.replaceChildren(
-    h('p', { id: 'paper-agreement' }, agreement(rows), ' ', tableCsvButton(table, 'ours-against-the-paper.csv')),
+    h('p', { id: 'paper-agreement' }, agreement(rows), ' ', tableCsvButton('ours-against-the-paper.csv', () => [
+      ['system', 'configuration', 'job_id', 'seeds', 'ours_pct_from_uniform_percent', 'ours_pct_ci95_low_percent',
+        'ours_pct_ci95_high_percent', 'paper_pct_from_uniform_percent', 'paper_within_ours_ci95',
+        'paper_among_our_seeds_percentile', 'ours_pct_of_max_percent', 'paper_pct_of_max_percent'],
+      ...rows.map((r) => [r.system, r.algorithm, r.jobId ?? null, r.runs || null, r.ours ?? null, r.ci ? r.ci[0] : null,
+        r.ci ? r.ci[1] : null, r.paper ?? null, r.outside === null ? null : !r.outside, r.amongSeeds ? r.amongSeeds.percentile : null,
+        r.oursOfMax ?? null, r.paperOfMax ?? null])])),
     h('div', { class: 'table-wrap' }, table));
   return () => { stopped = true; };
 }

@@ -92,8 +92,28 @@ export function badIds(value) {
 
 /** One-line definitions of the summary columns, shown under every table that has them. */
 export const DEFINITIONS = 'Final mean: system utility averaged over the last 10 episodes, then over seeds (95% t-interval). ' +
-  '% from uniform: gain over uniform, paired seed by seed (same worlds). ' +
-  '% of max: this configuration’s gain over uniform as a share of mgrao-max’s.';
+  '% from uniform: gain over uniform, paired seed by seed (same worlds), over the seeds shared with uniform (Paired). ' +
+  '% of max: this configuration’s gain over uniform as a share of mgrao-max’s, on the seeds all three share.';
+
+/** The export columns of a configuration's summary: numbers, units in the names (`summaryCells`). */
+export const SUMMARY_COLUMNS = ['n_runs', 'n_paired', 'final_mean_utility', 'final_ci95_low_utility',
+  'final_ci95_high_utility', 'pct_from_uniform_percent', 'pct_ci95_low_percent', 'pct_ci95_high_percent',
+  'pct_of_max_percent'];
+
+/** A summary's cells under SUMMARY_COLUMNS: numbers as the API gave them, empty where it gave none. */
+export function summaryCells(s) {
+  const v = (x) => (isFiniteNumber(x) ? x : null);
+  const ci = Array.isArray(s?.ci95) ? s.ci95 : [null, null];
+  const pci = Array.isArray(s?.pct_ci95) ? s.pct_ci95 : [null, null];
+  return [s?.n_runs ?? null, s?.n_paired ?? null, v(s?.final_mean), v(ci[0]), v(ci[1]), v(s?.pct_from_uniform),
+    v(pci[0]), v(pci[1]), v(s?.pct_of_max)];
+}
+
+/** "10 of 20 paired": the paired count of a summary whose seeds only partly pair with uniform, else the count. */
+export function pairedText(s) {
+  if (!s || s.n_paired === undefined || s.n_paired === null) return '–';
+  return s.partial ? `${s.n_paired} of ${s.n_runs}` : String(s.n_paired);
+}
 
 export function parseIds(value) {
   const parts = Array.isArray(value) ? value : String(value || '').split(/[\s,]+/);
@@ -221,9 +241,10 @@ export function pctErrorBars(summaries) {
   return { y, plus, minus };
 }
 
-/** Stable key of a compare group: first 8 characters of the config hash and the algorithm. */
+/** Stable key of a compare group: first 8 characters of its config hash and its label (commas escaped: keys are a list). */
 export function groupKey(group) {
-  return `${String(group.config_hash || '').slice(0, 8)}:${group.algorithm}`;
+  const label = String(group.label ?? group.algorithm).replace(/%/g, '%25').replace(/,/g, '%2C');
+  return `${String(group.config_hash || '').slice(0, 8)}:${label}`;
 }
 
 /** Number of seeds of a job (its `seeds` list, or a count). */

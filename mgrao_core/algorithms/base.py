@@ -169,6 +169,9 @@ class Family:
     """Where the family's configurations come in views (lower first)."""
     parameters: tuple[Parameter, ...] = ()
     """The family's own parameters; :data:`mgrao_core.params.PARAMETERS` lists them after the quality's."""
+    reads: tuple[str, ...] = ()
+    """Parameters declared elsewhere that the family's steps read as a learner's own (MG-RAO's ``resource_credit``,
+    the adaptive family's MG-RAO parameters): with :attr:`parameters`, :attr:`own_parameters`."""
     streams: Mapping[str, int] = {}
     """The family's own random streams, name to a number no other stream has ever used
     (:func:`mgrao_core.world.stream`)."""
@@ -182,6 +185,15 @@ class Family:
     reference: str | None = None
     """A learner's dense reference step: the entry (:func:`load`) of a function ``(params, algorithm, world,
     seed)`` returning one :class:`ReferenceChild` per child."""
+
+    @property
+    def own_parameters(self) -> tuple[str, ...]:
+        """The names of the parameters only this family's learning reads: its :attr:`parameters`, then :attr:`reads`.
+
+        A configuration is a world, a label and these parameters' values (:mod:`mgrao_core.pairing`): two jobs
+        that differ in them run the same world, so their uniform runs pair with both.
+        """
+        return tuple(p.name for p in self.parameters) + self.reads
 
     @property
     def learns(self) -> bool:

@@ -23,6 +23,30 @@ ORACLE_DRAWS = 262_144
 is more; ``should_stop`` is polled between draws."""
 
 
+def bound_caveats(params: System) -> list[str]:
+    """Why, in a system of ``params``, the oracle's mean is no upper bound on what a learner can reach (none: it is).
+
+    It is the best *fixed* allocation for a stationary task stream of one child with one resource
+    (docs/model.md, "The oracle's expected values"): each departure from that is a way to beat it.
+    """
+    reasons = []
+    if params.n_children > 1:
+        reasons.append("several children: each child's allocation assumes it receives every task, and children "
+                       "that specialise can beat it")
+    if params.n_resources > 1:
+        reasons.append("several resources: it is the best single split applied to every resource, which a learner "
+                       "splitting each resource on its own can beat")
+    if params.leave_probability > 0 or params.join_probability > 0:
+        reasons.append("parents leave and rejoin: a learner that follows who is present can beat the best fixed "
+                       "allocation")
+    if any(event.change != "frequencies" for event in params.schedule):
+        reasons.append("a schedule changes profiles or composites: the oracle knows only the initial world")
+    if params.frequency_profile != "constant" or any(event.change == "frequencies" for event in params.schedule):
+        reasons.append("composite types arrive periodically: a learner that follows the arrivals can beat the best "
+                       "fixed allocation")
+    return reasons
+
+
 class Oracle(OneLabel, FixedFamily):
     """The best fixed allocation of each child, knowing every parent's expected values."""
 

@@ -308,3 +308,19 @@ def test_saved_systems_table_comes_with_0011_and_goes_on_downgrade(db_url: str) 
             assert saved_systems.list_saved(session) == []
     finally:
         db.dispose()
+
+
+def test_summaries_stored_before_0013_get_the_seeds_their_paired_figures_stand_on(db_url, client, worker) -> None:
+    job = client.post("/api/jobs", json={"system": "single", "seeds": 3, "episodes": 10,
+                                         "algorithms": ["uniform", "mgrao-1:1", "mgrao-max"]}).json()
+    assert drain(worker) == 1
+    engine = create_engine(db_url)
+    with engine.begin() as connection:  # as 0012 stored it: no pairing counts, one run of uniform gone
+        connection.execute(text("DELETE FROM runs WHERE algorithm = 'uniform' AND seed = 2"))
+    engine.dispose()
+    _alembic(db_url, command.downgrade, "0012")
+    _alembic(db_url, command.upgrade, "0013")
+    with create_engine(db_url).connect() as connection:
+        rows = connection.execute(text("SELECT algorithm, n_runs, n_paired, n_paired_max FROM job_summaries "
+                                       "WHERE job_id = :id ORDER BY algorithm"), {"id": job["id"]}).all()
+    assert [tuple(r) for r in rows] == [("mgrao-1:1", 3, 2, 2), ("mgrao-max", 3, 2, 2), ("uniform", 3, 2, 2)]

@@ -6,27 +6,29 @@ import numpy as np
 import pytest
 
 from mgrao_core import ConfigError, episode_band, final_utilities, make_spec, run_experiment, summarise
-from mgrao_core.stats import mean_ci95, t95
+from mgrao_core.stats import mean_ci95, t_quantile
 
 
-def test_t95_table_and_expansion():
-    assert t95(1) == 12.706
-    assert t95(2) == 4.303
-    assert t95(30) == 2.042
-    assert t95(31) == pytest.approx(2.0395, abs=5e-4)
-    assert t95(100) == pytest.approx(1.984, abs=1e-3)
-    assert t95(10**6) == pytest.approx(1.96, abs=1e-3)
-    assert math.isnan(t95(0))
-    values = [t95(d) for d in range(1, 200)]
-    assert all(a >= b for a, b in zip(values, values[1:], strict=False))
+def test_t_quantiles_are_students():
+    # published two-sided 95% quantiles (to the 3 decimals of the tables), and scipy's distribution function back
+    from scipy.stats import t
+
+    assert [round(t_quantile(d), 3) for d in (1, 2, 9, 30, 100)] == [12.706, 4.303, 2.262, 2.042, 1.984]
+    assert t_quantile(10**6) == pytest.approx(1.959964, abs=1e-5)
+    for dof in (1, 3, 17, 250):
+        assert t.cdf(t_quantile(dof), dof) == pytest.approx(0.975, abs=1e-12)
+    assert t_quantile(4, confidence=0.9) == pytest.approx(2.131847, abs=1e-6)
+    assert math.isnan(t_quantile(0))
+    values = t_quantile(np.arange(1, 200))
+    assert np.all(np.diff(values) < 0)
 
 
 def test_mean_ci95_by_hand():
-    # [1, 2, 3]: mean 2, sd 1, half width = 4.303 * 1 / sqrt(3) = 2.484339
+    # [1, 2, 3]: mean 2, sd 1, half width = t(2) * 1 / sqrt(3) = 4.302653 / 1.732051 = 2.484138
     mean, low, high = mean_ci95(np.array([1.0, 2.0, 3.0]))
     assert mean == 2.0
-    assert low == pytest.approx(2 - 2.484339, abs=1e-6)
-    assert high == pytest.approx(2 + 2.484339, abs=1e-6)
+    assert low == pytest.approx(2 - 2.484138, abs=1e-6)
+    assert high == pytest.approx(2 + 2.484138, abs=1e-6)
 
 
 def test_mean_ci95_single_sample():
@@ -57,11 +59,12 @@ def test_summarise_pairs_by_seed():
     # pct_of_max = 100 * 25 / 75
     assert out["mgrao-1:1"].pct_of_max == pytest.approx(100 * 25 / 75)
     assert out["mgrao-max"].pct_of_max == pytest.approx(100.0)
-    # CI of [50, 0]: sd 35.355, half = 12.706 * 35.355 / sqrt 2 = 12.706 * 25
+    # CI of [50, 0]: sd 35.355, half = t(1) * 35.355 / sqrt 2 = 12.7062 * 25
     low, high = out["mgrao-1:1"].pct_ci95
-    assert (low, high) == pytest.approx((25 - 12.706 * 25, 25 + 12.706 * 25))
-    # the plain mean uses every seed of the label
-    assert out["mgrao-1:1"].n_runs == 3
+    assert (low, high) == pytest.approx((25 - 12.7062047 * 25, 25 + 12.7062047 * 25))
+    # the plain mean uses every seed of the label; the paired figures the two it shares with uniform
+    assert out["mgrao-1:1"].n_runs == 3 and out["mgrao-1:1"].n_paired == 2 and out["mgrao-1:1"].partial
+    assert out["mgrao-max"].n_paired == 2 and not out["mgrao-max"].partial
     assert out["mgrao-1:1"].final_mean == pytest.approx(107 / 3)
     assert out["uniform"].final_mean == 3.0
 
@@ -91,9 +94,9 @@ def test_episode_band_full_resolution():
     band = episode_band(utilities)
     assert band["episode"] == [0, 1, 2, 3]
     assert band["mean"] == [2.0, 3.0, 4.0, 5.0]
-    # every column has sd sqrt 2: half width = 12.706 * sqrt 2 / sqrt 2 = 12.706
-    np.testing.assert_allclose(band["low"], np.array([2.0, 3.0, 4.0, 5.0]) - 12.706)
-    np.testing.assert_allclose(band["high"], np.array([2.0, 3.0, 4.0, 5.0]) + 12.706)
+    # every column has sd sqrt 2: half width = 12.7062047 * sqrt 2 / sqrt 2 = 12.7062047
+    np.testing.assert_allclose(band["low"], np.array([2.0, 3.0, 4.0, 5.0]) - 12.7062047)
+    np.testing.assert_allclose(band["high"], np.array([2.0, 3.0, 4.0, 5.0]) + 12.7062047)
 
 
 def test_episode_band_downsampling_keeps_bucket_means():
@@ -102,7 +105,7 @@ def test_episode_band_downsampling_keeps_bucket_means():
     # buckets {0, 1} and {2, 3}: means (2 + 3) / 2 and (4 + 5) / 2
     assert band["episode"] == [0, 2]
     assert band["mean"] == [2.5, 4.5]
-    np.testing.assert_allclose(band["high"], [2.5 + 12.706, 4.5 + 12.706])
+    np.testing.assert_allclose(band["high"], [2.5 + 12.7062047, 4.5 + 12.7062047])
 
 
 def test_episode_band_uneven_buckets():

@@ -1,9 +1,10 @@
 """Compare as a researcher reads it: one chart per system, configurations labelled by what differs
 between them (with a table of the differences), one colour per configuration of a chart, a smoothing
-that says what it is."""
+that says what it is; uniform pooled over the jobs of one world, whatever their learners' parameters."""
 
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 
@@ -38,15 +39,16 @@ def test_compare_facets_by_system_and_labels_by_difference(browser, server, scre
         assert set(systems) == {"single", "large"}  # one chart per system
         single = mean_traces(page, systems["single"])
         large = mean_traces(page, systems["large"])
-        assert {t["config"] for t in large} == {"large · uniform", "large · mgrao-max"}
+        # learning_rate is MG-RAO's own: the two jobs' uniform runs are one configuration of one world, and a
+        # configuration keeps its name on every system (its suffix says what tells it from single's other one)
+        assert {t["config"] for t in large} == {"large · uniform", "large · mgrao-max (learning_rate=0.1)"}
         assert {t["config"] for t in single} == {
-            "single · uniform · learning_rate 0.1", "single · mgrao-max · learning_rate 0.1",
-            "single · uniform · learning_rate 0.09", "single · mgrao-max · learning_rate 0.09"}
+            "single · uniform", "single · mgrao-max (learning_rate=0.1)", "single · mgrao-max (learning_rate=0.09)"}
         # every configuration of a chart its own colour; the first job's in its job page's order
-        assert len({t["color"] for t in single}) == 4 and len({t["color"] for t in large}) == 2
+        assert len({t["color"] for t in single}) == 3 and len({t["color"] for t in large}) == 2
         colour = {t["config"]: t["color"] for t in single + large}
-        assert colour["large · uniform"] == colour["single · uniform · learning_rate 0.1"]
-        assert colour["large · mgrao-max"] == colour["single · mgrao-max · learning_rate 0.1"]
+        assert colour["large · uniform"] == colour["single · uniform"]
+        assert colour["large · mgrao-max (learning_rate=0.1)"] == colour["single · mgrao-max (learning_rate=0.1)"]
         diff = page.locator("#param-diff")
         rows = diff.locator("tbody tr th").all_inner_texts()
         assert rows[0] == "system" and {"learning_rate", "n_parents"} <= set(rows)  # large differs in size too
@@ -78,4 +80,11 @@ def test_compare_facets_by_system_and_labels_by_difference(browser, server, scre
         with page.expect_download() as download_info:
             page.locator('button[data-csv="compare-final-utility.csv"]').click()
         lines = Path(download_info.value.path()).read_text().splitlines()
-        assert lines[0].startswith("Configuration,Jobs,Runs,Final mean") and len(lines) == 7
+        # numbers, units in the column names (issue 29, point 4: not "+17.6%" nor "[5.354, 6.130]")
+        assert lines[0] == ("system,configuration,job_ids,n_runs,n_paired,final_mean_utility,final_ci95_low_utility,"
+                            "final_ci95_high_utility,pct_from_uniform_percent,pct_ci95_low_percent,"
+                            "pct_ci95_high_percent,pct_of_max_percent") and len(lines) == 6
+        for line in lines[1:]:
+            cells = line.split(",")
+            assert "%" not in line and "[" not in line
+            assert all(math.isfinite(float(c)) for c in cells[5:8]), line

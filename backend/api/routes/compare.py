@@ -1,22 +1,41 @@
-"""``/api/compare``: configurations pooled over several jobs."""
+"""``/api/compare``: stored jobs compared configuration by configuration, and the statistics across systems."""
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Literal
 
 from fastapi import APIRouter, Query
 from fastapi.responses import Response
 
 from backend.api.deps import SessionDep
 from backend.api.paths import API_PREFIX
-from backend.api.responses import Comparison, answers
+from backend.api.responses import Comparison, ComparisonStatistics, SampleEfficiency, answers
 from backend.api.schemas import MAX_COMPARE_JOBS, Text
 from backend.errors import BadQuery
-from backend.services import analysis
+from backend.services import comparison
+from backend.services.analysis import dumps
 from backend.store.models import MAX_JOB_ID
-from mgrao_core import MAX_EPISODES
+from mgrao_core import MAX_EPISODES, ConfigError
+from mgrao_core.bootstrap import DEFAULT_REPETITIONS, MAX_REPETITIONS
+from mgrao_core.report import render
 
 router = APIRouter(prefix=API_PREFIX, tags=["compare"])
+JOBS_HELP = "Comma-separated job ids."
+MAX_BOOTSTRAP_SEED = 2**32 - 1
+CURVE_REPETITIONS = 1000
+"""The sample-efficiency curves' bootstrap repetitions unless asked otherwise."""
+TEXT_FORMATS = {"csv": "text/csv; charset=utf-8", "latex": "text/x-tex; charset=utf-8",
+                "table": "text/plain; charset=utf-8"}
+STATISTICS_TEXT = {
+    "description": "The statistics (format=json, the default), or rendered: a numeric CSV with the protocol in `#` "
+                   "lines (format=csv), a LaTeX table with the protocol as its caption (format=latex), or text "
+                   "tables (format=table).",
+    "content": {media.split(";")[0]: {"schema": {"type": "string"}} for media in TEXT_FORMATS.values()},
+}
+
+Jobs = Annotated[Text, Query(max_length=1000, description=JOBS_HELP)]
+Repetitions = Annotated[int, Query(ge=1, le=MAX_REPETITIONS, description="Bootstrap repetitions of every interval.")]
+BootstrapSeed = Annotated[int, Query(ge=0, le=MAX_BOOTSTRAP_SEED, description="The bootstrap's seed.")]
 
 
 def parse_ids(text: str) -> list[int]:
@@ -38,9 +57,48 @@ def parse_ids(text: str) -> list[int]:
 @router.get("/compare", response_model=Comparison, responses=answers(found=True))
 def compare(
     session: SessionDep,
-    jobs: Annotated[Text, Query(max_length=1000, description="Comma-separated job ids.")],
+    jobs: Jobs,
     points: Annotated[int | None, Query(ge=1, le=MAX_EPISODES)] = None,
 ) -> Response:
-    """Configurations (config_hash, algorithm) of succeeded jobs, seeds pooled across jobs."""
-    return Response(analysis.compare_json(session, job_ids=parse_ids(jobs), points=points),
+    """Configurations of succeeded jobs, seeds pooled across jobs and paired within each world (docs/statistics.md)."""
+    return Response(comparison.compare_json(session, job_ids=parse_ids(jobs), points=points),
                     media_type="application/json")
+
+
+@router.get("/compare/statistics", response_model=ComparisonStatistics,
+            responses=answers(found=True, extra={200: STATISTICS_TEXT}))
+def statistics(
+    session: SessionDep,
+    jobs: Jobs,
+    reps: Repetitions = DEFAULT_REPETITIONS,
+    seed: BootstrapSeed = 0,
+    format: Literal["json", "csv", "latex", "table"] = "json",
+) -> Response:
+    """Scores, aggregates across systems, performance profiles, P(X > Y) and paired tests of the configurations."""
+    try:
+        answer = comparison.statistics(session, job_ids=parse_ids(jobs), repetitions=reps, seed=seed)
+    except ConfigError as error:
+        raise BadQuery(error.field, error.message) from None
+    if format == "json":
+        return Response(dumps(answer), media_type="application/json")
+    extension = {"csv": "csv", "latex": "tex", "table": "txt"}[format]
+    return Response(render(answer, format), media_type=TEXT_FORMATS[format],
+                    headers={"Content-Disposition": f'inline; filename="compare-statistics.{extension}"'})
+
+
+@router.get("/compare/sample-efficiency", response_model=SampleEfficiency, responses=answers(found=True))
+def sample_efficiency(
+    session: SessionDep,
+    jobs: Jobs,
+    points: Annotated[int, Query(ge=2, le=comparison.MAX_CURVE_POINTS,
+                                 description="Buckets of episodes per curve.")] = comparison.MAX_CURVE_POINTS,
+    reps: Repetitions = CURVE_REPETITIONS,
+    seed: BootstrapSeed = 0,
+) -> Response:
+    """IQM of the scores per bucket of episodes, with 95% stratified bootstrap bands (sample-efficiency curves)."""
+    try:
+        answer = comparison.sample_efficiency_answer(session, job_ids=parse_ids(jobs), points=points,
+                                                     repetitions=reps, seed=seed)
+    except ConfigError as error:
+        raise BadQuery(error.field, error.message) from None
+    return Response(dumps(answer), media_type="application/json")

@@ -90,6 +90,7 @@ class Adaptive(Family):
                   "returns are) or types (type predictability, then which types, then value predictability).",
                   NAME, choices=RULES),
     )
+    reads = MGRAO.own_parameters  # it learns with MG-RAO's update and blend
     state = (*MGRAO.state,  # MG-RAO's arrays (shared with its lanes: the same declarations)
              StateArray("membership", ("lanes", "children", "tracked_parents"), "int64",
                         help="each parent's row (group)"),

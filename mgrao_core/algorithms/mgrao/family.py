@@ -76,6 +76,7 @@ class Mgrao(Family):
             "mgrao", choices=GROUP_BLENDS,
         ),
     )
+    reads = ("resource_credit",)  # declared with the resources (docs/model.md, "Several resources")
     state = (  # each child's PW and trace in lazy form (see the compiled module), its active rows and counts;
         # one learner per (child, resource): learner c * n_resources + r keeps child c's PW of resource r
         StateArray("Y", ("lanes", "learners", "groups", "n_types"), fill="uniform", help="PW, lazily"),

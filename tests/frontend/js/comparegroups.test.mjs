@@ -23,12 +23,12 @@ test('differingParams names what differs, episodes included', () => {
   assert.deepEqual(differingParams(['aaaaaaaa1', 'e5'], longer), ['episodes']);
 });
 
-test('groupLabels: by what differs within a system; a hash only when nothing we know differs', () => {
-  const groups = [g('aaaaaaaa1', 'mgrao-max'), g('bbbbbbbb2', 'mgrao-max'), g('cccccccc3', 'uniform')];
-  assert.deepEqual(groupLabels(groups, configs), [
-    'single · mgrao-max · learning_rate 0.1', 'single · mgrao-max · learning_rate 0.09', 'large · uniform']);
-  const same = [g('aaaaaaaa1', 'uniform'), g('dddddddd4', 'uniform')];
-  assert.deepEqual(groupLabels(same, configs), ['single · uniform (aaaaaa)', 'single · uniform (dddddd)']);
+test('groupLabels: the world and the label the server gave (the algorithm and system of an older answer)', () => {
+  const groups = [{ ...g('aaaaaaaa1', 'mgrao-max'), world: 'single', label: 'mgrao-max (learning_rate=0.1)' },
+    { ...g('bbbbbbbb2', 'mgrao-max'), world: 'single (episodes=200)', label: 'mgrao-max' }, g('cccccccc3', 'uniform')];
+  assert.deepEqual(groupLabels(groups), ['single · mgrao-max (learning_rate=0.1)', 'single (episodes=200) · mgrao-max',
+    'large · uniform']);
+  assert.deepEqual(facets(groups), ['single', 'single (episodes=200)', 'large']);
 });
 
 test('diffTable: one row per differing parameter, one column per configuration, the system first if mixed', () => {

@@ -1,0 +1,388 @@
+"""Stored jobs compared: which runs pool and pair (docs/statistics.md, "Pairing"), and the answers built on them.
+
+The jobs' runs are read once for their final utilities and a digest of their bytes (:func:`gather`), and
+sorted into *configurations* (:mod:`mgrao_core.pairing`): a world, a label and the label's own parameters.
+
+* Built-in runs of one configuration pool, whichever jobs they come from: determinism makes a seed's run
+  the same bytes in every job, which is checked; a seed whose pooled runs differ is listed in
+  ``mismatched_seeds`` (the first job's run, in the order asked, is kept).
+* Runs logged from outside pool when they have the same label, world and declared parameters and agree on
+  every seed they share (a learner logged in parts over different seeds pools); other runs of the same
+  label stay apart, each a configuration of its own, and so does a run that several such configurations
+  would take (its seeds shared with none of them: which one it belongs to cannot be told).
+* A label that two configurations of one world would share is followed, on every world, by what tells its
+  configurations apart: ``mgrao-1:1 (learning_rate=0.2)``, ``hedge (job 12)``.
+* Worlds are named by their system, and where two worlds share one, by what differs between them:
+  ``single (episodes=200)``.
+
+Every figure that relates two configurations is the core's (:mod:`mgrao_core.stats`,
+:mod:`mgrao_core.comparison`), on the seeds they share. Memory grows with the runs compared (a final and a
+digest each, numpy arrays) and with one configuration's episodes at a time for the curves.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from backend.services.analysis import BAND_ARRAYS, BUILDS, RESULTS_CACHE, choose_points, described, dumps
+from backend.services.memory import trim
+from backend.store.crud import get_job, job_dict
+from backend.store.models import EXTERNAL, RUN_READ_BATCH, SUCCEEDED, Job, Run
+from mgrao_core import EpisodeStats, complete_params, final_utilities, make_params, summarise
+from mgrao_core.algorithms import sort_key
+from mgrao_core.algorithms.oracle import bound_caveats
+from mgrao_core.comparison import World, sample_efficiency
+from mgrao_core.comparison import compare as compare_worlds
+from mgrao_core.pairing import own_values, world, world_digest
+
+MAX_CURVE_POINTS = 50
+"""Buckets of episodes of a sample-efficiency curve at most."""
+_SUFFIX_PARAMS = 3
+"""Parameters named in a world's or a configuration's suffix at most (then an ellipsis and a short digest)."""
+
+
+@dataclass
+class _Runs:
+    """One (job, algorithm)'s stored runs: seeds, final utilities and digests of their bytes, in storage order."""
+
+    seeds: np.ndarray
+    finals: np.ndarray
+    digests: np.ndarray
+
+
+@dataclass
+class Configuration:
+    """A configuration of the comparison and the runs it takes, seed by seed."""
+
+    world: str
+    algorithm: str
+    own: dict[str, Any]
+    external: bool
+    jobs: list[Job] = field(default_factory=list)
+    taken: dict[int, tuple[int, bytes, float]] = field(default_factory=dict)
+    """Seed -> (job id, digest, final utility) of the run it takes."""
+    mismatched: list[int] = field(default_factory=list)
+    label: str = ""
+
+    def agrees(self, runs: _Runs) -> bool:
+        """Whether every seed both have is the same bytes."""
+        return all(self.taken[s][1] == d for s, d in zip(runs.seeds.tolist(), runs.digests.tolist(), strict=True)
+                   if s in self.taken)
+
+    def add(self, job: Job, runs: _Runs) -> None:
+        """Take the job's runs of seeds not taken yet; a seed taken with other bytes is mismatched."""
+        self.jobs.append(job)
+        for seed, final, digest in zip(runs.seeds.tolist(), runs.finals.tolist(), runs.digests.tolist(), strict=True):
+            known = self.taken.get(seed)
+            if known is None:
+                self.taken[seed] = (job.id, digest, final)
+            elif known[1] != digest and seed not in self.mismatched:
+                self.mismatched.append(seed)
+
+    @property
+    def finals(self) -> dict[int, float]:
+        """Seed -> final utility, in seed order."""
+        return {seed: self.taken[seed][2] for seed in sorted(self.taken)}
+
+
+@dataclass
+class Gathered:
+    """The compared jobs sorted into worlds and configurations."""
+
+    jobs: list[Job]
+    worlds: dict[str, str]
+    """World digest -> its name, in the order first met."""
+    configurations: list[Configuration]
+
+    def of_world(self, digest: str) -> list[Configuration]:
+        """The world's configurations in the order views show them."""
+        return [c for c in self.configurations if c.world == digest]
+
+
+def _digest(blob: bytes) -> bytes:
+    return hashlib.blake2b(blob, digest_size=16).digest()
+
+
+def _read_runs(session: Session, jobs: Sequence[Job]) -> dict[tuple[int, str], _Runs]:
+    """Every stored run of the jobs as its final utility and digest, by (job id, algorithm)."""
+    found: dict[tuple[int, str], list[tuple[int, float, bytes]]] = {}
+    ids = [job.id for job in jobs]
+    if not ids:
+        return {}
+    statement = (select(Run.job_id, Run.algorithm, Run.seed, Run.utilities).where(Run.job_id.in_(ids))
+                 .order_by(Run.job_id, Run.id).execution_options(yield_per=RUN_READ_BATCH))
+    for job_id, algorithm, seed, blob in session.execute(statement):
+        values = np.frombuffer(blob, dtype="<f8")
+        found.setdefault((job_id, algorithm), []).append((seed, float(final_utilities(values)[0]), _digest(blob)))
+    return {key: _Runs(np.array([r[0] for r in rows], dtype=np.int64), np.array([r[1] for r in rows]),
+                       np.array([r[2] for r in rows], dtype="S16")) for key, rows in found.items()}
+
+
+def _show(value: Any) -> str:
+    return json.dumps(value) if isinstance(value, list | dict) else ("null" if value is None else str(value))
+
+
+def _differing(items: dict[Any, dict[str, Any]]) -> list[str]:
+    """The keys whose values differ between the items, sorted."""
+    names = sorted({k for values in items.values() for k in values})
+    first = next(iter(items.values()))
+    return [n for n in names if any(values.get(n) != first.get(n) for values in items.values())]
+
+
+def _suffix(values: dict[str, Any], names: list[str]) -> str:
+    shown = ", ".join(f"{n}={_show(values.get(n))}" for n in names[:_SUFFIX_PARAMS])
+    return shown + (", ..." if len(names) > _SUFFIX_PARAMS else "")
+
+
+def _world_names(jobs: Sequence[Job]) -> dict[str, str]:
+    """Each world's name: its system's, and where several worlds share a system, what differs between them."""
+    worlds: dict[str, dict[str, Any]] = {}
+    for job in jobs:
+        digest = world_digest(job.config)
+        if digest not in worlds:
+            described = world(job.config)
+            worlds[digest] = {"system": job.system, "episodes": described["episodes"]} | described["params"]
+    names = {}
+    for digest, values in worlds.items():
+        peers = {d: v for d, v in worlds.items() if v["system"] == values["system"]}
+        if len(peers) == 1:
+            names[digest] = values["system"]
+            continue
+        differ = _differing(peers)
+        names[digest] = f"{values['system']} ({_suffix(values, differ)})"
+    counts: dict[str, int] = {}
+    for name in names.values():
+        counts[name] = counts.get(name, 0) + 1
+    return {d: (n if counts[n] == 1 else f"{n} [{d[:6]}]") for d, n in names.items()}
+
+
+def _label(configurations: list[Configuration]) -> None:
+    """Set each configuration's label: its algorithm, and where two of one world share it, what tells them apart."""
+    by_algorithm: dict[str, list[Configuration]] = {}
+    for c in configurations:
+        by_algorithm.setdefault(c.algorithm, []).append(c)
+    for algorithm, group in by_algorithm.items():
+        worlds = [c.world for c in group]
+        if len(set(worlds)) == len(worlds):
+            for c in group:
+                c.label = algorithm
+            continue
+        identities: dict[str, dict[str, Any]] = {}
+        for c in group:
+            identities.setdefault(json.dumps(c.own, sort_keys=True), c.own)
+        differ = _differing(identities) if len(identities) > 1 else []
+        # pools of one identity in one world (external runs that disagree) are told apart by their first job
+        pools: dict[tuple[str, str], int] = {}
+        for c in group:
+            key = (c.world, json.dumps(c.own, sort_keys=True))
+            pools[key] = pools.get(key, 0) + 1
+        for c in group:
+            parts = [_suffix(c.own, differ)] if differ else []
+            if pools[(c.world, json.dumps(c.own, sort_keys=True))] > 1:
+                parts.append(f"job {c.jobs[0].id}")
+            c.label = f"{algorithm} ({'; '.join(parts)})" if parts else algorithm
+        seen: dict[tuple[str, str], int] = {}
+        for c in group:  # two identities that differ only past the named parameters
+            key = (c.world, c.label)
+            seen[key] = seen.get(key, 0) + 1
+        for c in group:
+            if seen[(c.world, c.label)] > 1:
+                c.label = f"{c.label[:-1]}; job {c.jobs[0].id})" if c.label.endswith(")") else \
+                    f"{c.label} (job {c.jobs[0].id})"
+
+
+def gather(session: Session, jobs: Sequence[Job]) -> Gathered:
+    """The succeeded jobs' runs sorted into worlds and configurations (the module's docstring)."""
+    succeeded = [job for job in jobs if job.status == SUCCEEDED]
+    runs = _read_runs(session, succeeded)
+    configurations: list[Configuration] = []
+    for job in succeeded:
+        digest = world_digest(job.config)
+        for algorithm in job.config["algorithms"]:
+            stored = runs.get((job.id, algorithm))
+            if stored is None:
+                continue
+            own = own_values(algorithm, job.config)
+            external = job.kind == EXTERNAL
+            candidates = [c for c in configurations if c.world == digest and c.algorithm == algorithm
+                          and c.own == own and c.external == external]
+            if external:  # joins the one pool it agrees with; none, or several (which?), and it stands apart
+                agreeing = [c for c in candidates if c.agrees(stored)]
+                target = agreeing[0] if len(agreeing) == 1 else None
+            else:
+                target = candidates[0] if candidates else None
+            if target is None:
+                target = Configuration(digest, algorithm, own, external)
+                configurations.append(target)
+            target.add(job, stored)
+    _label(configurations)
+    names = _world_names(succeeded)
+    order = {d: i for i, d in enumerate(names)}
+    configurations.sort(key=lambda c: (order[c.world], sort_key(c.algorithm), c.label))
+    return Gathered(list(jobs), names, configurations)
+
+
+def _caveats(job: Job) -> list[str]:
+    return bound_caveats(make_params(complete_params(job.config["params"])))
+
+
+def worlds_of(gathered: Gathered, curves: dict[str, dict[int, np.ndarray]] | None = None) -> list[World]:
+    """The core's worlds of a gathering (with each configuration's curves by label, if given)."""
+    out = []
+    for digest, name in gathered.worlds.items():
+        configurations = gathered.of_world(digest)
+        first = configurations[0].jobs[0]
+        out.append(World(name=name, system=first.system, episodes=first.config["episodes"],
+                         finals={c.label: c.finals for c in configurations}, caveats=_caveats(first),
+                         curves=None if curves is None else {c.label: curves[_key(c)] for c in configurations
+                                                             if _key(c) in curves}))
+    return out
+
+
+def _key(c: Configuration) -> str:
+    return f"{c.world}:{c.label}"
+
+
+def _jobs(session: Session, job_ids: Sequence[int]) -> list[Job]:
+    return [get_job(session, job_id=job_id) for job_id in dict.fromkeys(job_ids)]
+
+
+def _state(jobs: Sequence[Job]) -> tuple:
+    """What an answer about these jobs is made of: each job's id, state, end and configuration, in order."""
+    return tuple((job.id, job.status, job.finished_at, job.config_hash) for job in jobs)
+
+
+def _head(jobs: Sequence[Job]) -> bytes:
+    head = {"jobs": [job_dict(job) for job in jobs],
+            "algorithms": described(a for job in jobs for a in job.config["algorithms"])}
+    return dumps(head)[:-1]
+
+
+def compare_json(session: Session, *, job_ids: Sequence[int], points: int | None = None) -> bytes:
+    """``GET /api/compare`` as JSON: the jobs, and their configurations pooled over their seeds (``groups``).
+
+    Only succeeded jobs contribute; the others are listed in ``jobs`` and add nothing. Each group is a
+    configuration (the module's docstring) with its summary, on its world's pairing, and its curve (mean and
+    95% band per episode). The groups are kept (:data:`RESULTS_CACHE`) under the jobs' state, in the order
+    asked, and ``points``; the jobs' own records (names, tags) are read afresh every time.
+    """
+    jobs = _jobs(session, job_ids)
+
+    def build() -> bytes:
+        with BUILDS:
+            try:
+                return dumps(_groups(session, gather(session, jobs), points))
+            finally:
+                trim()
+
+    groups = RESULTS_CACHE.get_or_build(("compare", points, *_state(jobs)), build)
+    return _head(jobs) + b',"groups":' + groups + b"}"
+
+
+def compare(session: Session, *, job_ids: Sequence[int], points: int | None = None) -> dict[str, Any]:
+    """``GET /api/compare`` as data (:func:`compare_json`)."""
+    return json.loads(compare_json(session, job_ids=job_ids, points=points))
+
+
+def _groups(session: Session, gathered: Gathered, points: int | None) -> list[dict[str, Any]]:
+    curves = len(gathered.configurations) * BAND_ARRAYS
+    groups = []
+    for digest, name in gathered.worlds.items():
+        configurations = gathered.of_world(digest)
+        summaries = summarise({c.label: c.finals for c in configurations})
+        for c in configurations:
+            episodes = c.jobs[0].config["episodes"]
+            stats = EpisodeStats(episodes)
+            for _, values in _taken_runs(session, c):
+                stats.add(values)
+            summary = summaries[c.label]
+            groups.append({
+                "config_hash": c.jobs[0].config_hash,
+                "config_hashes": list(dict.fromkeys(j.config_hash for j in c.jobs)),
+                "algorithm": c.algorithm, "label": c.label, "system": c.jobs[0].system, "world": name,
+                "params": c.own, "external": c.external, "episodes_per_run": episodes,
+                "job_ids": list(dict.fromkeys(job_id for job_id, _, _ in c.taken.values())),
+                "mismatched_seeds": sorted(c.mismatched),
+                "summary": summary.as_dict(),
+                "episodes": stats.band_arrays(choose_points("points", points, episodes, curves)),
+            })
+    return groups
+
+
+def _taken_runs(session: Session, c: Configuration) -> Iterator[tuple[int, np.ndarray]]:
+    """``(seed, utilities)`` of each run the configuration takes, read a few at a time."""
+    wanted = {(job_id, seed) for seed, (job_id, _, _) in c.taken.items()}
+    statement = (select(Run.job_id, Run.seed, Run.utilities)
+                 .where(Run.job_id.in_([job.id for job in c.jobs]), Run.algorithm == c.algorithm)
+                 .order_by(Run.job_id, Run.id).execution_options(yield_per=RUN_READ_BATCH))
+    for job_id, seed, blob in session.execute(statement):
+        if (job_id, seed) in wanted:
+            yield seed, np.frombuffer(blob, dtype="<f8")
+
+
+def statistics(session: Session, *, job_ids: Sequence[int], repetitions: int, seed: int) -> dict[str, Any]:
+    """``GET /api/compare/statistics`` as data: the core's :func:`mgrao_core.comparison.compare` of the jobs."""
+    jobs = _jobs(session, job_ids)
+
+    def build() -> bytes:
+        with BUILDS:
+            try:
+                gathered = gather(session, jobs)
+                answer = compare_worlds(worlds_of(gathered), repetitions=repetitions, seed=seed)
+                answer["configurations"] = _described_configurations(gathered)
+                return dumps(answer)
+            finally:
+                trim()
+
+    body = RESULTS_CACHE.get_or_build(("statistics", repetitions, seed, *_state(jobs)), build)
+    return json.loads(body) | {"jobs": [job.id for job in jobs]}
+
+
+def _described_configurations(gathered: Gathered) -> list[dict[str, Any]]:
+    """What each configuration of an answer is: its world, algorithm, own parameters, jobs and mismatched seeds."""
+    return [{"system": gathered.worlds[c.world], "label": c.label, "algorithm": c.algorithm, "params": c.own,
+             "external": c.external, "job_ids": list(dict.fromkeys(job_id for job_id, _, _ in c.taken.values())),
+             "mismatched_seeds": sorted(c.mismatched)} for c in gathered.configurations]
+
+
+def sample_efficiency_answer(session: Session, *, job_ids: Sequence[int], points: int, repetitions: int,
+                             seed: int) -> dict[str, Any]:
+    """``GET /api/compare/sample-efficiency`` as data: IQM of the scores per bucket of episodes, with bands.
+
+    Each world's episodes are cut into ``points`` equal buckets (fewer when it has fewer episodes: then every
+    world takes the smallest count), and a run's bucket is the mean of its utilities over it.
+    """
+    jobs = _jobs(session, job_ids)
+
+    def build() -> bytes:
+        with BUILDS:
+            try:
+                gathered = gather(session, jobs)
+                episodes = {digest: gathered.of_world(digest)[0].jobs[0].config["episodes"]
+                            for digest in gathered.worlds}
+                count = min([points, *episodes.values()]) if episodes else points
+                curves = {}
+                for c in gathered.configurations:
+                    edges = np.linspace(0, episodes[c.world], count + 1).round().astype(int)
+                    by_seed = {}
+                    for seed_, values in _taken_runs(session, c):
+                        by_seed[seed_] = np.add.reduceat(values, edges[:-1]) / np.diff(edges)
+                    curves[_key(c)] = by_seed
+                answer = sample_efficiency(worlds_of(gathered, curves), repetitions=repetitions, seed=seed)
+                answer["points"] = count
+                answer["episodes"] = {gathered.worlds[d]: np.linspace(0, e, count + 1).round().astype(int)[:-1].tolist()
+                                      for d, e in episodes.items()}
+                return dumps(answer)
+            finally:
+                trim()
+
+    body = RESULTS_CACHE.get_or_build(("sample-efficiency", points, repetitions, seed, *_state(jobs)), build)
+    return json.loads(body)

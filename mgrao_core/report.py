@@ -1,0 +1,187 @@
+"""A comparison's statistics (:func:`mgrao_core.comparison.compare`) as a text table, a numeric CSV or LaTeX.
+
+One home for what ``mgrao compare`` prints and what the dashboard offers to download: per system and
+configuration ``n_paired``, the final mean and % from uniform with their 95% intervals, then the aggregates over
+systems with their bootstrap intervals; the protocol (seeds, episodes, final window, interval method, bootstrap
+repetitions) in the CSV's ``#`` header lines and the LaTeX caption. CSV cells are numbers (units in the column
+names); LaTeX is a ``table`` holding two ``tabular`` environments, with booktabs rules.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from mgrao_core.metrics import AGGREGATES
+
+FORMATS = ("table", "csv", "latex", "json")
+"""What a comparison's statistics can be rendered as (``json`` is the answer itself)."""
+_TITLES = {"mean": "Mean", "median": "Median", "iqm": "IQM", "optimality_gap": "Optimality gap"}
+
+
+def text_table(headers: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
+    """Columns padded to their widest cell, the first left-aligned and the others right-aligned."""
+    widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(headers)]
+    line = "  ".join(h.ljust(w) for h, w in zip(headers, widths, strict=True))
+    body = ["  ".join(c.rjust(w) if i else c.ljust(w) for i, (c, w) in enumerate(zip(r, widths, strict=True)))
+            for r in rows]
+    return "\n".join([line, "-" * len(line), *body])
+
+
+def _number(value: float | None, digits: int) -> str:
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "-"
+    return f"{value:.{digits}f}"
+
+
+def _interval(pair: Sequence[float | None] | None, digits: int) -> str:
+    if not pair or any(v is None for v in pair):
+        return "-"
+    return f"[{pair[0]:.{digits}f}, {pair[1]:.{digits}f}]"
+
+
+def _seed_ranges(seeds: Sequence[int]) -> str:
+    """``0-19, 40, 50-59``: consecutive seeds as ranges."""
+    parts, start, previous = [], None, None
+    for seed in sorted(seeds):
+        if start is None:
+            start = previous = seed
+        elif seed == previous + 1:
+            previous = seed
+        else:
+            parts.append(f"{start}-{previous}" if previous > start else f"{start}")
+            start = previous = seed
+    if start is not None:
+        parts.append(f"{start}-{previous}" if previous > start else f"{start}")
+    return ", ".join(parts) or "none"
+
+
+def protocol_lines(answer: Mapping[str, Any]) -> list[str]:
+    """The protocol as sentences: per system its episodes and seeds, then the methods."""
+    p = answer["protocol"]
+    lines = [f"{name}: {p['episodes'][name]} episodes, seeds {_seed_ranges(p['seeds'][name])}"
+             for name in p["episodes"]]
+    aggregated = answer["aggregated"]
+    if aggregated["systems"]:
+        lines.append(f"Aggregates over {len(aggregated['systems'])} system(s) x {aggregated['n_seeds']} seeds each ("
+                     + "; ".join(f"{s}: seeds {_seed_ranges(aggregated['seeds'][s])}" for s in aggregated["systems"])
+                     + ")")
+    elif aggregated.get("reason"):
+        lines.append(f"No aggregates: {aggregated['reason']}")
+    bootstrap = p["bootstrap"]
+    lines += [f"Final utility: {p['final']}.", f"Score: {p['score']}.", f"Intervals: {p['interval']}.",
+              f"Bootstrap: {bootstrap['repetitions']:,} repetitions, seed {bootstrap['seed']}, {bootstrap['method']} "
+              f"method, resampling {bootstrap['resampling']}.", f"Test: {p['test']}."]
+    return lines
+
+
+def _rows(answer: Mapping[str, Any]) -> list[tuple[str, str, Mapping[str, Any]]]:
+    return [(system, label, s) for system, configs in answer["systems"].items() for label, s in configs.items()]
+
+
+def table(answer: Mapping[str, Any]) -> str:
+    """Text tables for a terminal: per system, then the aggregates, then the protocol."""
+    rows = [[system, label + (" *" if s.get("partial") else ""), str(s["n_runs"]), str(s["n_paired"]),
+             _number(s["final_mean"], 3), _interval(s["ci95"], 3), _number(s["pct_from_uniform"], 1),
+             _interval(s["pct_ci95"], 1)] for system, label, s in _rows(answer)]
+    out = [text_table(["system", "configuration", "runs", "paired", "final mean", "95% CI", "% from uniform",
+                       "95% CI"], rows)]
+    if any(s.get("partial") for _, _, s in _rows(answer)):
+        out.append("* only some of its seeds pair with uniform: its % from uniform stands on n_paired seeds")
+    if answer["aggregate"]:
+        aggregate_rows = [[label, *(f"{_number(a[m]['estimate'], 3)} {_interval(a[m]['ci95'], 3)}"
+                                    for m in AGGREGATES)] for label, a in answer["aggregate"].items()]
+        out += ["", "Aggregates of scores (share of the oracle's gain over uniform), 95% bootstrap intervals",
+                text_table(["configuration", *(_TITLES[m] for m in AGGREGATES)], aggregate_rows)]
+    excluded = answer["aggregated"].get("excluded") or {}
+    out += [f"not aggregated: {label}: {reason}" for label, reason in excluded.items()]
+    out += ["", *protocol_lines(answer)]
+    return "\n".join(out) + "\n"
+
+
+CSV_COLUMNS = ("system", "configuration", "n_runs", "n_paired", "final_mean_utility", "final_ci95_low_utility",
+               "final_ci95_high_utility", "pct_from_uniform_percent", "pct_ci95_low_percent", "pct_ci95_high_percent",
+               "pct_of_max_percent", *(f"{m}_{part}_score" for m in AGGREGATES for part in ("estimate", "ci95_low",
+                                                                                              "ci95_high")))
+"""The CSV's columns: a row per system and configuration fills the first eleven; a row per configuration with
+``system`` ``aggregate`` fills ``configuration`` and the aggregates' (scores: shares of the oracle's gain)."""
+
+
+def _cell(value: Any) -> str:
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return ""
+    return repr(float(value)) if isinstance(value, float) else str(value)
+
+
+def csv_text(answer: Mapping[str, Any]) -> str:
+    """A numeric CSV: ``#`` lines of protocol, a header, a row per system and configuration, a row per aggregate."""
+    buffer = io.StringIO()
+    for line in protocol_lines(answer):
+        buffer.write(f"# {line}\n")
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(CSV_COLUMNS)
+    for system, label, s in _rows(answer):
+        ci = s["ci95"] or [None, None]
+        pct = s["pct_ci95"] or [None, None]
+        writer.writerow([system, label, s["n_runs"], s["n_paired"], *map(_cell, (s["final_mean"], *ci,
+                         s["pct_from_uniform"], *pct, s["pct_of_max"])), *([""] * (3 * len(AGGREGATES)))])
+    for label, a in answer["aggregate"].items():
+        cells = [_cell(v) for m in AGGREGATES for v in (a[m]["estimate"], *a[m]["ci95"])]
+        writer.writerow(["aggregate", label, "", "", *([""] * 7), *cells])
+    return buffer.getvalue()
+
+
+_LATEX_SPECIALS = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#", "_": r"\_",
+                   "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}", "^": r"\textasciicircum{}"}
+
+
+def latex_escape(text: str) -> str:
+    """``text`` with LaTeX's special characters escaped."""
+    return "".join(_LATEX_SPECIALS.get(ch, ch) for ch in str(text))
+
+
+def _latex_interval(value: float | None, pair: Sequence[float | None] | None, digits: int) -> str:
+    if value is None:
+        return "--"
+    if not pair or any(v is None for v in pair):
+        return f"{value:.{digits}f}"
+    return f"{value:.{digits}f} [{pair[0]:.{digits}f}, {pair[1]:.{digits}f}]"
+
+
+def latex(answer: Mapping[str, Any]) -> str:
+    """A LaTeX ``table``: the protocol as its caption, a ``tabular`` per system and configuration, one of aggregates."""
+    caption = " ".join(latex_escape(line) for line in protocol_lines(answer))
+    lines = ["% needs \\usepackage{booktabs}", "\\begin{table}", "\\centering",
+             f"\\caption{{{caption}}}", "\\begin{tabular}{llrrll}", "\\toprule",
+             "System & Configuration & Runs & Paired & Final mean [95\\% CI] & \\% from uniform [95\\% CI] \\\\",
+             "\\midrule"]
+    previous = None
+    for system, label, s in _rows(answer):
+        if previous is not None and system != previous:
+            lines.append("\\midrule")
+        mark = "$^{*}$" if s.get("partial") else ""
+        lines.append(f"{latex_escape(system) if system != previous else ''} & {latex_escape(label)}{mark} & "
+                     f"{s['n_runs']} & {s['n_paired']} & {_latex_interval(s['final_mean'], s['ci95'], 3)} & "
+                     f"{_latex_interval(s['pct_from_uniform'], s['pct_ci95'], 1)} \\\\")
+        previous = system
+    lines += ["\\bottomrule", "\\end{tabular}"]
+    if any(s.get("partial") for _, _, s in _rows(answer)):
+        lines += ["", "$^{*}$ only some of its seeds pair with uniform: its \\% from uniform stands on the paired "
+                      "seeds."]
+    if answer["aggregate"]:
+        lines += ["", "\\medskip", "", "\\begin{tabular}{l" + "l" * len(AGGREGATES) + "}", "\\toprule",
+                  "Configuration & " + " & ".join(_TITLES[m] for m in AGGREGATES) + " \\\\", "\\midrule"]
+        for label, a in answer["aggregate"].items():
+            cells = " & ".join(_latex_interval(a[m]["estimate"], a[m]["ci95"], 3) for m in AGGREGATES)
+            lines.append(f"{latex_escape(label)} & {cells} \\\\")
+        lines += ["\\bottomrule", "\\end{tabular}"]
+    lines.append("\\end{table}")
+    return "\n".join(lines) + "\n"
+
+
+def render(answer: Mapping[str, Any], fmt: str) -> str:
+    """The answer as ``table``, ``csv`` or ``latex`` text."""
+    return {"table": table, "csv": csv_text, "latex": latex}[fmt](answer)
