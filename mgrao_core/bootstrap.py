@@ -1,15 +1,16 @@
 """The stratified bootstrap every interval of a comparison goes through (docs/statistics.md, "Intervals").
 
 As rliable's ``StratifiedBootstrap`` (one score matrix) and ``StratifiedIndependentBootstrap`` (several):
-each matrix ``(..., runs, tasks)`` is resampled run by run *within each task* (a task's seeds are drawn
-with replacement from that task's own, every task keeping its count), each matrix independently of the
-others, and the interval is the percentile interval of the statistic over the repetitions. The resampling
-is scipy's (``scipy.stats.bootstrap`` with each task's column as a sample of its own, ``paired=False``,
-``method="percentile"``); leading axes of a matrix (the points of a curve) share each repetition's draw.
+each matrix ``(..., runs, tasks)`` is resampled run by run *within each task* (every cell of a repetition
+draws one of its task's runs, with replacement: ``rliable.library.StratifiedBootstrap.update_indices``), each
+matrix independently of the others, and the interval is the percentile interval of the statistic over the
+repetitions (``numpy.percentile``, linear, as scipy's and arch's percentile intervals). Leading axes of a
+matrix (the points of a curve) share each repetition's draw: a repetition is a set of seeds.
 
 A repetition's draws come from a generator seeded with the answer's ``seed`` and the names of what is
 resampled (:func:`generator`), so the same data, seed and repetitions give the same interval, and adding a
-configuration to a comparison leaves the others' intervals as they were.
+configuration to a comparison leaves the others' draws as they were (their intervals too, unless it narrows
+the seeds every aggregated configuration shares).
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ DEFAULT_REPETITIONS = 2000
 """Repetitions of a comparison's bootstrap unless asked otherwise (the CLI's tables take 10,000)."""
 MAX_REPETITIONS = 50_000
 """The most repetitions an answer may ask for (rliable's default for interval estimates)."""
-BATCH_VALUES = 2_000_000
+BATCH_VALUES = 4_000_000
 """Resampled scores held at once: repetitions are drawn in batches of at most this many values."""
 
 
@@ -43,40 +44,54 @@ def generator(seed: int, *names: str) -> np.random.Generator:
     return np.random.default_rng([seed, *(zlib.crc32(name.encode()) for name in names)])
 
 
+def draws(rng: np.random.Generator, repetitions: int, runs: int, tasks: int) -> np.ndarray:
+    """``(repetitions, runs, tasks)`` run indices: each cell one of its task's ``runs``, with replacement."""
+    return rng.integers(0, runs, size=(repetitions, runs, tasks))
+
+
+def counts_of(indices: np.ndarray) -> np.ndarray:
+    """How often each run of each task is drawn: ``(repetitions, runs, tasks)`` from :func:`draws`' indices."""
+    repetitions, runs, tasks = indices.shape
+    flat = indices + runs * (np.arange(repetitions)[:, None, None] * tasks + np.arange(tasks)[None, None, :])
+    counts = np.bincount(flat.ravel(), minlength=repetitions * tasks * runs).reshape(repetitions, tasks, runs)
+    return np.swapaxes(counts, 1, 2)
+
+
 def stratified_bootstrap(statistic: Callable[..., np.ndarray], *matrices: np.ndarray, repetitions: int,
-                         rng: np.random.Generator, confidence: float = CONFIDENCE) -> Interval:
+                         rng: np.random.Generator, confidence: float = CONFIDENCE,
+                         of_counts: Callable[..., np.ndarray] | None = None) -> Interval:
     """``statistic(*matrices)`` with its percentile interval from resampling runs within each task.
 
     Args:
-        statistic: a function of matrices ``(..., runs, tasks)`` (with any leading batch axes) returning an
-            array ``(..., *shape)``; it is called on the data itself and on ``(..., batch, runs, tasks)``
-            resamples.
+        statistic: a function of matrices ``(..., runs, tasks)`` returning an array ``(..., *shape)``; it makes
+            the estimate, and unless ``of_counts`` is given, each repetition's value from the matrices resampled
+            (``(batch, ..., runs, tasks)``, giving ``(batch, ..., *shape)``).
         matrices: score matrices; each is resampled on its own.
         repetitions: bootstrap repetitions.
         rng: the draws' generator (:func:`generator`).
         confidence: the interval's level (two-sided).
+        of_counts: optionally, the statistic of the matrices as the repetitions resample them, given instead as
+            how often each run is drawn (``of_counts(*matrices, counts)``, ``counts`` one ``(batch, runs, tasks)``
+            array per matrix, giving ``(batch, ..., *shape)``): the same statistic, cheaper where it sorts.
 
     Returns:
         The estimate and the interval's ends, each shaped as the statistic of the data.
     """
-    from scipy.stats import bootstrap
-
-    tasks = [m.shape[-1] for m in matrices]
-    lead = matrices[0].ndim - 2
-    columns = [np.ascontiguousarray(m[..., t]) for m in matrices for t in range(m.shape[-1])]
-
-    def of_columns(*resampled: np.ndarray, axis: int = -1) -> np.ndarray:
-        # each column arrives as (..., batch, runs): stack them back into matrices (..., batch, runs, tasks)
-        parts, start = [], 0
-        for count in tasks:
-            parts.append(np.stack(resampled[start:start + count], axis=-1))
-            start += count
-        return np.moveaxis(statistic(*parts), lead, -1)  # scipy wants the repetitions last
-
-    values = sum(m.size for m in matrices)
-    result = bootstrap(columns, of_columns, n_resamples=repetitions, batch=max(1, BATCH_VALUES // values),
-                       vectorized=True, paired=False, axis=-1, confidence_level=confidence, method="percentile",
-                       rng=rng)
     estimate = np.asarray(statistic(*matrices), dtype=float)
-    return Interval(estimate, np.asarray(result.confidence_interval.low, dtype=float),
-                    np.asarray(result.confidence_interval.high, dtype=float))
+    per_repetition = sum(m.size for m in matrices)
+    batch = max(1, BATCH_VALUES // max(1, per_repetition))
+    values = []
+    for start in range(0, repetitions, batch):
+        size = min(batch, repetitions - start)
+        chosen = [draws(rng, size, m.shape[-2], m.shape[-1]) for m in matrices]
+        if of_counts is not None:
+            values.append(np.asarray(of_counts(*matrices, [counts_of(c) for c in chosen]), dtype=float))
+            continue
+        resampled = []
+        for m, indices in zip(matrices, chosen, strict=True):
+            taken = m[..., indices, np.arange(m.shape[-1])]  # (..., batch, runs, tasks)
+            resampled.append(np.moveaxis(taken, m.ndim - 2, 0))
+        values.append(np.asarray(statistic(*resampled), dtype=float))
+    tail = 100 * (1 - confidence) / 2
+    low, high = np.percentile(np.concatenate(values, axis=0), [tail, 100 - tail], axis=0)
+    return Interval(estimate, low, high)

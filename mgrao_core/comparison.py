@@ -21,6 +21,7 @@ seed (:class:`World`); nothing here reads a database or runs a simulation.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -29,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from mgrao_core import metrics
-from mgrao_core.bootstrap import DEFAULT_REPETITIONS, generator, stratified_bootstrap
+from mgrao_core.bootstrap import DEFAULT_REPETITIONS, MAX_REPETITIONS, generator, stratified_bootstrap
 from mgrao_core.errors import ConfigError
 from mgrao_core.stats import (
     BASELINE,
@@ -48,6 +49,9 @@ MIN_SEEDS = 2
 """Fewest seeds per world a score matrix needs (a bootstrap resamples at least two)."""
 MAX_CONFIGURATIONS = 40
 """Configurations of one world at most: the head-to-head tests and P(X > Y) grow with their pairs (780 here)."""
+MAX_PAIRED_DIFFERENCES = 5_000_000
+"""Paired differences the head-to-head tests of one answer rank at most (pairs x their shared seeds, bounded
+from above by each world's pairs x its most seeds): about 5,000 tests of 1,000 seeds, some seconds."""
 MAX_RESAMPLED = 500_000_000
 """Resampled scores of one answer's bootstraps at most (repetitions x the scores each repetition draws): about 20 s
 on one core; more is refused, naming the repetitions that fit."""
@@ -162,17 +166,30 @@ def score_matrices(worlds: Sequence[World], anchors: Mapping[str, Normalisation]
     excluded = {}
     for label in labels:
         missing = [name for name in names if not scores[name].get(label)]
+        thin = [name for name in names if 0 < len(scores[name].get(label, ())) < MIN_SEEDS]
         if missing:
             excluded[label] = f"no scored runs on {', '.join(missing)}: aggregates need every scored system"
+        elif thin:
+            excluded[label] = f"fewer than {MIN_SEEDS} scored seeds on {', '.join(thin)}"
     kept = [label for label in labels if label not in excluded]
+
+    def shared_seeds(among: list[str]) -> dict[str, list[int]]:
+        return {name: sorted(set.intersection(*(set(scores[name][label]) for label in among))) for name in names}
+
+    # one configuration on seeds the others lack would leave none shared: the one with the fewest scored seeds
+    # goes first, until the rest share enough (uniform and the oracle always have every anchor seed)
+    while kept and min(len(s) for s in shared_seeds(kept).values()) < MIN_SEEDS and len(kept) > 1:
+        fewest = min(kept, key=lambda label: (sum(len(scores[name][label]) for name in names), -kept.index(label)))
+        excluded[fewest] = (f"shares fewer than {MIN_SEEDS} scored seeds with the other configurations on some "
+                            "system")
+        kept.remove(fewest)
     if not kept:
         return ScoreMatrices(names, {}, {}, excluded, "no configuration has scores on every scored system")
-    shared = {name: sorted(set.intersection(*(set(scores[name][label]) for label in kept))) for name in names}
+    shared = shared_seeds(kept)
     count = min(len(seeds) for seeds in shared.values())
     if count < MIN_SEEDS:
-        thin = min(shared, key=lambda name: len(shared[name]))
-        return ScoreMatrices(names, {}, {}, excluded, f"the aggregated configurations share {count} scored seed(s) "
-                                                      f"on {thin}: aggregates need at least {MIN_SEEDS}")
+        return ScoreMatrices(names, {}, {}, excluded, f"the configurations share {count} scored seed(s): aggregates "
+                                                      f"need at least {MIN_SEEDS}")
     seeds = {name: shared[name][:count] for name in names}
     matrices = {label: np.array([[scores[name][label][seeds[name][i]] for name in names] for i in range(count)])
                 for label in kept}
@@ -216,21 +233,23 @@ def paired_difference(x: Mapping[int, float], y: Mapping[int, float]) -> dict[st
     ``x`` and ``y`` are seed -> % from uniform. The test is two-sided on the differences' distribution about 0
     (scipy's ``wilcoxon``: exact below 50 pairs without ties or zeros, else the normal approximation; zero
     differences dropped); every difference 0 gives p = 1. Fewer than two pairs: no interval, no test.
+    ``favours`` is the side the test leans to: ``"x"`` where the positive differences' ranks outweigh the
+    negative ones' (``W+ > W-``), ``"y"`` the other way, None when they balance.
     """
-    from scipy.stats import wilcoxon
+    from scipy.stats import rankdata, wilcoxon
 
     seeds = sorted(set(x) & set(y))
     d = np.array([x[s] - y[s] for s in seeds])
     if len(d) < 2:
         return {"n_paired": len(d), "difference": _number(d.mean()) if len(d) else None, "ci95": None,
-                "p_value": None}
+                "p_value": None, "favours": None}
     mean, low, high = mean_ci95(d)
-    if not np.any(d != 0):
-        p = 1.0
-    else:
-        p = float(wilcoxon(d).pvalue)
+    nonzero = d[d != 0]
+    ranks = rankdata(np.abs(nonzero))
+    lean = float(ranks[nonzero > 0].sum() - ranks[nonzero < 0].sum())
+    p = 1.0 if not len(nonzero) else float(wilcoxon(d).pvalue)
     return {"n_paired": len(d), "difference": _number(mean), "ci95": [_number(low), _number(high)],
-            "p_value": _number(p)}
+            "p_value": _number(p), "favours": "x" if lean > 0 else ("y" if lean < 0 else None)}
 
 
 def head_to_head(worlds: Sequence[World]) -> list[dict[str, Any]]:
@@ -286,12 +305,36 @@ def _improvement_of_codes(codes_x: np.ndarray, codes_y: np.ndarray, width: int) 
     return np.mean(u / (n_x * n_y), axis=-1)
 
 
+def finite(worlds: Sequence[World]) -> tuple[list[World], dict[str, dict[str, list[int]]]]:
+    """The worlds without runs whose final utility is not finite, and those runs' seeds by world and label."""
+    out, dropped = [], {}
+    for w in worlds:
+        finals = {}
+        for label, by_seed in w.finals.items():
+            bad = sorted(s for s, f in by_seed.items() if not math.isfinite(f))
+            if bad:
+                dropped.setdefault(w.name, {})[label] = bad
+            finals[label] = {s: f for s, f in by_seed.items() if math.isfinite(f)}
+        out.append(dataclasses.replace(w, finals=finals))
+    return out, dropped
+
+
 def check_size(worlds: Sequence[World]) -> None:
-    """Refuse (naming ``jobs``) a world with more than :data:`MAX_CONFIGURATIONS` configurations."""
+    """Refuse (naming ``jobs``) what the statistics cannot bound.
+
+    A world with more than :data:`MAX_CONFIGURATIONS` configurations, or worlds whose paired tests would rank
+    more than :data:`MAX_PAIRED_DIFFERENCES` differences.
+    """
     for w in worlds:
         if len(w.finals) > MAX_CONFIGURATIONS:
             raise ConfigError("jobs", f"{w.name} has {len(w.finals)} configurations among the jobs: the statistics "
                                       f"compare at most {MAX_CONFIGURATIONS} per system (compare fewer jobs)")
+    differences = sum(len(w.finals) * (len(w.finals) - 1) // 2 * max((len(f) for f in w.finals.values()), default=0)
+                      for w in worlds)
+    if differences > MAX_PAIRED_DIFFERENCES:
+        raise ConfigError("jobs", f"the paired tests of these jobs would rank up to {differences:,} differences, over "
+                                  f"the limit of {MAX_PAIRED_DIFFERENCES:,} per answer (compare fewer jobs, "
+                                  "configurations or seeds)")
 
 
 def check_work(repetitions: int, per_repetition: int) -> None:
@@ -312,12 +355,14 @@ def compare(worlds: Sequence[World], *, repetitions: int = DEFAULT_REPETITIONS, 
         seed: the bootstrap's seed (:func:`mgrao_core.bootstrap.generator`).
         confidence: the level of every interval.
     """
+    worlds, non_finite = finite(worlds)
     check_size(worlds)
     systems = {w.name: {label: s.as_dict() for label, s in summarise(dict(w.finals)).items()} for w in worlds}
     anchors = {w.name: normalisation(w) for w in worlds}
     matrices = score_matrices(worlds, anchors)
     sizes = [m.size for m in matrices.matrices.values()]
-    check_work(repetitions, sum(sizes) + sum(2 * a for i, a in enumerate(sizes) for _ in sizes[i + 1:]))
+    per_repetition = sum(sizes) + sum(2 * a for i, a in enumerate(sizes) for _ in sizes[i + 1:])
+    check_work(repetitions, per_repetition)
     aggregate, profiles, improvement = {}, {}, {}
     for label, matrix in matrices.matrices.items():
         def statistic(scores: np.ndarray) -> np.ndarray:
@@ -353,7 +398,9 @@ def compare(worlds: Sequence[World], *, repetitions: int = DEFAULT_REPETITIONS, 
         "probability_of_improvement": improvement,
         "head_to_head": {"pairs": pairs, "tests": sum(p["p_value"] is not None for p in pairs)},
         "protocol": protocol(worlds, repetitions=repetitions, seed=seed, confidence=confidence,
-                             tests=sum(p["p_value"] is not None for p in pairs)),
+                             tests=sum(p["p_value"] is not None for p in pairs)) | {
+            "max_repetitions": min(MAX_REPETITIONS, MAX_RESAMPLED // max(1, per_repetition))},
+        "non_finite": non_finite,
     }
 
 
@@ -379,6 +426,10 @@ def protocol(worlds: Sequence[World], *, repetitions: int, seed: int, confidence
     }
 
 
+def _iqm_of_counts(scores: np.ndarray, counts: list[np.ndarray]) -> np.ndarray:
+    return metrics.aggregate_iqm_of_counts(scores, counts[0])
+
+
 def sample_efficiency(worlds: Sequence[World], *, repetitions: int = DEFAULT_REPETITIONS, seed: int = 0,
                       confidence: float = CONFIDENCE) -> dict[str, Any]:
     """IQM of the scores at each bucket of episodes, with bootstrap bands: rliable's sample-efficiency curves.
@@ -389,6 +440,7 @@ def sample_efficiency(worlds: Sequence[World], *, repetitions: int = DEFAULT_REP
     (:func:`normalisation`), so that the last bucket of the final window's width is the final score. Every world
     must give ``curves`` with the same number of buckets.
     """
+    worlds, _ = finite(worlds)
     check_size(worlds)
     anchors = {w.name: normalisation(w) for w in worlds}
     matrices = score_matrices(worlds, anchors)
@@ -405,7 +457,8 @@ def sample_efficiency(worlds: Sequence[World], *, repetitions: int = DEFAULT_REP
                                       for s in matrices.seeds[w.name]]) for w in scored], axis=-1)
         matrix = np.ascontiguousarray(np.swapaxes(stacked, 0, 1))  # (seeds, points, worlds) -> (points, ...)
         result = stratified_bootstrap(metrics.aggregate_iqm, matrix, repetitions=repetitions,
-                                      rng=generator(seed, "sample-efficiency", label), confidence=confidence)
+                                      rng=generator(seed, "sample-efficiency", label), confidence=confidence,
+                                      of_counts=_iqm_of_counts)
         curves[label] = {"iqm": result.estimate.tolist(), "low": result.low.tolist(), "high": result.high.tolist()}
     return {"systems": list(matrices.worlds) if matrices.matrices else [], "seeds": matrices.seeds,
             "curves": curves, "excluded": matrices.excluded, "reason": matrices.reason,

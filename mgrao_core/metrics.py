@@ -46,6 +46,34 @@ def aggregate_iqm(scores: np.ndarray) -> np.ndarray:
     return trim_mean(flat, proportiontocut=IQM_TRIM, axis=-1)
 
 
+def aggregate_iqm_of_counts(scores: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """:func:`aggregate_iqm` of the resamples that hold each score ``counts[b, n, m]`` times (a bootstrap's draws).
+
+    ``scores`` is ``(..., runs, tasks)``, ``counts`` ``(batch, runs, tasks)`` summing to ``runs * tasks`` in each
+    batch; returns ``(batch, ...)``. In each resample's sorted order a score occupies the places from the
+    counts before it to those up to it; its weight is how many of them lie between the ``floor(N / 4)`` cut
+    from each end (``scipy.stats.trim_mean``'s cut), without sorting any resample.
+    """
+    lead = np.shape(scores)[:-2]
+    flat = np.reshape(scores, (*lead, -1))
+    total = flat.shape[-1]
+    cut = int(IQM_TRIM * total)
+    order = np.argsort(flat, axis=-1, kind="stable")
+    ordered = np.take_along_axis(flat, order, axis=-1)
+    drawn = np.reshape(counts, (np.shape(counts)[0], total)).astype(np.int32)
+    out = np.empty((drawn.shape[0], *lead))
+    for point in np.ndindex(*lead):  # each point of a curve (none for a matrix): (batch, N) at a time
+        placed = drawn[:, order[point]]
+        upto = np.cumsum(placed, axis=1, dtype=np.int32)  # places up to each score in the resample's order
+        below = upto - placed  # places before it
+        np.minimum(upto, total - cut, out=upto)
+        np.maximum(below, cut, out=below)
+        upto -= below
+        np.maximum(upto, 0, out=upto)  # its places inside the kept middle
+        out[(slice(None), *point)] = upto.astype(np.float64) @ ordered[point]
+    return out / (total - 2 * cut)
+
+
 def aggregate_optimality_gap(scores: np.ndarray, gamma: float = OPTIMALITY_GAMMA) -> np.ndarray:
     """``gamma`` minus the mean of all scores clipped from above at ``gamma``: how far below the target it falls."""
     return gamma - np.mean(np.minimum(scores, gamma), axis=(-2, -1))

@@ -24,23 +24,28 @@ _TITLES = {"mean": "Mean", "median": "Median", "iqm": "IQM", "optimality_gap": "
 
 def text_table(headers: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
     """Columns padded to their widest cell, the first left-aligned and the others right-aligned."""
-    widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(headers)]
+    widths = [max([len(h), *(len(r[i]) for r in rows)]) for i, h in enumerate(headers)]
     line = "  ".join(h.ljust(w) for h, w in zip(headers, widths, strict=True))
     body = ["  ".join(c.rjust(w) if i else c.ljust(w) for i, (c, w) in enumerate(zip(r, widths, strict=True)))
             for r in rows]
     return "\n".join([line, "-" * len(line), *body])
 
 
+def _fixed(value: float, digits: int) -> str:
+    """``value`` to ``digits`` decimals, a rounding residue (``-1e-17``) as the zero it is."""
+    return f"{0.0 if abs(value) < 0.5 * 10**-digits else value:.{digits}f}"
+
+
 def _number(value: float | None, digits: int) -> str:
     if value is None or (isinstance(value, float) and not math.isfinite(value)):
         return "-"
-    return f"{value:.{digits}f}"
+    return _fixed(value, digits)
 
 
 def _interval(pair: Sequence[float | None] | None, digits: int) -> str:
     if not pair or any(v is None for v in pair):
         return "-"
-    return f"[{pair[0]:.{digits}f}, {pair[1]:.{digits}f}]"
+    return f"[{_fixed(pair[0], digits)}, {_fixed(pair[1], digits)}]"
 
 
 def _seed_ranges(seeds: Sequence[int]) -> str:
@@ -71,6 +76,19 @@ def protocol_lines(answer: Mapping[str, Any]) -> list[str]:
                      + ")")
     elif aggregated.get("reason"):
         lines.append(f"No aggregates: {aggregated['reason']}")
+    for name, anchors in answer["normalisation"].items():
+        if anchors["reason"]:
+            lines.append(f"{name} has no scores: {anchors['reason']}.")
+        elif anchors["caveats"]:
+            lines.append(f"On {name} the oracle is no upper bound (scores above 1 are possible): "
+                         f"{'; '.join(anchors['caveats'])}.")
+    for c in answer.get("configurations", []):
+        if c.get("mismatched_seeds"):
+            lines.append(f"{c['system']}, {c['label']}: the pooled jobs' runs of seeds "
+                         f"{_seed_ranges(c['mismatched_seeds'])} differ (the first job's are used).")
+    for name, labels in (answer.get("non_finite") or {}).items():
+        for label, seeds in labels.items():
+            lines.append(f"{name}, {label}: seeds {_seed_ranges(seeds)} left out (final utility not finite).")
     bootstrap = p["bootstrap"]
     lines += [f"Final utility: {p['final']}.", f"Score: {p['score']}.", f"Intervals: {p['interval']}.",
               f"Bootstrap: {bootstrap['repetitions']:,} repetitions, seed {bootstrap['seed']}, {bootstrap['method']} "
@@ -135,7 +153,8 @@ def csv_text(answer: Mapping[str, Any]) -> str:
 
 
 _LATEX_SPECIALS = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#", "_": r"\_",
-                   "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}", "^": r"\textasciicircum{}"}
+                   "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}", "^": r"\textasciicircum{}",
+                   "<": r"\textless{}", ">": r"\textgreater{}"}
 
 
 def latex_escape(text: str) -> str:
@@ -147,8 +166,8 @@ def _latex_interval(value: float | None, pair: Sequence[float | None] | None, di
     if value is None:
         return "--"
     if not pair or any(v is None for v in pair):
-        return f"{value:.{digits}f}"
-    return f"{value:.{digits}f} [{pair[0]:.{digits}f}, {pair[1]:.{digits}f}]"
+        return _fixed(value, digits)
+    return f"{_fixed(value, digits)} {_interval(pair, digits)}"
 
 
 def latex(answer: Mapping[str, Any]) -> str:

@@ -41,10 +41,10 @@ from mgrao_core.stats import BASELINE
 
 MAX_RESPONSE_VALUES = 1_000_000
 """Numbers in the curves of one results or compare answer (about 20 MB of JSON)."""
-MAX_CONCURRENTBUILDS = 2
+MAX_CONCURRENT_BUILDS = 2
 """Results or comparisons computed at once; more requests wait their turn (each build holds one
 answer's arrays, up to :data:`MAX_RESPONSE_VALUES` numbers)."""
-BUILDS = threading.BoundedSemaphore(MAX_CONCURRENTBUILDS)
+BUILDS = threading.BoundedSemaphore(MAX_CONCURRENT_BUILDS)
 BAND_ARRAYS = 3
 """Arrays of one curve's band: mean, low, high (the episode index is shared)."""
 

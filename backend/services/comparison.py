@@ -10,8 +10,12 @@ sorted into *configurations* (:mod:`mgrao_core.pairing`): a world, a label and t
   every seed they share (a learner logged in parts over different seeds pools); other runs of the same
   label stay apart, each a configuration of its own, and so does a run that several such configurations
   would take (its seeds shared with none of them: which one it belongs to cannot be told).
-* A label that two configurations of one world would share is followed, on every world, by what tells its
-  configurations apart: ``mgrao-1:1 (learning_rate=0.2)``, ``hedge (job 12)``.
+* A label that two configurations would share (other own parameters, on any world; runs of one world that
+  did not pool) is followed, on every world, by what tells its configurations apart:
+  ``mgrao-1:1 (learning_rate=0.2)``, ``hedge (learning_rate=0.1; job 12)``; a configuration keeps its name on
+  every world, so the aggregates across worlds never join two.
+* A run whose final utility is not finite (a corrupted or legacy store) takes no part: its seed is listed in
+  ``non_finite_seeds``.
 * Worlds are named by their system, and where two worlds share one, by what differs between them:
   ``single (episodes=200)``.
 
@@ -24,6 +28,8 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
+from collections import Counter
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -70,6 +76,8 @@ class Configuration:
     taken: dict[int, tuple[int, bytes, float]] = field(default_factory=dict)
     """Seed -> (job id, digest, final utility) of the run it takes."""
     mismatched: list[int] = field(default_factory=list)
+    non_finite: list[int] = field(default_factory=list)
+    """Seeds whose final utility is not finite: left out."""
     label: str = ""
 
     def agrees(self, runs: _Runs) -> bool:
@@ -81,6 +89,10 @@ class Configuration:
         """Take the job's runs of seeds not taken yet; a seed taken with other bytes is mismatched."""
         self.jobs.append(job)
         for seed, final, digest in zip(runs.seeds.tolist(), runs.finals.tolist(), runs.digests.tolist(), strict=True):
+            if not math.isfinite(final):
+                if seed not in self.non_finite:
+                    self.non_finite.append(seed)
+                continue
             known = self.taken.get(seed)
             if known is None:
                 self.taken[seed] = (job.id, digest, final)
@@ -165,38 +177,31 @@ def _world_names(jobs: Sequence[Job]) -> dict[str, str]:
 
 
 def _label(configurations: list[Configuration]) -> None:
-    """Set each configuration's label: its algorithm, and where two of one world share it, what tells them apart."""
+    """Set each configuration's label: its algorithm, and what tells it from the comparison's others of it.
+
+    Others: other own parameters on any world, or runs of one world that did not pool. A configuration's
+    parameters give the same label on every world, and no two configurations of one algorithm but the same
+    parameters share one: parameters past the few named add a short digest of them.
+    """
     by_algorithm: dict[str, list[Configuration]] = {}
     for c in configurations:
         by_algorithm.setdefault(c.algorithm, []).append(c)
     for algorithm, group in by_algorithm.items():
-        worlds = [c.world for c in group]
-        if len(set(worlds)) == len(worlds):
-            for c in group:
-                c.label = algorithm
-            continue
-        identities: dict[str, dict[str, Any]] = {}
-        for c in group:
-            identities.setdefault(json.dumps(c.own, sort_keys=True), c.own)
+        identity = {id(c): json.dumps(c.own, sort_keys=True) for c in group}
+        identities = {identity[id(c)]: c.own for c in group}
+        pools = Counter((c.world, identity[id(c)]) for c in group)
         differ = _differing(identities) if len(identities) > 1 else []
-        # pools of one identity in one world (external runs that disagree) are told apart by their first job
-        pools: dict[tuple[str, str], int] = {}
+        suffix = {key: _suffix(own, differ) if differ else "" for key, own in identities.items()}
+        repeated = Counter(suffix.values())
+        for key in suffix:
+            if repeated[suffix[key]] > 1 and len(identities) > 1:
+                digest = hashlib.sha256(key.encode()).hexdigest()[:6]
+                suffix[key] = f"{suffix[key]}; #{digest}" if suffix[key] else f"#{digest}"
         for c in group:
-            key = (c.world, json.dumps(c.own, sort_keys=True))
-            pools[key] = pools.get(key, 0) + 1
-        for c in group:
-            parts = [_suffix(c.own, differ)] if differ else []
-            if pools[(c.world, json.dumps(c.own, sort_keys=True))] > 1:
+            parts = [suffix[identity[id(c)]]] if suffix[identity[id(c)]] else []
+            if pools[(c.world, identity[id(c)])] > 1:  # runs from outside that did not pool: their first job
                 parts.append(f"job {c.jobs[0].id}")
             c.label = f"{algorithm} ({'; '.join(parts)})" if parts else algorithm
-        seen: dict[tuple[str, str], int] = {}
-        for c in group:  # two identities that differ only past the named parameters
-            key = (c.world, c.label)
-            seen[key] = seen.get(key, 0) + 1
-        for c in group:
-            if seen[(c.world, c.label)] > 1:
-                c.label = f"{c.label[:-1]}; job {c.jobs[0].id})" if c.label.endswith(")") else \
-                    f"{c.label} (job {c.jobs[0].id})"
 
 
 def gather(session: Session, jobs: Sequence[Job]) -> Gathered:
@@ -310,7 +315,7 @@ def _groups(session: Session, gathered: Gathered, points: int | None) -> list[di
                 "algorithm": c.algorithm, "label": c.label, "system": c.jobs[0].system, "world": name,
                 "params": c.own, "external": c.external, "episodes_per_run": episodes,
                 "job_ids": list(dict.fromkeys(job_id for job_id, _, _ in c.taken.values())),
-                "mismatched_seeds": sorted(c.mismatched),
+                "mismatched_seeds": sorted(c.mismatched), "non_finite_seeds": sorted(c.non_finite),
                 "summary": summary.as_dict(),
                 "episodes": stats.band_arrays(choose_points("points", points, episodes, curves)),
             })
@@ -350,7 +355,8 @@ def _described_configurations(gathered: Gathered) -> list[dict[str, Any]]:
     """What each configuration of an answer is: its world, algorithm, own parameters, jobs and mismatched seeds."""
     return [{"system": gathered.worlds[c.world], "label": c.label, "algorithm": c.algorithm, "params": c.own,
              "external": c.external, "job_ids": list(dict.fromkeys(job_id for job_id, _, _ in c.taken.values())),
-             "mismatched_seeds": sorted(c.mismatched)} for c in gathered.configurations]
+             "mismatched_seeds": sorted(c.mismatched), "non_finite_seeds": sorted(c.non_finite)}
+            for c in gathered.configurations]
 
 
 def sample_efficiency_answer(session: Session, *, job_ids: Sequence[int], points: int, repetitions: int,

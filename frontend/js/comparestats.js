@@ -144,11 +144,20 @@ export function pairRows(answer) {
   return answer.head_to_head.pairs.map((p) => ({ ...p, verdict: verdict(p) }));
 }
 
-/** "mgrao-max better", "no significant difference", "too few pairs": what the Holm-adjusted test says. */
+/**
+ * "mgrao-max better", "no significant difference", "too few pairs": what the Holm-adjusted signed-rank test
+ * says, on the side it leans to (`favours`: its ranks, not the mean difference's sign, which can disagree).
+ */
 export function verdict(p) {
   if (!p || !isFiniteNumber(p.p_holm)) return 'too few pairs';
-  if (p.p_holm >= 0.05) return 'no significant difference';
-  return `${p.difference > 0 ? p.x : p.y} better`;
+  if (p.p_holm >= 0.05 || !p.favours) return 'no significant difference';
+  return `${p.favours === 'x' ? p.x : p.y} better`;
+}
+
+/** The repetitions of a paper-ready table: 10,000, or the most the comparison allows where that is fewer. */
+export function tableRepetitions(answer, wanted = 10000) {
+  const most = answer && answer.protocol && answer.protocol.max_repetitions;
+  return isFiniteNumber(most) ? Math.max(1, Math.min(wanted, most)) : wanted;
 }
 
 /** CSV rows (header first) of the paired tests: numbers, units in the column names. */

@@ -10,7 +10,7 @@ import { fmtNumber } from './stats.js';
 import { tableCsvButton } from './chartcontrols.js';
 import {
   METRICS, fmtEstimate, aggregatedLabels, aggregateCsv, intervalTraces, intervalLayout, profileSeries,
-  efficiencySeries, improvementMatrix, differenceMatrix, pairRows, pairsCsv, anchorRows, significant,
+  efficiencySeries, improvementMatrix, differenceMatrix, pairRows, pairsCsv, anchorRows, significant, tableRepetitions,
 } from './comparestats.js';
 
 /** Repetitions of the downloads (a paper's table), as `mgrao compare` prints them. */
@@ -25,9 +25,10 @@ const DIVERGING = [[0, '#b2182b'], [0.5, '#f7f7f7'], [1, '#2166ac']];
 export function statisticsPanel(jobs, colourOf, { open = true, onToggle = () => {}, signal } = {}) {
   const ids = jobs.join(',');
   const body = h('div', { id: 'stats-body', 'aria-live': 'polite' }, h('p', { class: 'loading' }, 'Statistics load after the charts…'));
-  const links = h('p', { class: 'stats-downloads' }, 'Paper-ready tables (10,000 bootstrap repetitions): ',
-    download('LaTeX', 'latex', 'compare.tex'), ' · ', download('CSV (numbers)', 'csv', 'compare-statistics.csv'),
-    ' · ', download('JSON', 'json', 'compare-statistics.json'));
+  const linksNote = h('span', {}, 'Paper-ready tables (10,000 bootstrap repetitions): ');
+  const downloads = [download('LaTeX', 'latex', 'compare.tex'), download('CSV (numbers)', 'csv', 'compare-statistics.csv'),
+    download('JSON', 'json', 'compare-statistics.json')];
+  const links = h('p', { class: 'stats-downloads' }, linksNote, downloads[0], ' · ', downloads[1], ' · ', downloads[2]);
   const details = h('details', { id: 'stats-panel', open },
     h('summary', {}, h('h2', { id: 'h-stats', class: 'inline' }, 'Statistics across systems')),
     h('p', { class: 'help' }, 'A run’s score is its final utility as the share of the oracle’s gain over uniform on ' +
@@ -37,9 +38,9 @@ export function statisticsPanel(jobs, colourOf, { open = true, onToggle = () => 
   let started = null;
   let armed = false; // the view asked for the statistics (its charts are drawn): opening the panel asks too
 
-  function download(text, format, filename) {
-    return h('a', { href: url('/compare/statistics', { jobs: ids, reps: TABLE_REPETITIONS, format }), download: filename,
-      class: `stats-download stats-${format}`, onclick: downloadWithToken }, text);
+  function download(text, format, filename, reps = TABLE_REPETITIONS) {
+    return h('a', { href: url('/compare/statistics', { jobs: ids, reps, format }), download: filename,
+      class: `stats-download stats-${format}`, 'data-format': format, onclick: downloadWithToken }, text);
   }
 
   function load() {
@@ -58,6 +59,12 @@ export function statisticsPanel(jobs, colourOf, { open = true, onToggle = () => 
   details.addEventListener('toggle', () => { onToggle(details.open); if (details.open && armed) load(); });
 
   function render(answer) {
+    const reps = tableRepetitions(answer, TABLE_REPETITIONS);
+    for (const link of downloads) {
+      link.href = url('/compare/statistics', { jobs: ids, reps, format: link.dataset.format });
+    }
+    linksNote.textContent = `Paper-ready tables (${reps.toLocaleString('en')} bootstrap repetitions${reps < TABLE_REPETITIONS
+      ? ': the most this comparison allows' : ''}): `;
     const labels = aggregatedLabels(answer);
     const colours = Object.fromEntries(Object.values(answer.systems).flatMap((c) => Object.keys(c))
       .map((label) => [label, colourOf(label)]));

@@ -155,3 +155,28 @@ def test_worlds_that_share_a_system_are_named_by_what_differs(client: TestClient
     answer = client.get(f"/api/compare?jobs={short['id']},{longer['id']}").json()
     assert {g["world"] for g in answer["groups"]} == {"single (episodes=20)", "single (episodes=30)"}
     assert all(g["summary"]["n_paired"] == 3 for g in answer["groups"])
+
+
+def test_other_parameters_on_another_system_are_another_configuration(client: TestClient, worker: Worker) -> None:
+    single = submit(client, seeds=3, algorithms=["uniform", "mgrao-1:1"])
+    large = submit(client, system="large", seeds=3, algorithms=["uniform", "mgrao-1:1"], params={"learning_rate": 0.5})
+    assert drain(worker) == 2
+    groups = client.get(f"/api/compare?jobs={single['id']},{large['id']}").json()["groups"]
+    assert {(g["world"], g["label"]) for g in groups} == {
+        ("single", "uniform"), ("single", "mgrao-1:1 (learning_rate=0.1)"),
+        ("large", "uniform"), ("large", "mgrao-1:1 (learning_rate=0.5)")}  # never aggregated as one
+
+
+def test_a_run_whose_final_is_not_finite_is_left_out_and_named(client: TestClient, worker: Worker,
+                                                              db: Database) -> None:
+    job = submit(client, seeds=4, algorithms=["uniform", "mgrao-max"])
+    assert drain(worker) == 1
+    with db.session() as session, session.begin():  # a corrupted store: one run's episodes are NaN
+        session.execute(update(Run).where(Run.job_id == job["id"], Run.algorithm == "mgrao-max", Run.seed == 2)
+                        .values(utilities=np.full(EPISODES, np.nan).astype("<f8").tobytes()))
+    groups = groups_of(client, [job["id"]])
+    assert groups["mgrao-max"]["non_finite_seeds"] == [2]
+    summary = groups["mgrao-max"]["summary"]
+    assert summary["n_runs"] == 3 and summary["n_paired"] == 3 and summary["pct_from_uniform"] is not None
+    statistics = client.get(f"/api/compare/statistics?jobs={job['id']}&reps=50").json()
+    assert next(c for c in statistics["configurations"] if c["label"] == "mgrao-max")["non_finite_seeds"] == [2]

@@ -279,3 +279,65 @@ def test_reports_carry_numbers_and_the_protocol() -> None:
     tex = latex(answer)
     assert tex.count("\\begin{tabular}") == 2 and "\\caption{" in tex and "200 repetitions" in tex
     assert "mgrao-1:1" in table(answer) and "IQM" in table(answer)
+
+
+def test_the_iqm_of_counts_is_scipys_trimmed_mean_of_the_resamples() -> None:
+    from mgrao_core.bootstrap import counts_of, draws
+
+    rng = np.random.default_rng(9)
+    for _ in range(20):
+        runs, tasks = int(rng.integers(1, 30)), int(rng.integers(1, 5))
+        scores = np.round(rng.normal(size=(3, runs, tasks)), 1)  # three points of a curve, ties among them
+        indices = draws(rng, 6, runs, tasks)
+        resampled = np.moveaxis(scores[..., indices, np.arange(tasks)], 1, 0)  # (6, 3, runs, tasks)
+        np.testing.assert_allclose(metrics.aggregate_iqm_of_counts(scores, counts_of(indices)),
+                                   metrics.aggregate_iqm(resampled), atol=1e-12, rtol=0)
+
+
+def test_a_configuration_on_too_few_or_other_seeds_is_left_out_not_everyone() -> None:
+    worlds = _paper_like(runs=20)
+    elsewhere = {w.name: dict(w.finals) | {"elsewhere": {100 + s: f for s, f in w.finals["uniform"].items()}}
+                 for w in worlds}  # seeds the anchors lack: no scores at all
+    disjoint = [World(w.name, w.system, 100, dict(w.finals)
+                      | {"once": {3: 1.5} if w.name == "single" else dict(w.finals["uniform"]),  # 1 seed on single
+                         "late": {s: f for s, f in w.finals["mgrao-1:1"].items() if s >= 10},
+                         "early": {s: f for s, f in w.finals["mgrao-max"].items() if s < 10}}) for w in worlds]
+    answer = compare(disjoint, repetitions=100)
+    assert "fewer than 2 scored seeds on single" in answer["aggregated"]["excluded"]["once"]
+    # early (seeds 0-9) and late (10-19) share no seed: one goes (the later of two with as many seeds), not all
+    assert "shares fewer than 2" in answer["aggregated"]["excluded"]["early"]
+    assert "late" in answer["aggregate"] and answer["aggregated"]["n_seeds"] == 10
+    assert {"uniform", "mgrao-1:1", "mgrao-max", "oracle"} <= set(answer["aggregate"])
+    apart = compare([World(w.name, w.system, 100, elsewhere[w.name]) for w in worlds], repetitions=100)
+    assert "no scored runs" in apart["aggregated"]["excluded"]["elsewhere"] and apart["aggregated"]["n_seeds"] == 20
+
+
+def test_runs_whose_final_is_not_finite_take_no_part_and_are_named() -> None:
+    worlds = _paper_like(runs=12)
+    broken = dict(worlds[0].finals)
+    broken["mgrao-max"] = dict(broken["mgrao-max"]) | {4: float("nan"), 5: float("inf")}
+    answer = compare([World("single", "single", 100, broken), *worlds[1:]], repetitions=100)
+    assert answer["non_finite"] == {"single": {"mgrao-max": [4, 5]}}
+    assert answer["systems"]["single"]["mgrao-max"]["n_runs"] == 10
+    assert all(math.isfinite(v) for v in answer["performance_profiles"]["profiles"]["mgrao-max"]["share"])
+    assert all(math.isfinite(answer["aggregate"]["mgrao-max"][m]["estimate"]) for m in answer["aggregate"]["oracle"])
+    assert "seeds 4-5 left out" in table(answer)
+
+
+def test_the_paired_test_says_which_side_it_leans_to() -> None:
+    # one huge positive difference drags the mean up; the ranks lean the other way
+    x = {s: 0.0 for s in range(12)}
+    y = {s: 1.0 for s in range(11)} | {11: -100.0}
+    out = paired_difference(x, y)
+    assert out["difference"] > 0 and out["favours"] == "y"
+    assert paired_difference(y, x)["favours"] == "x"
+    assert paired_difference(x, x)["favours"] is None
+
+
+def test_reports_escape_and_survive_an_empty_comparison() -> None:
+    empty = compare([], repetitions=10)
+    assert "configuration" in table(empty) and csv_text(empty).count("\n") >= 1
+    answer = compare([World("a_b & c", "single", 10, {"uniform": {0: 1.0, 1: 1.1}, "my_learner>x": {0: 1.2, 1: 1.3}})],
+                     repetitions=10)
+    tex = latex(answer)
+    assert "a\\_b \\& c" in tex and "my\\_learner\\textgreater{}x" in tex

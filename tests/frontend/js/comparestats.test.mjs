@@ -2,7 +2,7 @@ import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import {
   METRICS, fmtEstimate, aggregatedLabels, aggregateCsv, intervalTraces, intervalLayout, profileSeries, efficiencySeries,
-  improvementMatrix, differenceMatrix, pairRows, pairsCsv, verdict, anchorRows,
+  improvementMatrix, differenceMatrix, pairRows, pairsCsv, verdict, anchorRows, tableRepetitions,
 } from '../../../frontend/js/comparestats.js';
 
 const e = (estimate, lo, hi) => ({ estimate, ci95: [lo, hi] });
@@ -20,9 +20,9 @@ const answer = {
     'mgrao-max>oracle': e(0.3, 0.2, 0.4), 'oracle>mgrao-max': e(0.7, 0.6, 0.8),
   },
   head_to_head: { tests: 3, pairs: [
-    { system: 'single', x: 'uniform', y: 'mgrao-max', n_paired: 10, difference: -25, ci95: [-28, -22], p_value: 0.001, p_holm: 0.003 },
-    { system: 'single', x: 'uniform', y: 'oracle', n_paired: 10, difference: -60, ci95: [-66, -55], p_value: 0.001, p_holm: 0.003 },
-    { system: 'single', x: 'mgrao-max', y: 'oracle', n_paired: 10, difference: -3, ci95: [-9, 3], p_value: 0.3, p_holm: 0.3 },
+    { system: 'single', x: 'uniform', y: 'mgrao-max', n_paired: 10, difference: -25, ci95: [-28, -22], p_value: 0.001, p_holm: 0.003, favours: 'y' },
+    { system: 'single', x: 'uniform', y: 'oracle', n_paired: 10, difference: -60, ci95: [-66, -55], p_value: 0.001, p_holm: 0.003, favours: 'y' },
+    { system: 'single', x: 'mgrao-max', y: 'oracle', n_paired: 10, difference: -3, ci95: [-9, 3], p_value: 0.3, p_holm: 0.3, favours: 'y' },
   ] },
 };
 
@@ -68,8 +68,12 @@ test('head to head: P(row > column) with a blank diagonal; paired differences an
   assert.deepEqual(differenceMatrix(answer, 'large').labels, []);
   assert.deepEqual(pairRows(answer).map((p) => p.verdict), ['mgrao-max better', 'oracle better', 'no significant difference']);
   assert.equal(verdict({ p_holm: null }), 'too few pairs');
+  // the side is the signed-rank test's, even where the mean difference (skewed by one seed) points the other way
+  assert.equal(verdict({ x: 'a', y: 'b', difference: 2, p_holm: 0.01, favours: 'y' }), 'b better');
   assert.deepEqual(pairsCsv(answer)[1], ['single', 'uniform', 'mgrao-max', 10, -25, -28, -22, 0.001, 0.003]);
   assert.deepEqual(anchorRows(answer).map((r) => r.system), ['single']);
+  assert.equal(tableRepetitions({ protocol: { max_repetitions: 4500 } }), 4500);
+  assert.equal(tableRepetitions({ protocol: { max_repetitions: 50000 } }), 10000);
 });
 
 test('fmtEstimate: a rounding residue is shown as the zero it is', () => {

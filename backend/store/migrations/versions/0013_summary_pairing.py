@@ -35,8 +35,9 @@ def upgrade() -> None:
     jobs = connection.execute(sa.select(summaries.c.job_id).distinct().order_by(summaries.c.job_id)).scalars().all()
     for job_id in jobs:
         finals: dict[str, dict[int, float]] = {}
-        for algorithm, seed, blob in connection.execute(
+        for algorithm, seed, blob in connection.execute(  # streamed, a few runs at a time
             sa.select(runs.c.algorithm, runs.c.seed, runs.c.utilities).where(runs.c.job_id == job_id)
+            .execution_options(yield_per=16)
         ):
             finals.setdefault(algorithm, {})[seed] = float(final_utilities(np.frombuffer(blob, dtype="<f8"))[0])
         for algorithm, s in summarise(finals).items():
