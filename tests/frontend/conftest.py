@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import subprocess
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -56,6 +57,35 @@ def page_at(browser, base: str, width: int = 1280, height: int = 800) -> Iterato
         yield page
     finally:
         context.close()
+
+
+SETTLE_READS = 3
+"""Consecutive equal reads (100 ms apart) that make a layout settled."""
+
+
+def settled_boxes(page, selectors: list[str], what: str, timeout: float = 30.0) -> dict[str, dict]:
+    """Each selector's box (the first match; page coordinates) once the layout has kept still.
+
+    plotly lays a chart out in passes (its margins grow to fit the legend and titles, a responsive chart follows
+    its element's size), and a drawn chart's mark can come before the last of them: a read of the boxes then
+    races the layout. This reads them every 100 ms until SETTLE_READS reads in a row agree, within ``timeout``
+    seconds (else the test fails, saying what it waited for and the last boxes).
+    """
+    deadline = time.monotonic() + timeout
+    previous, still = None, 0
+    while True:
+        boxes = page.evaluate("""(selectors) => Object.fromEntries(selectors.map((s) => {
+            const el = document.querySelector(s);
+            if (!el) return [s, null];
+            const r = el.getBoundingClientRect();
+            return [s, {x: r.x + window.scrollX, y: r.y + window.scrollY, width: r.width, height: r.height}]; }))""",
+                              selectors)
+        still = still + 1 if all(boxes.values()) and boxes == previous else 0
+        if still >= SETTLE_READS - 1:
+            return boxes
+        assert time.monotonic() < deadline, f"{what}: the layout did not settle within {timeout} s; last {boxes}"
+        previous = boxes
+        time.sleep(0.1)
 
 
 @pytest.fixture(scope="session")
