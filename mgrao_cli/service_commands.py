@@ -115,7 +115,10 @@ def serve(host: str | None, port: int | None, workers: int | None, database_url:
 
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
-    pool = WorkerPool(settings.workers, settings.database_url)
+    from backend.execution.handback import HandBack
+
+    hand_back = HandBack(settings)
+    pool = WorkerPool(settings.workers, settings.database_url, on_death=hand_back)
     port = sock.getsockname()[1]
     url_host = f"[{settings.host}]" if ":" in settings.host else settings.host
     click.echo(f"mgrao: http://{url_host}:{port}/ with {settings.workers} worker(s), "
@@ -124,6 +127,7 @@ def serve(host: str | None, port: int | None, workers: int | None, database_url:
         server.run(sockets=[sock])
     finally:
         pool.stop()
+        hand_back.close()
         if wake_dir is not None:
             shutil.rmtree(wake_dir, ignore_errors=True)
     click.echo("mgrao: stopped", err=True)

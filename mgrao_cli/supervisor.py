@@ -23,6 +23,7 @@ import sys
 import threading
 import time
 import traceback
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import click
@@ -128,9 +129,12 @@ class _Slot:
 class WorkerPool:
     """N local worker processes, each restarted when it dies; :meth:`stop` ends them all."""
 
-    def __init__(self, count: int, database_url: str, *, backoff: Backoff | None = None) -> None:
+    def __init__(self, count: int, database_url: str, *, backoff: Backoff | None = None,
+                 on_death: Callable[[int, str], list[int]] | None = None) -> None:
         self.env = worker_env(database_url, count)
         self.backoff = backoff or Backoff()
+        self.on_death = on_death
+        """Told each dead worker's pid and how it ended; gives back the jobs it held (their ids)."""
         self._stopping = threading.Event()
         self._lock = threading.Lock()
         self._slots = [_Slot() for _ in range(count)]
@@ -178,8 +182,17 @@ class WorkerPool:
         slot.quick_deaths = slot.quick_deaths + 1 if lived < self.backoff.stable_s else 1
         delay = self.backoff.delay(slot.quick_deaths)
         slot.process, slot.restart_at = None, now + delay
-        _say(f"worker {process.pid} {describe_exit(process.returncode)} after {lived:.1f} s; "
-             f"restarting it in {delay:g} s")
+        how = describe_exit(process.returncode)
+        _say(f"worker {process.pid} {how} after {lived:.1f} s; restarting it in {delay:g} s")
+        if self.on_death is None:
+            return
+        try:
+            handed = self.on_death(process.pid, how)
+        except Exception as error:  # the database is away: the jobs go back once their heartbeats are stale
+            _say(f"could not hand back worker {process.pid}'s jobs now ({error}); they go back when stale")
+            return
+        if handed:
+            _say(f"worker {process.pid}'s jobs {', '.join(map(str, handed))} handed back to the queue")
 
     def stop(self) -> None:
         """Stop every worker (each hands its running job back to the queue): SIGTERM, then SIGKILL."""

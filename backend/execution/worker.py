@@ -18,12 +18,12 @@ from __future__ import annotations
 
 import logging
 import os
-import socket
 import threading
 from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, TypeVar
 
 from backend import wakeup
+from backend.execution.handback import local_worker_id
 from backend.execution.heartbeats import Heartbeats
 from backend.execution.lifecycle import Ended, Lifecycle
 from backend.execution.lifeline import stop_on_signals
@@ -52,7 +52,7 @@ class Worker:
     def __init__(self, settings: Settings, *, worker_id: str | None = None, on_ended: Sequence[Ended] = ()) -> None:
         self.settings = settings
         self.db = Database(settings.database_url, settings.db_busy_timeout_s)
-        self.worker_id = worker_id or f"{socket.gethostname()}:{os.getpid()}"
+        self.worker_id = worker_id or local_worker_id(os.getpid())
         self.shutdown = threading.Event()
         self.wake: wakeup.Listener | None = None
         self.health = HealthClock()

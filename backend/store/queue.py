@@ -13,7 +13,7 @@ is a queued or a stale job to take.
 from __future__ import annotations
 
 import uuid
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -62,13 +62,29 @@ def requeue_stale(session: Session, *, stale_after_s: float, max_attempts: int) 
     Call it inside a write transaction. Each change is conditional on the lease seen, so a job
     that beat or finished meanwhile is left alone. Returns the ids it changed.
     """
-    stale = session.execute(
+    return _requeue(session, max_attempts, lambda worker_id: f"worker {worker_id} stopped sending heartbeats (none "
+                    f"for over {stale_after_s:g} s)", _stale(session, stale_after_s))
+
+
+def requeue_of_worker(session: Session, *, worker_id: str, how: str, max_attempts: int) -> list[int]:
+    """Re-queue the running jobs of a worker known to be gone (``how`` it ended); fail them after the last attempt.
+
+    What its supervisor calls the moment it sees the worker exit, instead of waiting for its heartbeats to go stale.
+
+    Call it inside a write transaction. Each change is conditional on the lease seen and the worker, so a job
+    finished meanwhile (or already re-queued and claimed by another) is left alone. Returns the ids it changed.
+    """
+    return _requeue(session, max_attempts, lambda _: f"worker {worker_id} {how}", Job.worker_id == worker_id)
+
+
+def _requeue(session: Session, max_attempts: int, reason_of: Callable[[str], str], condition: Any) -> list[int]:
+    held = session.execute(
         select(Job.id, Job.lease, Job.attempts, Job.worker_id)
-        .where(Job.status == RUNNING, Job.kind == SIMULATION, _stale(session, stale_after_s))
+        .where(Job.status == RUNNING, Job.kind == SIMULATION, condition)
     ).all()
     changed = []
-    for job_id, lease, attempts, worker_id in stale:
-        reason = f"worker {worker_id} stopped sending heartbeats (none for over {stale_after_s:g} s)"
+    for job_id, lease, attempts, worker_id in held:
+        reason = reason_of(worker_id)
         if attempts >= max_attempts:
             values: dict[str, Any] = {
                 "status": FAILED, "finished_at": utcnow(), "lease": None,
@@ -77,8 +93,7 @@ def requeue_stale(session: Session, *, stale_after_s: float, max_attempts: int) 
         else:
             values = {"status": QUEUED, "lease": None, "worker_id": None, "requeue_reason": reason}
         result = session.execute(
-            update(Job).where(Job.id == job_id, Job.lease == lease, Job.status == RUNNING,
-                              _stale(session, stale_after_s)).values(**values)
+            update(Job).where(Job.id == job_id, Job.lease == lease, Job.status == RUNNING, condition).values(**values)
         )
         if result.rowcount == 1:
             changed.append(job_id)

@@ -237,3 +237,43 @@ def test_serves_accepted_connections_without_nagle_delay() -> None:
             server.close()
 
     assert asyncio.run(nodelay_of_an_accepted_connection()) != 0
+
+
+def test_a_dead_workers_jobs_are_handed_back_at_once_and_each_stored_exactly_once(service: Service) -> None:
+    """Issue 30, point 14: serve's supervisor sees its worker die and re-queues what it held at once, long
+    before the heartbeats go stale (300 s here): a batch of small jobs and a job that runs alone."""
+    from sqlalchemy import bindparam, create_engine, text
+
+    service.env["MGRAO_STALE_AFTER_S"] = "300"
+    service.start_server(workers=1)
+    [worker] = workers_of(service, 1)
+    small = {"system": "single", "seeds": 2, "episodes": 400, "algorithms": ["uniform", "mgrao-max"]}
+    ids = [service.post("/api/jobs", json=small).json()["id"] for _ in range(12)]
+    alone = {"system": "large", "seeds": 40, "episodes": 2000, "algorithms": ["uniform", "mgrao-1:1", "mgrao-max"]}
+    ids.append(service.post("/api/jobs", json=alone).json()["id"])
+    engine = create_engine(service.db_url)
+
+    def held() -> list[int]:
+        with engine.connect() as connection:
+            return list(connection.execute(text("SELECT id FROM jobs WHERE status = 'running' AND worker_id = :w"),
+                                           {"w": f"{socket.gethostname()}:{worker}"}).scalars())
+
+    taken = service.wait_for(held, timeout=120, what=f"worker {worker} to hold jobs", step=0.02)
+    os.kill(worker, signal.SIGKILL)
+    killed_at = time.monotonic()
+    service.wait_for(lambda: f"worker {worker}'s jobs" in service.logs(), timeout=30,
+                     what="the supervisor to hand back the dead worker's jobs")
+    with engine.connect() as connection:
+        reasons = dict(connection.execute(text("SELECT id, requeue_reason FROM jobs WHERE id IN :ids")
+                                          .bindparams(bindparam("ids", expanding=True)), {"ids": taken}).all())
+    # each job it held goes back saying why (one it finished in the instant before it died has no reason)
+    assert set(reasons.values()) <= {f"worker {socket.gethostname()}:{worker} was killed by SIGKILL", None}, reasons
+    assert any(reasons.values()), reasons
+    service.wait_for(lambda: all(service.get(f"/api/jobs/{i}").json()["status"] == "succeeded" for i in ids),
+                     timeout=240, what="every job to succeed after the hand-back")
+    assert time.monotonic() - killed_at < 240  # not the 300 s of stale heartbeats
+    with engine.connect() as connection:
+        counts = dict(connection.execute(text("SELECT job_id, count(*) FROM runs GROUP BY job_id")).all())
+    engine.dispose()
+    assert counts == {i: (2 * 2 if i != ids[-1] else 40 * 3) for i in ids}  # every run stored, once
+
