@@ -47,3 +47,12 @@ def test_links_outside_the_docs_become_plain_text(tmp_path: Path):
     assert '<a href="one.html">one</a>' in render(docs, "two").body.decode()
     assert ">One</a>" in html  # the navigation names each page by its title, up to a colon
     assert page(docs, "three") is None and page(docs, "../one") is None
+
+
+def test_the_api_pages_schemathesis_command_is_a_code_block_of_its_own() -> None:
+    # the paragraph after it ("Times are ISO 8601 UTC strings") once ran into the command (issue 30, item 9)
+    html = render(ROOT / "docs", "api").body.decode()
+    block = html[html.index("schemathesis run"):]
+    block = block[: block.index("</code></pre>")]
+    assert "Times are" not in block and "HYPOTHESIS_STORAGE_DIRECTORY" in html
+    assert "<p>Times are ISO 8601 UTC strings." in html

@@ -13,6 +13,7 @@ without it, or with a wrong one, are refused.
 
 from __future__ import annotations
 
+import os
 import re
 import subprocess
 import sys
@@ -35,10 +36,12 @@ def test_schemathesis_finds_no_failure(service: Service) -> None:
     service.start_server()
     command = [sys.executable, "-m", "schemathesis.cli", "run", f"{service.base}/openapi.json", "--checks", "all",
                "--max-examples", str(EXAMPLES), "--seed", str(SEED), "--workers", "1", "--no-color",
-               "--generation-database", "none", "--request-timeout", "30",
-               *(["--header", f"Authorization: Bearer {TOKEN}"] if token else [])]
+               "--request-timeout", "30", *(["--header", f"Authorization: Bearer {TOKEN}"] if token else [])]
+    before = written_state()
+    storage = service.tmp_path / "hypothesis"  # Hypothesis's own Unicode tables go where this says
     try:
-        done = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=DEADLINE_S, check=False)
+        done = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=DEADLINE_S, check=False,
+                              env=dict(os.environ, HYPOTHESIS_STORAGE_DIRECTORY=str(storage)))
     except subprocess.TimeoutExpired as error:
         raise AssertionError(f"schemathesis did not finish within {DEADLINE_S} s:\n{error.stdout}") from None
     output = done.stdout + done.stderr
@@ -48,3 +51,13 @@ def test_schemathesis_finds_no_failure(service: Service) -> None:
     print(f"schemathesis ({service.db_url.split(':')[0]}, token {token}): {counted.group(0)}")
     assert done.returncode == 0 and "failure" not in counted.group(2), f"{counted.group(0)}\n{output[-20000:]}"
     assert int(counted.group(1)) > 0, output[-5000:]
+    # run from the repository root, it keeps nothing there (schemathesis.toml: no example database, no cache),
+    # and with Hypothesis's storage elsewhere nothing but its Unicode tables is kept there either
+    assert written_state() == before, f"schemathesis wrote into the checkout: {written_state() - before}"
+    assert {p.name for p in storage.iterdir()} <= {"unicode_data", ".gitignore"}, list(storage.rglob("*"))
+
+
+def written_state() -> set[str]:
+    """What Hypothesis or Schemathesis could have written under the repository root: their directories' files."""
+    return {str(p.relative_to(ROOT)) for name in (".hypothesis", ".schemathesis") if (ROOT / name).exists()
+            for p in (ROOT / name).rglob("*")}
