@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import unicodedata
 from dataclasses import dataclass
 from typing import Annotated, Any, Literal
 
@@ -61,6 +62,54 @@ def _refuse_nul(value: str) -> str:
     if has_nul(value):
         raise PydanticCustomError("value_error", NO_NUL_MESSAGE)
     return value
+
+
+CONTROLS = "\\x00-\\x1f\\x7f-\\x9f"
+"""Unicode's control characters (category Cc): C0, DEL and C1, terminal escapes among them."""
+CONTROL_NAMES = {0x00: "NUL", 0x07: "BEL", 0x08: "BS", 0x09: "TAB", 0x0A: "LF", 0x0C: "FF", 0x0D: "CR", 0x1B: "ESC",
+                 0x7F: "DEL"}
+"""The control characters an error names as well as numbers."""
+LINE_BREAKS = "\t\n\r"
+"""The control characters that notes (text of several lines) may hold."""
+
+
+@dataclass(frozen=True)
+class Printable:
+    """The rule for text a person names or describes something with: NFC, no control character.
+
+    "é" typed as one character (NFC) or as "e" and a combining accent (NFD) is one name, one tag: the text is
+    stored in NFC. A control character (a terminal escape, ESC [31m, or a tab in a tag) is refused with 422
+    naming the field and the character, alike on SQLite and PostgreSQL; ``multiline`` text (notes) keeps tabs
+    and line breaks. The OpenAPI document shows the rule as a pattern (:meth:`pattern`); a tag's also needs a
+    character that is not white space, as the server strips it first.
+    """
+
+    multiline: bool = False
+    needs_text: bool = False
+
+    def pattern(self) -> str:
+        """The JSON Schema pattern of the text this rule accepts."""
+        allowed = f"[^{CONTROLS}]" if not self.multiline else f"(?:[^{CONTROLS}]|[{LINE_BREAKS}])"
+        if self.needs_text:
+            return f"^{allowed}*[^\\s{CONTROLS}]{allowed}*$"
+        return f"^{allowed}*$"
+
+    def __get_pydantic_core_schema__(self, source: Any, handler: GetCoreSchemaHandler) -> core_schema.CoreSchema:
+        """The string's own schema, then the check and the normalisation."""
+        return core_schema.no_info_after_validator_function(self._check, handler(source))
+
+    def __get_pydantic_json_schema__(self, schema: core_schema.CoreSchema,
+                                     handler: GetJsonSchemaHandler) -> JsonSchemaValue:
+        """The string's JSON Schema with the pattern."""
+        return handler(schema) | {"pattern": self.pattern()}
+
+    def _check(self, value: str) -> str:
+        for i, ch in enumerate(value):
+            if unicodedata.category(ch) == "Cc" and not (self.multiline and ch in LINE_BREAKS):
+                named = f"{CONTROL_NAMES[ord(ch)]}, " if ord(ch) in CONTROL_NAMES else ""
+                raise PydanticCustomError("value_error", f"must not contain control characters ({named}"
+                                                         f"U+{ord(ch):04X}, at character {i + 1}): text only")
+        return unicodedata.normalize("NFC", value)
 
 
 def text_keys(schema: JsonSchemaValue) -> None:
@@ -130,7 +179,13 @@ def parameters_schema(schema: JsonSchemaValue) -> None:
 
 Text = Annotated[str, NoNul()]
 """Any text that comes in (a query parameter, a key or a string of a body)."""
-Tag = Annotated[str, StringConstraints(strip_whitespace=True, min_length=1, max_length=MAX_TAG), NoNul()]
+Tag = Annotated[str, StringConstraints(strip_whitespace=True, min_length=1, max_length=MAX_TAG),
+                Printable(needs_text=True)]
+"""A tag: NFC, no control character, stripped of white space and then not empty (the schema's pattern says so)."""
+Name = Annotated[str, StringConstraints(strip_whitespace=True, max_length=MAX_NAME), Printable()]
+"""A job's, study's or run's name, a saved system's description: one line of text, NFC, stripped."""
+Notes = Annotated[str, StringConstraints(max_length=MAX_NOTES), Printable(multiline=True)]
+"""Notes: text of several lines (tabs and line breaks kept), NFC."""
 Label = Annotated[str, StringConstraints(min_length=1, max_length=MAX_LABEL), NoNul()]
 ParamName = Annotated[str, StringConstraints(max_length=64), NoNul()]
 Seed = Annotated[StrictInt, Field(ge=0, le=MAX_SEED_VALUE)]
@@ -167,9 +222,9 @@ class JobCreate(BaseModel):
     seeds: SeedCount | SeedList = 30
     episodes: Annotated[StrictInt, Field(ge=1, le=MAX_EPISODES)] = 100
     params: Params = Field(default_factory=dict)
-    name: Annotated[str, StringConstraints(strip_whitespace=True, max_length=MAX_NAME), NoNul()] = ""
+    name: Name = ""
     tags: Annotated[list[Tag], Field(max_length=MAX_TAGS)] = Field(default_factory=list)
-    notes: Annotated[str, StringConstraints(max_length=MAX_NOTES), NoNul()] = ""
+    notes: Notes = ""
 
 
 MAX_BATCH_JOBS = 200
@@ -189,9 +244,9 @@ class JobPatch(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    name: Annotated[str, StringConstraints(strip_whitespace=True, max_length=MAX_NAME), NoNul()] | None = None
+    name: Name | None = None
     tags: Annotated[list[Tag], Field(max_length=MAX_TAGS)] | None = None
-    notes: Annotated[str, StringConstraints(max_length=MAX_NOTES), NoNul()] | None = None
+    notes: Notes | None = None
 
 
 class JobOut(BaseModel):
@@ -317,7 +372,7 @@ class StudyCreate(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    name: Annotated[str, StringConstraints(max_length=MAX_NAME), NoNul()] = ""
+    name: Name = ""
     method: Literal[search.METHODS] = "grid"  # type: ignore[valid-type]
     base: StudyBase
     space: Annotated[dict[SpaceName, StudyDimension],
@@ -354,9 +409,9 @@ class ExternalRunCreate(BaseModel):
     episodes: Annotated[StrictInt, Field(ge=1, le=MAX_EPISODES)]
     key: ClientKey | SkipJsonSchema[None] = Field(None, description="Opening again with the same key and definition "
                                                                     "answers the same run (200): resume after a crash.")
-    name: Annotated[str, StringConstraints(strip_whitespace=True, max_length=MAX_NAME), NoNul()] = ""
+    name: Name = ""
     tags: Annotated[list[Tag], Field(max_length=MAX_TAGS)] = Field(default_factory=list)
-    notes: Annotated[str, StringConstraints(max_length=MAX_NOTES), NoNul()] = ""
+    notes: Notes = ""
 
 
 class UtilityPiece(BaseModel):
@@ -402,7 +457,7 @@ class SavedSystemIn(BaseModel):
 
     name: SavedName = Field(description="1-32 characters: a lowercase letter, then lowercase letters, digits or "
                                         "'-'; no preset's name.")
-    description: Annotated[str, StringConstraints(strip_whitespace=True, max_length=MAX_NAME), NoNul()] = ""
+    description: Name = ""
     base: Preset
     params: Params = Field(default_factory=dict)
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import unicodedata
 from collections.abc import Iterator
 from typing import Annotated, Literal
 
@@ -113,6 +114,8 @@ async def list_jobs(
         raise BadQuery("config_hash", f"must be 64 lowercase hexadecimal digits (a job's config_hash, e.g. a "
                                       f"system's paper_config_hash in GET /api/systems), got {len(config_hash)} "
                                       "characters" + ("" if len(config_hash) != 64 else " that are not all 0-9a-f"))
+    # names and tags are stored in NFC (schemas.Printable): a tag or text typed in NFD finds them too
+    tag, q = (None if v is None else unicodedata.normalize("NFC", v) for v in (tag, q))
     listing = {"status": status, "system": system, "tag": tag, "q": q, "sort": sort, "limit": limit, "cursor": cursor,
                "config_hash": config_hash, "kind": kind}
 
