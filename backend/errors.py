@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import re
-from collections.abc import Collection
+from collections.abc import Collection, Sequence
 
 from mgrao_core import ConfigError
 from mgrao_core.params import PARAMETERS_BY_NAME
@@ -27,15 +27,31 @@ class BadQuery(Exception):
 
 
 class InvalidSpec(Exception):
-    """The core refused the submitted configuration (422, in docs/api.md's validation shape)."""
+    """The core refused the submitted configuration (422, in docs/api.md's validation shape).
 
-    def __init__(self, loc: list[str | int], field: str, msg: str) -> None:
+    ``others`` are the other fields it refused at once (a ``ConfigErrors``): every one is answered.
+    """
+
+    def __init__(self, loc: list[str | int], field: str, msg: str, others: Sequence[InvalidSpec] = ()) -> None:
         super().__init__(msg)
-        self.loc, self.field, self.msg = loc, field, msg
+        self.loc, self.field, self.msg, self.others = loc, field, msg, tuple(others)
+
+    @property
+    def every(self) -> tuple[InvalidSpec, ...]:
+        """This refusal and the others."""
+        return (self, *self.others)
 
     @classmethod
     def from_config_error(cls, error: ConfigError, *, params: Collection[str] = ()) -> InvalidSpec:
-        """Locate a core :class:`ConfigError` in the request body (``params`` are the override names)."""
+        """Locate a core :class:`ConfigError` in the request body (``params``: the override names), each of several."""
+        errors = getattr(error, "errors", None)
+        if errors:
+            first, *rest = (cls._located(e, params) for e in errors)
+            return cls(first.loc, first.field, first.msg, rest)
+        return cls._located(error, params)
+
+    @classmethod
+    def _located(cls, error: ConfigError, params: Collection[str]) -> InvalidSpec:
         base, *path = re.findall(r"^\w+|\[\d+\]|\.\w+", error.field) or [error.field]
         steps: list[str | int] = [int(p[1:-1]) if p.startswith("[") else p[1:] for p in path]
         match = re.fullmatch(r"(\w+)\[(\d+)\]", error.field)

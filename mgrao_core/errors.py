@@ -21,6 +21,25 @@ class ConfigError(MgraoError, ValueError):
         self.message = message
 
 
+class ConfigErrors(ConfigError):
+    """Several fields refused at once: every one of them in :attr:`errors`, in the order of the fields.
+
+    Its own ``field`` and ``message`` are the first error's, so that a caller that reads one error reads that.
+    """
+
+    def __init__(self, errors: list[ConfigError]) -> None:
+        super().__init__(errors[0].field, errors[0].message)
+        self.errors = tuple(e for error in errors for e in getattr(error, "errors", (error,)))
+
+
+def raise_all(errors: list[ConfigError]) -> None:
+    """Raise nothing for no error, the error itself for one, :class:`ConfigErrors` for several."""
+    if len(errors) == 1:
+        raise errors[0]
+    if errors:
+        raise ConfigErrors(errors)
+
+
 class WorkLimitError(ConfigError):
     """The request would exceed a documented work or memory limit."""
 

@@ -15,7 +15,7 @@ from typing import Any
 
 from mgrao_core import quality
 from mgrao_core.algorithms import FAMILIES
-from mgrao_core.errors import ConfigError
+from mgrao_core.errors import ConfigError, raise_all
 from mgrao_core.parameter import Parameter, Record
 
 QUALITY_MODELS = tuple(quality.QUALITY_MODELS)
@@ -434,15 +434,21 @@ def make_params(overrides: Mapping[str, Any] | None = None, base: SystemParams |
         ConfigError: an unknown name, a wrong type, a value outside its limits (a list's item or an event's
             field named as ``composite_periods[3]`` or ``schedule[2].fraction``), ``types_per_composite``
             larger than ``n_types``, or ``composite_periods`` not one per composite type under
-            ``frequency_profile="explicit"``.
+            ``frequency_profile="explicit"``. Every parameter refused by its own rule is named at once
+            (:class:`~mgrao_core.errors.ConfigErrors`); the rules between parameters are checked when each is valid.
     """
     base = base or SystemParams()
     values = {f.name: getattr(base, f.name) for f in dataclasses.fields(base)}
+    errors: list[ConfigError] = []
     for name, value in (overrides or {}).items():
         param = PARAMETERS_BY_NAME.get(name)
-        if param is None:
-            raise ConfigError(name, "unknown parameter (see the parameter schema for valid names)")
-        values[name] = _coerce(param, value)
+        try:
+            if param is None:
+                raise ConfigError(name, "unknown parameter (see the parameter schema for valid names)")
+            values[name] = _coerce(param, value)
+        except ConfigError as error:
+            errors.append(error)
+    raise_all(errors)
     if values["types_per_composite"] > values["n_types"]:
         raise ConfigError(
             "types_per_composite",

@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 from mgrao_core.algorithms import Algorithm, parse_algorithms
 from mgrao_core.budget import MAX_CHUNK_BYTES, MAX_RESULT_BYTES, chunk_cost, result_bytes
-from mgrao_core.errors import ConfigError, WorkLimitError
+from mgrao_core.errors import ConfigError, WorkLimitError, raise_all
 from mgrao_core.params import SystemParams, complete_params, make_params
 from mgrao_core.presets import get_preset
 
@@ -79,6 +79,8 @@ class ExperimentSpec:
         }
 
 
+T = TypeVar("T")
+
 def _count(field: str, value: Any, maximum: int) -> int:
     if isinstance(value, bool) or not isinstance(value, int):
         raise ConfigError(field, f"must be a whole number (got {value!r})")
@@ -122,17 +124,37 @@ def make_spec(
             (see :mod:`mgrao_core.budget`).
 
     Raises:
-        ConfigError: a field is invalid; the message names the field and the limit.
+        ConfigError: a field is invalid; the message names the field and the limit. Every field refused by its
+            own rule is named at once (:class:`~mgrao_core.errors.ConfigErrors`, parameters, algorithms, seeds
+            and episodes); the limits on their product are checked once each is valid.
         WorkLimitError: the experiment exceeds :data:`MAX_WORK`, :data:`MAX_GROUP_UPDATES`,
             :data:`mgrao_core.budget.MAX_RESULT_BYTES` or, for a single seed, ``memory_budget``.
     """
     preset = get_preset(system)
-    params = make_params(overrides, base=preset.params)
+    errors: list[ConfigError] = []
+
+    def checked(check: Callable[[], T]) -> T | None:
+        try:
+            return check()
+        except ConfigError as error:
+            errors.append(error)
+            return None
+
+    params = checked(lambda: make_params(overrides, base=preset.params))
+    refused = {e.field for error in errors for e in getattr(error, "errors", (error,))}
     given = tuple(preset.algorithms if algorithms is None else algorithms)
+    # an x of mgrao-x:1 is checked against the parents given, or the preset's where other parameters are refused;
+    # against the grammar alone where the count of parents is
+    parents = None if "n_parents" in refused else (params or preset.params).n_parents
+    labels = None
     if len(given) > MAX_ALGORITHMS:
-        raise ConfigError("algorithms", f"at most {MAX_ALGORITHMS} algorithms (got {len(given)})")
-    labels = tuple(a.label for a in parse_algorithms(given, params.n_parents))
-    spec = ExperimentSpec(system, params, labels, _seeds(seeds), _count("episodes", episodes, MAX_EPISODES))
+        errors.append(ConfigError("algorithms", f"at most {MAX_ALGORITHMS} algorithms (got {len(given)})"))
+    else:
+        labels = checked(lambda: tuple(a.label for a in parse_algorithms(given, parents)))
+    checked_seeds = checked(lambda: _seeds(seeds))
+    checked_episodes = checked(lambda: _count("episodes", episodes, MAX_EPISODES))
+    raise_all(errors)  # every field refused by its own rule, before any limit on their product
+    spec = ExperimentSpec(system, params, labels, checked_seeds, checked_episodes)
     if spec.work > MAX_WORK:
         raise WorkLimitError(
             "work",

@@ -40,12 +40,14 @@ __all__ = ["create_app", "frontend_dir", "plotly_js"]
 def _install_error_handlers(app: FastAPI) -> None:
     @app.exception_handler(InvalidSpec)
     async def invalid_spec(_request: Request, error: InvalidSpec) -> JSONResponse:
-        return JSONResponse({"detail": [validation_detail(error.loc, error.field, error.msg)]}, status_code=422)
+        return JSONResponse({"detail": [validation_detail(e.loc, e.field, e.msg) for e in error.every]},
+                            status_code=422)
 
     @app.exception_handler(ConfigError)
     async def config_error(_request: Request, error: ConfigError) -> JSONResponse:
-        detail = validation_detail(["body", error.field], error.field, str(error))
-        return JSONResponse({"detail": [detail]}, status_code=422)
+        every = getattr(error, "errors", (error,))
+        return JSONResponse({"detail": [validation_detail(["body", e.field], e.field, str(e)) for e in every]},
+                            status_code=422)
 
     @app.exception_handler(RequestValidationError)
     async def validation_error(_request: Request, error: RequestValidationError) -> JSONResponse:

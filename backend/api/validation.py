@@ -1,12 +1,78 @@
 """The detail of a refused request: docs/api.md's ``{"loc", "field", "msg", "type"}``, one per field.
 
-The app answers 422 with it, and ``POST /api/jobs/check`` returns the very detail a submission would get.
+The app answers 422 with it, and ``POST /api/jobs/check`` returns the very detail a submission would get. The
+schema's refusals are said in the product's words (:func:`in_our_words`: "must have at least 1 item", "must
+start with a lowercase letter, ..."), not the validation library's.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from typing import Any
+
+PATTERN_WORDS: dict[str, str] = {
+    "^[a-z][a-z0-9-]{0,31}$": "must be 1-32 characters: a lowercase letter, then lowercase letters, digits or '-'",
+    "^[a-z][a-z0-9._-]{0,31}$": "must be 1-32 characters: a lowercase letter, then lowercase letters, digits, '.', "
+                                "'_' or '-'",
+    "^[A-Za-z0-9._:-]{1,64}$": "must be 1-64 characters: letters, digits, '.', '_', ':' or '-'",
+    "^[0-9a-f]*$": "must be lowercase hexadecimal digits (a token the server gave)",
+}
+"""What each pattern of the API's schema asks for, in words (the saved systems' names, runs' labels, keys)."""
+
+
+def _got(value: Any) -> str:
+    if isinstance(value, str) and re.fullmatch(r"-?[0-9]+(\.[0-9]+)?", value):  # a query parameter's number
+        return f" (got {value})"
+    if isinstance(value, str):
+        return f" (got {value[:40]!r}{'...' if len(value) > 40 else ''})"
+    if isinstance(value, bool) or value is None:
+        return f" (got {'true' if value is True else 'false' if value is False else 'null'})"
+    if isinstance(value, int | float):
+        return f" (got {value:g})" if isinstance(value, float) else f" (got {value})"
+    return f" (got {type(value).__name__})"
+
+
+def in_our_words(item: dict[str, Any]) -> str:
+    """A validation error's message in the product's words (the library's where there are none)."""
+    kind, ctx, value = item.get("type", ""), item.get("ctx") or {}, item.get("input")
+    plural = "s" if ctx.get("min_length", ctx.get("max_length")) != 1 else ""
+    count = f" (got {ctx['actual_length']})" if ctx.get("actual_length") is not None else ""
+    words = {
+        "greater_than_equal": lambda: f"must be at least {ctx.get('ge')}{_got(value)}",
+        "greater_than": lambda: f"must be more than {ctx.get('gt')}{_got(value)}",
+        "less_than_equal": lambda: f"must be at most {ctx.get('le')}{_got(value)}",
+        "less_than": lambda: f"must be less than {ctx.get('lt')}{_got(value)}",
+        "int_type": lambda: f"must be a whole number{_got(value)}",
+        "int_parsing": lambda: f"must be a whole number{_got(value)}",
+        "int_from_float": lambda: f"must be a whole number{_got(value)}",
+        "float_type": lambda: f"must be a number{_got(value)}",
+        "float_parsing": lambda: f"must be a number{_got(value)}",
+        "finite_number": lambda: "must be a finite number",
+        "bool_type": lambda: f"must be true or false{_got(value)}",
+        "bool_parsing": lambda: f"must be true or false{_got(value)}",
+        "string_type": lambda: f"must be text{_got(value)}",
+        "list_type": lambda: f"must be a list{_got(value)}",
+        "dict_type": lambda: f"must be an object{_got(value)}",
+        "model_type": lambda: f"must be an object{_got(value)}",
+        "model_attributes_type": lambda: f"must be an object{_got(value)}",
+        "too_short": lambda: f"must have at least {ctx.get('min_length')} item{plural}{count}",
+        "too_long": lambda: f"must have at most {ctx.get('max_length')} item{plural}{count}",
+        "string_too_short": lambda: ("must not be empty" if ctx.get("min_length") == 1
+                                     else f"must be at least {ctx.get('min_length')} characters"),
+        "string_too_long": lambda: f"must be at most {ctx.get('max_length')} characters"
+                                   + (f" (got {len(value)})" if isinstance(value, str) else ""),
+        "string_pattern_mismatch": lambda: PATTERN_WORDS.get(str(ctx.get("pattern")),
+                                                             f"must match the pattern {ctx.get('pattern')}"),
+        "missing": lambda: "is required",
+        "extra_forbidden": lambda: "is not a field of this body",
+        "literal_error": lambda: f"must be one of {ctx.get('expected')}{_got(value)}",
+        "enum": lambda: f"must be one of {ctx.get('expected')}{_got(value)}",
+        "json_invalid": lambda: "is not valid JSON",
+        "url_parsing": lambda: "must be a URL",
+    }
+    say = words.get(kind)
+    return say() if say else str(item.get("msg", "invalid"))
 
 
 def validation_detail(loc: list[str | int], field: str, msg: str) -> dict[str, Any]:
@@ -50,7 +116,7 @@ def validation_details(errors: Sequence[Any], body: Any = None) -> list[dict[str
             field = str(raw[1]) if index is None else f"{raw[1]}[{index}]"
         key = tuple(loc if nested else loc[:3] if len(raw) > 1 and raw[1] == "params" else loc[:2])
         kind = str(item.get("type", "value_error"))
-        entry = {"loc": loc, "field": field, "msg": f"{field}: {item.get('msg', 'invalid')}", "type": kind}
+        entry = {"loc": loc, "field": field, "msg": f"{field}: {in_our_words(item)}", "type": kind}
         if key not in best or _rank(kind) > _rank(best[key]["type"]):
             best[key] = entry
     return list(best.values())

@@ -89,12 +89,13 @@ def create_saved(session: Session, *, name: str, description: str, base: str, pa
     saved = SavedSystem(name=check_name(name), description=description, base=base,
                         params=checked_params(base, params), created_at=utcnow(), updated_at=utcnow())
     if session.scalar(select(SavedSystem.id).where(SavedSystem.name == name)) is not None:
-        raise Conflict(f"a saved system is already called {name!r}: PUT /api/systems/saved/{name} replaces it")
+        raise Conflict(f"a saved system is already called {name!r}: give this one another name, or replace that one")
     session.add(saved)
     try:
         session.flush()
     except IntegrityError:  # saved at the same moment by another request
-        raise Conflict(f"a saved system is already called {name!r}") from None
+        raise Conflict(f"a saved system is already called {name!r}: give this one another name, or replace that "
+                       "one") from None
     return saved
 
 

@@ -97,13 +97,9 @@ export async function mount(root, params, ctx) {
       showErrors({ detail: [{ field: 'algorithms', msg: `not a value: ${experiment.invalidArguments.join(', ')} (type whole numbers like 2, 5)` }] });
       return;
     }
-    const budget = fields.updateBudget();
-    if (budget && budget.over) { // said here, as the server would (a 422 naming `work`), without sending it
-      showErrors({ lead: `The experiment is over the work limit of ${budget.max.toLocaleString('en-US')} atomic tasks ` +
-        'per experiment and was not sent; see the marked fields.',
-      detail: [{ field: 'work', msg: 'Not sent: over the work limit.' }] });
-      return;
-    }
+    fields.updateBudget();
+    // The server's check says every refused field at once, each field's own rule before the work limit on their
+    // product (seeds of 1e9: "at most 1000", not "over the work limit" with every factor marked).
     const body = {
       ...experiment,
       ...(clonedSeeds ? { seeds: clonedSeeds } : {}),

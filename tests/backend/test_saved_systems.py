@@ -55,7 +55,7 @@ def test_save_read_list_replace_delete(client: TestClient) -> None:
 
 @pytest.mark.parametrize(("change", "field", "text"), [
     ({"name": "single"}, "name", "a preset's name"),
-    ({"name": "Rush Hour"}, "name", "pattern"),
+    ({"name": "Rush Hour"}, "name", "a lowercase letter, then lowercase letters, digits or"),
     ({"base": "rush"}, "base", "single"),
     ({"params": {"n_parents": 0}}, "n_parents", "must be in [1, 3000]"),
     ({"params": {"example_schedule": [{"episode": 1, "fraction": 7}]}}, "example_schedule[0].fraction", "[0, 1]"),

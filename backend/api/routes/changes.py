@@ -19,13 +19,13 @@ from sqlalchemy.orm import Session
 from backend.api.deps import DatabaseDep, SessionDep, SettingsDep
 from backend.api.responses import JobChanges, JobCheck, JobStatus, answers
 from backend.api.schemas import JobCreate
-from backend.api.validation import validation_details
+from backend.api.validation import validation_detail, validation_details
 from backend.errors import InvalidSpec
 from backend.execution import presence
 from backend.services import saved_systems
 from backend.store import crud
 from backend.store.models import MAX_JOB_ID, OPEN, QUEUED, RUNNING, Job, Run
-from mgrao_core import MAX_WORK, ConfigError, make_spec
+from mgrao_core import MAX_WORK, ConfigError, WorkLimitError, make_spec
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 
@@ -96,24 +96,39 @@ def job_status(job_id: Annotated[int, Path(ge=1, le=MAX_JOB_ID, description="A j
 def check_job(body: Annotated[dict[str, Any], Body()], settings: SettingsDep, db: DatabaseDep) -> dict:
     """Validate a ``POST /api/jobs`` body without queuing it; 200 either way.
 
-    ``{"valid": true, "work", "max_work"}``, or ``{"valid": false, "detail": [...]}`` with the very
-    ``detail`` the submission would be refused with (422, docs/api.md's validation shape).
+    ``{"valid": true, "work", "max_work"}``, or ``{"valid": false, "detail": [...]}`` with every refused field at
+    once (docs/api.md's validation shape): the schema's refusals, and the core's of the fields the schema took
+    (each field's own rule; the work limit on their product only when every field is right).
     """
     try:
         job = JobCreate.model_validate(body)
     except ValidationError as error:
         raw = [{**item, "loc": ("body", *item["loc"])} for item in error.errors()]
-        return {"valid": False, "detail": validation_details(raw)}
+        refused = {item["loc"][0] for item in error.errors() if item["loc"]}
+        return {"valid": False, "detail": validation_details(raw) + _core_refusals(body, refused, settings, db)}
     try:
         with db.session() as session:  # a saved system as POST /api/jobs reads it
             system, overrides, _ = saved_systems.resolve(session, job.system, job.params)
         spec = make_spec(system, job.algorithms, job.seeds, job.episodes, overrides,
                          memory_budget=settings.job_memory_bytes)
-    except InvalidSpec as refused:
-        return {"valid": False, "detail": [{"loc": refused.loc, "field": refused.field, "msg": refused.msg,
-                                            "type": "value_error"}]}
     except ConfigError as error:
         refused = InvalidSpec.from_config_error(error, params=job.params)
-        return {"valid": False, "detail": [{"loc": refused.loc, "field": refused.field, "msg": refused.msg,
-                                            "type": "value_error"}]}
+        return {"valid": False, "detail": [validation_detail(e.loc, e.field, e.msg) for e in refused.every]}
+    except InvalidSpec as refused:
+        return {"valid": False, "detail": [validation_detail(e.loc, e.field, e.msg) for e in refused.every]}
     return {"valid": True, "work": spec.work, "max_work": MAX_WORK}
+
+
+def _core_refusals(body: dict[str, Any], refused: set[Any], settings: Any, db: Any) -> list[dict[str, Any]]:
+    """The core's refusals of the fields of ``body`` the schema took (those it ``refused`` left at their defaults)."""
+    try:
+        job = JobCreate.model_validate({k: v for k, v in body.items() if k not in refused})
+        with db.session() as session:
+            system, overrides, _ = saved_systems.resolve(session, job.system, job.params)
+        make_spec(system, job.algorithms, job.seeds, job.episodes, overrides, memory_budget=settings.job_memory_bytes)
+    except (ValidationError, InvalidSpec, WorkLimitError):  # nothing more to say of the fields taken
+        return []
+    except ConfigError as error:
+        return [validation_detail(e.loc, e.field, e.msg)
+                for e in InvalidSpec.from_config_error(error, params=job.params).every if e.field not in refused]
+    return []

@@ -1,0 +1,36 @@
+"""A newcomer's first ten minutes, round 3 (issue 30): what the forms say, in the product's words."""
+
+from __future__ import annotations
+
+from tests.frontend.conftest import page_at
+from tests.frontend.test_newcomer_round2 import console_errors
+
+
+def test_the_new_experiment_form_marks_every_refused_field_at_once_each_by_its_own_rule(browser, server, screenshots):
+    with page_at(browser, server) as page:
+        errors = console_errors(page)
+        page.goto("/#/new")
+        page.get_by_label("System preset").select_option("single")
+        page.get_by_label("Seeds (number of runs)").fill("1e9")
+        page.get_by_label("Episodes per run").fill("2.5")
+        page.locator("details.advanced > summary").click()
+        for name, value in (("learning_rate", "5"), ("n_types", "100000"), ("resource_mean", "-1")):
+            page.locator(f"[data-field='params.{name}']").fill(value)
+        page.get_by_role("button", name="Run experiment").click()
+        summary = page.locator(".error-summary:not(.own-system > .error-summary)")
+        summary.get_by_text("see the marked fields").wait_for(timeout=10000)
+        text = " | ".join(page.locator(".field-error").all_inner_texts())  # each message beside its field
+        # each field's own rule, every one at once; nothing "over the work limit" while a field is wrong
+        for said in ("seeds: must be at most 1000", "episodes: must be a whole number (got 2.5)",
+                     "learning_rate: must be in [0, 1] (got 5)", "n_types: must be in [2, 200] (got 100000)",
+                     "resource_mean: must be in [0.001, 1] (got -1)"):
+            assert said in text, text
+        assert "work limit" not in text
+        invalid = page.locator("[aria-invalid='true']").evaluate_all(
+            "els => els.map(e => e.dataset.field || e.name)")
+        assert {"seeds", "episodes", "params.learning_rate", "params.n_types", "params.resource_mean"} <= set(invalid)
+        assert page.locator("fieldset.algos.invalid").count() == 0  # the configurations are fine
+        assert "Input should" not in text and "List should" not in text  # no validation library's wording
+        assert "work limit" not in summary.inner_text()
+        page.screenshot(path=str(screenshots / "new-experiment-every-error.png"), full_page=True)
+        assert errors == [], errors
