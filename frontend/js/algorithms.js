@@ -115,15 +115,16 @@ export function colourKey(label) {
 }
 
 /**
- * The families for a system (`null`: the grammar alone), its parent count overridden by `nParents`
- * when given: GET /api/algorithms?system=...&n_parents=..., asked once per pair.
+ * The families for a system, a preset or a saved system (`null`: the grammar alone), with a form's `overrides`
+ * of its parameters on top: GET /api/algorithms?system=...&params={...}, asked once per pair.
  */
-export function families(system = null, nParents = null) {
-  const key = `${system || ''}|${nParents ?? ''}`;
+export function families(system = null, overrides = null) {
+  const changed = overrides && Object.keys(overrides).length ? JSON.stringify(overrides) : '';
+  const key = `${system || ''}|${changed}`;
   if (!registries.has(key)) {
     const query = new URLSearchParams();
     if (system) query.set('system', system);
-    if (system && nParents !== null && nParents !== undefined) query.set('n_parents', String(nParents));
+    if (system && changed) query.set('params', changed);
     const qs = query.toString();
     registries.set(key, request('GET', `/algorithms${qs ? `?${qs}` : ''}`).then((answer) => answer.data)
       .catch((e) => { registries.delete(key); throw e; }));

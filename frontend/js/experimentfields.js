@@ -2,7 +2,7 @@
 // built from GET /api/systems, shared by the new-experiment and new-study forms. The server
 // validates; its 422 messages are shown beside the inputs named by each error's field path.
 
-import { h, nextId } from './ui.js';
+import { h, nextId, debounce } from './ui.js';
 import { fieldErrors, changedParams, workBudget, workText } from './stats.js';
 import { fmtParam } from './studydata.js';
 import { argumentForms, argumentOf, argumentProblem, families, fmtBytes, labelFor, literalLabels, memoryPerChild, readArguments, ready, sortLabels } from './algorithms.js';
@@ -234,12 +234,17 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
   const validListeners = [];
   let systemFams = fams; // the registry for the chosen system and parent count (the grammar's until it comes)
   let asked = 0;
-  function parentsOverride() {
-    const entry = paramInputs.get('n_parents');
-    const n = entry && entry.input.value !== '' ? Number(entry.input.value) : NaN;
-    const p = entry && entry.p;
-    if (!p || !Number.isInteger(n) || n < p.minimum || n > p.maximum || n === preset().params.n_parents) return null;
-    return n;
+  /** The form's values of the parameters that differ from the chosen system's, each within its own limits. */
+  function validOverrides() {
+    const out = {};
+    for (const [name, value] of Object.entries(readParams())) {
+      const p = paramInputs.get(name)?.p;
+      const number = (p?.kind === 'int' || p?.kind === 'float') && value !== null;
+      if (number && (!Number.isFinite(Number(value)) || Number(value) < p.minimum || Number(value) > p.maximum
+        || (p.kind === 'int' && !Number.isInteger(Number(value))))) continue; // its own error says so on submit
+      out[name] = value;
+    }
+    return out;
   }
   /** The form of `template` as the registry gives it for the chosen system (its valid values). */
   function currentForm(template) {
@@ -268,7 +273,7 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
   async function refreshValid() {
     const mine = ++asked;
     try {
-      const got = await families(preset().name, parentsOverride());
+      const got = await families(preset().name, validOverrides()); // a saved system's, with the form's changes
       if (mine !== asked) return;
       systemFams = got;
     } catch { /* unreachable: the server checks the values on submit */ }
@@ -276,7 +281,11 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
     for (const listener of validListeners) listener();
   }
   for (const f of argumentFields) f.input.addEventListener('input', refreshArgumentChecks);
-  paramInputs.get('n_parents')?.input.addEventListener('input', refreshValid);
+  const refreshSoon = debounce(refreshValid, 150); // the valid x and the memory follow every parameter
+  for (const { input } of paramInputs.values()) {
+    input.addEventListener('input', refreshSoon);
+    input.addEventListener('change', refreshSoon);
+  }
 
   // --- letters in a number field: say the range at once (the browser reads them as empty) ---
   const numberRanges = [[seedsIn, `a whole number from 1 to ${schema.limits.max_seeds}`],

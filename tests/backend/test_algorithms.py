@@ -74,3 +74,34 @@ def test_systems_algorithms_come_from_the_registry(client: TestClient) -> None:
     assert algorithms["pattern"] == "mgrao-<x>:1, mgrao-adaptive:<x>"
     assert (algorithms["baseline"], algorithms["reference"], algorithms["best_fixed"]) == (
         "uniform", "mgrao-max", "oracle")
+
+
+def test_the_registry_answers_for_saved_systems_and_a_systems_overrides(client) -> None:
+    """Issue 30, point 3: a saved system based on large with n_parents=30 got large's valid x (1, 2, 5, 10, ...)."""
+    import json
+
+    assert client.post("/api/systems/saved", json={"name": "walk-p30", "base": "large",
+                                                  "params": {"n_parents": 30}}).status_code == 201
+    assert client.post("/api/systems/saved", json={"name": "two-resources", "base": "single",
+                                                  "params": {"n_resources": 2}}).status_code == 201
+
+    def mgrao(query: str) -> dict:
+        answer = client.get(f"/api/algorithms?{query}")
+        assert answer.status_code == 200, answer.text
+        return next(f for f in answer.json()["data"] if f["name"] == "mgrao")
+
+    family = mgrao("system=walk-p30")
+    [form] = [f for f in family["forms"] if f["argument"]]
+    assert form["valid"] == [1, 2, 3, 5, 6, 10, 15, 30]
+    assert family == mgrao("system=large&params=" + json.dumps({"n_parents": 30}))
+    two = mgrao("system=two-resources")["memory_per_child"]
+    one = mgrao("system=single")["memory_per_child"]
+    assert two["mgrao-max"] > one["mgrao-max"]  # one PW row per resource
+    described = client.get("/api/algorithms?system=walk-p30&label=mgrao-15:1").json()["data"][0]
+    assert described["groups"] == 15
+    for query, field in (("system=nowhere", "system"), ("params=%7B%7D", "params"),
+                         ("system=large&params=%5B%5D", "params"), ("system=large&params=" + json.dumps({"n_types": 1}),
+                                                                    "params"),
+                         ("system=walk-p30&label=mgrao-4:1", "label")):
+        answer = client.get(f"/api/algorithms?{query}")
+        assert answer.status_code == 422 and answer.json()["detail"][0]["field"] == field, (query, answer.text)

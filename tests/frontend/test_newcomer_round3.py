@@ -34,3 +34,42 @@ def test_the_new_experiment_form_marks_every_refused_field_at_once_each_by_its_o
         assert "work limit" not in summary.inner_text()
         page.screenshot(path=str(screenshots / "new-experiment-every-error.png"), full_page=True)
         assert errors == [], errors
+
+
+def test_the_form_checks_a_saved_system_with_its_own_parameters(browser, server, screenshots):
+    from tests.frontend.test_dashboard import api
+
+    for body in ({"name": "walk-p30", "base": "large", "params": {"n_parents": 30}},
+                 {"name": "two-res", "base": "single", "params": {"n_resources": 2}}):
+        try:
+            api(server, "POST", "/systems/saved", body)
+        except Exception:  # noqa: BLE001 - saved by an earlier run of the session's server
+            pass
+    with page_at(browser, server) as page:
+        errors = console_errors(page)
+        page.goto("/#/new")
+        system = page.get_by_label("System preset")
+        system.select_option("walk-p30")
+        check = page.locator("small.argument-check").first
+        page.wait_for_function("(el) => el.textContent.includes('Valid x here: 1, 2, 3, 5, 6, 10, 15, 30.')",
+                               arg=check.element_handle())
+        page.locator("input.argument-values[data-template='mgrao-{x}:1']").fill("3, 15")
+        page.wait_for_function("(el) => el.textContent.includes('mgrao-15:1') && !el.classList.contains('warn')",
+                               arg=check.element_handle())
+        assert "not" not in check.inner_text().split("Memory")[0]  # 3 and 15 are valid here
+        page.screenshot(path=str(screenshots / "new-experiment-saved-system-checks.png"), full_page=True)
+        # a change of the parent count in the form follows at once, on top of the saved system's
+        page.locator("details.advanced > summary").click()
+        page.locator("[data-field='params.n_parents']").fill("12")
+        page.wait_for_function("(el) => el.textContent.includes('Valid x here: 1, 2, 3, 4, 6, 12.')",
+                               arg=check.element_handle())
+        # memory per child of a two-resource system: one row of weights per resource
+        page.goto("/#/new")
+        system.select_option("single")
+        memory = "() => document.querySelector(\"small.memory[data-label='mgrao-max']\")?.textContent || ''"
+        page.wait_for_function(f"() => ({memory})().includes('per child')")
+        one = page.evaluate(memory)
+        system.select_option("two-res")
+        page.wait_for_function(f"(one) => ({memory})().includes('per child') && ({memory})() !== one", arg=one)
+        assert page.evaluate(memory) != one, one
+        assert errors == [], errors
