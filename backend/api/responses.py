@@ -350,7 +350,9 @@ class Systems(BaseModel):
                                                    "argument), baseline, reference and best_fixed (the labels "
                                                    "% from uniform, % of max and the oracle's allocation read).")
     limits: dict[str, Any] = Field(description="max_seeds, max_episodes, max_algorithms, max_work, work_factors "
-                                               "(the factors whose product max_work bounds), max_body_bytes.")
+                                               "(the factors whose product max_work bounds), max_body_bytes, "
+                                               "max_response_values (numbers in the curves of one results or "
+                                               "compare answer).")
     studies: dict[str, Any]
 
 

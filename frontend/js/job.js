@@ -4,7 +4,7 @@
 import { api } from './api.js';
 import { h, statusCell, jobMeta, notice, editJobDialog, confirmDialog, cancelConsequence, keepLabel, nextId, downloadText, downloadWithToken } from './ui.js';
 import { draw, purge, loadPlotly, meanBandTraces, seedTraces, utilityLayout, bandsBelow, bandAlpha, withEvents } from './charts.js';
-import { fmtNumber, fmtPct, fmtCI, pctProgress, waitingMessage, smoothingNote, episodesPerPoint, bandCaution, DEFINITIONS, SUMMARY_COLUMNS, summaryCells } from './stats.js';
+import { fmtNumber, fmtPct, fmtCI, pctProgress, waitingMessage, smoothingNote, episodesPerPoint, bandCaution, DEFINITIONS, SUMMARY_COLUMNS, summaryCells, seedPoints, MIN_SEED_POINTS } from './stats.js';
 import { algorithmStyles } from './colours.js';
 import { compareLabels, ready, rememberAnswer } from './algorithms.js';
 import { axisControls, withAxis, tableCsvButton } from './chartcontrols.js';
@@ -176,7 +176,9 @@ export async function mount(root, params, ctx) {
     try {
       // Nothing stored yet is a state, not an error: ask /results (409 then) only once a run is stored.
       if ((await api.jobStatus(id)).stored_runs === 0) { if (!stopped) nothingYet(); return; }
-      r = await api.results(id, { points: POINTS, include_seeds: showSeeds ? 'true' : undefined });
+      // seeds that do not fit one answer are left out here (the results view says why once it draws)
+      const points = showSeeds ? await seedCurvePoints().catch(() => { showSeeds = false; return POINTS; }) : POINTS;
+      r = await api.results(id, { points, include_seeds: showSeeds ? 'true' : undefined });
     } catch (e) {
       if (stopped) return;
       if (e.status === 409) nothingYet(); // the runs were deleted meanwhile
@@ -228,10 +230,30 @@ export async function mount(root, params, ctx) {
   let results = null;
   let seedResults = null;
 
+  /**
+   * The points per curve with every seed's curve that fit one answer (`max_response_values` of GET /api/systems),
+   * or a SeedsTooMany error saying why not and what to do.
+   */
+  async function seedCurvePoints() {
+    const schema = await api.systems();
+    const runs = results ? results.configurations.reduce((n, c) => n + (c.seeds_done ?? 0), 0)
+      : job.seeds.length * job.algorithms.length;
+    const points = seedPoints(POINTS, job.episodes, job.algorithms.length, runs, schema.limits.max_response_values);
+    if (points === null) {
+      const error = new Error(`${runs.toLocaleString('en-US')} runs are too many to draw one by one: one answer holds ` +
+        `${schema.limits.max_response_values.toLocaleString('en-US')} values, fewer than ${MIN_SEED_POINTS} points a ` +
+        'seed. The bands show their spread; every episode of every seed is in “Episodes as CSV” below.');
+      error.name = 'SeedsTooMany';
+      throw error;
+    }
+    return points;
+  }
+
   async function fetchResults(withSeeds) {
     if (withSeeds && seedResults) return seedResults;
     if (!withSeeds && results) return results;
-    const r = await api.results(id, { points: POINTS, include_seeds: withSeeds ? 'true' : undefined });
+    const points = withSeeds ? await seedCurvePoints() : POINTS;
+    const r = await api.results(id, { points, include_seeds: withSeeds ? 'true' : undefined });
     rememberAnswer(r.algorithms, [...job.algorithms, ...r.configurations.map((c) => c.algorithm)]); // no request
     await ready([...job.algorithms, ...r.configurations.map((c) => c.algorithm)]); // their order and colours
     r.configurations.sort((a, b) => compareLabels(a.algorithm, b.algorithm));
@@ -242,11 +264,20 @@ export async function mount(root, params, ctx) {
   async function showResults() {
     body.replaceChildren(h('p', { class: 'loading' }, 'Loading results…'));
     let r;
+    let seedsRefused = '';
     try {
       r = await fetchResults(showSeeds);
     } catch (e) {
-      body.replaceChildren(notice('error', `Cannot load the results: ${e.message}`));
-      return;
+      if (e.name !== 'SeedsTooMany') {
+        body.replaceChildren(notice('error', `Cannot load the results: ${e.message}`));
+        return;
+      }
+      showSeeds = false; // asked for in the address: said why not, and drawn without
+      seedsRefused = e.message;
+      try { r = await fetchResults(false); } catch (err) {
+        body.replaceChildren(notice('error', `Cannot load the results: ${err.message}`));
+        return;
+      }
     }
     if (stopped) return;
     const smoothId = nextId('smooth');
@@ -259,6 +290,7 @@ export async function mount(root, params, ctx) {
     const caution = h('p', { class: 'help band-caution', id: 'band-caution' });
     const chart = h('div', { class: 'chart', id: 'utility-chart', role: 'img', 'aria-label': 'System utility per episode, mean over seeds with 95% band, per configuration' });
     const chartStatus = h('span', { 'aria-live': 'polite', class: 'help' });
+    const seedsNote = h('p', { class: 'help seeds-note', id: 'seeds-note', role: 'status' }, seedsRefused);
     const smoothNote = h('p', { class: 'help', id: 'smoothing-note' });
     plots.push(chart);
 
@@ -287,8 +319,17 @@ export async function mount(root, params, ctx) {
     bandsCb.addEventListener('change', () => { showBands = bandsCb.checked; redraw(); });
     seedsCb.addEventListener('change', async () => {
       showSeeds = seedsCb.checked;
+      seedsNote.textContent = '';
       chartStatus.textContent = showSeeds ? 'Loading seeds…' : '';
-      try { await redraw(); } catch (e) { chartStatus.textContent = e.message; }
+      try {
+        await redraw();
+      } catch (e) { // the box says what is drawn: unticked again, and why
+        showSeeds = false;
+        seedsCb.checked = false;
+        chartStatus.textContent = '';
+        seedsNote.textContent = e.name === 'SeedsTooMany' ? e.message : `Cannot load the seeds: ${e.message}`;
+        ctx.setQuery({ smooth: smooth > 1 ? smooth : '', seeds: '', bands: showBands ? '' : '0' });
+      }
     });
 
     body.replaceChildren(
@@ -299,7 +340,7 @@ export async function mount(root, params, ctx) {
           h('label', { for: smoothId }, 'Smoothing (centred mean)'), smoothSel,
           h('label', { class: 'check', for: seedsId }, seedsCb, ' Show individual seeds'),
           h('label', { class: 'check', for: bandsId }, bandsCb, ' 95% bands'), chartStatus),
-        axisUi.element, chart, smoothNote, caution),
+        seedsNote, axisUi.element, chart, smoothNote, caution),
       summaryTable(r),
       weightsSection({ jobId: id, results: r, plots, state: weightsState }),
       h('section', { 'aria-labelledby': 'h-dl' }, h('h2', { id: 'h-dl' }, 'Download'),

@@ -109,6 +109,20 @@ export function summaryCells(s) {
     v(pci[0]), v(pci[1]), v(s?.pct_of_max)];
 }
 
+/** Fewest points per curve worth drawing individual seeds with (fewer: too coarse to read a seed's course). */
+export const MIN_SEED_POINTS = 20;
+
+/**
+ * The points per curve that a results answer with every seed's curve can hold: `curves` = three per configuration
+ * (mean, low, high) and one per stored run, within `maxValues` numbers (`max_response_values` of GET /api/systems),
+ * at most `wanted` and the episodes. Null when fewer than MIN_SEED_POINTS would fit (too many runs to draw apart).
+ */
+export function seedPoints(wanted, episodes, configurations, runs, maxValues) {
+  const fitting = Math.floor(maxValues / Math.max(1, configurations * 3 + runs));
+  const points = Math.min(wanted, episodes, fitting);
+  return points >= Math.min(MIN_SEED_POINTS, episodes) ? points : null;
+}
+
 /** "10 of 20 paired": the paired count of a summary whose seeds only partly pair with uniform, else the count. */
 export function pairedText(s) {
   if (!s || s.n_paired === undefined || s.n_paired === null) return '–';

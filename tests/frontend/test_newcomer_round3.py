@@ -73,3 +73,31 @@ def test_the_form_checks_a_saved_system_with_its_own_parameters(browser, server,
         page.wait_for_function(f"(one) => ({memory})().includes('per child') && ({memory})() !== one", arg=one)
         assert page.evaluate(memory) != one, one
         assert errors == [], errors
+
+
+def test_individual_seeds_of_a_large_job_are_drawn_at_the_points_that_fit(browser, server, screenshots):
+    """Issue 30, point 4: 1,680 runs x 700 episodes do not fit one answer at 600 points a curve; the view asked
+    for them anyway (422 "use points <= 593"), left the box ticked and drew nothing."""
+    from tests.frontend.test_compare_view import wait_succeeded
+    from tests.frontend.test_job_view import post_job
+
+    job = post_job(server, {"system": "single", "algorithms": ["uniform", "oracle"], "seeds": 840, "episodes": 700,
+                            "name": "many seeds"})
+    wait_succeeded(server, [job])
+    with page_at(browser, server) as page:
+        errors = console_errors(page)
+        asked: list[str] = []
+        page.on("request", lambda r: asked.append(r.url) if "/results" in r.url else None)
+        page.goto(f"/#/jobs/{job['id']}")
+        page.locator("#utility-chart[data-rendered]").wait_for()
+        page.locator("#utility-chart").evaluate("el => { delete el.dataset.rendered; }")
+        page.get_by_label("Show individual seeds").check()
+        page.locator("#utility-chart[data-rendered]").wait_for(timeout=60000)
+        seeds = page.eval_on_selector("#utility-chart", "el => el.data.filter(t => t.meta.kind === 'seed').length")
+        assert seeds == 1680
+        points = [int(u.split("points=")[1].split("&")[0]) for u in asked if "include_seeds=true" in u]
+        assert points == [593], asked  # 1,000,000 values / (2 x 3 + 1,680 curves)
+        assert page.get_by_label("Show individual seeds").is_checked()
+        assert page.inner_text("#seeds-note") == ""
+        page.screenshot(path=str(screenshots / "job-many-seeds.png"), full_page=True)
+        assert errors == [], errors

@@ -13,6 +13,7 @@ from backend.api.responses import LOCATION, Systems, answers
 from backend.api.schemas import SavedSystemIn, SavedSystemOut
 from backend.errors import InvalidSpec
 from backend.services import saved_systems
+from backend.services.analysis import MAX_RESPONSE_VALUES
 from backend.store.crud import config_hash
 from mgrao_core import (
     MAX_ALGORITHMS,
@@ -84,7 +85,7 @@ def systems(settings: SettingsDep, db: DatabaseDep) -> dict:
         "algorithms": algorithm_labels(),
         "limits": {"max_seeds": MAX_SEEDS, "max_episodes": MAX_EPISODES, "max_algorithms": MAX_ALGORITHMS,
                    "max_work": MAX_WORK, "work_factors": list(WORK_FACTORS),
-                   "max_body_bytes": settings.max_body_bytes},
+                   "max_body_bytes": settings.max_body_bytes, "max_response_values": MAX_RESPONSE_VALUES},
         "studies": {"methods": list(search.METHODS), "metrics": list(search.METRICS),
                     "max_trials": search.MAX_TRIALS, "max_in_flight": search.MAX_IN_FLIGHT,
                     "max_dimensions": search.MAX_DIMENSIONS, "max_steps": search.MAX_STEPS,

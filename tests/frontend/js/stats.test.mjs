@@ -181,3 +181,12 @@ test('bandCaution: too few seeds, or bands wider than the spread of the means, s
   assert.equal(bandCaution([{ runs: MIN_BAND_RUNS, episodes: series([1, 2], 3) }]), '');
   assert.match(bandCaution([{ runs: 1, episodes: series([1, 2], 0) }]), /one seed per configuration/);
 });
+
+test('seedPoints: the points a results answer with every seed can hold, or null when too few', async () => {
+  const { seedPoints, MIN_SEED_POINTS } = await import('../../../frontend/js/stats.js');
+  assert.equal(seedPoints(600, 100, 3, 30, 1_000_000), 100); // all the episodes
+  assert.equal(seedPoints(600, 1000, 4, 2000, 1_000_000), 497); // 1,000,000 / (12 + 2,000)
+  assert.equal(seedPoints(600, 1000, 4, 60_000, 1_000_000), null); // 16 points a seed: too coarse
+  assert.equal(seedPoints(600, 5, 1, 3, 1_000_000), 5); // a short run: every episode, even below the minimum
+  assert.equal(MIN_SEED_POINTS, 20);
+});
