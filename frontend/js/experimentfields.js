@@ -467,10 +467,15 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
       }
     }
     const msgs = Object.keys(byField).length ? unplaced : [err.message];
-    summary.replaceChildren(h('div', { class: 'notice error', role: 'alert' },
+    const box = h('div', { class: 'notice error', role: 'alert', tabindex: '-1' },
       h('p', {}, err.lead || (Object.keys(byField).length ? `The server rejected the ${what}; see the marked fields.` : `The ${what} could not be started.`)),
-      msgs.length ? h('ul', {}, msgs.map((m) => h('li', {}, m))) : null));
-    if (first) first.focus();
+      msgs.length ? h('ul', {}, msgs.map((m) => h('li', {}, m))) : null);
+    summary.replaceChildren(box);
+    if (first && !unplaced.length) first.focus();
+    else { // an error of no field (or beside the fields, one of none): brought into view and focused, not left above
+      box.scrollIntoView({ block: 'center' });
+      box.focus({ preventScroll: true });
+    }
   }
 
   return {

@@ -101,3 +101,21 @@ def test_individual_seeds_of_a_large_job_are_drawn_at_the_points_that_fit(browse
         assert page.inner_text("#seeds-note") == ""
         page.screenshot(path=str(screenshots / "job-many-seeds.png"), full_page=True)
         assert errors == [], errors
+
+
+def test_a_new_study_error_of_no_field_is_brought_into_view_and_focused(browser, server, screenshots):
+    with page_at(browser, server, height=700) as page:
+        page.goto("/#/studies/new")
+        start = page.get_by_role("button", name="Start study")
+        start.scroll_into_view_if_needed()
+        for sweep in page.locator("input.sweep:checked").all():  # nothing swept: the space is empty
+            sweep.uncheck()
+        start.click()
+        alert = page.locator(".error-summary .notice.error").first
+        alert.wait_for(timeout=10000)
+        assert "space" in alert.inner_text()
+        assert page.evaluate("document.activeElement === document.querySelector('.error-summary .notice.error')")
+        top, bottom = page.evaluate("(() => { const r = document.querySelector('.error-summary .notice.error')"
+                                    ".getBoundingClientRect(); return [r.top, r.bottom]; })()")
+        assert 0 <= top and bottom <= 700, (top, bottom)  # in view, not above the page's top
+        page.screenshot(path=str(screenshots / "new-study-error-in-view.png"))
