@@ -276,6 +276,8 @@ class JobOut(BaseModel):
     study_id: int | None = None
     trial_id: int | None = None
     kind: Kind = "simulation"
+    saved_system: str | None = Field(None, description="The saved system the job ran (its tag system:NAME names it); "
+                                                     "`system` is its base preset. Null for a preset's job.")
     """``simulation`` (run by the service's workers) or ``external`` (logged from outside: docs/platform.md)."""
     summaries: dict[str, dict[str, Any]] = {}
     """Per configuration, once the job succeeded (``GET /api/jobs`` and ``GET /api/jobs/{id}``): n_runs,

@@ -18,12 +18,12 @@ from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from backend.errors import Conflict, InvalidSpec, NotFound
-from backend.store.models import SavedSystem, utcnow
+from backend.store.models import SAVED_SYSTEM_TAG_PREFIX, SavedSystem, utcnow
 from mgrao_core import PRESETS, ConfigError, make_params
 
 NAME_PATTERN = "^[a-z][a-z0-9-]{0,31}$"
 """A saved system's name: 1-32 characters, a lowercase letter then lowercase letters, digits or ``-``."""
-TAG_PREFIX = "system:"
+TAG_PREFIX = SAVED_SYSTEM_TAG_PREFIX
 """The tag a job of a saved system carries: ``system:<name>``."""
 
 

@@ -15,8 +15,8 @@ from sqlalchemy.orm import Session
 import mgrao_core
 from backend.errors import Conflict, NotFound
 from backend.store.job_order import parse_sort
-from backend.store.models import CANCELLED, QUEUED, RUNNING, SIMULATION, Job, JobTag, utcnow
-from mgrao_core import ExperimentSpec, complete_params
+from backend.store.models import CANCELLED, QUEUED, RUNNING, SAVED_SYSTEM_TAG_PREFIX, SIMULATION, Job, JobTag, utcnow
+from mgrao_core import PRESETS, ExperimentSpec, complete_params
 
 
 def config_hash(config: dict[str, Any]) -> str:
@@ -51,6 +51,8 @@ def job_dict(job: Job | Row, config: dict[str, Any] | None = None) -> dict[str, 
         "created_at": iso(job.created_at), "started_at": iso(job.started_at),
         "finished_at": iso(job.finished_at), "duration_s": duration, "version": job.version,
         "study_id": job.study_id, "trial_id": job.trial_id, "kind": job.kind,
+        "saved_system": next((t.removeprefix(SAVED_SYSTEM_TAG_PREFIX) for t in job.tags
+                              if t.startswith(SAVED_SYSTEM_TAG_PREFIX)), None),
     }
 
 
@@ -173,8 +175,11 @@ def _filters(*, status: str | None, system: str | None, tag: str | None, q: str 
         clauses.append(Job.config_hash == config_hash)
     if status:
         clauses.append(Job.status == status)
-    if system:
+    if system in PRESETS:  # a preset's own jobs, not those of a saved system based on it
         clauses.append(Job.system == system)
+        clauses.append(Job.id.not_in(select(JobTag.job_id).where(JobTag.tag.startswith(SAVED_SYSTEM_TAG_PREFIX))))
+    elif system:  # a saved system's jobs carry its tag
+        clauses.append(Job.id.in_(select(JobTag.job_id).where(JobTag.tag == f"{SAVED_SYSTEM_TAG_PREFIX}{system}")))
     if tag:
         clauses.append(Job.id.in_(select(JobTag.job_id).where(JobTag.tag == tag)))
     if q:

@@ -110,6 +110,10 @@ RUN_READ_BATCH = 16
 """Runs fetched at a time where a job's runs are streamed (each holds a seed's utilities and weights)."""
 
 
+SAVED_SYSTEM_TAG_PREFIX = "system:"
+"""The tag a job of a saved system carries, before its name (``system:rush-hour``): the job's ``system`` is the base."""
+
+
 class Run(Base):
     """One (algorithm, seed) run of a job: every episode utility and the final weights.
 

@@ -5,7 +5,7 @@
 // bands; stats=0: the statistics folded away, not computed).
 
 import { api } from './api.js';
-import { h, notice, nextId, kindBadge } from './ui.js';
+import { h, notice, nextId, kindBadge, debounce } from './ui.js';
 import { draw, drawWhenSeen, purge, loadPlotly, meanBandTraces, utilityLayout, pctBarTrace, bandsBelow, bandAlpha } from './charts.js';
 import { parseIds, badIds, DEFINITIONS, groupKey, pctErrorBars, fmtNumber, fmtPct, fmtCI, seedCount, smoothingNote, episodesPerPoint, bandCaution, SUMMARY_COLUMNS, summaryCells, pairedText } from './stats.js';
 import { compareLabels, ready, rememberAnswer } from './algorithms.js';
@@ -46,20 +46,33 @@ export async function mount(root, params, ctx) {
   const body = h('div', { 'aria-live': 'polite' });
   root.append(pickForm, picker, body);
 
-  // Recent succeeded jobs to pick from (tick to add/remove): folded away under the charts' jobs, so
-  // asked for once the charts on screen are drawn; at once when no job is given.
-  const loadPicker = () => api.listJobs({ status: 'succeeded', limit: 20 }, { signal: controller.signal }).then((page) => {
-    if (stopped || !page.data.length) return;
-    const list = h('ul', { class: 'pick-list' }, page.data.map((j) => {
+  // Succeeded jobs to pick from (tick to add/remove), the 20 newest or those a search finds (name, notes, tags):
+  // folded away under the charts' jobs, so asked for once the charts on screen are drawn; at once when no job is given.
+  const pickList = h('ul', { class: 'pick-list' });
+  const pickSearch = h('input', { type: 'search', id: nextId('pick-search'), class: 'pick-search',
+    placeholder: 'name, notes or tag', 'aria-label': 'Search succeeded jobs' });
+  const pickCount = h('span', { class: 'help', 'aria-live': 'polite' });
+  const fillPicker = (q) => api.listJobs({ status: 'succeeded', limit: 20, q: q || undefined },
+    { signal: controller.signal }).then((page) => {
+    if (stopped) return;
+    const chosen = new Set(parseIds(idsIn.value));
+    pickList.replaceChildren(...page.data.map((j) => {
       const cbId = nextId('pick');
-      return h('li', {}, h('input', { type: 'checkbox', id: cbId, checked: state.jobs.includes(j.id), onchange: (e) => {
+      return h('li', {}, h('input', { type: 'checkbox', id: cbId, checked: chosen.has(j.id), onchange: (e) => {
         const ids = parseIds(idsIn.value).filter((x) => x !== j.id);
         if (e.target.checked) ids.push(j.id);
         idsIn.value = ids.join(', ');
-      } }), h('label', { for: cbId }, `#${j.id} ${j.name || ''} (${j.system}, ${seedCount(j)} seeds × ${j.episodes})`, kindBadge(j)));
+      } }), h('label', { for: cbId }, `#${j.id} ${j.name || ''} (${j.saved_system || j.system}, ${seedCount(j)} seeds × ${j.episodes})`, kindBadge(j)));
     }));
-    picker.append(h('details', { open: state.jobs.length === 0 }, h('summary', {}, 'Recent succeeded jobs'), list));
+    pickCount.textContent = q ? `${page.count.toLocaleString('en-US')} found${page.count > page.data.length ? `, the ${page.data.length} newest shown` : ''}.`
+      : `The ${page.data.length} newest of ${page.count.toLocaleString('en-US')}; search for older ones.`;
   }).catch(() => {});
+  pickSearch.addEventListener('input', debounce(() => fillPicker(pickSearch.value.trim()), 250));
+  const loadPicker = () => fillPicker('').then(() => {
+    if (stopped || picker.childElementCount) return;
+    picker.append(h('details', { open: state.jobs.length === 0, id: 'job-picker' }, h('summary', {}, 'Succeeded jobs'),
+      h('p', { class: 'controls' }, pickSearch, pickCount), pickList));
+  });
 
   const wrong = badIds(params.jobs);
   if (wrong.length || !state.jobs.length) loadPicker();

@@ -80,3 +80,41 @@ export function sameJob(shown, read) {
 export function progressOnly(shown, read) {
   return shown.progress !== read.progress && sameJob({ ...shown, progress: 0 }, { ...read, progress: 0 });
 }
+
+/**
+ * The run list as CSV rows (header first): each job's identity and configuration, then, with result `columns`,
+ * that configuration's figures with their intervals and seeds, then the parameter columns. Numbers as the API
+ * gave them (units in the column names), lists joined by spaces, never the cells as shown.
+ */
+export function exportRows(jobs, columns) {
+  const results = columns.filter((c) => c.kind === 'result');
+  const params = columns.filter((c) => c.kind === 'param');
+  const configuration = results.length ? results[0].configuration : null;
+  const head = ['id', 'name', 'status', 'kind', 'system', 'saved_system', 'algorithms', 'seeds', 'episodes', 'tags',
+    'created_at', 'finished_at', 'duration_s'];
+  if (configuration) {
+    head.push('configuration', 'n_runs', 'n_paired', 'final_mean_utility', 'final_ci95_low_utility',
+      'final_ci95_high_utility', 'pct_from_uniform_percent', 'pct_ci95_low_percent', 'pct_ci95_high_percent',
+      'pct_of_max_percent');
+  }
+  head.push(...params.map((c) => c.name));
+  const value = (v) => (v === undefined ? null : v);
+  const rows = jobs.map((job) => {
+    const row = [job.id, job.name, job.status, job.kind, job.system, value(job.saved_system), (job.algorithms || []).join(' '),
+      Array.isArray(job.seeds) ? job.seeds.length : job.seeds, job.episodes, (job.tags || []).join(' '),
+      value(job.created_at), value(job.finished_at), value(job.duration_s)];
+    if (configuration) {
+      const s = (job.summaries || {})[configuration] || {};
+      const ci = s.ci95 || [null, null];
+      const pci = s.pct_ci95 || [null, null];
+      row.push(configuration, value(s.n_runs), value(s.n_paired), value(s.final_mean), ci[0], ci[1],
+        value(s.pct_from_uniform), pci[0], pci[1], value(s.pct_of_max));
+    }
+    row.push(...params.map((c) => {
+      const v = (job.params || {})[c.name];
+      return v !== null && typeof v === 'object' ? JSON.stringify(v) : value(v);
+    }));
+    return row;
+  });
+  return [head, ...rows];
+}

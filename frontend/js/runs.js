@@ -1,10 +1,10 @@
 // Runs view: filterable, sortable, cursor-paginated table of jobs with compare/edit/cancel/delete.
 
 import { api } from './api.js';
-import { h, statusCell, confirmDialog, promptDialog, cancelConsequence, keepLabel, editJobDialog, notice, debounce, nextId } from './ui.js';
-import { fmtDate, fmtDuration, seedCount, parseTags } from './stats.js';
+import { h, statusCell, confirmDialog, promptDialog, cancelConsequence, keepLabel, editJobDialog, notice, debounce, nextId, downloadText } from './ui.js';
+import { fmtDate, fmtDuration, seedCount, parseTags, csvOf } from './stats.js';
 import { outsideRegistry, ready, sortLabels } from './algorithms.js';
-import { columnsFromQuery, sortKey, nextSort, sortState, cellText, cellInterval, refreshLimit, sameJob, progressOnly } from './runcolumns.js';
+import { columnsFromQuery, sortKey, nextSort, sortState, cellText, cellInterval, refreshLimit, sameJob, progressOnly, exportRows } from './runcolumns.js';
 
 const STATUSES = ['queued', 'running', 'succeeded', 'failed', 'cancelled', 'open'];
 const SORTS = [
@@ -59,9 +59,20 @@ export async function mount(root, params, ctx) {
     sortSel.replaceChildren(...options);
   }
   fillSorts();
+  // every configuration a system of the form runs (mgrao-2:1 ... of large, a saved system's), then those of the
+  // jobs listed as they load
+  const resultLabels = new Set([...(schema ? schema.algorithms.fixed : []),
+    ...(schema ? [...schema.systems, ...(schema.saved || [])].flatMap((s) => s.algorithms || []) : []),
+    ...(filters.result ? [filters.result] : [])]);
   const resultSel = h('select', { name: 'result' }, h('option', { value: '' }, 'none'),
-    [...new Set([...(schema ? schema.algorithms.fixed : []), ...(filters.result ? [filters.result] : [])])]
-      .map((c) => h('option', { value: c, selected: c === filters.result }, c)));
+    [...resultLabels].map((c) => h('option', { value: c, selected: c === filters.result }, c)));
+  function offerResults(labels) {
+    for (const label of labels) {
+      if (resultLabels.has(label)) continue;
+      resultLabels.add(label);
+      resultSel.append(h('option', { value: label }, label));
+    }
+  }
   const paramBoxes = schema ? schema.parameters.map((p) => h('label', { class: 'check', title: p.help },
     h('input', { type: 'checkbox', value: p.name, checked: columns.some((c) => c.kind === 'param' && c.name === p.name),
       onchange: () => { readFilters(); renderHead(); load(true); } }), ` ${p.name}`)) : [];
@@ -120,6 +131,32 @@ export async function mount(root, params, ctx) {
     updateSelection();
   } }, 'Delete selected');
 
+  // The listed jobs (every page, under the filters and sort shown) as a file: CSV of numbers, or the API's JSON.
+  const exportStatus = h('span', { class: 'help', 'aria-live': 'polite' });
+  async function exportList(format) {
+    exportStatus.textContent = 'Reading every listed job…';
+    const jobs = [];
+    let next;
+    try {
+      do {
+        const page = await api.listJobs({ status: filters.status, system: filters.system, tag: filters.tag, q: filters.q,
+          sort: filters.sort, limit: 200, cursor: next });
+        jobs.push(...page.data);
+        next = page.next_cursor;
+      } while (next && !stopped);
+    } catch (e) {
+      exportStatus.textContent = `Export failed: ${e.message}`;
+      return;
+    }
+    if (format === 'csv') downloadText('runs.csv', 'text/csv', csvOf(exportRows(jobs, columns)));
+    else downloadText('runs.json', 'application/json', JSON.stringify(jobs, null, 1));
+    exportStatus.textContent = `${jobs.length.toLocaleString('en-US')} job${jobs.length === 1 ? '' : 's'} exported.`;
+  }
+  const exportBox = h('p', { class: 'exports' }, 'Export the listed jobs: ',
+    h('button', { type: 'button', class: 'small secondary', id: 'export-csv', onclick: () => exportList('csv') }, 'CSV'), ' ',
+    h('button', { type: 'button', class: 'small secondary', id: 'export-json', onclick: () => exportList('json') }, 'JSON'),
+    ' ', exportStatus);
+
   const filterForm = h('form', { class: 'filters', role: 'search', 'aria-label': 'Filter jobs', onsubmit: (e) => { e.preventDefault(); reload(); } },
     field('Status', statusSel), field('System', systemSel), field('Tag', tagIn), field('Search', qIn), field('Sort', sortSel),
     field('Result columns of', resultSel), columnsBox);
@@ -168,10 +205,14 @@ export async function mount(root, params, ctx) {
       h('div', { class: 'toolbar' }, compareBtn, tagBtn, cancelSelBtn, deleteSelBtn, clearBtn,
         h('a', { class: 'button primary', href: '#/new' }, 'New experiment'))),
     bulkStatus,
-    filterForm, errorBox, countEl, tableWrap, emptyBox, h('div', { class: 'more' }, moreBtn), live);
+    filterForm, exportBox, errorBox, countEl, tableWrap, emptyBox, h('div', { class: 'more' }, moreBtn), live);
 
   api.systems().then((s) => {
     for (const sys of s.systems) systemSel.append(h('option', { value: sys.name, selected: sys.name === filters.system }, sys.name));
+    if ((s.saved || []).length) {
+      systemSel.append(h('optgroup', { label: 'Saved systems' }, s.saved.map((sys) =>
+        h('option', { value: sys.name, selected: sys.name === filters.system }, `${sys.name} (${sys.base})`))));
+    }
   }).catch(() => { /* the banner reports an unreachable server */ });
 
   function readFilters() {
@@ -241,7 +282,8 @@ export async function mount(root, params, ctx) {
       h('td', { class: 'job-name' }, h('a', { href: `#/jobs/${job.id}` }, job.name || `job ${job.id}`),
         job.notes ? h('div', { class: 'note', title: job.notes }, job.notes) : null),
       h('td', { class: 'status' }, statusCell(job)),
-      h('td', {}, job.system),
+      h('td', { class: 'system', title: job.saved_system ? `saved system ${job.saved_system}, based on ${job.system}` : null },
+        job.saved_system || job.system),
       h('td', { class: 'algos' }, sortLabels(job.algorithms || []).join(', ')),
       h('td', { class: 'num' }, seedCount(job)),
       h('td', { class: 'num' }, job.episodes),
@@ -280,6 +322,7 @@ export async function mount(root, params, ctx) {
       page = await api.listJobs({ status: filters.status, system: filters.system, tag: filters.tag, q: filters.q,
         sort: filters.sort, limit: PAGE, cursor: reset ? undefined : cursor });
       outsideRegistry(page.data.filter((job) => job.kind === 'external').flatMap((job) => job.algorithms || []));
+      offerResults(page.data.filter((job) => job.kind !== 'external').flatMap((job) => job.algorithms || []));
       await ready(page.data.flatMap((job) => job.algorithms || [])); // the configurations' order in each row
     } catch (e) {
       if (token === loadToken) { showError(e); root.removeAttribute('aria-busy'); moreBtn.disabled = false; }

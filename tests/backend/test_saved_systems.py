@@ -148,3 +148,19 @@ def test_a_study_over_several_systems_takes_saved_ones_by_name(client: TestClien
     assert missing.json()["detail"][0]["loc"] == ["body", "base", "system", 1]
     twice = client.post("/api/studies", json=study | {"base": study["base"] | {"system": ["rush-hour", "rush-hour"]}})
     assert twice.status_code == 422 and twice.json()["detail"][0]["field"] == "base.system", twice.text
+
+
+def test_the_runs_list_names_and_filters_a_saved_systems_jobs(client: TestClient) -> None:
+    """Issue 30, point 7: the System filter knew presets only, and a saved system's job showed its base's name."""
+    assert client.post("/api/systems/saved", json={"name": "rush", "base": "single",
+                                                  "params": {"n_parents": 12}}).status_code == 201
+    mine = client.post("/api/jobs", json={"system": "rush", "seeds": 1, "episodes": 2}).json()
+    plain = client.post("/api/jobs", json={"system": "single", "seeds": 1, "episodes": 2}).json()
+    assert mine["saved_system"] == "rush" and mine["system"] == "single" and plain["saved_system"] is None
+
+    def listed(system: str) -> list[int]:
+        return [j["id"] for j in client.get("/api/jobs", params={"system": system}).json()["data"]]
+
+    assert listed("rush") == [mine["id"]]
+    assert listed("single") == [plain["id"]]  # the preset's own jobs, not a saved system's based on it
+    assert listed("nothing-saved") == []

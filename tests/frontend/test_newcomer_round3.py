@@ -119,3 +119,52 @@ def test_a_new_study_error_of_no_field_is_brought_into_view_and_focused(browser,
                                     ".getBoundingClientRect(); return [r.top, r.bottom]; })()")
         assert 0 <= top and bottom <= 700, (top, bottom)  # in view, not above the page's top
         page.screenshot(path=str(screenshots / "new-study-error-in-view.png"))
+
+
+def test_the_runs_table_exports_offers_every_configuration_and_knows_saved_systems(browser, server, screenshots):
+    import csv
+    import io
+    from pathlib import Path
+
+    from tests.frontend.test_compare_view import wait_succeeded
+    from tests.frontend.test_dashboard import api
+    from tests.frontend.test_job_view import post_job
+
+    try:
+        api(server, "POST", "/systems/saved", {"name": "rush-7", "base": "single", "params": {"n_parents": 7}})
+    except Exception:  # noqa: BLE001 - saved by an earlier run of the session's server
+        pass
+    saved = post_job(server, {"system": "rush-7", "algorithms": ["uniform", "mgrao-7:1"], "seeds": 2, "episodes": 10,
+                              "name": "on my saved system", "tags": ["round3-runs"]})
+    preset = post_job(server, {"system": "large", "algorithms": ["uniform", "mgrao-2:1"], "seeds": 2, "episodes": 10,
+                               "name": "on large", "tags": ["round3-runs"]})
+    wait_succeeded(server, [saved, preset])
+    with page_at(browser, server, width=1400) as page:
+        page.goto("/#/runs?tag=round3-runs")
+        page.locator("table.runs tbody tr").nth(1).wait_for()
+        cell = page.locator(f"table.runs tbody tr[data-id='{saved['id']}'] td.system")
+        assert cell.inner_text() == "rush-7" and "based on single" in cell.get_attribute("title")
+        options = page.locator("select[name=result] option").all_inner_texts()
+        assert {"mgrao-2:1", "mgrao-5:1", "mgrao-10:1", "mgrao-25:1", "mgrao-7:1"} <= set(options), options
+        page.locator("select[name=system]").select_option("rush-7")
+        page.wait_for_function("() => document.querySelectorAll('table.runs tbody tr').length === 1")
+        assert page.locator("table.runs tbody tr").get_attribute("data-id") == str(saved["id"])
+        page.locator("select[name=system]").select_option("")
+        page.locator("select[name=result]").select_option("mgrao-2:1")
+        page.wait_for_function("() => document.querySelectorAll('table.runs tbody tr').length === 2")
+        with page.expect_download() as download:
+            page.locator("#export-csv").click()
+        rows = list(csv.DictReader(io.StringIO(Path(download.value.path()).read_text())))
+        assert {r["name"] for r in rows} == {"on my saved system", "on large"}
+        large = next(r for r in rows if r["name"] == "on large")
+        assert large["configuration"] == "mgrao-2:1" and float(large["pct_from_uniform_percent"]) == \
+            api(server, "GET", f"/jobs/{preset['id']}")["summaries"]["mgrao-2:1"]["pct_from_uniform"]
+        assert next(r for r in rows if r["name"] == "on my saved system")["saved_system"] == "rush-7"
+        page.screenshot(path=str(screenshots / "runs-saved-system-and-export.png"), full_page=True)
+
+        # the compare picker searches every succeeded job, not only the 20 newest
+        page.goto("/#/compare")
+        page.locator("#job-picker").wait_for()
+        page.locator("input.pick-search").fill("on my saved")
+        page.wait_for_function("() => [...document.querySelectorAll('#job-picker li')].length === 1")
+        assert "rush-7" in page.inner_text("#job-picker li")

@@ -60,3 +60,20 @@ test('progressOnly: a moved progress bar alone is patched in place; any other ch
   assert.equal(progressOnly(job, { ...job }), false);
   assert.equal(progressOnly(job, { ...job, progress: 1, status: 'succeeded' }), false);
 });
+
+test('exportRows: numbers and plain text, the result configuration and parameter columns', async () => {
+  const { exportRows, columnsFromQuery } = await import('../../../frontend/js/runcolumns.js');
+  const job = { id: 7, name: 'a, b', status: 'succeeded', kind: 'simulation', system: 'large', saved_system: 'walk-p30',
+    algorithms: ['uniform', 'mgrao-2:1'], seeds: [0, 1, 2], episodes: 100, tags: ['x', 'system:walk-p30'],
+    created_at: 't0', finished_at: 't1', duration_s: 1.5, params: { learning_rate: 0.1, schedule: [{ episode: 5 }] },
+    summaries: { 'mgrao-2:1': { n_runs: 3, n_paired: 3, final_mean: 6.5, ci95: [6, 7], pct_from_uniform: 17.6,
+      pct_ci95: [15, 20], pct_of_max: 80 } } };
+  const columns = columnsFromQuery('mgrao-2:1', 'learning_rate,schedule', new Set(['learning_rate', 'schedule']));
+  const [head, row] = exportRows([job], columns);
+  assert.deepEqual(head.slice(-12), ['configuration', 'n_runs', 'n_paired', 'final_mean_utility', 'final_ci95_low_utility',
+    'final_ci95_high_utility', 'pct_from_uniform_percent', 'pct_ci95_low_percent', 'pct_ci95_high_percent',
+    'pct_of_max_percent', 'learning_rate', 'schedule']);
+  assert.deepEqual(row.slice(4, 8), ['large', 'walk-p30', 'uniform mgrao-2:1', 3]);
+  assert.deepEqual(row.slice(-12), ['mgrao-2:1', 3, 3, 6.5, 6, 7, 17.6, 15, 20, 80, 0.1, '[{"episode":5}]']);
+  assert.equal(exportRows([job], [])[0].length, 13); // without columns: the job's own fields only
+});
