@@ -237,7 +237,8 @@ export function withEvents(layout, schedule, episodes) {
   const annotations = fired.map((e, i) => ({ xref: 'x', yref: 'paper', x: e.episode, y: 1, yanchor: 'bottom',
     showarrow: false, font: { size: 10, color: '#4b5563' }, yshift: 2 + 11 * (i % 2),
     text: `${e.change}${e.change === 'frequencies' ? ` → ${e.period}` : ''} ${Math.round(100 * (e.fraction ?? 1))}%` }));
-  return { ...layout, shapes: [...(layout.shapes || []), ...shapes],
+  const top = Math.max(layout.margin?.t ?? 24, 24 + (fired.length > 1 ? 24 : 13)); // room for the labels above
+  return { ...layout, shapes: [...(layout.shapes || []), ...shapes], margin: { ...(layout.margin || {}), t: top },
     annotations: [...(layout.annotations || []), ...annotations] };
 }
 

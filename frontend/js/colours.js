@@ -4,7 +4,12 @@
 // the palette slot the algorithm registry gives it (GET /api/algorithms' colour_key, the same in
 // every view), and takes the next free one when another shown with it came first. No DOM access here.
 
-import { colourKey, sortLabels } from './algorithms.js';
+import { colourKey, roleLabel, sortLabels } from './algorithms.js';
+
+/** Whether `label` is an anchor of every view: the baseline (uniform) or the best fixed allocation (the oracle). */
+export function isAnchor(label) {
+  return label === roleLabel('baseline') || label === roleLabel('best_fixed');
+}
 
 // Okabe-Ito, ordered so that the first few shown together are furthest apart: the two blues and
 // the two oranges only meet from the seventh configuration on. The registry's colour keys are
@@ -23,19 +28,22 @@ function style(slot, round) {
 
 /**
  * Line styles of configurations shown together, in the order given, each preferring a palette slot
- * (`preferred[i]`, an integer 0-7, or null for none): first every configuration whose slot no
- * earlier one prefers takes it, then the others the next free slot after theirs (the first free
- * for null); past the palette the colours repeat with a dash and a marker of the next round
- * (`symbol` null in the first round). Returns one `{color, dash, symbol}` per entry.
+ * (`preferred[i]`, an integer 0-7, or null for none): first the anchors (`anchors[i]` true: uniform and
+ * the oracle, which every view draws in their own colour), then every configuration whose slot no earlier
+ * one prefers takes it, then the others the next free slot after theirs (the first free for null); past
+ * the palette the colours repeat with a dash and a marker of the next round (`symbol` null in the first
+ * round). Returns one `{color, dash, symbol}` per entry.
  */
-export function slotStyles(preferred) {
+export function slotStyles(preferred, anchors = []) {
   const n = PALETTE.length;
   const wants = (preferred || []).map((p) => (Number.isInteger(p) && p >= 0 ? p % n : null));
   const out = new Array(wants.length).fill(null);
   const taken = new Set();
-  wants.forEach((p, i) => {
-    if (p !== null && !taken.has(p)) { taken.add(p); out[i] = style(p, 0); }
-  });
+  const claim = (p, i) => {
+    if (p !== null && !out[i] && !taken.has(p)) { taken.add(p); out[i] = style(p, 0); }
+  };
+  wants.forEach((p, i) => { if (anchors[i]) claim(p, i); });
+  wants.forEach(claim);
   let round = 0;
   let used = taken;
   wants.forEach((p, i) => {
@@ -79,6 +87,6 @@ export function labelSlot(label) {
  */
 export function algorithmStyles(algorithms) {
   const labels = sortLabels([...new Set(algorithms || [])]);
-  const styles = slotStyles(labels.map(labelSlot));
+  const styles = slotStyles(labels.map(labelSlot), labels.map(isAnchor));
   return Object.fromEntries(labels.map((label, i) => [label, styles[i]]));
 }

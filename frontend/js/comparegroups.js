@@ -3,7 +3,7 @@
 // own colour, colours.js) and a legend that never crowds the axes. Pure functions (no DOM), checked
 // by node's test runner.
 
-import { labelSlot, slotStyles } from './colours.js';
+import { isAnchor, labelSlot, slotStyles } from './colours.js';
 import { compareLabels } from './algorithms.js';
 import { fmtParam } from './studydata.js';
 import { sameValue } from './stats.js';
@@ -71,7 +71,8 @@ export function lineStyles(groups, jobs = []) {
     const ranked = groups.map((_, i) => i).filter((i) => facetOf(groups[i]) === system)
       .sort((a, b) => place(groups[a]) - place(groups[b])
         || compareLabels(groups[a].algorithm, groups[b].algorithm) || a - b);
-    const styles = slotStyles(ranked.map((i) => labelSlot(groups[i].algorithm)));
+    const styles = slotStyles(ranked.map((i) => labelSlot(groups[i].algorithm)),
+      ranked.map((i) => isAnchor(groups[i].algorithm)));
     ranked.forEach((g, k) => { out[g] = styles[k]; });
   }
   return out;

@@ -10,8 +10,18 @@ const GROUP_TITLES = {
   quality: 'Quality (environment)',
   allocation: 'Allocation (environment)',
   volatility: 'Volatility (environment)',
+  dynamics: 'Dynamics (environment)',
+  resources: 'Resources (environment)',
   mgrao: 'MG-RAO (algorithm)',
+  'mgrao-adaptive': 'Adaptive groups (algorithm)',
+  'independent-q': 'Independent Q (algorithm)',
+  bandit: 'Bandit (algorithm)',
 };
+
+/** A schema group's heading: its title, or the group's name with a capital ("Template" for "template"). */
+export function groupTitle(group) {
+  return GROUP_TITLES[group] || (group ? group.charAt(0).toUpperCase() + group.slice(1).replace(/[-_]/g, ' ') : 'Other');
+}
 
 /**
  * The configuration as rows in the schema's order, grouped: one per parameter with the job's
@@ -25,14 +35,18 @@ export function configRows(job, schema) {
   const rows = schema.parameters.filter((p) => p.name in params).map((p) => {
     known.add(p.name);
     return {
-      group: GROUP_TITLES[p.group] || p.group, name: p.name, help: p.help,
+      group: groupTitle(p.group), name: p.name, help: p.help,
       value: params[p.name], preset: preset[p.name], differs: !sameValue(params[p.name], preset[p.name]),
     };
   });
   for (const name of Object.keys(params).sort()) {
     if (!known.has(name)) rows.push({ group: 'Other', name, help: '', value: params[name], preset: preset[name], differs: !sameValue(params[name], preset[name]) });
   }
-  return rows;
+  // each group once, where it first comes (the schema lists a system parameter after the dynamics too)
+  const firstAt = new Map();
+  rows.forEach((r, i) => { if (!firstAt.has(r.group)) firstAt.set(r.group, i); });
+  return rows.map((r, i) => [r, i]).sort((a, b) => firstAt.get(a[0].group) - firstAt.get(b[0].group) || a[1] - b[1])
+    .map(([r]) => r);
 }
 
 /**

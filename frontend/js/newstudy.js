@@ -294,7 +294,7 @@ export async function mount(root, params, ctx) {
   });
 
   root.append(h('p', { class: 'help' }, 'A study runs the base experiment once per trial, each trial with other values of the swept parameters, as ordinary jobs. ',
-    h('a', { href: '/docs#/studies' }, 'API'), ' · docs/studies.md'), form);
+    h('a', { href: '/project-docs/studies.html' }, 'How studies work'), ' · ', h('a', { href: '/docs#/studies' }, 'their API')), form);
   fields.applyPreset();
   if (params.from === 'experiment') {
     try {

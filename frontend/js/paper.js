@@ -7,7 +7,7 @@ import { h, notice } from './ui.js';
 import { fmtPct, fmtCI } from './stats.js';
 import { compareLabels, ready, rememberAnswer } from './algorithms.js';
 import { algorithmStyles } from './colours.js';
-import { paperRows, agreement, choosePaperJob, fmtSeedPercentile } from './paperdata.js';
+import { paperRows, agreement, choosePaperJob, fmtSeedPercentile, decidingDigits } from './paperdata.js';
 import { tableCsvButton } from './chartcontrols.js';
 
 const DOC_URL = '/project-docs/reproduction.html';
@@ -88,8 +88,8 @@ export async function mount(root, params, ctx) {
         h('td', {}, r.jobId ? h('a', { href: `#/jobs/${r.jobId}`, class: 'paper-job' }, `#${r.jobId}`) : '–'),
         h('td', { class: 'num' }, r.runs || '–'),
         h('td', { class: 'num' }, fmtPct(r.ours)),
-        h('td', { class: 'num ci' }, r.ci ? fmtCI(r.ci, 1, true) : '–'),
-        h('td', { class: 'num paper' }, fmtPct(r.paper)),
+        h('td', { class: 'num ci' }, r.ci ? fmtCI(r.ci, decidingDigits(r.ci, r.paper), true) : '–'),
+        h('td', { class: 'num paper' }, fmtPct(r.paper, decidingDigits(r.ci, r.paper))),
         h('td', { class: 'flag' }, r.outside === null ? 'not run' : (r.outside ? '⚑ outside' : 'within')),
         h('td', { class: 'num seed-rank', title: percentileTitle(r) }, fmtSeedPercentile(r.amongSeeds)),
         h('td', { class: 'num' }, fmtPct(r.oursOfMax, 1, false)),

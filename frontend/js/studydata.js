@@ -263,7 +263,7 @@ export function parallelPlot(parallel, dimensions, objectiveName, { minimize = f
   const traces = bands.map((b, k) => ({
     type: 'scatter', mode: 'lines', x: b.x, y: b.y, connectgaps: false, hoverinfo: 'skip',
     line: { width: 1.2, color: VIRIDIS[k] }, opacity: 0.75, meta: { kind: 'parallel', band: k, trials: b.n },
-    name: b.n ? `${fmtParam(b.lo)} … ${fmtParam(b.hi)}` : '', showlegend: b.n > 0,
+    name: b.n ? bandName(b.lo, b.hi) : '', showlegend: b.n > 0,
   })).filter((t) => t.meta.trials > 0);
   const shapes = axes.map((_, a) => ({ type: 'line', x0: a, x1: a, y0: 0, y1: 1, line: { color: '#1d2430', width: 1 } }));
   const annotations = [];
@@ -283,3 +283,17 @@ export function parallelPlot(parallel, dimensions, objectiveName, { minimize = f
   };
   return { traces: traces.reverse(), layout };
 }
+
+/**
+ * A colour band's legend entry: its lowest and highest objective, with as many digits as tell them apart ("39.31 …
+ * 39.34", not "39.3 … 39.3"), or the one value of a band whose trials share it.
+ */
+export function bandName(lo, hi) {
+  if (fmtParam(lo) !== fmtParam(hi)) return `${fmtParam(lo)} … ${fmtParam(hi)}`;
+  for (let digits = 5; digits <= 12 && lo !== hi; digits += 1) {
+    const [a, b] = [lo, hi].map((v) => Number(v.toPrecision(digits)));
+    if (a !== b) return `${a} … ${b}`;
+  }
+  return fmtParam(lo); // the band's trials share one value
+}
+

@@ -168,3 +168,35 @@ def test_the_runs_table_exports_offers_every_configuration_and_knows_saved_syste
         page.locator("input.pick-search").fill("on my saved")
         page.wait_for_function("() => [...document.querySelectorAll('#job-picker li')].length === 1")
         assert "rush-7" in page.inner_text("#job-picker li")
+
+
+def test_small_things_a_reader_notices(browser, server, screenshots):
+    """Issue 30, point 9: headings, word breaks, an event's label, the oracle's colour, the studies' docs link."""
+    from tests.frontend.conftest import settled_boxes
+    from tests.frontend.test_compare_view import wait_succeeded
+    from tests.frontend.test_job_view import post_job
+
+    job = post_job(server, {"system": "drift", "algorithms": ["uniform", "mgrao-adaptive:2", "oracle"], "seeds": 2,
+                            "episodes": 80, "name": "small things", "params": {"frequency_profile": "explicit",
+                                                                              "composite_periods": [1] * 10}})
+    wait_succeeded(server, [job])
+    with page_at(browser, server, width=1100) as page:
+        page.goto(f"/#/jobs/{job['id']}")
+        page.locator("#utility-chart[data-rendered]").wait_for()
+        colours = page.eval_on_selector("#utility-chart", """el => Object.fromEntries(el.data
+            .filter(t => t.meta && t.meta.kind === 'mean').map(t => [t.name, t.line.color]))""")
+        assert colours["oracle"] == "#56B4E9", colours  # sky blue, as in every job, beside adaptive groups
+        boxes = settled_boxes(page, ["#utility-chart", "#utility-chart .annotation"], "the chart's event label")
+        figure, label = boxes["#utility-chart"], boxes["#utility-chart .annotation"]
+        assert label["y"] >= figure["y"], (label, figure)  # the event's label inside the figure, not clipped
+        headings = page.locator(".config-table caption").all_inner_texts()
+        assert headings and len(headings) == len(set(headings)), headings  # "System" once
+        assert all(h[0].isupper() for h in headings), headings
+        assert page.eval_on_selector(".config-table td", "el => getComputedStyle(el).overflowWrap") == "break-word"
+        page.screenshot(path=str(screenshots / "job-small-things.png"), full_page=True)
+        page.goto("/#/runs")
+        page.locator("table.runs td.algos .label").first.wait_for()
+        assert page.eval_on_selector("table.runs td.algos .label", "el => getComputedStyle(el).whiteSpace") == "nowrap"
+        page.goto("/#/studies/new")
+        link = page.get_by_role("link", name="How studies work")
+        assert link.get_attribute("href") == "/project-docs/studies.html"

@@ -60,3 +60,14 @@ test('labelSlot: the registry colour key, and for a label outside the registry a
   assert.equal(styles.uniform.color, PALETTE[0]); // a built-in keeps its slot beside it
   forget();
 });
+
+test('the anchors keep their colour whatever comes first: the oracle is sky blue beside adaptive groups', async () => {
+  const { slotStyles, PALETTE } = await import('../../../frontend/js/colours.js');
+  // mgrao-adaptive:2 prefers slot 6 too and comes before the oracle in a job's order
+  const plain = slotStyles([0, 6, 6]);
+  assert.equal(plain[2].color, PALETTE[7]); // without anchors the oracle lost its colour (the bug)
+  const anchored = slotStyles([0, 6, 6], [true, false, true]);
+  assert.equal(anchored[2].color, PALETTE[6]);
+  assert.equal(anchored[0].color, PALETTE[0]);
+  assert.notEqual(anchored[1].color, PALETTE[6]);
+});

@@ -67,3 +67,15 @@ test('listLines: an event list one event per line, its episode and change first;
   assert.deepEqual(listLines([1, 4, 2.5]), ['1', '4', '2.5']);
   assert.deepEqual(listLines([]), ['none']);
 });
+
+test('configRows: each group once, under its title (capability_spread joins System, not a second one)', async () => {
+  const { configRows, groupTitle } = await import('../../../frontend/js/jobconfig.js');
+  const schema = { systems: [{ name: 'single', params: { n_types: 20, schedule: [], capability_spread: 0 } }],
+    parameters: [{ name: 'n_types', group: 'system' }, { name: 'schedule', group: 'dynamics' },
+      { name: 'capability_spread', group: 'system' }] };
+  const rows = configRows({ system: 'single', params: { n_types: 20, schedule: [], capability_spread: 0.5 } }, schema);
+  assert.deepEqual(rows.map((r) => [r.group, r.name]), [['System', 'n_types'], ['System', 'capability_spread'],
+    ['Dynamics (environment)', 'schedule']]);
+  assert.equal(groupTitle('mgrao-adaptive'), 'Adaptive groups (algorithm)');
+  assert.equal(groupTitle('template'), 'Template');
+});

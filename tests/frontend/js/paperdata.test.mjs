@@ -75,3 +75,12 @@ test('paperRows: where the paper falls among our seeds, from the results\' pct_b
   assert.deepEqual([max.amongSeeds.below, max.amongSeeds.n, max.amongSeeds.percentile], [2, 4, 50]);
   assert.equal(rows.find((r) => r.algorithm === 'mgrao-1:1').amongSeeds, null);
 });
+
+test('decidingDigits: one decimal unless rounding hides which side of the interval the paper lies', async () => {
+  const { decidingDigits } = await import('../../../frontend/js/paperdata.js');
+  assert.equal(decidingDigits([23.31, 27.99], 28.0), 2); // outside by 0.01: +27.99% against +28.00%
+  assert.equal(decidingDigits([23.31, 27.2], 28.0), 1); // plainly outside
+  assert.equal(decidingDigits([23.31, 28.04], 28.0), 1); // within, and reads within
+  assert.equal(decidingDigits([23.31, 27.9999], 28.0), 4); // at most four
+  assert.equal(decidingDigits(null, 28.0), 1);
+});

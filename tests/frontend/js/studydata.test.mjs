@@ -135,3 +135,10 @@ test('parallelPlot: axes scaled to [0, 1], choices as ticks, one trace per colou
   const bands = Object.fromEntries(minimized.traces.map((t) => [t.y[1], t.meta.band]));
   assert.ok(bands[0] > bands[1]); // minimizing: the lowest objective is the brightest
 });
+
+test('bandName: digits enough to tell the ends of a band apart, one value when its trials share it', async () => {
+  const { bandName } = await import('../../../frontend/js/studydata.js');
+  assert.equal(bandName(39.3, 39.30004), '39.3 … 39.30004');
+  assert.equal(bandName(39.31, 39.52), '39.31 … 39.52');
+  assert.equal(bandName(39.3, 39.3), '39.3');
+});
