@@ -13,11 +13,13 @@ shadowed the editable install (``ImportError ... (unknown location)``, 500 on ``
 from __future__ import annotations
 
 import os
+import re
 import shlex
 import shutil
 import site
 import subprocess
 import sys
+import urllib.error
 import urllib.request
 from dataclasses import dataclass
 from fnmatch import fnmatch
@@ -186,3 +188,39 @@ def test_the_readmes_two_installs_in_one_clone_in_either_order_leave_a_working_m
     compile_engine(clone)
     assert_both_commands_work(clone)
     assert_cached_outside_the_clone(clone)
+
+
+def test_the_running_dashboard_survives_the_readmes_second_install_under_it(clone: Clone) -> None:
+    """Issue 30, point 2: with the first install's `mgrao serve` running, the second install (`pip install -e`)
+    removed the package it served from: `/` answered 500 and `/js/app.js` 404 until a restart."""
+    steps = install_steps()
+    clone.install(steps["first"])
+    port = free_port()
+    with open(clone.root / "serve.log", "wb") as log:
+        server = subprocess.Popen([str(clone.root / ".venv" / "bin" / "mgrao"), "serve", "--host", "127.0.0.1",
+                                   "--port", str(port), "--workers", "0"], cwd=clone.root, env=clone.environment(),
+                                  stdout=log, stderr=subprocess.STDOUT)
+    base = f"http://127.0.0.1:{port}"
+
+    def fetch(path: str) -> tuple[int, bytes]:
+        try:
+            with urllib.request.urlopen(f"{base}{path}", timeout=30) as answer:
+                return answer.status, answer.read()
+        except urllib.error.HTTPError as error:
+            return error.code, error.read()
+
+    try:
+        wait_healthy(base, server)
+        status, index = fetch("/")
+        assert status == 200
+        modules = re.findall(rb'href="(/v/[0-9a-f]+/js/[a-z]+\.js)"', index)
+        plotly = re.search(rb'id="plotly-src" href="([^"]+)"', index)[1].decode()
+        before = {path: fetch(path) for path in ["/", "/js/app.js", modules[0].decode(), plotly, "/style.css",
+                                                 "/project-docs/", "/project-docs/statistics.html"]}
+        assert all(status == 200 for status, _ in before.values()), {p: s for p, (s, _) in before.items()}
+        clone.install(steps["second"])  # the editable install: the first's package is gone from site-packages
+        assert not (clone.site_packages() / "frontend").exists()
+        after = {path: fetch(path) for path in before}
+        assert after == before, {p: s for p, (s, _) in after.items()}  # the same answers, without a restart
+    finally:
+        stop(server)

@@ -23,14 +23,13 @@ import html
 import mimetypes
 import re
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
-from functools import lru_cache
+from dataclasses import dataclass, field
 from pathlib import Path
 from urllib.parse import urlsplit
 
 import markdown
 from fastapi import FastAPI, Request, Response
-from fastapi.responses import FileResponse, RedirectResponse
+from fastapi.responses import RedirectResponse
 from markdown.extensions import Extension
 from markdown.treeprocessors import Treeprocessor
 
@@ -42,9 +41,37 @@ EXTERNAL = re.compile(r"^(https?:|mailto:)", re.IGNORECASE)
 PAGE_NAME = re.compile(r"[a-z0-9][a-z0-9_-]*")
 
 
-def page_names(directory: Path) -> list[str]:
-    """The pages of ``directory``: the stems of its ``*.md`` files, sorted."""
-    return sorted(p.stem for p in directory.glob("*.md") if PAGE_NAME.fullmatch(p.stem))
+@dataclass
+class Docs:
+    """The pages and images of a docs directory, read once.
+
+    What a service serves whatever happens to the files after it started (a reinstall removes the installed
+    package's).
+    """
+
+    texts: dict[str, str]
+    """Page name -> its Markdown."""
+    images: dict[str, bytes]
+    """File name under ``img/`` -> its bytes."""
+    rendered: dict[str, Page] = field(default_factory=dict)
+
+    @classmethod
+    def read(cls, directory: Path) -> Docs:
+        """Every page (``*.md`` with a page's name) and image (``img/*``) of ``directory``."""
+        texts = {p.stem: p.read_text(encoding="utf-8") for p in sorted(directory.glob("*.md"))
+                 if PAGE_NAME.fullmatch(p.stem)}
+        folder = directory / "img"
+        images = {p.name: p.read_bytes() for p in sorted(folder.iterdir()) if p.is_file()} if folder.is_dir() else {}
+        return cls(texts, images)
+
+
+def _docs(source: Docs | Path) -> Docs:
+    return source if isinstance(source, Docs) else Docs.read(source)
+
+
+def page_names(source: Docs | Path) -> list[str]:
+    """The pages: the stems of the ``*.md`` files, sorted."""
+    return sorted(_docs(source).texts)
 
 
 def page_title(text: str, name: str) -> str:
@@ -53,15 +80,15 @@ def page_title(text: str, name: str) -> str:
     return match.group(1).strip() if match else name
 
 
-def titles(directory: Path) -> dict[str, str]:
+def titles(source: Docs | Path) -> dict[str, str]:
     """Every page's name and title, in name order."""
-    return {n: page_title((directory / f"{n}.md").read_text(encoding="utf-8"), n) for n in page_names(directory)}
+    docs = _docs(source)
+    return {n: page_title(docs.texts[n], n) for n in sorted(docs.texts)}
 
 
-def image_names(directory: Path) -> list[str]:
-    """The files of ``directory/img``, sorted."""
-    folder = directory / "img"
-    return sorted(p.name for p in folder.iterdir() if p.is_file()) if folder.is_dir() else []
+def image_names(source: Docs | Path) -> list[str]:
+    """The files of ``img/``, sorted."""
+    return sorted(_docs(source).images)
 
 
 def slugify(value: str, separator: str) -> str:
@@ -134,16 +161,17 @@ class Page:
     etag: str
 
 
-def render(directory: Path, name: str) -> Page:
-    """The HTML document of ``directory/NAME.md``, with its links made to work (module docstring)."""
-    pages = page_names(directory)
-    text = (directory / f"{name}.md").read_text(encoding="utf-8")
+def render(source: Docs | Path, name: str) -> Page:
+    """The HTML document of page ``name``, with its links made to work (module docstring)."""
+    docs = _docs(source)
+    pages = page_names(docs)
+    text = docs.texts[name]
     md = markdown.Markdown(extensions=["tables", "fenced_code", "sane_lists", "toc",
-                                       _LinkExtension(frozenset(pages), frozenset(image_names(directory)))],
+                                       _LinkExtension(frozenset(pages), frozenset(image_names(docs)))],
                            extension_configs={"toc": {"slugify": slugify}}, output_format="html")
     article = md.convert(text)
     title = page_title(text, name)
-    body = _document(title, article, titles(directory), current=name).encode()
+    body = _document(title, article, titles(docs), current=name).encode()
     return Page(name, title, body, '"' + hashlib.sha256(body).hexdigest()[:32] + '"')
 
 
@@ -176,23 +204,19 @@ def _document(title: str, article: str, pages: dict[str, str], current: str | No
     )
 
 
-@lru_cache(maxsize=64)
-def _cached(directory: Path, name: str, stamp: tuple[tuple[str, int, int], ...]) -> Page:
-    return render(directory, name)
-
-
-def page(directory: Path, name: str) -> Page | None:
-    """The rendered page ``name`` (cached until a page changes: each shows every title), None if none."""
-    names = page_names(directory)
-    if name not in names:
+def page(source: Docs | Path, name: str) -> Page | None:
+    """The rendered page ``name`` (rendered once per snapshot), None if there is none."""
+    docs = _docs(source)
+    if name not in docs.texts:
         return None
-    stamp = tuple((n, (s := (directory / f"{n}.md").stat()).st_mtime_ns, s.st_size) for n in names)
-    return _cached(directory, name, stamp)
+    if name not in docs.rendered:
+        docs.rendered[name] = render(docs, name)
+    return docs.rendered[name]
 
 
-def index(directory: Path) -> bytes:
+def index(source: Docs | Path) -> bytes:
     """The index of the pages: each with its title."""
-    pages = titles(directory)
+    pages = titles(source)
     items = "".join(f'<li><a href="{n}.html">{html.escape(t)}</a> <code>docs/{n}.md</code></li>'
                     for n, t in pages.items())
     article = ("<h1>Documentation</h1>\n<p>The project's <code>docs/</code>, as installed with this service.</p>\n"
@@ -208,8 +232,8 @@ def _html(body: bytes, etag: str, request: Request) -> Response:
 
 
 def install_docs(app: FastAPI, directory: Path | None = None) -> None:
-    """The ``/project-docs/`` routes for the pages of ``directory`` (default: the installed docs)."""
-    directory = directory or docs_dir()
+    """The ``/project-docs/`` routes for the pages of ``directory`` (default: the installed docs), read at start."""
+    directory = Docs.read(directory or docs_dir())
     missing = Response("No such page of the documentation.", status_code=404, media_type="text/plain")
 
     @app.api_route(PREFIX, methods=["GET", "HEAD"], include_in_schema=False)
@@ -237,4 +261,4 @@ def install_docs(app: FastAPI, directory: Path | None = None) -> None:
         if file not in image_names(directory):
             return missing
         media_type = mimetypes.guess_type(file)[0] or "application/octet-stream"
-        return FileResponse(directory / "img" / file, media_type=media_type, headers={"cache-control": REVALIDATE})
+        return Response(directory.images[file], media_type=media_type, headers={"cache-control": REVALIDATE})

@@ -19,6 +19,7 @@
 
 from __future__ import annotations
 
+import fnmatch
 import gzip
 import hashlib
 import importlib.metadata
@@ -26,16 +27,14 @@ import importlib.resources
 import importlib.util
 import json
 import logging
-import os
+import mimetypes
 from dataclasses import dataclass
 from functools import cache, cached_property
 from pathlib import Path
 
 from fastapi import FastAPI, Request, Response
-from fastapi.responses import FileResponse, RedirectResponse
-from fastapi.staticfiles import StaticFiles
+from fastapi.responses import RedirectResponse
 from starlette.middleware.gzip import GZipMiddleware
-from starlette.staticfiles import PathLike
 from starlette.types import Receive, Scope, Send
 
 from backend.api.paths import under
@@ -149,79 +148,114 @@ def accepts_gzip(request: Request) -> bool:
 
 @dataclass(frozen=True)
 class VendorFile:
-    """A library file served under a versioned address: cached for a year, gzip once."""
+    """A library file served under a versioned address: read once, cached for a year, gzip once."""
 
-    path: Path
+    body: bytes
     media_type: str
+
+    @classmethod
+    def read(cls, path: Path, media_type: str) -> VendorFile:
+        """The file as it is now: served as such whatever happens to ``path`` later (a reinstall)."""
+        return cls(path.read_bytes(), media_type)
 
     @cached_property
     def etag(self) -> str:
         """Strong validator of the file's bytes."""
-        return '"' + hashlib.sha256(self.path.read_bytes()).hexdigest()[:32] + '"'
+        return '"' + hashlib.sha256(self.body).hexdigest()[:32] + '"'
 
     @cached_property
     def gzipped(self) -> bytes:
         """The file's bytes, gzip-compressed (level 9, once per process)."""
-        return gzip.compress(self.path.read_bytes(), compresslevel=9, mtime=0)
+        return gzip.compress(self.body, compresslevel=9, mtime=0)
 
     def response(self, request: Request) -> Response:
         """200 (gzip when accepted), 304 for a matching If-None-Match; HEAD answers the headers alone."""
         headers = {"cache-control": IMMUTABLE, "etag": self.etag, "vary": "Accept-Encoding"}
         if self.etag in request.headers.get("if-none-match", ""):
             return Response(status_code=304, headers=headers)
-        if not accepts_gzip(request):
-            return FileResponse(self.path, media_type=self.media_type, headers=headers)
-        body = self.gzipped
-        headers |= {"content-encoding": "gzip", "content-length": str(len(body))}
+        body = self.body
+        if accepts_gzip(request):
+            body = self.gzipped
+            headers["content-encoding"] = "gzip"
+        headers["content-length"] = str(len(body))
         return Response(b"" if request.method == "HEAD" else body, media_type=self.media_type, headers=headers)
 
 
-class DashboardFiles(StaticFiles):
-    """The dashboard's files, revalidated on every use: ``Cache-Control: no-cache``."""
+@dataclass(frozen=True)
+class StaticFile:
+    """One of the dashboard's files as the service read it at start."""
 
-    def file_response(self, full_path: PathLike, stat_result: os.stat_result, scope: Scope,
-                      status_code: int = 200) -> Response:
-        """StaticFiles' answer (ETag, Last-Modified, 304), told to revalidate."""
-        response = super().file_response(full_path, stat_result, scope, status_code)
-        response.headers["cache-control"] = REVALIDATE
-        return response
+    body: bytes
+    media_type: str
+    etag: str
 
 
-class VersionedDashboardFiles(StaticFiles):
-    """The dashboard's files under ``/v/<digest>/``: cached for a year when ``<digest>`` is the one served.
+def snapshot(directory: Path) -> dict[str, StaticFile]:
+    """Every file under ``directory`` (but Python's), by its path relative to it, read now.
 
-    An address with another digest (a page loaded before the server was upgraded) still gets the
-    file as it is now, to be revalidated.
+    The service serves these whatever happens to the installed files later: the README's second install
+    (``pip install -e``) removes the first's package under a running ``mgrao serve``, which then answered
+    500 on ``/`` and 404 on ``/js/app.js``.
+    """
+    files = {}
+    for path in sorted(directory.rglob("*")):
+        if not path.is_file() or "__pycache__" in path.parts or path.suffix in (".py", ".pyc"):
+            continue
+        relative = path.relative_to(directory).as_posix()
+        body = path.read_bytes()
+        media_type = mimetypes.guess_type(relative)[0] or "application/octet-stream"
+        if media_type.startswith("text/") or media_type in ("application/javascript", "image/svg+xml"):
+            media_type += "; charset=utf-8"
+        files[relative] = StaticFile(body, media_type, '"' + hashlib.sha256(body).hexdigest()[:32] + '"')
+    return files
+
+
+class SnapshotFiles:
+    """An ASGI app answering GET and HEAD with the snapshot's files: ETag, 304, and a cache policy.
+
+    ``versioned``: paths come as ``<digest>/<file>``; a file under the served digest is cached for a year, one
+    under another digest (a page loaded before an upgrade) gets the file as it is now, to be revalidated.
     """
 
-    def __init__(self, *, directory: Path, digest: str) -> None:
-        super().__init__(directory=directory)
-        self.digest = digest
+    def __init__(self, files: dict[str, StaticFile], *, versioned: str | None = None) -> None:
+        self.files, self.versioned = files, versioned
 
-    def get_path(self, scope: Scope) -> str:
-        """The file's path without the digest, which goes into the scope for :meth:`file_response`."""
-        digest, _, rest = super().get_path(scope).replace("\\", "/").partition("/")
-        scope["mgrao.digest"] = digest
-        return rest if rest else "\0"  # "\0": no file (StaticFiles answers 404)
-
-    def file_response(self, full_path: PathLike, stat_result: os.stat_result, scope: Scope,
-                      status_code: int = 200) -> Response:
-        """StaticFiles' answer (ETag, Last-Modified, 304), immutable under the served digest."""
-        response = super().file_response(full_path, stat_result, scope, status_code)
-        response.headers["cache-control"] = IMMUTABLE if scope.get("mgrao.digest") == self.digest else REVALIDATE
-        return response
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        """Serve the file the path names, or 404 (405 for another method)."""
+        request = Request(scope)
+        path, root = scope["path"], scope.get("root_path", "")
+        path = (path[len(root):] if root and path.startswith(root) else path).lstrip("/")  # the path under the mount
+        cache = REVALIDATE
+        if self.versioned is not None:
+            digest, _, path = path.partition("/")
+            cache = IMMUTABLE if digest == self.versioned else REVALIDATE
+        if request.method not in ("GET", "HEAD"):
+            response = Response("Method Not Allowed", status_code=405, headers={"allow": "GET, HEAD"})
+        elif path in self.files:
+            file = self.files[path]
+            headers = {"cache-control": cache, "etag": file.etag}
+            if file.etag in request.headers.get("if-none-match", ""):
+                response = Response(status_code=304, headers=headers)
+            else:
+                headers["content-length"] = str(len(file.body))
+                response = Response(b"" if request.method == "HEAD" else file.body, headers=headers,
+                                    media_type=file.media_type)
+        else:
+            response = Response("Not Found", status_code=404, media_type="text/plain")
+        await response(scope, receive, send)
 
 
 VERSIONED_FILES = ("js/*.js", "style.css", "favicon.svg")
 """The dashboard's files that ``index.html`` names under ``/v/<digest>/``."""
 
 
-def dashboard_digest(static: Path) -> str:
+def dashboard_digest(static: Path | dict[str, StaticFile]) -> str:
     """sha256 (first 16 hex digits) of :data:`VERSIONED_FILES`, by name and content."""
+    files = snapshot(static) if isinstance(static, Path) else static
     digest = hashlib.sha256()
     for pattern in VERSIONED_FILES:
-        for path in sorted(static.glob(pattern)):
-            digest.update(path.relative_to(static).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
+        for name in sorted(n for n in files if fnmatch.fnmatchcase(n, pattern) and n.count("/") == pattern.count("/")):
+            digest.update(name.encode() + b"\0" + files[name].body + b"\0")
     return digest.hexdigest()[:16]
 
 
@@ -243,28 +277,27 @@ class CompressAssets(GZipMiddleware):
 MODULES_PLACEHOLDER = "<!-- modulepreload -->"
 
 
-def _module_preloads(static: Path, prefix: str) -> str:
+def _module_preloads(files: dict[str, StaticFile], prefix: str) -> str:
     """A ``modulepreload`` link for every ES module of the dashboard.
 
     The modules import each other three levels deep; without these links the browser finds each
     level only when the one above has arrived (three round trips in a row on a first load, or when
     the versioned addresses are not in use). With them all are asked for at once.
     """
-    modules = sorted((static / "js").glob("*.js"))
-    return "".join(f'<link rel="modulepreload" href="{prefix}/js/{path.name}">' for path in modules)
+    modules = sorted(n for n in files if n.startswith("js/") and n.endswith(".js") and n.count("/") == 1)
+    return "".join(f'<link rel="modulepreload" href="{prefix}/{name}">' for name in modules)
 
 
-def _dashboard_index(static: Path, versioned: str | None) -> Response:
+def _dashboard_index(files: dict[str, StaticFile], versioned: str | None) -> StaticFile:
     """``index.html`` naming the files under ``/v/<versioned>/`` (plain addresses when None)."""
     prefix = "" if versioned is None else f"/v/{versioned}"
-    html = (static / "index.html").read_text(encoding="utf-8").replace(HTML_PLACEHOLDER, f'href="{plotly_url()}"')
+    html = files["index.html"].body.decode("utf-8").replace(HTML_PLACEHOLDER, f'href="{plotly_url()}"')
     if prefix:
         for name in ("/js/app.js", "/style.css", "/favicon.svg"):
             html = html.replace(f'"{name}"', f'"{prefix}{name}"')
-    html = html.replace(MODULES_PLACEHOLDER, _module_preloads(static, prefix))
+    html = html.replace(MODULES_PLACEHOLDER, _module_preloads(files, prefix))
     body = html.encode()
-    etag = '"' + hashlib.sha256(body).hexdigest()[:32] + '"'
-    return Response(body, media_type="text/html", headers={"cache-control": REVALIDATE, "etag": etag})
+    return StaticFile(body, "text/html; charset=utf-8", '"' + hashlib.sha256(body).hexdigest()[:32] + '"')
 
 
 def _serve_vendor_file(app: FastAPI, url: str, file: VendorFile) -> None:
@@ -276,7 +309,7 @@ def _serve_vendor_file(app: FastAPI, url: str, file: VendorFile) -> None:
 def install_static(app: FastAPI) -> None:
     """Vendored libraries, then the dashboard at ``/`` (after every other route)."""
     versioned = plotly_url()
-    _serve_vendor_file(app, versioned, VendorFile(plotly_js(), "text/javascript"))
+    _serve_vendor_file(app, versioned, VendorFile.read(plotly_js(), "text/javascript"))
 
     @app.api_route(PLOTLY_ALIAS, methods=["GET", "HEAD"], include_in_schema=False)
     def plotly_alias() -> Response:
@@ -284,24 +317,25 @@ def install_static(app: FastAPI) -> None:
         return RedirectResponse(versioned, status_code=307, headers={"cache-control": REVALIDATE})
 
     for name, media_type in DOCS_ASSETS.items():
-        _serve_vendor_file(app, docs_asset_url(name), VendorFile(docs_assets_dir() / name, media_type))
+        _serve_vendor_file(app, docs_asset_url(name), VendorFile.read(docs_assets_dir() / name, media_type))
 
-    static = frontend_dir()
-    if static is None:
+    directory = frontend_dir()
+    if directory is None:
         return
-
-    # The digest of the files as this process found them: the versioned addresses serve these.
-    # Should a file change under a running server (a developer's edit), index.html falls back to
-    # the plain, revalidated addresses rather than pair new content with a cached old address.
-    served = dashboard_digest(static)
+    # The files as this process found them at start, served from memory: a reinstall under a running
+    # service (the README's second install) leaves the dashboard as it was until the next start.
+    files = snapshot(directory)
+    served = dashboard_digest(files)
+    index = _dashboard_index(files, served)
 
     @app.api_route("/", methods=["GET", "HEAD"], include_in_schema=False)
     @app.api_route("/index.html", methods=["GET", "HEAD"], include_in_schema=False)
     def dashboard_index(request: Request) -> Response:
-        response = _dashboard_index(static, served if dashboard_digest(static) == served else None)
-        if response.headers["etag"] in request.headers.get("if-none-match", ""):
-            return Response(status_code=304, headers={"cache-control": REVALIDATE, "etag": response.headers["etag"]})
-        return response
+        headers = {"cache-control": REVALIDATE, "etag": index.etag}
+        if index.etag in request.headers.get("if-none-match", ""):
+            return Response(status_code=304, headers=headers)
+        return Response(b"" if request.method == "HEAD" else index.body, media_type=index.media_type,
+                        headers=headers | {"content-length": str(len(index.body))})
 
-    app.mount("/v", VersionedDashboardFiles(directory=static, digest=served), name="dashboard-versioned")
-    app.mount("/", DashboardFiles(directory=static, html=True), name="dashboard")
+    app.mount("/v", SnapshotFiles(files, versioned=served), name="dashboard-versioned")
+    app.mount("/", SnapshotFiles(files), name="dashboard")
