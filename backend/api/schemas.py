@@ -9,6 +9,7 @@ from typing import Annotated, Any, Literal
 from pydantic import (
     AfterValidator,
     BaseModel,
+    BeforeValidator,
     ConfigDict,
     Field,
     GetCoreSchemaHandler,
@@ -17,7 +18,7 @@ from pydantic import (
     StrictInt,
     StringConstraints,
 )
-from pydantic.json_schema import JsonSchemaValue, SkipJsonSchema
+from pydantic.json_schema import JsonSchemaValue, SkipJsonSchema, WithJsonSchema
 from pydantic_core import PydanticCustomError, core_schema
 
 from backend.services.saved_systems import NAME_PATTERN as SAVED_NAME_PATTERN
@@ -188,8 +189,17 @@ Notes = Annotated[str, StringConstraints(max_length=MAX_NOTES), Printable(multil
 """Notes: text of several lines (tabs and line breaks kept), NFC."""
 Label = Annotated[str, StringConstraints(min_length=1, max_length=MAX_LABEL), NoNul()]
 ParamName = Annotated[str, StringConstraints(max_length=64), NoNul()]
-Seed = Annotated[StrictInt, Field(ge=0, le=MAX_SEED_VALUE)]
-SeedCount = Annotated[StrictInt, Field(ge=1, le=MAX_SEEDS)]
+
+
+def _whole(value: Any) -> Any:
+    """An integral number written with a fraction (``3.0``, an integer to JSON Schema) as the integer it is."""
+    return int(value) if type(value) is float and value.is_integer() else value
+
+
+WholeNumber = Annotated[StrictInt, BeforeValidator(_whole)]
+"""A JSON integer: ``3`` or ``3.0``; not ``3.5``, ``"3"`` or ``true``."""
+Seed = Annotated[WholeNumber, Field(ge=0, le=MAX_SEED_VALUE)]
+SeedCount = Annotated[WholeNumber, Field(ge=1, le=MAX_SEEDS)]
 SeedList = Annotated[list[Seed], Field(min_length=1, max_length=MAX_SEEDS)]
 ScalarValue = StrictBool | StrictInt | float | ParamName | None
 
@@ -207,6 +217,13 @@ ListValue = Annotated[list[StrictBool | StrictInt | float | ParamName | Event], 
 """A list or event-list parameter's value (the core checks it against the parameter's own schema)."""
 ParamValue = ScalarValue | ListValue
 Params = Annotated[dict[ParamName, ParamValue], Field(max_length=len(PARAMETERS), json_schema_extra=parameters_schema)]
+_PRESET_SCHEMA = {"type": "string", "enum": list(PRESETS)}
+JobSystem = Annotated[Label, WithJsonSchema({
+    "anyOf": [_PRESET_SCHEMA, {"type": "string", "pattern": SAVED_NAME_PATTERN}],
+    "description": "A preset, or a saved system's name (GET /api/systems/saved)."})]
+"""A job's system: a preset or a saved system's name, checked by the route (422 naming the presets otherwise)."""
+PresetSystem = Annotated[Label, WithJsonSchema(_PRESET_SCHEMA | {"description": "A preset (GET /api/systems)."})]
+"""A preset's name, checked by the core (422 naming the presets otherwise)."""
 Status = Literal["queued", "running", "succeeded", "failed", "cancelled", "open"]
 Kind = Literal["simulation", "external"]
 Sort = Literal["-created_at", "created_at", "name", "-name", "status", "-status"]
@@ -217,10 +234,10 @@ class JobCreate(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    system: Label
+    system: JobSystem
     algorithms: Annotated[list[Label], Field(min_length=1, max_length=MAX_ALGORITHMS)] | None = None
     seeds: SeedCount | SeedList = 30
-    episodes: Annotated[StrictInt, Field(ge=1, le=MAX_EPISODES)] = 100
+    episodes: Annotated[WholeNumber, Field(ge=1, le=MAX_EPISODES)] = 100
     params: Params = Field(default_factory=dict)
     name: Name = ""
     tags: Annotated[list[Tag], Field(max_length=MAX_TAGS)] = Field(default_factory=list)
@@ -341,7 +358,7 @@ class StudyBase(BaseModel):
     algorithms: Annotated[list[Label], Field(min_length=1, max_length=MAX_ALGORITHMS)] | None = None
     seeds: SeedCount | SeedList = 10
     first_seed: Seed = 0
-    episodes: Annotated[StrictInt, Field(ge=1, le=MAX_EPISODES)] = 100
+    episodes: Annotated[WholeNumber, Field(ge=1, le=MAX_EPISODES)] = 100
     params: Params = Field(default_factory=dict)
 
 
@@ -354,7 +371,7 @@ class StudyDimension(BaseModel):
         = Unset
     low: float | SkipJsonSchema[None] = Unset
     high: float | SkipJsonSchema[None] = Unset
-    steps: Annotated[StrictInt, Field(ge=2, le=search.MAX_STEPS)] | SkipJsonSchema[None] = Unset
+    steps: Annotated[WholeNumber, Field(ge=2, le=search.MAX_STEPS)] | SkipJsonSchema[None] = Unset
     log: StrictBool = False
 
 
@@ -380,9 +397,9 @@ class StudyCreate(BaseModel):
     space: Annotated[dict[SpaceName, StudyDimension],
                      Field(min_length=1, max_length=search.MAX_DIMENSIONS, json_schema_extra=_space_names)]
     objective: StudyObjective
-    max_trials: Annotated[StrictInt, Field(ge=1, le=search.MAX_TRIALS)] = 100
-    max_in_flight: Annotated[StrictInt, Field(ge=1, le=search.MAX_IN_FLIGHT)] = 4
-    seed: Annotated[StrictInt, Field(ge=0, le=2**32 - 1)] = 0
+    max_trials: Annotated[WholeNumber, Field(ge=1, le=search.MAX_TRIALS)] = 100
+    max_in_flight: Annotated[WholeNumber, Field(ge=1, le=search.MAX_IN_FLIGHT)] = 4
+    seed: Annotated[WholeNumber, Field(ge=0, le=2**32 - 1)] = 0
 
 
 # ---- runs logged from outside (docs/platform.md) ---------------------------------------------------------------
@@ -394,8 +411,9 @@ BATCH_KEY_PATTERN = "^[A-Za-z0-9._:-]{1,64}$"
 """A client's key of a batch or of an opening: 1-64 letters, digits, ``.``, ``_``, ``:`` or ``-``."""
 ExternalLabel = Annotated[str, StringConstraints(pattern=EXTERNAL_LABEL_PATTERN)]
 ClientKey = Annotated[str, StringConstraints(pattern=BATCH_KEY_PATTERN)]
-Utility = Annotated[float, Field(allow_inf_nan=False)]
-EpisodeIndex = Annotated[StrictInt, Field(ge=0, le=MAX_EPISODES - 1)]
+Utility = Annotated[float, Field(allow_inf_nan=False, strict=True)]
+"""A utility or weight: a JSON number (an integer too), finite; not a string or a boolean that looks like one."""
+EpisodeIndex = Annotated[WholeNumber, Field(ge=0, le=MAX_EPISODES - 1)]
 
 
 class ExternalRunCreate(BaseModel):
@@ -405,10 +423,10 @@ class ExternalRunCreate(BaseModel):
 
     label: ExternalLabel = Field(description="The configuration's name beside the built-in ones (never a built-in "
                                              "algorithm's label: GET /api/algorithms).")
-    system: Label
+    system: PresetSystem
     params: Params = Field(default_factory=dict)
     seeds: SeedCount | SeedList = Field(description="A count S (seeds 0 .. S-1) or the list of seeds, as a job's.")
-    episodes: Annotated[StrictInt, Field(ge=1, le=MAX_EPISODES)]
+    episodes: Annotated[WholeNumber, Field(ge=1, le=MAX_EPISODES)]
     key: ClientKey | SkipJsonSchema[None] = Field(None, description="Opening again with the same key and definition "
                                                                     "answers the same run (200): resume after a crash.")
     name: Name = ""

@@ -85,9 +85,10 @@ def validation_details(errors: Sequence[Any], body: Any = None) -> list[dict[str
 
     Union branches (seeds as a count or a list, parameter values) are folded into the field, and a
     bad key of an object (``params``) is named by the object; of several errors on a field, a rule of
-    ours beats a limit, which beats a type mismatch. Inside an object of the ``body`` other than a
-    job's ``params`` (a study's ``base``, ``space``, ``objective``) the location follows the body all
-    the way down and the field is named as the core names it (``space.learning_rate.values[2]``).
+    ours beats a limit, which beats a type mismatch, and of equal rank the one deeper in the value. Inside
+    an object of the ``body`` other than a job's ``params`` (a study's ``base``, ``space``, ``objective``;
+    an item of a list: a batch's ``jobs[0]``, ``utilities[1]``) the location follows the body all the way
+    down and the field is named as the core names it (``space.learning_rate.values[2]``, ``jobs[0].episodes``).
     """
     best: dict[tuple, dict[str, Any]] = {}
     loc: list[str | int]
@@ -97,8 +98,7 @@ def validation_details(errors: Sequence[Any], body: Any = None) -> list[dict[str
         raw = list(item.get("loc", ()))
         if "[key]" in raw:  # a key of an object: named by the object (the key itself may be unprintable)
             raw = raw[: raw.index("[key]") - 1]
-        nested = (len(raw) > 2 and raw[0] == "body" and raw[1] != "params" and isinstance(body, dict)
-                  and isinstance(body.get(raw[1]), dict))
+        nested = len(raw) > 2 and raw[0] == "body" and raw[1] != "params" and _is_object(body, raw[1:3])
         if item.get("type") == "json_invalid":
             loc, field = ["body"], "body"
         elif nested:
@@ -114,12 +114,29 @@ def validation_details(errors: Sequence[Any], body: Any = None) -> list[dict[str
             index = next((p for p in raw[2:] if isinstance(p, int)), None)
             loc = raw[:2] + ([index] if index is not None else [])
             field = str(raw[1]) if index is None else f"{raw[1]}[{index}]"
-        key = tuple(loc if nested else loc[:3] if len(raw) > 1 and raw[1] == "params" else loc[:2])
+        # one error per field: a list's items fold into it (values[0] .. values[4999] out of range: one error)
+        key = tuple(_field_of(loc) if nested else loc[:3] if len(raw) > 1 and raw[1] == "params" else loc[:2])
         kind = str(item.get("type", "value_error"))
         entry = {"loc": loc, "field": field, "msg": f"{field}: {in_our_words(item)}", "type": kind}
-        if key not in best or _rank(kind) > _rank(best[key]["type"]):
-            best[key] = entry
+        if key not in best or (_rank(kind), len(loc)) > (_rank(best[key]["type"]), len(best[key]["loc"])):
+            best[key] = entry  # of equal rank the deeper: [1, "x"] fails seeds[1], not "seeds: not a whole number"
     return list(best.values())
+
+
+def _field_of(loc: list[str | int]) -> list[str | int]:
+    """A location without its trailing list indices (``weights[0].weights[3][7]``: ``weights[0].weights``)."""
+    end = len(loc)
+    while end > 1 and isinstance(loc[end - 1], int):
+        end -= 1
+    return loc[:end]
+
+
+def _is_object(body: Any, parts: Sequence[str | int]) -> bool:
+    """Whether the body holds an object at ``parts`` (``["base"]``, or ``["jobs", 0]``: an object of a list)."""
+    node = body.get(parts[0]) if isinstance(body, dict) else None
+    if isinstance(node, list) and len(parts) > 1 and isinstance(parts[1], int) and 0 <= parts[1] < len(node):
+        node = node[parts[1]]
+    return isinstance(node, dict)
 
 
 def _rank(kind: str) -> int:

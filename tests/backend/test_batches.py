@@ -186,6 +186,10 @@ def test_a_batch_submit_queues_every_job_or_none(client: TestClient, worker: Wor
     bad = client.post("/api/jobs/batch", headers=JSON,
                       json={"jobs": [SMALL, SMALL | {"params": {"learning_rate": -1}}]})
     assert bad.status_code == 422 and bad.json()["detail"][0]["loc"][:3] == ["body", "jobs", 1], bad.text
+    mistyped = client.post("/api/jobs/batch", headers=JSON, json={"jobs": [SMALL, SMALL | {"episodes": {}}]})
+    assert mistyped.status_code == 422 and mistyped.json()["detail"] == [  # the field, not only its job
+        {"loc": ["body", "jobs", 1, "episodes"], "field": "jobs[1].episodes",
+         "msg": "jobs[1].episodes: must be a whole number (got dict)", "type": "int_type"}], mistyped.text
     assert drain(worker) == 5  # one batch: nothing of the refused request was queued
     per_job, distinct, total = _runs(db_url)
     assert per_job == dict.fromkeys((job["id"] for job in answer.json()["data"]), 2) and distinct == total == 10

@@ -207,11 +207,15 @@ REFUSED_BATCHES = [
      "utilities[0]: episodes 4-5 go past the run's 5 episodes (episodes are counted from 0: the last is 4)"),
     ({"utilities": [{"seed": 0, "values": [1.0, 2.0]}, {"seed": 0, "start": 1, "values": [3.0]}]}, "utilities[1]",
      "utilities[1]: episodes 1-1 of seed 0 overlap utilities[0] of the same batch"),
-    ({"utilities": [{"seed": 0, "values": []}]}, "utilities[0]", None),
-    ({"utilities": [{"seed": 0, "values": ["x"]}]}, "utilities[0]", None),
+    ({"utilities": [{"seed": 0, "values": []}]}, "utilities[0].values", None),
+    ({"utilities": [{"seed": 0, "values": ["x"]}]}, "utilities[0].values[0]", None),
+    ({"utilities": [{"seed": 0, "values": [False]}]}, "utilities[0].values[0]",  # a number, not what JSON's false
+     "utilities[0].values[0]: must be a number (got false)"),                    # could be read as (Schemathesis)
     ({"weights": [{"seed": 0, "weights": [[0.1] * 19]}]}, "weights[0]",
      "weights[0]: must be 1 rows (one per child) of 20 values (one per type), got 1 rows of [19] values"),
-    ({"weights": [{"seed": 0, "weights": [[-0.1] * 20]}]}, "weights[0]", None),
+    ({"weights": [{"seed": 0, "weights": [[-0.1] * 20]}]}, "weights[0].weights[0][0]", None),
+    ({"weights": [{"seed": {}, "weights": [[0.05] * 20]}]}, "weights[0].seed", "weights[0].seed: must be a whole "
+                                                                             "number (got dict)"),
     ({"weights": [{"seed": 0, "weights": [[0.05] * 20]}, {"seed": 0, "weights": [[0.05] * 20]}]}, "weights[1]",
      "weights[1]: repeats weights[0] (seed 0)"),
     ({"key": ""}, "key", None),
@@ -239,7 +243,7 @@ def test_values_that_are_not_finite_are_refused(client: TestClient, number: str)
     answer = client.post(f"/api/external-runs/{run_id}/batches", headers=JSON,
                          content=f'{{"key": "k", "utilities": [{{"seed": 0, "values": [1.0, {number}]}}]}}')
     assert answer.status_code == 422, answer.text
-    assert answer.json()["detail"][0]["field"] == "utilities[0]"
+    assert answer.json()["detail"][0]["field"] == "utilities[0].values[1]"
     assert "finite" in answer.json()["detail"][0]["msg"]
 
 
