@@ -226,6 +226,13 @@ PARAMETERS: tuple[Parameter, ...] = (
 the parents' allocation and volatility, then the system's dynamics (frequencies, schedule, unpredictable
 parents, capability), then several resources (``n_resources`` and how they combine)."""
 PARAMETERS_BY_NAME: dict[str, Parameter] = {p.name: p for p in PARAMETERS}
+GROUP_TITLES: dict[str, str] = {
+    "system": "System", "values": "Values", "quality": "Quality (environment)",
+    "allocation": "Allocation (environment)", "volatility": "Volatility (environment)",
+    "dynamics": "Dynamics (environment)", "resources": "Resources (environment)",
+    **{f.name: f"{f.title} (algorithm)" for f in FAMILIES if f.parameters},
+}
+"""Each parameter group's heading in forms and tables: the model's parts, then each family's (its title)."""
 
 
 class _Derived:

@@ -55,30 +55,28 @@ TOKEN = _error("Missing or wrong bearer token (only when the service has MGRAO_A
                headers={"WWW-Authenticate": {"description": "Bearer", "schema": {"type": "string"}}})
 FOREIGN = _error("Cross-origin write refused: the Origin header is not this server's own origin.")
 NOT_JSON = _error("A write without an Origin header needs Content-Type: application/json, even without a body.")
-INVALID = _error("A field is refused: its name, where it is and the limit. Some rules are not in this "
-                 "document's schemas (the work limit, an x of mgrao-x:1 that must divide n_parents, "
-                 "types_per_composite at most n_types, a parameter's own limits, GET /api/systems): "
-                 "schema-valid data can still be refused here.", Invalid)
+INVALID = _error("A field is refused: its name, where it is and the limit; or a query parameter the operation "
+                 "does not take. Some rules are not in this document's schemas (the work limit, an x of mgrao-x:1 "
+                 "that must divide n_parents, types_per_composite at most n_types, a parameter's own limits, "
+                 "GET /api/systems): schema-valid data can still be refused here.", Invalid)
 NOT_FOUND = _error("No such job or study (a well-formed id that does not exist).")
 CONFLICT = _error("The job's or study's state does not allow this (e.g. nothing stored yet, or still running).")
 
 
-def answers(*, write: bool = False, found: bool = False, conflict: bool = False, invalid: bool = True,
+def answers(*, write: bool = False, found: bool = False, conflict: bool = False,
             extra: dict[int, dict] | None = None) -> dict[int | str, dict[str, Any]]:
     """A route's ``responses``: the errors it can answer, and ``extra``.
 
-    Always 400, 413 and 503; 401, 403 and 415 for a write; 404 for an id (``found``); 409 for a
-    state change (``conflict``); 422 unless the route takes no input at all (``invalid``).
+    Always 400, 413, 422 (at least a query parameter it does not take: backend.api.deps.refuse_unknown_query)
+    and 503; 401, 403 and 415 for a write; 404 for an id (``found``); 409 for a state change (``conflict``).
     """
-    out: dict[int | str, dict[str, Any]] = {400: HOST, 413: TOO_LARGE, 503: UNAVAILABLE}
+    out: dict[int | str, dict[str, Any]] = {400: HOST, 413: TOO_LARGE, 422: INVALID, 503: UNAVAILABLE}
     if write:
         out |= {401: TOKEN, 403: FOREIGN, 415: NOT_JSON}
     if found:
         out[404] = NOT_FOUND
     if conflict:
         out[409] = CONFLICT
-    if invalid:
-        out[422] = INVALID
     return out | (extra or {})
 
 
@@ -345,6 +343,8 @@ class Systems(BaseModel):
     systems: list[dict[str, Any]]
     saved: list[dict[str, Any]] = Field(default_factory=list, description="Saved systems (GET /api/systems/saved).")
     parameters: list[dict[str, Any]]
+    group_titles: dict[str, str] = Field(description="Each parameter group's heading (a parameter's group: its "
+                                                     "title), e.g. quality: Quality (environment).")
     algorithms: dict[str, Any] = Field(description="From the algorithm registry (GET /api/algorithms): fixed "
                                                    "(labels for the form's boxes), pattern (labels with an "
                                                    "argument), baseline, reference and best_fixed (the labels "

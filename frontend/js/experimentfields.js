@@ -5,6 +5,7 @@
 import { h, nextId, debounce } from './ui.js';
 import { fieldErrors, changedParams, workBudget, workText } from './stats.js';
 import { fmtParam } from './studydata.js';
+import { groupTitle } from './jobconfig.js';
 import { argumentForms, argumentOf, argumentProblem, families, fmtBytes, labelFor, literalLabels, memoryPerChild, readArguments, ready, sortLabels } from './algorithms.js';
 
 /** sessionStorage key of the experiment the new-experiment form hands to the new-study form. */
@@ -195,7 +196,7 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
   for (const p of schema.parameters) (groups[p.group] ||= []).push(p);
   const advanced = h('details', { class: 'advanced' }, h('summary', {}, 'Advanced: every parameter'),
     h('p', { class: 'help' }, 'Prefilled with the chosen preset’s values. Only values you change are sent as overrides.'),
-    Object.entries(groups).map(([group, ps]) => h('fieldset', { class: 'param-group' }, h('legend', {}, group),
+    Object.entries(groups).map(([group, ps]) => h('fieldset', { class: 'param-group' }, h('legend', {}, groupTitle(group, schema.group_titles)),
       ps.map((p) => {
         const sequence = p.kind === 'list' ? listInput(p) : p.kind === 'events' ? eventsInput(p) : null;
         const input = sequence ? sequence.control : scalarInput(p, p.name);

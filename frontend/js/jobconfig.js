@@ -4,23 +4,13 @@
 import { fmtParam } from './studydata.js';
 import { csvOf, sameValue } from './stats.js';
 
-const GROUP_TITLES = {
-  system: 'System',
-  values: 'Values',
-  quality: 'Quality (environment)',
-  allocation: 'Allocation (environment)',
-  volatility: 'Volatility (environment)',
-  dynamics: 'Dynamics (environment)',
-  resources: 'Resources (environment)',
-  mgrao: 'MG-RAO (algorithm)',
-  'mgrao-adaptive': 'Adaptive groups (algorithm)',
-  'independent-q': 'Independent Q (algorithm)',
-  bandit: 'Bandit (algorithm)',
-};
 
-/** A schema group's heading: its title, or the group's name with a capital ("Template" for "template"). */
-export function groupTitle(group) {
-  return GROUP_TITLES[group] || (group ? group.charAt(0).toUpperCase() + group.slice(1).replace(/[-_]/g, ' ') : 'Other');
+/**
+ * A parameter group's heading: its title from GET /api/systems (``group_titles``), else the group's name
+ * with a capital ("Template" for "template").
+ */
+export function groupTitle(group, titles = {}) {
+  return titles[group] || (group ? group.charAt(0).toUpperCase() + group.slice(1).replace(/[-_]/g, ' ') : 'Other');
 }
 
 /**
@@ -35,7 +25,7 @@ export function configRows(job, schema) {
   const rows = schema.parameters.filter((p) => p.name in params).map((p) => {
     known.add(p.name);
     return {
-      group: groupTitle(p.group), name: p.name, help: p.help,
+      group: groupTitle(p.group, schema.group_titles), name: p.name, help: p.help,
       value: params[p.name], preset: preset[p.name], differs: !sameValue(params[p.name], preset[p.name]),
     };
   });

@@ -64,7 +64,6 @@ def test_an_external_run_is_marked_and_compared_beside_built_in_runs_of_its_worl
         configs = {t["config"]: t["color"] for t in traces}
         assert set(configs) == {"single · uniform", "single · mgrao-max", "single · my-learner · external"}
         assert len(set(configs.values())) == 3
-        table = page.locator("table.summary").filter(has_text="my-learner")
-        row = table.locator("tr").filter(has_text="my-learner")
+        row = page.locator("#pooled-table tr").filter(has_text="my-learner")  # the configurations' table
         expect(row).to_contain_text("+20.0")  # paired with uniform of the same seeds
         page.screenshot(path=str(screenshots / "external-run-compare.png"), full_page=True)

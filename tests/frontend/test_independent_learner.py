@@ -53,7 +53,7 @@ def test_the_example_learner_is_compared_beside_uniform_and_mgrao_max(browser, s
         configs = page.eval_on_selector("#compare-chart", """el => el.data
             .filter(t => t.meta && t.meta.kind === 'mean').map(t => t.meta.config)""")
         assert set(configs) == {"single · uniform", "single · mgrao-max", "single · value-prop · external"}
-        row = page.locator("table.summary tr").filter(has_text="value-prop")
+        row = page.locator("#pooled-table tr").filter(has_text="value-prop")  # the configurations' table
         expect(row).to_contain_text(f"{expected:+.1f}")  # the mean over the 30 seeds of each seed's %
-        expect(page.locator("table.summary tr").filter(has_text="mgrao-max")).to_be_visible()
+        expect(page.locator("#pooled-table tr").filter(has_text="mgrao-max")).to_be_visible()
         page.screenshot(path=str(screenshots / "example-learner-compare.png"), full_page=True)

@@ -13,7 +13,8 @@ from fastapi import APIRouter, Path, Response, status
 from sqlalchemy.orm import Session
 
 from backend.api.deps import Authorized, DatabaseDep, SessionDep, SettingsDep
-from backend.api.responses import LOCATION, ExternalBatchOut, ExternalRunState, answers, links
+from backend.api.links import RUN, links
+from backend.api.responses import LOCATION, ExternalBatchOut, ExternalRunState, answers
 from backend.api.schemas import ExternalBatchIn, ExternalRunCreate
 from backend.services.external import batch_content, external_config
 from backend.settings import Settings
@@ -23,11 +24,7 @@ from backend.store.models import MAX_JOB_ID
 router = APIRouter(prefix="/api/external-runs", tags=["external runs"])
 
 RunId = Annotated[int, Path(ge=1, le=MAX_JOB_ID, description="An external run's id (its job's id).")]
-RUN_LINKS = links("job_id", "/job/id", {
-    "read": "read_external_run_api_external_runs__job_id__get",
-    "batch": "add_batch_api_external_runs__job_id__batches_post",
-    "close": "close_external_run_api_external_runs__job_id__close_post",
-    "job": "read_job_api_jobs__job_id__get"})
+RUN_LINKS = links(RUN, "/job/id")
 
 
 def _answer(session: Session, job_id: int, settings: Settings) -> dict[str, Any]:
@@ -57,14 +54,16 @@ def open_external_run(body: ExternalRunCreate, db: DatabaseDep, settings: Settin
     return answer
 
 
-@router.get("/{job_id:int}", response_model=ExternalRunState, responses=answers(found=True))
+@router.get("/{job_id:int}", response_model=ExternalRunState, responses=answers(found=True, extra={
+    200: {"description": "The run.", "links": links(RUN, "/job/id", without=["read_run"])}}))
 def read_external_run(job_id: RunId, session: SessionDep, settings: SettingsDep) -> dict:
     """An external run: its job, each seed's episodes stored so far, and what a batch may hold."""
     return _answer(session, job_id, settings)
 
 
 @router.post("/{job_id:int}/batches", response_model=ExternalBatchOut, dependencies=[Authorized],
-             responses=answers(write=True, found=True, conflict=True))
+             responses=answers(write=True, found=True, conflict=True, extra={
+                 200: {"description": "Stored (or replayed).", "links": links(RUN, "$request.path.job_id")}}))
 def add_batch(job_id: RunId, body: ExternalBatchIn, db: DatabaseDep) -> dict:
     """Store a batch of episode utilities (and seeds' final weights) once: a batch sent again with its key is not."""
     with db.session() as session:
@@ -77,7 +76,8 @@ def add_batch(job_id: RunId, body: ExternalBatchIn, db: DatabaseDep) -> dict:
 
 
 @router.post("/{job_id:int}/close", response_model=ExternalRunState, dependencies=[Authorized],
-             responses=answers(write=True, found=True, conflict=True, invalid=True))
+             responses=answers(write=True, found=True, conflict=True, extra={
+                 200: {"description": "Closed.", "links": links(RUN, "/job/id", without=["batch", "close"])}}))
 def close_external_run(job_id: RunId, db: DatabaseDep, settings: SettingsDep) -> dict:
     """Close a run whose every seed is complete: it becomes succeeded, with its summaries (closed again: the same)."""
     with db.write() as session:

@@ -20,7 +20,7 @@ from backend.store.models import QUEUED, RUNNING
 router = APIRouter(prefix=API_PREFIX, tags=["health"])
 
 
-@router.get("/health", response_model=Health, responses=answers(invalid=False, extra={503: {
+@router.get("/health", response_model=Health, responses=answers(extra={503: {
     "description": "The database cannot be written now: status error, the reason in database.", "model": Health,
     "headers": UNAVAILABLE["headers"]}}))
 def health(db: DatabaseDep, settings: SettingsDep) -> JSONResponse:

@@ -16,7 +16,8 @@ from sqlalchemy import select
 
 from backend import wakeup
 from backend.api.deps import Authorized, DatabaseDep, SessionDep, SettingsDep
-from backend.api.responses import LOCATION, EpisodeRow, Results, Weights, answers, links
+from backend.api.links import JOB, links
+from backend.api.responses import LOCATION, EpisodeRow, Results, Weights, answers
 from backend.api.schemas import JobBatch, JobBatchCreate, JobCreate, JobOut, JobPage, JobPatch, Kind, Status, Text
 from backend.errors import BadQuery, InvalidSpec
 from backend.services import analysis, saved_systems, studies, weights
@@ -35,18 +36,13 @@ CONFIG_HASH_HELP = "Only the jobs of this configuration: a job's config_hash (64
 JobId = Annotated[int, Path(ge=1, le=MAX_JOB_ID, description="A job's id.")]
 Points = Annotated[int | None, Query(ge=1, le=MAX_EPISODES, description="Downsample to at most this many points.")]
 PctBySeed = Annotated[bool, Query(description="Add each seed's paired % from uniform (pct_by_seed).")]
-JOB_LINKS = links("job_id", "/id", {
-    "read": "read_job_api_jobs__job_id__get", "patch": "patch_job_api_jobs__job_id__patch",
-    "cancel": "cancel_job_api_jobs__job_id__cancel_post", "delete": "delete_job_api_jobs__job_id__delete",
-    "results": "job_results_api_jobs__job_id__results_get", "weights": "job_weights_api_jobs__job_id__weights_get",
-    "episodes": "job_episodes_api_jobs__job_id__episodes_get"})
 Seed = Annotated[int | None, Query(ge=0, le=MAX_SEED_VALUE,
                                    description="One of the job's seeds (default: its first stored).")]
 
 
 @router.post("", status_code=status.HTTP_202_ACCEPTED, response_model=JobOut, dependencies=[Authorized],
              responses=answers(write=True, extra={202: {"description": "Queued.", "headers": LOCATION,
-                                                        "links": JOB_LINKS}}))
+                                                        "links": links(JOB, "/id")}}))
 def submit_job(body: JobCreate, db: DatabaseDep, settings: SettingsDep, response: Response) -> dict:
     """Queue an experiment; answers once the job is committed."""
     with db.session() as session:  # a saved system: its base preset and overrides, the body's on top
@@ -68,7 +64,8 @@ def submit_job(body: JobCreate, db: DatabaseDep, settings: SettingsDep, response
 
 
 @router.post("/batch", status_code=status.HTTP_202_ACCEPTED, response_model=JobBatch, dependencies=[Authorized],
-             responses=answers(write=True, extra={202: {"description": "Queued, every job."}}))
+             responses=answers(write=True, extra={202: {"description": "Queued, every job.",
+                                                        "links": links(JOB, "/data/0/id")}}))
 def submit_jobs(body: JobBatchCreate, db: DatabaseDep, settings: SettingsDep) -> dict:
     """Queue many experiments in one transaction: all or none; answers once they are committed."""
     specs = []
@@ -91,14 +88,16 @@ def submit_jobs(body: JobBatchCreate, db: DatabaseDep, settings: SettingsDep) ->
     return {"data": out, "count": len(out)}
 
 
-@router.get("", response_model=JobPage, responses=answers())
+@router.get("", response_model=JobPage, responses=answers(extra={200: {"description": "A page of jobs.",
+                                                                       "links": links(JOB, "/data/0/id")}}))
 async def list_jobs(
     db: DatabaseDep,
     status: Status | None = None,
     system: Annotated[Text | None, Query(max_length=32)] = None,
     tag: Annotated[Text | None, Query(max_length=50)] = None,
     q: Annotated[Text | None, Query(max_length=200, description="Text in name, notes or tags.")] = None,
-    config_hash: Annotated[Text | None, Query(max_length=64, description=CONFIG_HASH_HELP)] = None,
+    config_hash: Annotated[Text | None, Query(max_length=64, description=CONFIG_HASH_HELP,
+                                              json_schema_extra={"pattern": f"^{CONFIG_HASH.pattern}$"})] = None,
     kind: Annotated[Kind | None, Query(description="Only simulated jobs, or only runs logged from outside.")] = None,
     sort: Annotated[Text, Query(max_length=80, description=SORT_HELP)] = "-created_at",
     limit: Annotated[int, Query(ge=1, le=200)] = 50,
@@ -132,7 +131,8 @@ async def list_jobs(
     return Response(answer, media_type="application/json")
 
 
-@router.get("/{job_id:int}", response_model=JobOut, responses=answers(found=True))
+@router.get("/{job_id:int}", response_model=JobOut, responses=answers(found=True, extra={
+    200: {"description": "The job.", "links": links(JOB, "/id", without=["read"])}}))
 def read_job(job_id: JobId, session: SessionDep) -> dict:
     """One job, with its stored summaries once it succeeded."""
     job = crud.job_dict(crud.get_job(session, job_id=job_id))
@@ -140,7 +140,8 @@ def read_job(job_id: JobId, session: SessionDep) -> dict:
 
 
 @router.patch("/{job_id:int}", response_model=JobOut, dependencies=[Authorized],
-              responses=answers(write=True, found=True))
+              responses=answers(write=True, found=True, extra={200: {"description": "Changed.",
+                                                                     "links": links(JOB, "/id")}}))
 def patch_job(job_id: JobId, body: JobPatch, db: DatabaseDep) -> dict:
     """Change a job's name, tags or notes."""
     with db.write() as session:
@@ -150,7 +151,8 @@ def patch_job(job_id: JobId, body: JobPatch, db: DatabaseDep) -> dict:
 
 
 @router.post("/{job_id:int}/cancel", response_model=JobOut, dependencies=[Authorized],
-             responses=answers(write=True, found=True, conflict=True))
+             responses=answers(write=True, found=True, conflict=True, extra={
+                 200: {"description": "Cancelled.", "links": links(JOB, "/id", without=["cancel"])}}))
 def cancel_job(job_id: JobId, db: DatabaseDep) -> dict:
     """Cancel a queued or running job (409 otherwise)."""
     with db.write() as session:

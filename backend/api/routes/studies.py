@@ -9,7 +9,8 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from backend.api.deps import Authorized, DatabaseDep, SessionDep
-from backend.api.responses import LOCATION, StudyDetail, StudyPage, StudyPlots, answers, links
+from backend.api.links import JOB, STUDY, links
+from backend.api.responses import LOCATION, StudyDetail, StudyPage, StudyPlots, answers
 from backend.api.schemas import StudyCreate, Text
 from backend.errors import InvalidSpec
 from backend.services import analysis, saved_systems, studies
@@ -25,11 +26,8 @@ router = APIRouter(prefix="/api/studies", tags=["studies"])
 StudyId = Annotated[int, Path(ge=1, le=MAX_JOB_ID)]
 StudySort = Literal["-created_at", "created_at", "name", "-name", "status", "-status"]
 ANSWERS = AnswerCache(max_bytes=64 * 1024**2)
-STUDY_LINKS = links("study_id", "/study/id", {
-    "read": "read_study_api_studies__study_id__get", "plots": "plot_study_api_studies__study_id__plots_get",
-    "cancel": "cancel_study_api_studies__study_id__cancel_post",
-    "rerun_failed": "rerun_failed_api_studies__study_id__rerun_failed_post",
-    "delete": "delete_study_api_studies__study_id__delete"})
+STUDY_DETAIL_LINKS = links(STUDY, "/study/id") | links({"trial_job": JOB["read"]}, "/trials/0/job_ids/0")
+"""From a study's answer: the operations on it, and its first trial's first job."""
 _COLUMNS = {"created_at": Study.created_at, "name": Study.name, "status": Study.status}
 
 
@@ -39,7 +37,7 @@ def _json(data: Any, code: int = 200) -> Response:
 
 @router.post("", status_code=status.HTTP_202_ACCEPTED, response_model=StudyDetail, dependencies=[Authorized],
              responses=answers(write=True, extra={202: {"description": "Stored.", "headers": LOCATION,
-                                                        "links": STUDY_LINKS}}))
+                                                        "links": STUDY_DETAIL_LINKS}}))
 def submit_study(db: DatabaseDep, body: StudyCreate) -> Response:
     """Validate a study (docs/studies.md), store it and queue its first trials."""
     data = body.model_dump(exclude_unset=True)
@@ -82,7 +80,8 @@ def _location(field: str) -> list[str | int]:
     return loc
 
 
-@router.get("", response_model=StudyPage, responses=answers())
+@router.get("", response_model=StudyPage, responses=answers(extra={200: {"description": "A page of studies.",
+                                                                         "links": links(STUDY, "/data/0/id")}}))
 def list_studies(
     session: SessionDep,
     status_: Annotated[Literal["running", "finished", "cancelled"] | None, Query(alias="status")] = None,
@@ -120,7 +119,8 @@ def _version(session: Session, study_id: int) -> tuple:
     return str(session.get_bind().url), study_id, study.created_at, study.revision
 
 
-@router.get("/{study_id:int}", response_model=StudyDetail, responses=answers(found=True))
+@router.get("/{study_id:int}", response_model=StudyDetail, responses=answers(found=True, extra={
+    200: {"description": "The study.", "links": STUDY_DETAIL_LINKS}}))
 def read_study(study_id: StudyId, session: SessionDep,
                trials: Annotated[bool, Query(description="false: the study and its definition only (for polling).")]
                = True) -> Response:
@@ -141,7 +141,8 @@ def plot_study(study_id: StudyId, session: SessionDep,
 
 
 @router.post("/{study_id:int}/cancel", response_model=StudyDetail, dependencies=[Authorized],
-             responses=answers(write=True, found=True, conflict=True))
+             responses=answers(write=True, found=True, conflict=True, extra={
+                 200: {"description": "Cancelled.", "links": STUDY_DETAIL_LINKS}}))
 def cancel_study(study_id: StudyId, db: DatabaseDep) -> Response:
     """Cancel a running study with its queued and running trials (409 otherwise)."""
     studies.cancel_study(db, study_id=study_id)
@@ -150,7 +151,8 @@ def cancel_study(study_id: StudyId, db: DatabaseDep) -> Response:
 
 
 @router.post("/{study_id:int}/rerun-failed", response_model=StudyDetail, dependencies=[Authorized],
-             responses=answers(write=True, found=True, conflict=True))
+             responses=answers(write=True, found=True, conflict=True, extra={
+                 200: {"description": "Trials queued again.", "links": STUDY_DETAIL_LINKS}}))
 def rerun_failed(study_id: StudyId, db: DatabaseDep) -> Response:
     """Run the failed and cancelled trials again (same parameters, same numbers; no cell twice)."""
     db.require_room()

@@ -8,6 +8,7 @@ from typing import Annotated
 from fastapi import APIRouter, Path, Response, status
 
 from backend.api.deps import Authorized, DatabaseDep, SettingsDep
+from backend.api.links import SAVED, links
 from backend.api.paths import API_PREFIX
 from backend.api.responses import LOCATION, Systems, answers
 from backend.api.schemas import SavedSystemIn, SavedSystemOut
@@ -27,6 +28,7 @@ from mgrao_core import (
     search,
 )
 from mgrao_core.algorithms import ORACLE, registry, sort_key
+from mgrao_core.params import GROUP_TITLES
 from mgrao_core.presets import PAPER_SYSTEMS
 from mgrao_core.reproduction import PAPER_EPISODES
 from mgrao_core.stats import BASELINE, REFERENCE
@@ -63,7 +65,7 @@ def algorithm_labels() -> dict:
 router = APIRouter(prefix=API_PREFIX, tags=["systems"])
 
 
-@router.get("/systems", response_model=Systems, responses=answers(invalid=False))
+@router.get("/systems", response_model=Systems, responses=answers())
 def systems(settings: SettingsDep, db: DatabaseDep) -> dict:
     """What can be submitted: systems, saved systems, parameters, algorithm labels, limits and the studies' limits.
 
@@ -82,6 +84,7 @@ def systems(settings: SettingsDep, db: DatabaseDep) -> dict:
             for p in PRESETS.values()
         ],
         "parameters": [p.as_dict() for p in PARAMETERS],
+        "group_titles": GROUP_TITLES,
         "algorithms": algorithm_labels(),
         "limits": {"max_seeds": MAX_SEEDS, "max_episodes": MAX_EPISODES, "max_algorithms": MAX_ALGORITHMS,
                    "max_work": MAX_WORK, "work_factors": list(WORK_FACTORS),
@@ -96,7 +99,8 @@ def systems(settings: SettingsDep, db: DatabaseDep) -> dict:
 SavedName = Annotated[str, Path(pattern=saved_systems.NAME_PATTERN, description="The saved system's name.")]
 
 
-@router.get("/systems/saved", response_model=list[SavedSystemOut], responses=answers(invalid=False))
+@router.get("/systems/saved", response_model=list[SavedSystemOut], responses=answers(extra={
+    200: {"description": "The saved systems.", "links": links(SAVED, "/0/name")}}))
 def list_saved_systems(db: DatabaseDep) -> list[dict]:
     """Every saved system, by name."""
     with db.session() as session:
@@ -105,7 +109,8 @@ def list_saved_systems(db: DatabaseDep) -> list[dict]:
 
 @router.post("/systems/saved", status_code=status.HTTP_201_CREATED, response_model=SavedSystemOut,
              dependencies=[Authorized],
-             responses=answers(write=True, conflict=True, extra={201: {"description": "Saved.", "headers": LOCATION}}))
+             responses=answers(write=True, conflict=True, extra={201: {"description": "Saved.", "headers": LOCATION,
+                                                                          "links": links(SAVED, "/name")}}))
 def save_system(body: SavedSystemIn, db: DatabaseDep, response: Response) -> dict:
     """Save a named system: a base preset and overrides (validated on it), usable as a job's or study's system."""
     db.require_room()
@@ -117,7 +122,8 @@ def save_system(body: SavedSystemIn, db: DatabaseDep, response: Response) -> dic
     return out
 
 
-@router.get("/systems/saved/{name}", response_model=SavedSystemOut, responses=answers(found=True))
+@router.get("/systems/saved/{name}", response_model=SavedSystemOut, responses=answers(found=True, extra={
+    200: {"description": "The saved system.", "links": links(SAVED, "/name", without=["read"])}}))
 def read_saved_system(name: SavedName, db: DatabaseDep) -> dict:
     """One saved system (its ``name``, ``description``, ``base`` and ``params`` are its file)."""
     with db.session() as session:
@@ -125,7 +131,8 @@ def read_saved_system(name: SavedName, db: DatabaseDep) -> dict:
 
 
 @router.put("/systems/saved/{name}", response_model=SavedSystemOut, dependencies=[Authorized],
-            responses=answers(write=True, found=True))
+            responses=answers(write=True, found=True, extra={200: {"description": "Replaced.",
+                                                                   "links": links(SAVED, "/name")}}))
 def replace_saved_system(name: SavedName, body: SavedSystemIn, db: DatabaseDep) -> dict:
     """Replace a saved system's description, base and overrides (the body's name must be the path's)."""
     if body.name != name:

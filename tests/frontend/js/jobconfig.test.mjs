@@ -10,6 +10,7 @@ const schema = {
     { name: 'quality_model', group: 'quality', help: 'q' },
     { name: 'learning_rate', group: 'mgrao', help: 'alpha' },
   ],
+  group_titles: { system: 'System', quality: 'Quality (environment)', mgrao: 'MG-RAO (algorithm)' },  // the API's
 };
 const job = {
   id: 7, name: 'x', system: 'single', algorithms: ['uniform', 'mgrao-max'], seeds: [0, 1], episodes: 100,
@@ -72,10 +73,11 @@ test('configRows: each group once, under its title (capability_spread joins Syst
   const { configRows, groupTitle } = await import('../../../frontend/js/jobconfig.js');
   const schema = { systems: [{ name: 'single', params: { n_types: 20, schedule: [], capability_spread: 0 } }],
     parameters: [{ name: 'n_types', group: 'system' }, { name: 'schedule', group: 'dynamics' },
-      { name: 'capability_spread', group: 'system' }] };
+      { name: 'capability_spread', group: 'system' }],
+    group_titles: { system: 'System', dynamics: 'Dynamics (environment)' } };
   const rows = configRows({ system: 'single', params: { n_types: 20, schedule: [], capability_spread: 0.5 } }, schema);
   assert.deepEqual(rows.map((r) => [r.group, r.name]), [['System', 'n_types'], ['System', 'capability_spread'],
     ['Dynamics (environment)', 'schedule']]);
-  assert.equal(groupTitle('mgrao-adaptive'), 'Adaptive groups (algorithm)');
-  assert.equal(groupTitle('template'), 'Template');
+  assert.equal(groupTitle('mgrao', { mgrao: 'MG-RAO (algorithm)' }), 'MG-RAO (algorithm)');
+  assert.equal(groupTitle('template'), 'Template');  // a group the service gives no title
 });

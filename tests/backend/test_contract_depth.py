@@ -1,0 +1,93 @@
+"""What the OpenAPI document promises beyond single operations: its links lead somewhere, a query parameter
+the operation does not take is refused, an integer is what JSON Schema calls one, parameter groups have titles.
+"""
+
+from __future__ import annotations
+
+import pytest
+from backend_helpers import JSON
+from fastapi.testclient import TestClient
+
+from mgrao_core.params import GROUP_TITLES, PARAMETERS
+
+SMALL = {"system": "single", "seeds": 2, "episodes": 5}
+
+
+def test_every_link_leads_to_an_operation_and_fills_one_of_its_parameters(client: TestClient) -> None:
+    document = client.get("/openapi.json").json()
+    operations = {op["operationId"]: (path, method, op) for path, item in document["paths"].items()
+                  for method, op in item.items()}
+    count = 0
+    for path, item in document["paths"].items():
+        for method, op in item.items():
+            for code, answer in op["responses"].items():
+                for name, link in answer.get("links", {}).items():
+                    count += 1
+                    where = f"{method.upper()} {path} [{code}] {name}"
+                    assert link["operationId"] in operations, where
+                    _, _, target = operations[link["operationId"]]
+                    taken = {f"{p['in']}.{p['name']}" for p in target.get("parameters", [])}
+                    for parameter, expression in link.get("parameters", {}).items():
+                        assert parameter in taken, f"{where}: {parameter} is not a parameter of the target"
+                        assert expression.startswith(("$response.body#/", "$request.path.")), where
+                    if "requestBody" in link:
+                        assert "requestBody" in target, f"{where}: the target takes no body"
+    assert count >= 40, count  # every resource, every operation on one (docs/api.md, "Links")
+
+
+def test_a_job_created_links_to_its_results_with_the_id_it_answered(client: TestClient) -> None:
+    document = client.get("/openapi.json").json()
+    links = document["paths"]["/api/jobs"]["post"]["responses"]["202"]["links"]
+    assert links["results"] == {"operationId": "job_results_api_jobs__job_id__results_get",
+                                "parameters": {"path.job_id": "$response.body#/id"}}
+    saved = document["paths"]["/api/systems/saved"]["post"]["responses"]["201"]["links"]
+    assert saved["replace"]["requestBody"] == {"name": "$response.body#/name", "base": "$response.body#/base"}
+    assert saved["run"] == {"operationId": "submit_job_api_jobs_post",
+                            "requestBody": {"system": "$response.body#/name"}}
+
+
+@pytest.mark.parametrize(("path", "known"), [
+    ("/api/jobs?stauts=running", "config_hash, cursor, kind, limit, q, sort, status, system, tag"),
+    ("/api/health?verbose=1", "no query parameters"),
+    ("/api/compare?jobs=1&job=2", "jobs, points"),
+])
+def test_a_query_parameter_the_operation_does_not_take_is_refused_by_name(client: TestClient, path: str,
+                                                                           known: str) -> None:
+    answer = client.get(path)
+    assert answer.status_code == 422, answer.text
+    (detail,) = answer.json()["detail"]
+    name = path.split("&")[-1].split("?")[-1].split("=")[0]
+    assert detail == {"loc": ["query", name], "field": name, "type": "value_error",
+                      "msg": f"{name}: is not a parameter of this operation (it takes {known})"}
+
+
+def test_several_unknown_query_parameters_are_refused_at_once_and_known_ones_answer(client: TestClient) -> None:
+    answer = client.get("/api/studies?a=1&b=2&a=3")
+    assert [d["field"] for d in answer.json()["detail"]] == ["a", "b"]
+    assert client.get("/api/jobs?status=running&limit=5").status_code == 200
+    job = client.post("/api/jobs", json=SMALL).json()
+    assert client.get(f"/api/jobs/{job['id']}/results?points=5&include_seeds=true").status_code == 409  # not run
+
+
+@pytest.mark.parametrize(("episodes", "accepted"), [(5.0, True), (5, True), (5.5, False), ("5", False), (True, False)])
+def test_an_integer_may_be_written_with_a_zero_fraction_as_json_schema_allows(client: TestClient, episodes: object,
+                                                                                accepted: bool) -> None:
+    answer = client.post("/api/jobs", json=SMALL | {"episodes": episodes, "seeds": [0, 1.0]})
+    assert (answer.status_code == 202) == accepted, answer.text
+    if accepted:
+        assert (answer.json()["episodes"], answer.json()["seeds"]) == (5, [0, 1])
+    else:
+        assert answer.json()["detail"][0]["field"] == "episodes"
+
+
+def test_every_parameter_group_has_a_title_from_the_core(client: TestClient) -> None:
+    systems = client.get("/api/systems").json()
+    assert systems["group_titles"] == GROUP_TITLES
+    assert {p.group for p in PARAMETERS} <= set(GROUP_TITLES)
+    assert GROUP_TITLES["independent-q"] == "Independent Q (algorithm)"
+
+
+def test_a_batch_names_the_field_of_the_job_it_refuses(client: TestClient) -> None:
+    answer = client.post("/api/jobs/batch", headers=JSON, json={"jobs": [SMALL, SMALL | {"seeds": [1, "x"]}]})
+    assert answer.status_code == 422
+    assert [d["field"] for d in answer.json()["detail"]] == ["jobs[1].seeds[1]"], answer.text
