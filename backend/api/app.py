@@ -6,7 +6,7 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from typing import Any
 
-from fastapi import Depends, FastAPI, Request
+from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 
@@ -14,7 +14,6 @@ import mgrao_core
 from backend.api import faults
 from backend.api.api_methods import ApiMethods
 from backend.api.apidocs import install_api_docs
-from backend.api.deps import refuse_unknown_query
 from backend.api.docpages import install_docs
 from backend.api.limits import BodyLimit
 from backend.api.routes import algorithms, changes, compare, external, health, jobs, studies, systems
@@ -113,7 +112,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     faults.install(app)  # first of the middlewares: the innermost
     routers = [module.router for module in (jobs, changes, external, studies, compare, systems, algorithms, health)]
     for router in routers:
-        app.include_router(router, dependencies=[Depends(refuse_unknown_query)])
+        app.include_router(router)
 
     _describe_token(app, required=bool(settings.api_token))
     install_api_docs(app)

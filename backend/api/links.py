@@ -62,12 +62,14 @@ RUN = {
 
 SAVED = {
     "read": Target("read_saved_system_api_systems_saved__name__get", "path.name"),
-    "replace": Target("replace_saved_system_api_systems_saved__name__put", "path.name", {"name": "", "base": "/base"}),
+    "replace": Target("replace_saved_system_api_systems_saved__name__put", "path.name",
+                      {"name": "", "base": "/base", "params": "/params", "description": "/description"}),
     "delete": Target("delete_saved_system_api_systems_saved__name__delete", "path.name"),
     "algorithms": Target("algorithms_api_algorithms_get", "query.system"),
     "run": Target("submit_job_api_jobs_post", "", {"system": ""}),
 }
-"""The operations on a saved system, and the jobs and algorithms of its name."""
+"""The operations on a saved system, and the jobs and algorithms of its name (replace: with the whole system
+as it is, so that a client following the link changes nothing it does not mean to)."""
 
 
 def links(targets: dict[str, Target], source: str, *, without: Iterable[str] = ()) -> dict[str, dict[str, Any]]:

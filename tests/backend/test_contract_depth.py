@@ -5,7 +5,7 @@ the operation does not take is refused, an integer is what JSON Schema calls one
 from __future__ import annotations
 
 import pytest
-from backend_helpers import JSON
+from backend_helpers import JSON, TOKEN
 from fastapi.testclient import TestClient
 
 from mgrao_core.params import GROUP_TITLES, PARAMETERS
@@ -41,7 +41,9 @@ def test_a_job_created_links_to_its_results_with_the_id_it_answered(client: Test
     assert links["results"] == {"operationId": "job_results_api_jobs__job_id__results_get",
                                 "parameters": {"path.job_id": "$response.body#/id"}}
     saved = document["paths"]["/api/systems/saved"]["post"]["responses"]["201"]["links"]
-    assert saved["replace"]["requestBody"] == {"name": "$response.body#/name", "base": "$response.body#/base"}
+    assert saved["replace"]["requestBody"] == {  # the whole system again: following it replaces nothing by default
+        "name": "$response.body#/name", "base": "$response.body#/base", "params": "$response.body#/params",
+        "description": "$response.body#/description"}
     assert saved["run"] == {"operationId": "submit_job_api_jobs_post",
                             "requestBody": {"system": "$response.body#/name"}}
 
@@ -67,6 +69,26 @@ def test_several_unknown_query_parameters_are_refused_at_once_and_known_ones_ans
     assert client.get("/api/jobs?status=running&limit=5").status_code == 200
     job = client.post("/api/jobs", json=SMALL).json()
     assert client.get(f"/api/jobs/{job['id']}/results?points=5&include_seeds=true").status_code == 409  # not run
+    nameless = client.get("/api/health?=1").json()["detail"]
+    assert [(d["field"], d["msg"][:40]) for d in nameless] == [("", "(a parameter without a name): is not a p")]
+
+
+def test_an_unknown_query_parameter_is_named_beside_every_other_refused_field_and_nothing_happens(
+        client: TestClient) -> None:
+    answer = client.get("/api/jobs?limit=0&bogus=1")
+    assert [d["field"] for d in answer.json()["detail"]] == ["bogus", "limit"], answer.text
+    answer = client.post("/api/jobs?zz=1", json=SMALL | {"episodes": 2.5, "params": {"learning_rate": 7}})
+    assert answer.status_code == 422
+    assert [d["field"] for d in answer.json()["detail"]] == ["zz", "episodes"], answer.text
+    valid = client.post("/api/jobs?zz=1", json=SMALL)  # valid but for zz: refused, and no job queued
+    assert [d["field"] for d in valid.json()["detail"]] == ["zz"]
+    assert client.get("/api/jobs").json()["count"] == 0
+
+
+def test_a_write_without_its_token_answers_401_before_an_unknown_query_parameter(auth_client: TestClient) -> None:
+    assert auth_client.post("/api/jobs?x=1", json=SMALL).status_code == 401
+    answer = auth_client.post("/api/jobs?x=1", json=SMALL, headers={"Authorization": f"Bearer {TOKEN}"})
+    assert [d["field"] for d in answer.json()["detail"]] == ["x"]
 
 
 @pytest.mark.parametrize(("episodes", "accepted"), [(5.0, True), (5, True), (5.5, False), ("5", False), (True, False)])

@@ -13,13 +13,14 @@ from backend.api.deps import SessionDep
 from backend.api.paths import API_PREFIX
 from backend.api.responses import Algorithms, answers
 from backend.api.schemas import Label, Text
+from backend.api.strict_query import StrictQueryRoute
 from backend.errors import BadQuery, InvalidSpec
 from backend.services import saved_systems
 from mgrao_core import PRESETS, ConfigError
 from mgrao_core.algorithms import describe_label, registry
 from mgrao_core.params import PARAMETERS_BY_NAME, SystemParams, make_params
 
-router = APIRouter(prefix=API_PREFIX, tags=["algorithms"])
+router = APIRouter(prefix=API_PREFIX, tags=["algorithms"], route_class=StrictQueryRoute)
 
 MAX_LABELS = 50
 """At most this many ``label`` values in one request (a view describes the configurations it shows)."""

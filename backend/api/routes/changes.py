@@ -19,6 +19,7 @@ from sqlalchemy.orm import Session
 from backend.api.deps import DatabaseDep, SessionDep, SettingsDep
 from backend.api.responses import JobChanges, JobCheck, JobStatus, answers
 from backend.api.schemas import JobCreate
+from backend.api.strict_query import StrictQueryRoute
 from backend.api.validation import validation_detail, validation_details
 from backend.errors import InvalidSpec
 from backend.execution import presence
@@ -27,7 +28,7 @@ from backend.store import crud
 from backend.store.models import MAX_JOB_ID, OPEN, QUEUED, RUNNING, Job, Run
 from mgrao_core import MAX_WORK, ConfigError, WorkLimitError, make_spec
 
-router = APIRouter(prefix="/api/jobs", tags=["jobs"])
+router = APIRouter(prefix="/api/jobs", tags=["jobs"], route_class=StrictQueryRoute)
 
 TOKEN_CHARS = 16
 Since = Annotated[str | None, Query(max_length=TOKEN_CHARS, pattern="^[0-9a-f]*$",

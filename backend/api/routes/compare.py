@@ -11,6 +11,7 @@ from backend.api.deps import SessionDep
 from backend.api.paths import API_PREFIX
 from backend.api.responses import Comparison, ComparisonStatistics, SampleEfficiency, answers
 from backend.api.schemas import MAX_COMPARE_JOBS, Text
+from backend.api.strict_query import StrictQueryRoute
 from backend.errors import BadQuery
 from backend.services import comparison
 from backend.services.analysis import dumps
@@ -19,7 +20,7 @@ from mgrao_core import MAX_EPISODES, ConfigError
 from mgrao_core.bootstrap import DEFAULT_REPETITIONS, MAX_REPETITIONS
 from mgrao_core.report import render
 
-router = APIRouter(prefix=API_PREFIX, tags=["compare"])
+router = APIRouter(prefix=API_PREFIX, tags=["compare"], route_class=StrictQueryRoute)
 JOBS_HELP = "Comma-separated job ids."
 MAX_BOOTSTRAP_SEED = 2**32 - 1
 CURVE_REPETITIONS = 1000

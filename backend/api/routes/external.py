@@ -16,12 +16,13 @@ from backend.api.deps import Authorized, DatabaseDep, SessionDep, SettingsDep
 from backend.api.links import RUN, links
 from backend.api.responses import LOCATION, ExternalBatchOut, ExternalRunState, answers
 from backend.api.schemas import ExternalBatchIn, ExternalRunCreate
+from backend.api.strict_query import StrictQueryRoute
 from backend.services.external import batch_content, external_config
 from backend.settings import Settings
 from backend.store import external
 from backend.store.models import MAX_JOB_ID
 
-router = APIRouter(prefix="/api/external-runs", tags=["external runs"])
+router = APIRouter(prefix="/api/external-runs", tags=["external runs"], route_class=StrictQueryRoute)
 
 RunId = Annotated[int, Path(ge=1, le=MAX_JOB_ID, description="An external run's id (its job's id).")]
 RUN_LINKS = links(RUN, "/job/id")

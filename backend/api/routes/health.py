@@ -12,12 +12,13 @@ from backend.api.faults import RETRY_AFTER_S
 from backend.api.paths import API_PREFIX
 from backend.api.responses import UNAVAILABLE, answers
 from backend.api.schemas import Health
+from backend.api.strict_query import StrictQueryRoute
 from backend.execution import presence
 from backend.store import crud
 from backend.store.dialect import DatabaseUnavailable, reason
 from backend.store.models import QUEUED, RUNNING
 
-router = APIRouter(prefix=API_PREFIX, tags=["health"])
+router = APIRouter(prefix=API_PREFIX, tags=["health"], route_class=StrictQueryRoute)
 
 
 @router.get("/health", response_model=Health, responses=answers(extra={503: {

@@ -19,6 +19,7 @@ from backend.api.deps import Authorized, DatabaseDep, SessionDep, SettingsDep
 from backend.api.links import JOB, links
 from backend.api.responses import LOCATION, EpisodeRow, Results, Weights, answers
 from backend.api.schemas import JobBatch, JobBatchCreate, JobCreate, JobOut, JobPage, JobPatch, Kind, Status, Text
+from backend.api.strict_query import StrictQueryRoute
 from backend.errors import BadQuery, InvalidSpec
 from backend.services import analysis, saved_systems, studies, weights
 from backend.services.cache import SharedBuilds
@@ -28,7 +29,7 @@ from backend.store.models import MAX_JOB_ID, Job
 from mgrao_core import MAX_EPISODES, ConfigError, make_spec
 from mgrao_core.spec import MAX_SEED_VALUE
 
-router = APIRouter(prefix="/api/jobs", tags=["jobs"])
+router = APIRouter(prefix="/api/jobs", tags=["jobs"], route_class=StrictQueryRoute)
 LIST_BUILDS = SharedBuilds()
 
 CONFIG_HASH = re.compile(r"[0-9a-f]{64}")

@@ -12,6 +12,7 @@ from backend.api.deps import Authorized, DatabaseDep, SessionDep
 from backend.api.links import JOB, STUDY, links
 from backend.api.responses import LOCATION, StudyDetail, StudyPage, StudyPlots, answers
 from backend.api.schemas import StudyCreate, Text
+from backend.api.strict_query import StrictQueryRoute
 from backend.errors import InvalidSpec
 from backend.services import analysis, saved_systems, studies
 from backend.services.cache import AnswerCache
@@ -21,7 +22,7 @@ from backend.store.models import MAX_JOB_ID, Study
 from mgrao_core import PRESETS, ConfigError
 from mgrao_core.search import make_plan
 
-router = APIRouter(prefix="/api/studies", tags=["studies"])
+router = APIRouter(prefix="/api/studies", tags=["studies"], route_class=StrictQueryRoute)
 
 StudyId = Annotated[int, Path(ge=1, le=MAX_JOB_ID)]
 StudySort = Literal["-created_at", "created_at", "name", "-name", "status", "-status"]

@@ -12,6 +12,7 @@ from backend.api.links import SAVED, links
 from backend.api.paths import API_PREFIX
 from backend.api.responses import LOCATION, Systems, answers
 from backend.api.schemas import SavedSystemIn, SavedSystemOut
+from backend.api.strict_query import StrictQueryRoute
 from backend.errors import InvalidSpec
 from backend.services import saved_systems
 from backend.services.analysis import MAX_RESPONSE_VALUES
@@ -62,7 +63,7 @@ def algorithm_labels() -> dict:
     return {"fixed": fixed, "pattern": pattern, "baseline": BASELINE, "reference": REFERENCE, "best_fixed": ORACLE}
 
 
-router = APIRouter(prefix=API_PREFIX, tags=["systems"])
+router = APIRouter(prefix=API_PREFIX, tags=["systems"], route_class=StrictQueryRoute)
 
 
 @router.get("/systems", response_model=Systems, responses=answers())
