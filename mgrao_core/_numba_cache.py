@@ -17,9 +17,9 @@ numba:
   and a hash of its absolute path), so installs in different places keep apart, and an install
   that replaces another in the same place finds the old files stale (numba stamps them with the
   source, :mod:`mgrao_core.engine.cache` with every compiled source) and overwrites them;
-* when no directory is usable, the engine is compiled without a cache (once per process, with a
-  ``RuntimeWarning``) instead of failing the import and with it every job, and instead of caching
-  beside its source.
+* when no directory is usable, the engine is compiled without a cache (once per process and
+  combination of families, with a ``RuntimeWarning``) instead of failing the import and with it
+  every job, and instead of caching beside its source.
 
 A usable directory is one this process can create, owns and can create a file in; the one in the
 shared temporary directory must also be private (mode 0700), so that no other user can plant

@@ -29,7 +29,9 @@ def _build_lanes(spec: ExperimentSpec, worlds: Sequence[World], seeds: Sequence[
                  should_stop: StopCheck | None) -> tuple[dict[str, np.ndarray], engine.Lanes, tuple]:
     """Every array of the chunk's lanes (by name), the kernel's lanes, and each learner family's compiled lanes.
 
-    The fixed families' allocations are computed here, per seed (the oracle's Monte Carlo polls ``should_stop``).
+    A learner family with no lane in the chunk gets ``None``, so that the kernel is compiled without its
+    code (:mod:`mgrao_core.engine.kernel`). The fixed families' allocations are computed here, per seed
+    (the oracle's Monte Carlo polls ``should_stop``).
     """
     p = spec.params
     algorithms = spec.parsed_algorithms
@@ -44,18 +46,18 @@ def _build_lanes(spec: ExperimentSpec, worlds: Sequence[World], seeds: Sequence[
             for lane in lanes:
                 arrays["fixed_weights"][lane] = weights[int(arrays["seed_index"][lane])]
     kernel_lanes = engine.Lanes(**{name: arrays[name] for name in engine.Lanes._fields})
-    return arrays, kernel_lanes, tuple(f.compiled_lanes(arrays, p) for f in LEARNERS)
+    present = {FAMILIES[code].name for code in np.unique(arrays["kind"])}
+    return arrays, kernel_lanes, tuple(f.compiled_lanes(arrays, p) if f.name in present else None for f in LEARNERS)
 
 
-def _worlds(p, worlds: Sequence[World]) -> engine.Worlds:
-    """The kernel's worlds: each seed's resource per type, and with several resources each one's and the needs."""
-    several = p.n_resources > 1
-    return engine.Worlds(
-        resources=np.ascontiguousarray(np.stack([w.type_resources_single for w in worlds])),
-        per_resource=np.ascontiguousarray(np.stack([w.resource_per_type for w in worlds]) if several else
-                                          np.zeros((len(worlds), p.n_children, 0, p.n_types))),
-        needs=np.ascontiguousarray(np.stack([w.needs for w in worlds]) if several else
-                                   np.zeros((len(worlds), p.n_types, 0))),
+def _worlds(p, worlds: Sequence[World]) -> tuple[engine.Worlds, engine.SeveralResources | None]:
+    """The kernel's worlds (each seed's resource per type) and, with several resources, each one's and the needs."""
+    single = engine.Worlds(resources=np.ascontiguousarray(np.stack([w.type_resources_single for w in worlds])))
+    if p.n_resources == 1:
+        return single, None
+    return single, engine.SeveralResources(
+        per_resource=np.ascontiguousarray(np.stack([w.resource_per_type for w in worlds])),
+        needs=np.ascontiguousarray(np.stack([w.needs for w in worlds])),
     )
 
 
@@ -112,7 +114,7 @@ def run_chunk(
     seeds = tuple(seeds)
     worlds = [draw_world(p, seed) for seed in seeds]
     arrays, lanes, learners = _build_lanes(spec, worlds, seeds, should_stop)
-    world = _worlds(p, worlds)
+    world, several = _worlds(p, worlds)
     environment = engine.environment_of(p)
     streams = [EpisodeStreams(p, seed, world) for seed, world in zip(seeds, worlds, strict=True)]
     utilities = np.zeros((len(lanes.kind), spec.episodes))
@@ -123,12 +125,13 @@ def run_chunk(
             raise Cancelled(f"stopped after {done} of {spec.episodes} episodes")
         count = min(block, spec.episodes - done)
         out = np.zeros((len(lanes.kind), count))
-        engine.run_block(lanes, world, _block_draws([s.draw(count) for s in streams]), environment, out, *learners)
+        engine.run_block(lanes, world, several, _block_draws([s.draw(count) for s in streams]), environment, out,
+                         *learners)
         utilities[:, done : done + count] = out
         done += count
         if on_progress is not None:
             on_progress(done / spec.episodes)
-    engine.finish(lanes, *learners)
+    engine.finish(lanes, several, *learners)
     runs = []
     n_algorithms = len(spec.algorithms)
     no_groups = np.zeros((p.n_children, 0, p.n_types))

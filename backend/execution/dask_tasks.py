@@ -20,12 +20,16 @@ PLUGIN_NAME = "mgrao-warm-up"
 
 
 class WarmUp(WorkerPlugin):
-    """Loads (or compiles) the numba kernel once per Dask worker, before its first chunk."""
+    """Loads (or compiles) the numba kernel of the paper's configurations once per Dask worker, before any chunk."""
 
     name = PLUGIN_NAME
 
     def setup(self, worker: Any) -> None:
-        """Run a tiny experiment: afterwards every chunk finds the kernel loaded."""
+        """Run a tiny experiment: afterwards a chunk of MG-RAO and fixed configurations finds its kernel loaded.
+
+        A chunk with other learners, or several resources, loads (or compiles, once) its own
+        combination (:mod:`mgrao_core.engine.kernel`).
+        """
         from mgrao_core import make_spec, run_experiment
 
         run_experiment(make_spec("single", seeds=1, episodes=2))

@@ -70,7 +70,11 @@ class Worker:
         stop_on_signals(self.stop)
 
     def warm_up(self) -> None:
-        """Load (or compile) the numba engine before claiming jobs."""
+        """Load (or compile) the numba engine of the paper's configurations before claiming jobs.
+
+        A job with other learners, or several resources, loads (or compiles, once) its own
+        combination when it runs (:mod:`mgrao_core.engine.kernel`).
+        """
         from mgrao_core import make_spec, run_experiment
 
         run_experiment(make_spec("single", seeds=1, episodes=2))

@@ -12,7 +12,7 @@ Everything here is checked against the dense reference (:mod:`mgrao_core.referen
 import mgrao_core._numba_cache  # noqa: F401, I001  (first: picks a writable numba cache before numba loads)
 from mgrao_core.engine.cache import bind_to_sources, load_without_compiler
 from mgrao_core.engine.environment import Environment, environment_of
-from mgrao_core.engine.kernel import Draws, Lanes, Worlds, finish, run_block
+from mgrao_core.engine.kernel import Draws, Lanes, SeveralResources, Worlds, finish, run_block
 
 bind_to_sources([run_block, finish])
 load_without_compiler([run_block, finish])
@@ -21,6 +21,7 @@ __all__ = [
     "Draws",
     "Environment",
     "Lanes",
+    "SeveralResources",
     "Worlds",
     "environment_of",
     "finish",

@@ -23,6 +23,17 @@ steps (:attr:`Family.steps <mgrao_core.algorithms.base.Family.steps>`), chosen b
 code. Each learner family's lanes come as one argument of :func:`run_block` and :func:`finish`, after
 the kernel's own, in the order of :data:`mgrao_core.algorithms.LEARNERS` (numba's parallel loop takes
 no tuple of them). docs/algorithms.md says how a new learner is wired in here.
+
+**Only what a chunk uses is compiled.** A learner family with no lane in the chunk is passed as
+``None``, and so are the several resources (:class:`SeveralResources`) of a system with one. numba
+compiles the kernel once per signature, and before it types a signature it drops every branch
+guarded by ``argument is not None`` of an argument that is ``None`` (its dead-branch pruning), so
+the code of families a job does not run, and of several resources, is neither typed nor compiled
+(the paper's defaults compile in about a third of the time of the kernel with every family). Each
+guard tests the argument itself, as an operand of its own (``mgrao_lanes is not None and kind ==
+MGRAO``): a guard numba cannot see (on a copy of the argument, or folded into another expression)
+would leave the branch to be compiled with ``None``, which fails to type. The numbers do not depend
+on which branches were compiled.
 """
 
 from __future__ import annotations
@@ -91,13 +102,19 @@ class Worlds(NamedTuple):
 
     ``resources (seeds, children, n_types)``: each child's resource per unit of weight of each type,
     ``ar[c] / capability[c, t]`` (:attr:`mgrao_core.world.World.type_resources_single`). A parent's atomic types
-    are the lane's (``Lanes.parent_types``), since the task stream may change them. With several resources
-    (``R > 1``; docs/model.md, "Several resources"), ``per_resource (seeds, children, R, n_types)``
-    (:attr:`mgrao_core.world.World.resource_per_type`) and ``needs (seeds, n_types, R)``; with one, their
-    resource axis is empty.
+    are the lane's (``Lanes.parent_types``), since the task stream may change them.
     """
 
     resources: np.ndarray
+
+
+class SeveralResources(NamedTuple):
+    """What each seed drew once of several resources (``R > 1``; docs/model.md, "Several resources").
+
+    ``per_resource (seeds, children, R, n_types)`` (:attr:`mgrao_core.world.World.resource_per_type`) and
+    ``needs (seeds, n_types, R)``. The kernel takes ``None`` instead with one resource.
+    """
+
     per_resource: np.ndarray
     needs: np.ndarray
 
@@ -120,13 +137,15 @@ class Draws(NamedTuple):
 
 
 @njit(cache=True, parallel=True)
-def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes, adaptive_lanes, independent_q_lanes, bandit_lanes):
+def run_block(lanes, worlds, several, draws, env, utilities, mgrao_lanes, adaptive_lanes, independent_q_lanes,
+              bandit_lanes):
     """Run every lane through the episodes of one block.
 
     The system utility of each lane and episode goes into ``utilities (lanes, episodes)``;
+    ``several`` is the seeds' :class:`SeveralResources` (``None`` with one resource);
     ``mgrao_lanes``, ``adaptive_lanes``, ``independent_q_lanes`` and ``bandit_lanes`` are each learner
     family's compiled lanes (:class:`~mgrao_core.algorithms.mgrao.compiled.MgraoLanes` and the like), in
-    registry order.
+    registry order, ``None`` for a family with no lane here (the module says why).
     """
     n_lanes = lanes.seed_index.shape[0]
     n_episodes = utilities.shape[1]
@@ -140,8 +159,11 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes, adaptive_lanes,
         parent_types = lanes.parent_types[lane]
         weights = lanes.weights[lane]
         m = lanes.groups[lane]
-        mgrao_views = mgrao.lane_of(mgrao_lanes, lane)
-        adaptive_views = adaptive.lane_of(adaptive_lanes, lane)
+        if mgrao_lanes is not None:  # the views once per lane, unpacked for the learning (its docstring says why)
+            mgrao_views = mgrao.lane_of(mgrao_lanes, lane)
+            Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, _ = mgrao_views
+        if adaptive_lanes is not None:
+            adaptive_views = adaptive.lane_of(adaptive_lanes, lane)
         child_of = np.zeros((n_parents, types_per_composite), dtype=np.int64)
         ctv = np.zeros((n_parents, types_per_composite))
         values = np.zeros((n_parents, types_per_composite))
@@ -152,8 +174,8 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes, adaptive_lanes,
         shares = np.zeros((n_parents, types_per_composite, n_resources))
         w_scratch = np.zeros(n_resources)
         a_scratch = np.zeros(n_resources)
-        learner_of = np.zeros(types_per_composite, dtype=np.int64)
-        credit = np.zeros(types_per_composite)
+        learner_of = np.zeros((n_parents, types_per_composite), dtype=np.int64)
+        credit = np.zeros((n_parents, types_per_composite))
         for e in range(n_episodes):
             # 1. Composite tasks arrive at the parents present whose composite type arrives.
             apply_changes(lanes.profiles[lane], parent_types, draws.changes[s, e], draws.event_profiles[s, e],
@@ -161,23 +183,24 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes, adaptive_lanes,
             parents_leave_and_join(active, lanes.profiles[lane], draws.volatility[s, e], draws.new_profiles[s, e], env)
             composite_tasks_arrive(active, draws.arrives[s, e], env, sending)
             for c in range(n_children):
-                if kind == MGRAO and n_resources > 1:  # one PW, and one allocation, per resource
+                if several is not None and mgrao_lanes is not None and kind == MGRAO:  # a PW, allocation per resource
                     for r in range(n_resources):
                         mgrao.allocate(mgrao_lanes, mgrao_views, m, c * n_resources + r, resource_weights[c, r])
                     weights[c, :] = resource_weights[c, 0, :]
                     continue
-                if kind == MGRAO:
+                if mgrao_lanes is not None and kind == MGRAO:
                     mgrao.allocate(mgrao_lanes, mgrao_views, m, c, weights[c])
-                elif kind == ADAPTIVE:
+                elif adaptive_lanes is not None and kind == ADAPTIVE:
                     adaptive.allocate(adaptive_lanes, adaptive_views, m, c, weights[c])
-                elif kind == INDEPENDENT_Q:
+                elif independent_q_lanes is not None and kind == INDEPENDENT_Q:
                     independent_q.allocate(independent_q_lanes, lane, m, c, weights[c])
-                elif kind == BANDIT:
+                elif bandit_lanes is not None and kind == BANDIT:
                     bandit.allocate(bandit_lanes, lane, m, c, weights[c])
                 else:
                     weights[c, :] = lanes.fixed_weights[lane, c, :]
-                for r in range(n_resources if n_resources > 1 else 0):  # one split for every resource
-                    resource_weights[c, r, :] = weights[c, :]
+                if several is not None:  # one split for every resource
+                    for r in range(n_resources):
+                        resource_weights[c, r, :] = weights[c, :]
             # 2-3. Parents decompose their composite tasks and allocate the atomic tasks.
             for p in range(n_parents):
                 if sending[p]:
@@ -195,9 +218,9 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes, adaptive_lanes,
             # 4. Children perform the atomic tasks; composite qualities make the system utility.
             utility = 0.0
             for p in range(n_parents):
-                if sending[p] and n_resources > 1:
+                if several is not None and sending[p]:
                     taq[p] = perform_composite_task_resources(ctv[p], child_of[p], parent_types[p], resource_weights,
-                                                              worlds.per_resource[s], worlds.needs[s], load, env,
+                                                              several.per_resource[s], several.needs[s], load, env,
                                                               values[p], shares[p], w_scratch, a_scratch)
                     utility += taq[p]
                 elif sending[p]:
@@ -215,42 +238,47 @@ def run_block(lanes, worlds, draws, env, utilities, mgrao_lanes, adaptive_lanes,
                 if n_children > 1:
                     update_estimates(lanes.estimates[lane, p], lanes.tries[lane, p], child_of[p], values[p], taq[p],
                                      env.per_composite)
-                if kind == MGRAO and n_resources > 1:  # each resource's PW: the value, or its share of it
+                if several is not None and mgrao_lanes is not None and kind == MGRAO:  # each resource's PW: its share
                     for r in range(n_resources):
                         for k in range(types_per_composite):
-                            learner_of[k] = child_of[p, k] * n_resources + r
-                            credit[k] = values[p, k] * shares[p, k, r] if env.by_share else values[p, k]
-                        mgrao.learn(mgrao_lanes, mgrao_views, m, p, n_parents, learner_of, parent_types[p], credit)
-                elif kind == MGRAO:
-                    mgrao.learn(mgrao_lanes, mgrao_views, m, p, n_parents, child_of[p], parent_types[p],
-                                values[p])
-                elif kind == ADAPTIVE:
+                            learner_of[p, k] = child_of[p, k] * n_resources + r
+                            credit[p, k] = values[p, k] * shares[p, k, r] if env.by_share else values[p, k]
+                        mgrao.learn(mgrao_lanes, Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts,
+                                    rebase_due, m, p, n_parents, learner_of, parent_types, credit)
+                elif mgrao_lanes is not None and kind == MGRAO:
+                    mgrao.learn(mgrao_lanes, Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due,
+                                m, p, n_parents, child_of, parent_types, values)
+                elif adaptive_lanes is not None and kind == ADAPTIVE:
                     adaptive.learn(adaptive_lanes, adaptive_views, m, p, n_parents, child_of[p],
                                    parent_types[p], values[p])
-                elif kind == INDEPENDENT_Q:
+                elif independent_q_lanes is not None and kind == INDEPENDENT_Q:
                     independent_q.learn(independent_q_lanes, lane, m, p, n_parents, child_of[p], parent_types[p],
                                         values[p])
-                elif kind == BANDIT:
+                elif bandit_lanes is not None and kind == BANDIT:
                     bandit.learn(bandit_lanes, lane, m, p, n_parents, child_of[p], parent_types[p], values[p],
                                  weights)
 
 
 @njit(cache=True)
-def finish(lanes, mgrao_lanes, adaptive_lanes, independent_q_lanes, bandit_lanes):
-    """Materialise every learner lane's final state and allocation (after the last episode)."""
+def finish(lanes, several, mgrao_lanes, adaptive_lanes, independent_q_lanes, bandit_lanes):
+    """Materialise every learner lane's final state and allocation (after the last episode).
+
+    The arguments after ``lanes`` are :func:`run_block`'s (``None`` where it takes ``None``).
+    """
     n_resources = lanes.resource_weights.shape[2]
     for lane in range(lanes.kind.shape[0]):
-        if lanes.kind[lane] == MGRAO and n_resources > 1:
+        kind = lanes.kind[lane]
+        if several is not None and mgrao_lanes is not None and kind == MGRAO:
             mgrao.finish_resources(mgrao_lanes, lane, lanes.groups[lane], lanes.resource_weights[lane])
             lanes.weights[lane, :, :] = lanes.resource_weights[lane, :, 0, :]
-        elif lanes.kind[lane] == MGRAO:
+        elif mgrao_lanes is not None and kind == MGRAO:
             mgrao.finish(mgrao_lanes, lane, lanes.groups[lane], lanes.weights[lane])
-        elif lanes.kind[lane] == ADAPTIVE:
+        elif adaptive_lanes is not None and kind == ADAPTIVE:
             adaptive.finish(adaptive_lanes, lane, lanes.groups[lane], lanes.weights[lane])
-        elif lanes.kind[lane] == INDEPENDENT_Q:
+        elif independent_q_lanes is not None and kind == INDEPENDENT_Q:
             independent_q.finish(independent_q_lanes, lane, lanes.groups[lane], lanes.weights[lane])
-        elif lanes.kind[lane] == BANDIT:
+        elif bandit_lanes is not None and kind == BANDIT:
             bandit.finish(bandit_lanes, lane, lanes.groups[lane], lanes.weights[lane])
-        if lanes.kind[lane] != MGRAO:
-            for r in range(n_resources):  # one split for every resource (empty with one resource)
+        if several is not None and kind != MGRAO:  # one split for every resource
+            for r in range(n_resources):
                 lanes.resource_weights[lane, :, r, :] = lanes.weights[lane]

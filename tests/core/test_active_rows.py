@@ -38,8 +38,8 @@ def final_lanes(monkeypatch):
     seen = []
     finish = engine.finish
 
-    def keep(lanes, mgrao_lanes, *other_learners):
-        finish(lanes, mgrao_lanes, *other_learners)
+    def keep(lanes, several, mgrao_lanes, *other_learners):
+        finish(lanes, several, mgrao_lanes, *other_learners)
         seen.append(SimpleNamespace(groups=lanes.groups, n_rows=mgrao_lanes.n_rows, slot=mgrao_lanes.slot,
                                     counts=mgrao_lanes.counts))
 

@@ -23,6 +23,47 @@ def test_t_quantiles_are_students():
     assert np.all(np.diff(values) < 0)
 
 
+def test_t_quantiles_equal_scipys():
+    # whole degrees of freedom come from the distribution function's series (no scipy import), others from scipy
+    from scipy.special import stdtrit
+
+    from mgrao_core.stats import SERIES_DOF
+
+    dofs = np.array([*range(1, 120), 199, 500, 999, SERIES_DOF, SERIES_DOF + 1, 10**5, 2.5, 7.25])
+    for confidence in (0.5, 0.9, 0.95, 0.99, 0.999):
+        ours = t_quantile(dofs, confidence)
+        np.testing.assert_allclose(ours, stdtrit(dofs, 0.5 + confidence / 2), rtol=1e-12, atol=0)
+    assert t_quantile(np.array([[0, 1], [2, 3]])).shape == (2, 2) and math.isnan(t_quantile(np.array([0.5]))[0])
+    for dof in (1, 2, 3, 50):  # scipy's answers at the edges: inf at 1, 0 at 0, NaN outside
+        assert t_quantile(dof, 1.0) == math.inf and t_quantile(dof, 0.0) == 0.0
+        assert math.isnan(t_quantile(dof, 1.2)) and math.isnan(t_quantile(dof, -0.1))
+
+
+def test_t_quantile_newton_stops_early(monkeypatch):
+    # each Newton step is a whole series: the iteration must stop once rounding ends the rise, not run its cap
+    from mgrao_core import stats
+
+    calls = []
+    within = stats._t_within
+    monkeypatch.setattr(stats, "_t_within", lambda t, dof: calls.append(dof) or within(t, dof))
+    for dof in (3, 8, 99, 999):
+        for confidence in (0.95, 0.99, 0.999):
+            calls.clear()
+            stats._t_quantile_whole(dof, confidence)
+            assert len(calls) <= 12, (dof, confidence, len(calls))
+
+
+def test_a_summary_imports_no_scipy():
+    # the command line's summaries (mgrao reproduce) do without scipy's 0.2 s import
+    import subprocess
+    import sys
+
+    code = ("import sys; from mgrao_core.stats import mean_ci95; import numpy as np; "
+            "mean_ci95(np.arange(100.0)); print('scipy' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
+    assert done.stdout.strip() == "False"
+
+
 def test_mean_ci95_by_hand():
     # [1, 2, 3]: mean 2, sd 1, half width = t(2) * 1 / sqrt(3) = 4.302653 / 1.732051 = 2.484138
     mean, low, high = mean_ci95(np.array([1.0, 2.0, 3.0]))

@@ -337,7 +337,7 @@ def lane_of(ml, lane):
     """Lane ``lane``'s views of the arrays the steps write, made once per lane (as the kernel did before).
 
     A plain tuple, in this order: Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts,
-    rebase_due, scratch. :func:`learn` unpacks it once per composite task, around a loop that keeps
+    rebase_due, scratch. The kernel unpacks it once per lane for :func:`learn`, around a loop that keeps
     using every view; :func:`allocate` takes its items by position, which numba's parallel loop sees
     as the tuple's (a write through a NamedTuple's field, or through an unpacked item nothing reads
     later, would be dropped as dead there; docs/algorithms.md).
@@ -347,18 +347,22 @@ def lane_of(ml, lane):
 
 
 @njit(cache=True, inline="always")
-def learn(ml, views, m, p, n_parents, children, task_types, values):
+def learn(ml, Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, m, p, n_parents, children,
+          task_types, values):
     """The values of parent ``p``'s composite task come back to the children that performed its atomic tasks.
 
-    Atomic task ``k``, of type ``task_types[k]``, gives ``values[k]`` to child ``children[k]`` of the
-    lane whose :func:`lane_of` is ``views``, which learns it for the parent's group (of ``m``).
+    Atomic task ``k``, of type ``task_types[p, k]``, gives ``values[p, k]`` to child ``children[p, k]``,
+    which learns it for the parent's group (of ``m``). ``Y`` to ``rebase_due`` are items 0-10 of the
+    lane's :func:`lane_of`, which the kernel unpacks once per lane, and the task arrays come whole, the
+    parent's row read here: unpacked here and sliced per composite (``children[p]``: a view, and a
+    reference count, per composite) they made the paper's ``large`` system 12% slower
+    (``benchmarks/bench_defaults.py``).
     """
     group = (p * m) // n_parents
     bounded = m > ml.min_bounded_groups
-    Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, _ = views  # once per composite
-    for k in range(task_types.shape[0]):
-        learn_value(Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, children[k], bounded,
-                    group, task_types[k], values[k], ml)
+    for k in range(task_types.shape[1]):
+        learn_value(Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, children[p, k], bounded,
+                    group, task_types[p, k], values[p, k], ml)
 
 
 @njit(cache=True)
