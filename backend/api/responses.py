@@ -67,7 +67,7 @@ def answers(*, write: bool = False, found: bool = False, conflict: bool = False,
             extra: dict[int, dict] | None = None) -> dict[int | str, dict[str, Any]]:
     """A route's ``responses``: the errors it can answer, and ``extra``.
 
-    Always 400, 413, 422 (at least a query parameter it does not take: backend.api.deps.refuse_unknown_query)
+    Always 400, 413, 422 (at least a query parameter it does not take: backend.api.strict_query)
     and 503; 401, 403 and 415 for a write; 404 for an id (``found``); 409 for a state change (``conflict``).
     """
     out: dict[int | str, dict[str, Any]] = {400: HOST, 413: TOO_LARGE, 422: INVALID, 503: UNAVAILABLE}
