@@ -198,8 +198,20 @@ def _whole(value: Any) -> Any:
 
 WholeNumber = Annotated[StrictInt, BeforeValidator(_whole)]
 """A JSON integer: ``3`` or ``3.0``; not ``3.5``, ``"3"`` or ``true``."""
-Seed = Annotated[WholeNumber, Field(ge=0, le=MAX_SEED_VALUE)]
-SeedCount = Annotated[WholeNumber, Field(ge=1, le=MAX_SEEDS)]
+
+
+def whole(low: int, high: int) -> Any:
+    """A :data:`WholeNumber` in [low, high], the bounds published as JSON Schema's ``minimum`` and ``maximum``.
+
+    The bounds go inside the validator that turns ``3.0`` into ``3``: put after it (``Annotated[WholeNumber,
+    Field(ge=..)]``), pydantic still checks them but writes them into the OpenAPI document as ``ge`` and ``le``,
+    which no JSON Schema reader knows, so clients and Schemathesis would see an unbounded integer.
+    """
+    return Annotated[StrictInt, Field(ge=low, le=high), BeforeValidator(_whole)]
+
+
+Seed = whole(0, MAX_SEED_VALUE)
+SeedCount = whole(1, MAX_SEEDS)
 SeedList = Annotated[list[Seed], Field(min_length=1, max_length=MAX_SEEDS)]
 ScalarValue = StrictBool | StrictInt | float | ParamName | None
 
@@ -237,7 +249,7 @@ class JobCreate(BaseModel):
     system: JobSystem
     algorithms: Annotated[list[Label], Field(min_length=1, max_length=MAX_ALGORITHMS)] | None = None
     seeds: SeedCount | SeedList = 30
-    episodes: Annotated[WholeNumber, Field(ge=1, le=MAX_EPISODES)] = 100
+    episodes: whole(1, MAX_EPISODES) = 100
     params: Params = Field(default_factory=dict)
     name: Name = ""
     tags: Annotated[list[Tag], Field(max_length=MAX_TAGS)] = Field(default_factory=list)
@@ -358,7 +370,7 @@ class StudyBase(BaseModel):
     algorithms: Annotated[list[Label], Field(min_length=1, max_length=MAX_ALGORITHMS)] | None = None
     seeds: SeedCount | SeedList = 10
     first_seed: Seed = 0
-    episodes: Annotated[WholeNumber, Field(ge=1, le=MAX_EPISODES)] = 100
+    episodes: whole(1, MAX_EPISODES) = 100
     params: Params = Field(default_factory=dict)
 
 
@@ -371,7 +383,7 @@ class StudyDimension(BaseModel):
         = Unset
     low: float | SkipJsonSchema[None] = Unset
     high: float | SkipJsonSchema[None] = Unset
-    steps: Annotated[WholeNumber, Field(ge=2, le=search.MAX_STEPS)] | SkipJsonSchema[None] = Unset
+    steps: whole(2, search.MAX_STEPS) | SkipJsonSchema[None] = Unset
     log: StrictBool = False
 
 
@@ -397,9 +409,9 @@ class StudyCreate(BaseModel):
     space: Annotated[dict[SpaceName, StudyDimension],
                      Field(min_length=1, max_length=search.MAX_DIMENSIONS, json_schema_extra=_space_names)]
     objective: StudyObjective
-    max_trials: Annotated[WholeNumber, Field(ge=1, le=search.MAX_TRIALS)] = 100
-    max_in_flight: Annotated[WholeNumber, Field(ge=1, le=search.MAX_IN_FLIGHT)] = 4
-    seed: Annotated[WholeNumber, Field(ge=0, le=2**32 - 1)] = 0
+    max_trials: whole(1, search.MAX_TRIALS) = 100
+    max_in_flight: whole(1, search.MAX_IN_FLIGHT) = 4
+    seed: whole(0, 2**32 - 1) = 0
 
 
 # ---- runs logged from outside (docs/platform.md) ---------------------------------------------------------------
@@ -413,7 +425,7 @@ ExternalLabel = Annotated[str, StringConstraints(pattern=EXTERNAL_LABEL_PATTERN)
 ClientKey = Annotated[str, StringConstraints(pattern=BATCH_KEY_PATTERN)]
 Utility = Annotated[float, Field(allow_inf_nan=False, strict=True)]
 """A utility or weight: a JSON number (an integer too), finite; not a string or a boolean that looks like one."""
-EpisodeIndex = Annotated[WholeNumber, Field(ge=0, le=MAX_EPISODES - 1)]
+EpisodeIndex = whole(0, MAX_EPISODES - 1)
 
 
 class ExternalRunCreate(BaseModel):
@@ -426,7 +438,7 @@ class ExternalRunCreate(BaseModel):
     system: PresetSystem
     params: Params = Field(default_factory=dict)
     seeds: SeedCount | SeedList = Field(description="A count S (seeds 0 .. S-1) or the list of seeds, as a job's.")
-    episodes: Annotated[WholeNumber, Field(ge=1, le=MAX_EPISODES)]
+    episodes: whole(1, MAX_EPISODES)
     key: ClientKey | SkipJsonSchema[None] = Field(None, description="Opening again with the same key and definition "
                                                                     "answers the same run (200): resume after a crash.")
     name: Name = ""

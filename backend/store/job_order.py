@@ -29,6 +29,9 @@ _PARAMETERS = {p.name: p for p in PARAMETERS}
 SORT_HELP = ("created_at, name, status, param.NAME (any parameter), or a configuration's result: "
              "final_mean:CONFIGURATION, pct_from_uniform:CONFIGURATION, pct_of_max:CONFIGURATION (e.g. "
              "-pct_from_uniform:mgrao-max); a leading '-' sorts descending; jobs without the value come last")
+SORT_PATTERN = (f"^-?({'|'.join(_COLUMNS)}|param\\.[^\\x00]+|({'|'.join(RESULT_FIELDS)}):[^\\x00]+)$")
+"""The forms :func:`parse_sort` reads, as the OpenAPI document's pattern: what it refuses beyond them is a name
+that is no parameter or a label that is no configuration."""
 _FORMS = ("created_at, name, status, param.NAME (a parameter), final_mean:CONFIGURATION, "
           "pct_from_uniform:CONFIGURATION or pct_of_max:CONFIGURATION, each with an optional leading '-'")
 

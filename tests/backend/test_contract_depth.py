@@ -4,11 +4,19 @@ the operation does not take is refused, an integer is what JSON Schema calls one
 
 from __future__ import annotations
 
+import itertools
+import re
+
 import pytest
 from backend_helpers import JSON, TOKEN
 from fastapi.testclient import TestClient
 
+from backend.api.routes.compare import JOBS_PATTERN, parse_ids
+from backend.errors import BadQuery
+from backend.store.job_order import SORT_PATTERN, parse_sort
 from mgrao_core.params import GROUP_TITLES, PARAMETERS
+from mgrao_core.search import MAX_TRIALS
+from mgrao_core.spec import MAX_EPISODES, MAX_SEED_VALUE, MAX_SEEDS
 
 SMALL = {"system": "single", "seeds": 2, "episodes": 5}
 
@@ -100,6 +108,63 @@ def test_an_integer_may_be_written_with_a_zero_fraction_as_json_schema_allows(cl
         assert (answer.json()["episodes"], answer.json()["seeds"]) == (5, [0, 1])
     else:
         assert answer.json()["detail"][0]["field"] == "episodes"
+
+
+def test_every_bound_of_a_number_is_one_json_schema_knows(client: TestClient) -> None:
+    """Pydantic writes a bound it cannot fold into its own validator as ``ge``/``le``, which no reader of the
+    document knows: the limits of episodes, seeds, trials were invisible to clients and to Schemathesis."""
+    document = client.get("/openapi.json").json()
+    foreign: list[str] = []
+
+    def walk(node: object, where: str) -> None:
+        if isinstance(node, dict):
+            if node.get("type") in ("integer", "number"):
+                foreign.extend(f"{where}: {key}" for key in ("ge", "le", "gt", "lt") if key in node)
+            for key, value in node.items():
+                walk(value, f"{where}/{key}")
+        elif isinstance(node, list):
+            for i, value in enumerate(node):
+                walk(value, f"{where}/{i}")
+
+    walk(document, "#")
+    assert not foreign, foreign
+    schemas = document["components"]["schemas"]
+    episodes = schemas["JobCreate"]["properties"]["episodes"]
+    assert (episodes["minimum"], episodes["maximum"]) == (1, MAX_EPISODES)
+    count, listed = schemas["JobCreate"]["properties"]["seeds"]["anyOf"]
+    assert (count["minimum"], count["maximum"]) == (1, MAX_SEEDS)
+    assert (listed["items"]["minimum"], listed["items"]["maximum"]) == (0, MAX_SEED_VALUE)
+    assert schemas["StudyCreate"]["properties"]["max_trials"]["maximum"] == MAX_TRIALS
+
+
+def test_the_jobs_pattern_is_what_the_service_reads_as_job_ids() -> None:
+    """Every text of up to five characters of " ,1\tx": the pattern matches it exactly when parse_ids reads it (the
+    document's pattern is the contract Schemathesis holds the service to, in both directions)."""
+    for n in range(6):
+        for letters in itertools.product(" ,1\tx", repeat=n):
+            text = "".join(letters)
+            try:
+                parse_ids(text)
+                read = True
+            except BadQuery:
+                read = False
+            assert bool(re.search(JOBS_PATTERN, text)) == read, repr(text)
+
+
+@pytest.mark.parametrize(("sort", "read"), [
+    ("created_at", True), ("-name", True), ("status", True), ("param.learning_rate", True),
+    ("-pct_from_uniform:mgrao-max", True), ("final_mean:MGRAO-05:1", True),
+    ("param.nothing", None), ("pct_of_max:nothing", None),  # the pattern's form; no such parameter, configuration
+    ("", False), ("-", False), ("param.", False), ("final_mean:", False), ("--name", False), ("name ", False),
+    ("created", False), ("final_mean", False), ("mgrao-max", False)])
+def test_the_sort_pattern_is_the_forms_the_service_reads(sort: str, read: bool | None) -> None:
+    try:
+        parse_sort(sort)
+        parsed = True
+    except BadQuery:
+        parsed = False
+    assert bool(re.search(SORT_PATTERN, sort)) == (read is not False)
+    assert parsed == bool(read)
 
 
 def test_every_parameter_group_has_a_title_from_the_core(client: TestClient) -> None:

@@ -34,14 +34,17 @@ STATISTICS_TEXT = {
     "content": {media.split(";")[0]: {"schema": {"type": "string"}} for media in TEXT_FORMATS.values()},
 }
 
-Jobs = Annotated[Text, Query(max_length=1000, description=JOBS_HELP)]
+JOBS_PATTERN = r"^( *[0-9]* *,)*( *[0-9]+ *)(, *[0-9]* *)*$"
+"""What :func:`parse_ids` reads: job ids of the digits 0-9 between commas, spaces around them, empty places
+skipped, at least one id. (How many, and in which range, the pattern does not say: 422 beyond.)"""
+Jobs = Annotated[Text, Query(max_length=1000, description=JOBS_HELP, json_schema_extra={"pattern": JOBS_PATTERN})]
 Repetitions = Annotated[int, Query(ge=1, le=MAX_REPETITIONS, description="Bootstrap repetitions of every interval.")]
 BootstrapSeed = Annotated[int, Query(ge=0, le=MAX_BOOTSTRAP_SEED, description="The bootstrap's seed.")]
 
 
 def parse_ids(text: str) -> list[int]:
     """``"1,2,3"`` as ids in [1, MAX_JOB_ID], or :class:`BadQuery` naming the field ``jobs``."""
-    parts = [p.strip() for p in text.split(",") if p.strip()]
+    parts = [p.strip(" ") for p in text.split(",") if p.strip(" ")]
     if not parts:
         raise BadQuery("jobs", "give at least one job id, e.g. jobs=1,2,3")
     if len(parts) > MAX_COMPARE_JOBS:

@@ -24,7 +24,7 @@ from backend.errors import BadQuery, InvalidSpec
 from backend.services import analysis, saved_systems, studies, weights
 from backend.services.cache import SharedBuilds
 from backend.store import crud, summaries
-from backend.store.job_order import SORT_HELP
+from backend.store.job_order import SORT_HELP, SORT_PATTERN
 from backend.store.models import MAX_JOB_ID, Job
 from mgrao_core import MAX_EPISODES, ConfigError, make_spec
 from mgrao_core.spec import MAX_SEED_VALUE
@@ -100,7 +100,8 @@ async def list_jobs(
     config_hash: Annotated[Text | None, Query(max_length=64, description=CONFIG_HASH_HELP,
                                               json_schema_extra={"pattern": f"^{CONFIG_HASH.pattern}$"})] = None,
     kind: Annotated[Kind | None, Query(description="Only simulated jobs, or only runs logged from outside.")] = None,
-    sort: Annotated[Text, Query(max_length=80, description=SORT_HELP)] = "-created_at",
+    sort: Annotated[Text, Query(max_length=80, description=SORT_HELP,
+                                json_schema_extra={"pattern": SORT_PATTERN})] = "-created_at",
     limit: Annotated[int, Query(ge=1, le=200)] = 50,
     cursor: Annotated[Text | None, Query(max_length=500)] = None,
 ) -> Response:
