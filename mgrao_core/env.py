@@ -1,21 +1,24 @@
 """The simulated world as a PettingZoo environment: outside learners act in exactly the engine's world.
 
 :func:`parallel_env` returns a PettingZoo ``ParallelEnv`` (and, for one-child systems,
-:func:`single_agent_env` a Gymnasium ``Env``) over the dense reference's environment
-(:class:`mgrao_core.reference.SeedEnvironment`): the seed's world and per-episode streams drawn as
-the engine draws them (:mod:`mgrao_core.world`), and the paper's steps 1 to 5 computed with
-:mod:`mgrao_core.equations` and :mod:`mgrao_core.quality`, parents leaving and rejoining and
-choosing children from their estimates included. Only the children's part is the learner's: an
-allocation at the start of each episode (the action) and whatever it learns from what comes back
-(the observation). docs/platform.md ("A learner of your own in the same world") describes it.
+:func:`single_agent_env` a Gymnasium ``Env``), and :func:`vector_env` one that steps many worlds at
+once, with a leading world axis on everything. All three run on the compiled engine
+(:class:`mgrao_core.stepper.SteppedWorlds`: the kernel's own episode, the engine's world and draws of
+each seed), parents leaving and rejoining and choosing children from their estimates included; the
+dense reference (:class:`mgrao_core.reference.SeedEnvironment`) checks them in the tests. Only the
+children's part is the learner's: an allocation at the start of each episode (the action) and
+whatever it learns from what comes back (the observation). docs/platform.md ("A learner of your own
+in the same world") describes them.
 
 * **Agents**: the children, ``"child_0"`` .. ``"child_{n-1}"``.
 * **One step is one episode**; the episodes end by truncation after ``episodes`` steps (never by
   termination).
 * **Action**: the child's resource weights over the atomic types, ``Box(0, 1, (n_types,), float64)``.
   The environment sum-normalises them (only proportions matter, so values above 1 are read as
-  they are; weights already summing to 1 within 1e-12 are taken unchanged); all zeros means
-  uniform. A negative, non-finite or misshapen action is refused.
+  they are; weights already summing to 1 within 1e-12 are taken unchanged; weights whose sum
+  overflows are divided by their largest first); all zeros means uniform. A negative, non-finite,
+  misshapen or non-numeric action, or one for an agent that is not one, is refused naming the
+  child, before anything is stepped.
 * **Observation**: what the paper lets a child see, what came back to it last episode, as a
   ``Dict`` of fixed-size ``(n_parents, types_per_composite)`` arrays, one entry per parent and per
   atomic task of the parent's composite task:
@@ -30,15 +33,22 @@ allocation at the start of each episode (the action) and whatever it learns from
     (composite by composite in the episode's random order of parents, then atomic task by atomic
     task: the order in which MG-RAO learns from them).
 
-* **Reward**: the sum of the absolute values returned to the child in the episode.
+* **Reward**: the sum of the absolute values returned to the child in the episode (added in the
+  order they came back).
 * **Infos**: ``{"utility": system utility of the episode, "episode": its index from 0}``, the same
   for every child (empty at reset).
 * **Seeds**: ``reset(seed=s)`` gives the world of the engine's seed ``s``, with the same draws
   (common random numbers); ``reset()`` without a seed, the constructor's ``seed`` again.
+* **Many worlds** (:func:`vector_env`): the same, world ``i`` being the engine's seed ``seeds[i]``, with
+  a leading axis of length ``n_worlds`` on every action ``(n_worlds, n_types)``, observation entry,
+  reward, termination, truncation and info entry, and on the spaces. ``reset(seed=s)`` with a whole
+  number gives the worlds of seeds ``s, s + 1, ...`` (Gymnasium's vector convention), with a list, those
+  seeds; ``reset()``, the constructor's. Every world ends after ``episodes`` steps, together.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -47,8 +57,8 @@ from mgrao_core import equations as eq
 from mgrao_core.errors import ConfigError
 from mgrao_core.params import SystemParams, make_params
 from mgrao_core.presets import get_preset
-from mgrao_core.reference import Episode, SeedEnvironment
 from mgrao_core.spec import MAX_SEED_VALUE
+from mgrao_core.stepper import SteppedWorlds
 
 try:
     import gymnasium
@@ -58,13 +68,15 @@ except ImportError as error:  # pragma: no cover - the extra is part of the test
     raise ImportError(
         "mgrao_core.env needs PettingZoo and Gymnasium: pip install 'mgrao[env]'") from error
 
-__all__ = ["MgraoParallelEnv", "MgraoSingleChildEnv", "parallel_env", "single_agent_env"]
+__all__ = ["MgraoParallelEnv", "MgraoSingleChildEnv", "MgraoVectorEnv", "parallel_env", "single_agent_env",
+           "vector_env"]
 
 NORMALISED = 1e-12
 """An action whose weights sum to 1 within this is taken as it is: normalising it again would move its
 weights by a rounding, enough to turn a parent's exactly tied choice of child the other way."""
 DRAW_BLOCK = 256
-"""Episodes drawn from the seed's streams at a time (the numbers do not depend on it)."""
+"""Episodes drawn from the seeds' streams at a time (the numbers do not depend on it)."""
+OBSERVATION_KEYS = ("received", "task_type", "value", "position")
 
 
 def _seed(value: Any, field: str = "seed") -> int:
@@ -73,15 +85,222 @@ def _seed(value: Any, field: str = "seed") -> int:
     return int(value)
 
 
+def _seeds(value: Any, n_worlds: int | None, field: str = "seeds") -> tuple[int, ...]:
+    """A list of distinct seeds (``n_worlds`` of them when given), or a whole number ``s`` for ``s, s + 1, ...``."""
+    if isinstance(value, int | np.integer) and not isinstance(value, bool):
+        if n_worlds is None:
+            raise ConfigError(field, f"must be a list of seeds (got {value!r})")
+        first = _seed(value, field)
+        if first + n_worlds - 1 > MAX_SEED_VALUE:
+            raise ConfigError(field, f"seeds {first} to {first + n_worlds - 1} pass {MAX_SEED_VALUE}")
+        return tuple(range(first, first + n_worlds))
+    if isinstance(value, str) or not isinstance(value, Sequence | range | np.ndarray):
+        raise ConfigError(field, f"must be a list of seeds or a whole number (got {value!r})")
+    seeds = tuple(_seed(s, f"{field}[{i}]") for i, s in enumerate(value))
+    if not seeds:
+        raise ConfigError(field, "must name at least one seed")
+    if len(set(seeds)) != len(seeds):
+        raise ConfigError(field, "must not repeat a seed")
+    if n_worlds is not None and len(seeds) != n_worlds:
+        raise ConfigError(field, f"must be {n_worlds} seeds, one per world (got {len(seeds)})")
+    return seeds
+
+
+def _episodes(value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
+        raise ConfigError("episodes", f"must be a whole number of at least 1 (got {value!r})")
+    return int(value)
+
+
 def system_params(system: str, params: dict[str, Any]) -> SystemParams:
     """A preset's parameters with ``params`` on top, validated as a job's (:func:`mgrao_core.make_params`)."""
     return make_params(params, base=get_preset(system).params)
 
 
+def allocations(action: Any, agent: str, n_types: int) -> np.ndarray:
+    """The weights an action stands for, as the environments read it (module docstring: "Action").
+
+    ``action`` is ``(..., n_types)``: one allocation or one per world. Each is sum-normalised (all zeros
+    meaning uniform) unless it sums to 1 within :data:`NORMALISED` already; one whose sum overflows is
+    divided by its largest weight first.
+
+    Raises:
+        ValueError: not finite numbers at least 0 of that shape (the message names the agent).
+    """
+    try:
+        weights = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{agent}: an action is {n_types} numbers, one weight per atomic type "
+                         f"(got {str(action)[:60]!r})") from None
+    if not np.all(np.isfinite(weights)) or np.any(weights < 0):
+        raise ValueError(f"{agent}: weights must be finite and at least 0 (got {str(weights.tolist())[:200]})")
+    with np.errstate(over="ignore"):
+        total = weights.sum(axis=-1, keepdims=True)
+    if np.all(np.abs(total - 1.0) <= NORMALISED):
+        return weights  # normalised already: dividing again would only add rounding
+    if not np.all(np.isfinite(total)):  # sums past the largest float: the same proportions, scaled down first
+        largest = weights.max(axis=-1, keepdims=True)
+        weights = weights / np.where(np.isfinite(total), 1.0, largest)
+        total = weights.sum(axis=-1, keepdims=True)
+    return np.where(np.abs(total - 1.0) <= NORMALISED, weights, eq.sumnorm(weights))
+
+
+class MgraoVectorEnv(ParallelEnv):
+    """Many worlds of a system, stepped together on the compiled engine (module docstring: "Many worlds").
+
+    Build it with :func:`vector_env`.
+
+    Attributes:
+        system: the preset it starts from.
+        params: the full parameter set (preset plus overrides).
+        seeds: the engine's seeds of the worlds ``reset()`` without a seed gives.
+        n_worlds: how many worlds step at once.
+        episodes: steps before truncation.
+    """
+
+    metadata = {"name": "mgrao_vector_v0", "render_modes": [], "is_parallelizable": True}
+
+    def __init__(self, system: str = "single", seeds: Any = range(64), episodes: int = 100, **params: Any) -> None:
+        self.system = system
+        self.params = p = system_params(system, params)
+        self.seeds = _seeds(seeds, None)
+        self.n_worlds = len(self.seeds)
+        self.episodes = _episodes(episodes)
+        self.render_mode = None
+        if p.n_resources > 1:  # an action is one allocation; several resources would need one per resource
+            raise ConfigError("n_resources", f"the PettingZoo environment supports one resource (got {p.n_resources}): "
+                                             "its action is one allocation over the atomic types (docs/platform.md)")
+        self.possible_agents = [f"child_{c}" for c in range(p.n_children)]
+        self.agents: list[str] = []
+        self._index = {agent: c for c, agent in enumerate(self.possible_agents)}
+        self._shape = (self.n_worlds, p.n_parents, p.types_per_composite)
+        observation_space = self._observation_space()
+        self._observation_spaces = dict.fromkeys(self.possible_agents, observation_space)
+        self._action_spaces = {agent: spaces.Box(0.0, 1.0, (self.n_worlds, p.n_types), np.float64)
+                               for agent in self.possible_agents}
+        self._worlds: SteppedWorlds | None = None
+
+    def _observation_space(self) -> spaces.Dict:
+        _, n_parents, k = self._shape
+        return spaces.Dict({
+            "received": spaces.MultiBinary(list(self._shape)),
+            "task_type": spaces.MultiDiscrete(np.full(self._shape, self.params.n_types, dtype=np.int64)),
+            "value": spaces.Box(0.0, 1.0, self._shape, np.float64),
+            "position": spaces.MultiDiscrete(np.full(self._shape, n_parents * k, dtype=np.int64)),
+        })
+
+    def observation_space(self, agent: str) -> spaces.Dict:
+        """The child's observation space, every entry ``(n_worlds, n_parents, types_per_composite)``."""
+        return self._observation_spaces[agent]
+
+    def action_space(self, agent: str) -> spaces.Box:
+        """The child's action space, ``(n_worlds, n_types)`` (the same object on every call)."""
+        return self._action_spaces[agent]
+
+    @property
+    def world_seeds(self) -> tuple[int, ...] | None:
+        """The engine's seeds of the worlds under way (None before the first reset)."""
+        return None if self._worlds is None else self._worlds.seeds
+
+    @property
+    def episode(self) -> int:
+        """Episodes played since the last reset."""
+        return 0 if self._worlds is None else self._worlds.episode
+
+    def reset(self, seed: Any = None, options: dict | None = None) -> tuple[dict, dict]:
+        """Start the worlds of ``seed`` (a list, or ``s`` for ``s, s + 1, ...``; the constructor's when None).
+
+        Returns:
+            Each child's observation (nothing received yet: every entry 0) and an empty info.
+        """
+        seeds = self.seeds if seed is None else _seeds(seed, self.n_worlds, "seed")
+        self._worlds = SteppedWorlds(self.params, seeds, block=min(self.episodes, DRAW_BLOCK))
+        self.agents = list(self.possible_agents)
+        empty = {"received": np.zeros(self._shape, np.int8), "task_type": np.zeros(self._shape, np.int64),
+                 "value": np.zeros(self._shape), "position": np.zeros(self._shape, np.int64)}
+        return ({agent: {key: value.copy() for key, value in empty.items()} for agent in self.agents},
+                {agent: {} for agent in self.agents})
+
+    def allocation(self, action: Any, agent: str = "") -> np.ndarray:
+        """The weights an action ``(n_worlds, n_types)`` stands for (:func:`allocations`).
+
+        Raises:
+            ValueError: not ``(n_worlds, n_types)`` finite values at least 0 (the message names the agent).
+        """
+        shape = self._action_spaces[self.possible_agents[0]].shape
+        weights = allocations(action, agent, self.params.n_types)
+        if weights.shape != shape:
+            raise ValueError(f"{agent}: an action is {shape[-1]} weights per world, one per atomic type, shape "
+                             f"{shape} (got shape {weights.shape})")
+        return weights
+
+    def _allocations(self, actions: Any) -> np.ndarray:
+        """Every child's weights ``(n_worlds, children, n_types)``, or ValueError before anything is stepped."""
+        if self._worlds is None or not self.agents:
+            raise RuntimeError("call reset() first: no episode is under way")
+        if not isinstance(actions, dict):
+            raise ValueError(f"actions must be a dict of the agents' actions (got {type(actions).__name__})")
+        unknown = [str(agent) for agent in actions if agent not in self._index]
+        if unknown:
+            raise ValueError(f"{', '.join(unknown)}: not an agent of this environment (agents: "
+                             f"{self.possible_agents[0]} to {self.possible_agents[-1]})")
+        missing = [agent for agent in self.agents if agent not in actions]
+        if missing:
+            raise ValueError(f"no action for {', '.join(missing)}")
+        return np.stack([self.allocation(actions[agent], agent) for agent in self.agents], axis=1)
+
+    def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
+        """One episode of every world, each child holding the allocation its action gives in each world.
+
+        Returns:
+            observations, rewards, terminations, truncations and infos, keyed by child, each value with a
+            leading world axis.
+
+        Raises:
+            RuntimeError: before :meth:`reset`, or after the last episode.
+            ValueError: a child without an action, an agent that is none, or an action that is not one
+                (:meth:`allocation`); nothing is stepped.
+        """
+        weights = self._allocations(actions)
+        outcome = self._worlds.step(weights)
+        observed, rewards = self._worlds.observe(outcome)
+        done = self._worlds.episode >= self.episodes
+        utility, episode = outcome.utility.copy(), np.full(self.n_worlds, self._worlds.episode - 1)
+        agents = self.agents
+        if done:
+            self.agents = []
+        return ({agent: {key: observed[key][c] for key in OBSERVATION_KEYS} for c, agent in enumerate(agents)},
+                {agent: rewards[c] for c, agent in enumerate(agents)},
+                {agent: np.zeros(self.n_worlds, np.bool_) for agent in agents},
+                {agent: np.full(self.n_worlds, done) for agent in agents},
+                {agent: {"utility": utility.copy(), "episode": episode.copy()} for agent in agents})
+
+    def render(self) -> None:
+        """Nothing to render (the dashboard shows runs)."""
+
+    def close(self) -> None:
+        """Nothing to release."""
+
+
+def vector_env(system: str = "single", seeds: Any = range(64), episodes: int = 100, **params: Any) -> MgraoVectorEnv:
+    """Many worlds of ``system`` with ``params`` on top, stepped together, as a batched PettingZoo ``ParallelEnv``.
+
+    Args:
+        system: a preset (``GET /api/systems`` lists them).
+        seeds: the engine's seed of each world (world ``i`` is seed ``seeds[i]``, with its draws).
+        episodes: steps (episodes) before every world is truncated.
+        **params: parameter overrides, as ``--set name=value`` (docs/model.md).
+
+    Raises:
+        ConfigError: an unknown system or parameter, a value outside its limits, or bad seeds (naming it).
+    """
+    return MgraoVectorEnv(system, seeds, episodes, **params)
+
+
 class MgraoParallelEnv(ParallelEnv):
     """The world of a system as a PettingZoo ``ParallelEnv`` (module docstring: agents, spaces, seeds).
 
-    Build it with :func:`parallel_env`.
+    One world of :class:`MgraoVectorEnv`, without the world axis. Build it with :func:`parallel_env`.
 
     Attributes:
         system: the preset it starts from.
@@ -93,35 +312,22 @@ class MgraoParallelEnv(ParallelEnv):
     metadata = {"name": "mgrao_v0", "render_modes": [], "is_parallelizable": True}
 
     def __init__(self, system: str = "single", seed: int = 0, episodes: int = 100, **params: Any) -> None:
-        self.system = system
-        self.params = system_params(system, params)
         self.seed = _seed(seed)
-        if isinstance(episodes, bool) or not isinstance(episodes, int | np.integer) or episodes < 1:
-            raise ConfigError("episodes", f"must be a whole number of at least 1 (got {episodes!r})")
-        self.episodes = int(episodes)
+        self._vector = MgraoVectorEnv(system, [self.seed], episodes, **params)
+        self.system, self.params, self.episodes = system, self._vector.params, self._vector.episodes
         self.render_mode = None
-        p = self.params
-        if p.n_resources > 1:  # an action is one allocation; several resources would need one per resource
-            raise ConfigError("n_resources", f"the PettingZoo environment supports one resource (got {p.n_resources}): "
-                                             "its action is one allocation over the atomic types (docs/platform.md)")
-        self.possible_agents = [f"child_{c}" for c in range(p.n_children)]
+        self.possible_agents = list(self._vector.possible_agents)
         self.agents: list[str] = []
-        self._index = {agent: c for c, agent in enumerate(self.possible_agents)}
-        self._shape = (p.n_parents, p.types_per_composite)
-        self._observation_spaces = {agent: self._observation_space() for agent in self.possible_agents}
-        self._action_spaces = {agent: spaces.Box(0.0, 1.0, (p.n_types,), np.float64)
-                               for agent in self.possible_agents}
-        self._environment: SeedEnvironment | None = None
-        self._uniform = np.full(p.n_types, 1.0 / p.n_types)
-
-    def _observation_space(self) -> spaces.Dict:
-        n_parents, k = self._shape
-        return spaces.Dict({
+        n_parents, k = self.params.n_parents, self.params.types_per_composite
+        observation_space = spaces.Dict({
             "received": spaces.MultiBinary([n_parents, k]),
-            "task_type": spaces.MultiDiscrete(np.full(self._shape, self.params.n_types, dtype=np.int64)),
-            "value": spaces.Box(0.0, 1.0, self._shape, np.float64),
-            "position": spaces.MultiDiscrete(np.full(self._shape, n_parents * k, dtype=np.int64)),
+            "task_type": spaces.MultiDiscrete(np.full((n_parents, k), self.params.n_types, dtype=np.int64)),
+            "value": spaces.Box(0.0, 1.0, (n_parents, k), np.float64),
+            "position": spaces.MultiDiscrete(np.full((n_parents, k), n_parents * k, dtype=np.int64)),
         })
+        self._observation_spaces = {agent: observation_space for agent in self.possible_agents}
+        self._action_spaces = {agent: spaces.Box(0.0, 1.0, (self.params.n_types,), np.float64)
+                               for agent in self.possible_agents}
 
     def observation_space(self, agent: str) -> spaces.Dict:
         """The child's observation space (the same object on every call)."""
@@ -134,12 +340,13 @@ class MgraoParallelEnv(ParallelEnv):
     @property
     def world_seed(self) -> int | None:
         """The engine's seed whose world the current episodes run in (None before the first reset)."""
-        return None if self._environment is None else self._environment.seed
+        seeds = self._vector.world_seeds
+        return None if seeds is None else seeds[0]
 
     @property
     def episode(self) -> int:
         """Episodes played since the last reset."""
-        return 0 if self._environment is None else self._environment.episode
+        return self._vector.episode
 
     def reset(self, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict]:
         """Start the world of the engine's seed ``seed`` (the constructor's when None) at episode 0.
@@ -148,31 +355,22 @@ class MgraoParallelEnv(ParallelEnv):
             Each child's observation (nothing received yet: every entry 0) and an empty info.
         """
         world_seed = self.seed if seed is None else _seed(seed)
-        self._environment = SeedEnvironment(self.params, world_seed, block=min(self.episodes, DRAW_BLOCK))
-        self.agents = list(self.possible_agents)
-        empty = {"received": np.zeros(self._shape, np.int8), "task_type": np.zeros(self._shape, np.int64),
-                 "value": np.zeros(self._shape), "position": np.zeros(self._shape, np.int64)}
-        return ({agent: {key: value.copy() for key, value in empty.items()} for agent in self.agents},
-                {agent: {} for agent in self.agents})
+        observations, infos = self._vector.reset(seed=[world_seed], options=options)
+        self.agents = list(self._vector.agents)
+        return {agent: _first(observation) for agent, observation in observations.items()}, infos
 
     def allocation(self, action: Any, agent: str = "") -> np.ndarray:
-        """The weights an action stands for: sum-normalised, all zeros meaning uniform.
-
-        Weights that already sum to 1 (within :data:`NORMALISED`) are taken as they are.
+        """The weights an action stands for (:func:`allocations`).
 
         Raises:
             ValueError: not ``n_types`` finite values at least 0 (the message names the agent).
         """
-        weights = np.asarray(action, dtype=np.float64)
         n_types = self.params.n_types
+        weights = allocations(action, agent, n_types)
         if weights.shape != (n_types,):
             raise ValueError(f"{agent}: an action is {n_types} weights, one per atomic type (got shape "
                              f"{weights.shape})")
-        if not np.all(np.isfinite(weights)) or np.any(weights < 0):
-            raise ValueError(f"{agent}: weights must be finite and at least 0 (got {weights.tolist()})")
-        if abs(weights.sum() - 1.0) <= NORMALISED:
-            return weights  # normalised already: dividing again would only add rounding
-        return eq.sumnorm(weights)
+        return weights
 
     def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
         """One episode, each child holding the allocation its action gives.
@@ -182,55 +380,30 @@ class MgraoParallelEnv(ParallelEnv):
 
         Raises:
             RuntimeError: before :meth:`reset`, or after the last episode.
-            ValueError: a child without an action, or an action that is not one (:meth:`allocation`).
+            ValueError: a child without an action, an agent that is none, or an action that is not one
+                (:meth:`allocation`); nothing is stepped.
         """
-        if self._environment is None or not self.agents:
-            raise RuntimeError("call reset() first: no episode is under way")
-        missing = [agent for agent in self.agents if agent not in actions]
-        if missing:
-            raise ValueError(f"no action for {', '.join(missing)}")
-        weights = [self.allocation(actions[agent], agent) for agent in self.agents]
-        episode = self._environment.step(weights)
-        observations, rewards = self._observe(episode)
-        done = self._environment.episode >= self.episodes
-        info = {"utility": float(episode.utility), "episode": self._environment.episode - 1}
-        agents = self.agents
-        if done:
-            self.agents = []
-        return (observations, rewards, dict.fromkeys(agents, False), dict.fromkeys(agents, done),
-                {agent: dict(info) for agent in agents})
-
-    def _observe(self, episode: Episode) -> tuple[dict, dict]:
-        """Each child's observation and reward from what came back to it (module docstring)."""
-        n_parents, k = self._shape
-        child_of = episode.child_of.ravel()
-        returned = (np.asarray(episode.order, dtype=np.int64)[:, None] * k + np.arange(k)).ravel()
-        types = episode.task_types.ravel()  # this episode's (events and unpredictable parents change them)
-        values = episode.values.ravel()
-        observations, rewards = {}, {}
-        for agent in self.agents:
-            c = self._index[agent]
-            mine = returned[child_of[returned] == c]  # flat entries, in the order they came back
-            received = np.zeros(n_parents * k, np.int8)
-            received[mine] = 1
-            task_type = np.zeros(n_parents * k, np.int64)
-            task_type[mine] = types[mine]
-            value = np.zeros(n_parents * k)
-            value[mine] = values[mine]
-            position = np.zeros(n_parents * k, np.int64)
-            position[mine] = np.arange(mine.size)
-            observations[agent] = {"received": received.reshape(self._shape),
-                                   "task_type": task_type.reshape(self._shape),
-                                   "value": value.reshape(self._shape),
-                                   "position": position.reshape(self._shape)}
-            rewards[agent] = float(values[mine].sum())
-        return observations, rewards
+        if isinstance(actions, dict):
+            actions = {agent: self.allocation(action, agent)[None] if agent in self._vector._index else action
+                       for agent, action in actions.items()}
+        observations, rewards, terminations, truncations, infos = self._vector.step(actions)
+        self.agents = list(self._vector.agents)
+        return ({agent: _first(observation) for agent, observation in observations.items()},
+                {agent: float(reward[0]) for agent, reward in rewards.items()},
+                {agent: bool(value[0]) for agent, value in terminations.items()},
+                {agent: bool(value[0]) for agent, value in truncations.items()},
+                {agent: {"utility": float(info["utility"][0]), "episode": int(info["episode"][0])}
+                 for agent, info in infos.items()})
 
     def render(self) -> None:
         """Nothing to render (the dashboard shows runs)."""
 
     def close(self) -> None:
         """Nothing to release."""
+
+
+def _first(observation: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    return {key: value[0] for key, value in observation.items()}
 
 
 def parallel_env(system: str = "single", seed: int = 0, episodes: int = 100, **params: Any) -> MgraoParallelEnv:

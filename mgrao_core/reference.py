@@ -7,8 +7,9 @@ tests can check that the batched engine computes exactly the paper's equations, 
 can show what batching buys.
 
 Its environment, :class:`SeedEnvironment` (one seed's parents, stepped one episode at a time with
-the children's allocations given), is also what :mod:`mgrao_core.env` offers to outside learners
-as a PettingZoo environment: both are this module's one reading of the paper's steps.
+the children's allocations given), is what the tests check :mod:`mgrao_core.env` against: the
+environments outside learners act through run the engine's compiled episode, and must send back
+what this module's reading of the paper's steps sends back.
 """
 
 from __future__ import annotations
@@ -127,9 +128,9 @@ class SeedEnvironment:
     """The simulated environment of one seed, one episode at a time: the paper's steps 1 to 5 without the children.
 
     The children's part (an allocation at the start of an episode, learning from each returned value)
-    is the caller's: :func:`simulate` gives it to the algorithm families' reference steps, and
-    :mod:`mgrao_core.env` to whatever acts through the PettingZoo environment. Both read the world and
-    the episode streams of the seed exactly as the engine does.
+    is the caller's: :func:`simulate` gives it to the algorithm families' reference steps, and the tests
+    of :mod:`mgrao_core.env` to the actions they step the environments with. It reads the world and the
+    episode streams of the seed exactly as the engine does.
 
     Args:
         params: the system's parameters.

@@ -50,7 +50,7 @@ def _build_lanes(spec: ExperimentSpec, worlds: Sequence[World], seeds: Sequence[
     return arrays, kernel_lanes, tuple(f.compiled_lanes(arrays, p) if f.name in present else None for f in LEARNERS)
 
 
-def _worlds(p, worlds: Sequence[World]) -> tuple[engine.Worlds, engine.SeveralResources | None]:
+def kernel_worlds(p, worlds: Sequence[World]) -> tuple[engine.Worlds, engine.SeveralResources | None]:
     """The kernel's worlds (each seed's resource per type) and, with several resources, each one's and the needs."""
     single = engine.Worlds(resources=np.ascontiguousarray(np.stack([w.type_resources_single for w in worlds])))
     if p.n_resources == 1:
@@ -65,7 +65,8 @@ def _stack(draws: list[EpisodeDraws], name: str) -> np.ndarray:
     return np.ascontiguousarray(np.stack([getattr(d, name) for d in draws]))
 
 
-def _block_draws(draws: list[EpisodeDraws]) -> engine.Draws:
+def block_draws(draws: list[EpisodeDraws]) -> engine.Draws:
+    """Each seed's draws of a block of episodes, stacked as the kernel reads them (first axes: seed, episode)."""
     return engine.Draws(
         noise=_stack(draws, "noise"),
         order=_stack(draws, "order").astype(np.int64),
@@ -114,7 +115,7 @@ def run_chunk(
     seeds = tuple(seeds)
     worlds = [draw_world(p, seed) for seed in seeds]
     arrays, lanes, learners = _build_lanes(spec, worlds, seeds, should_stop)
-    world, several = _worlds(p, worlds)
+    world, several = kernel_worlds(p, worlds)
     environment = engine.environment_of(p)
     streams = [EpisodeStreams(p, seed, world) for seed, world in zip(seeds, worlds, strict=True)]
     utilities = np.zeros((len(lanes.kind), spec.episodes))
@@ -125,8 +126,8 @@ def run_chunk(
             raise Cancelled(f"stopped after {done} of {spec.episodes} episodes")
         count = min(block, spec.episodes - done)
         out = np.zeros((len(lanes.kind), count))
-        engine.run_block(lanes, world, several, _block_draws([s.draw(count) for s in streams]), environment, out,
-                         *learners)
+        engine.run_block(lanes, world, several, block_draws([s.draw(count) for s in streams]), environment, out,
+                         None, *learners)
         utilities[:, done : done + count] = out
         done += count
         if on_progress is not None:

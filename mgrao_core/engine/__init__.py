@@ -4,7 +4,8 @@
   proportional values, choosing a child, quality of an atomic task, estimates of children);
 * :mod:`~mgrao_core.engine.kernel`: the lanes, the world and the draws as the kernel reads them,
   and the loop over episodes that strings the paper's five processing steps together, calling each
-  learner family's compiled steps (MG-RAO's: :mod:`mgrao_core.algorithms.mgrao.compiled`).
+  learner family's compiled steps (MG-RAO's: :mod:`mgrao_core.algorithms.mgrao.compiled`);
+* :mod:`~mgrao_core.engine.observation`: what a child sees of an episode (the environments').
 
 Everything here is checked against the dense reference (:mod:`mgrao_core.reference`).
 """
@@ -12,15 +13,18 @@ Everything here is checked against the dense reference (:mod:`mgrao_core.referen
 import mgrao_core._numba_cache  # noqa: F401, I001  (first: picks a writable numba cache before numba loads)
 from mgrao_core.engine.cache import bind_to_sources, load_without_compiler
 from mgrao_core.engine.environment import Environment, environment_of
-from mgrao_core.engine.kernel import Draws, Lanes, SeveralResources, Worlds, finish, run_block
+from mgrao_core.engine.kernel import Draws, Lanes, Observed, SeveralResources, Worlds, finish, run_block
+from mgrao_core.engine.observation import child_observations
 
-bind_to_sources([run_block, finish])
-load_without_compiler([run_block, finish])
+bind_to_sources([run_block, finish, child_observations])
+load_without_compiler([run_block, finish, child_observations])
 
 __all__ = [
+    "child_observations",
     "Draws",
     "Environment",
     "Lanes",
+    "Observed",
     "SeveralResources",
     "Worlds",
     "environment_of",

@@ -119,6 +119,19 @@ class SeveralResources(NamedTuple):
     needs: np.ndarray
 
 
+class Observed(NamedTuple):
+    """What each lane's last episode sent back, for an environment's observations (:mod:`mgrao_core.env`).
+
+    ``sending (lanes, parents)``: the parents that sent a composite task; ``child_of (lanes, parents,
+    types_per_composite)``: the child each atomic task went to and ``values``: the absolute value it returned
+    (both stale where the parent did not send). The runner passes ``None``: nothing is written, or compiled.
+    """
+
+    sending: np.ndarray
+    child_of: np.ndarray
+    values: np.ndarray
+
+
 class Draws(NamedTuple):
     """The block's randomness per seed, first axes ``(seeds, episodes)``.
 
@@ -137,11 +150,12 @@ class Draws(NamedTuple):
 
 
 @njit(cache=True, parallel=True)
-def run_block(lanes, worlds, several, draws, env, utilities, mgrao_lanes, adaptive_lanes, independent_q_lanes,
-              bandit_lanes):
+def run_block(lanes, worlds, several, draws, env, utilities, observed, mgrao_lanes, adaptive_lanes,
+              independent_q_lanes, bandit_lanes):
     """Run every lane through the episodes of one block.
 
-    The system utility of each lane and episode goes into ``utilities (lanes, episodes)``;
+    The system utility of each lane and episode goes into ``utilities (lanes, episodes)``, and what came
+    back in the last episode into ``observed`` (:class:`Observed`; ``None``: nowhere);
     ``several`` is the seeds' :class:`SeveralResources` (``None`` with one resource);
     ``mgrao_lanes``, ``adaptive_lanes``, ``independent_q_lanes`` and ``bandit_lanes`` are each learner
     family's compiled lanes (:class:`~mgrao_core.algorithms.mgrao.compiled.MgraoLanes` and the like), in
@@ -176,6 +190,11 @@ def run_block(lanes, worlds, several, draws, env, utilities, mgrao_lanes, adapti
         a_scratch = np.zeros(n_resources)
         learner_of = np.zeros((n_parents, types_per_composite), dtype=np.int64)
         credit = np.zeros((n_parents, types_per_composite))
+        if observed is not None:  # the lane's rows, taken here: numba's parallel loop loses a write such as
+            # observed.values[lane, p, k] = x, made through the tuple's attribute (numba 0.68)
+            observed_sending = observed.sending[lane]
+            observed_child_of = observed.child_of[lane]
+            observed_values = observed.values[lane]
         for e in range(n_episodes):
             # 1. Composite tasks arrive at the parents present whose composite type arrives.
             apply_changes(lanes.profiles[lane], parent_types, draws.changes[s, e], draws.event_profiles[s, e],
@@ -230,6 +249,12 @@ def run_block(lanes, worlds, several, draws, env, utilities, mgrao_lanes, adapti
                 elif env.absent_counted and not active[p]:
                     utility += env.absent_quality
             utilities[lane, e] = utility
+            if observed is not None:
+                for p in range(n_parents):
+                    observed_sending[p] = sending[p]
+                    for k in range(types_per_composite):
+                        observed_child_of[p, k] = child_of[p, k]
+                        observed_values[p, k] = values[p, k]
             # 5. Values come back composite by composite, in a random order of parents.
             for i in range(n_parents):
                 p = draws.order[s, e, i]

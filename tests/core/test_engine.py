@@ -143,12 +143,14 @@ def test_the_kernel_is_compiled_for_the_families_a_job_runs(monkeypatch):
     def nones(algorithms, overrides=None):
         calls.clear()
         run_experiment(make_spec("single", algorithms, seeds=1, episodes=2, overrides=overrides))
-        several, learners = calls[0][2], calls[0][6:]  # learners in the order of algorithms.LEARNERS
+        several, observed, learners = calls[0][2], calls[0][6], calls[0][7:]  # learners as algorithms.LEARNERS
+        assert observed is None  # a run observes nothing (mgrao_core.env does)
         return [several is None] + [lanes is None for lanes in learners]
 
     assert nones(["uniform", "mgrao-1:1", "mgrao-max"]) == [True, False, True, True, True]
     assert nones(["uniform", "bandit"]) == [True, True, True, True, False]
     assert nones(["mgrao-max", "independent-q"], {"n_resources": 2}) == [False, False, True, False, True]
     assert nones(["uniform"]) == [True, True, True, True, True]
-    # and numba compiled a kernel of that signature: uniform alone, without any learner's code or several resources
-    assert any(sum(isinstance(t, types.NoneType) for t in sig) == 5 for sig in run_block.signatures)
+    # and numba compiled a kernel of that signature: uniform alone, without any learner's code, several resources
+    # or observations
+    assert any(sum(isinstance(t, types.NoneType) for t in sig) == 6 for sig in run_block.signatures)

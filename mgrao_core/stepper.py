@@ -1,0 +1,143 @@
+"""Worlds stepped one episode at a time on the compiled kernel, the children's allocations given from outside.
+
+In a run (:mod:`mgrao_core.runner`) an algorithm family allocates and learns inside the kernel. Here a
+learner outside it does: :meth:`SteppedWorlds.step` takes every world's allocations, runs one episode of
+every world in one call of :func:`mgrao_core.engine.run_block` (lanes of a fixed family, which hold
+whatever allocation they are given), and returns what came back. World ``i`` is the engine's seed
+``seeds[i]``: its world, and its per-episode draws taken from the seed's streams a block of episodes
+at a time as the runner takes them, so the same allocations give the engine's numbers. The
+environments of :mod:`mgrao_core.env` are built on it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any, NamedTuple
+
+import numba
+import numpy as np
+
+from mgrao_core import engine
+from mgrao_core.algorithms import LEARNERS, parse_algorithm
+from mgrao_core.lanes import allocate_lanes
+from mgrao_core.params import SystemParams
+from mgrao_core.runner import block_draws, kernel_worlds
+from mgrao_core.world import EpisodeStreams, draw_world
+
+_NO_LEARNERS = (None,) * len(LEARNERS)
+
+
+class Outcome(NamedTuple):
+    """What one episode of every world did, first axis the world (arrays of the stepper: read, do not keep).
+
+    Attributes:
+        utility: ``(worlds,)`` the system utility.
+        sending: ``(worlds, parents)`` the parents that sent a composite task (present, and its type arrived).
+        child_of: ``(worlds, parents, types_per_composite)`` the child each atomic task went to.
+        values: ``(worlds, parents, types_per_composite)`` the absolute value ``atv`` it returned.
+        task_types: ``(worlds, parents, types_per_composite)`` each atomic task's type in the episode.
+        order: ``(worlds, parents)`` the parents in the order their values came back (paper step 5).
+
+    ``child_of`` and ``values`` mean nothing where ``sending`` is False.
+    """
+
+    utility: np.ndarray
+    sending: np.ndarray
+    child_of: np.ndarray
+    values: np.ndarray
+    task_types: np.ndarray
+    order: np.ndarray
+
+
+class SteppedWorlds:
+    """The worlds of ``seeds`` for ``params``, at episode 0 (one resource: an allocation is one per child).
+
+    ``block`` episodes are drawn from each seed's streams at a time (the numbers do not depend on it).
+
+    Attributes:
+        params: the parameter set.
+        seeds: the engine's seed of each world.
+        episode: episodes stepped so far.
+    """
+
+    def __init__(self, params: SystemParams, seeds: Sequence[int], block: int = 256) -> None:
+        self.params = p = params
+        self.block = max(1, int(block))
+        self.seeds = tuple(int(s) for s in seeds)
+        worlds = [draw_world(p, seed) for seed in self.seeds]
+        self._arrays = allocate_lanes(p, [parse_algorithm("uniform", p.n_parents)], len(worlds))
+        self._arrays["profiles"][:] = np.stack([world.profiles for world in worlds])
+        self._arrays["parent_types"][:] = np.stack([world.parent_types for world in worlds])
+        self._lanes = engine.Lanes(**{name: self._arrays[name] for name in engine.Lanes._fields})
+        self._worlds, self._several = kernel_worlds(p, worlds)
+        self._environment = engine.environment_of(p)
+        self._streams = [EpisodeStreams(p, seed, world) for seed, world in zip(self.seeds, worlds, strict=True)]
+        n, shape = len(worlds), (len(worlds), p.n_parents, p.types_per_composite)
+        self._observed = engine.Observed(sending=np.zeros((n, p.n_parents), np.bool_),
+                                         child_of=np.zeros(shape, np.int64), values=np.zeros(shape))
+        self._utility = np.zeros((n, 1))
+        self._draws: engine.Draws | None = None
+        self._kernel: Callable[..., None] | None = None
+        self._observer: Callable[..., None] | None = None
+        self._start = 0
+        self.episode = 0
+
+    def step(self, weights: np.ndarray) -> Outcome:
+        """One episode of every world, child ``c`` of world ``i`` holding the allocation ``weights[i, c]``.
+
+        ``weights (worlds, children, n_types)`` are taken as they are: sum-normalised, finite, at least 0
+        (the environments check and normalise actions).
+        """
+        if self._draws is None or self.episode >= self._start + self.block:
+            self._start = self.episode
+            self._draws = block_draws([stream.draw(self.block) for stream in self._streams])
+        j = self.episode - self._start
+        draws = engine.Draws(*(np.ascontiguousarray(block[:, j : j + 1]) for block in self._draws))
+        self._arrays["fixed_weights"][:] = weights
+        arguments = (self._lanes, self._worlds, self._several, draws, self._environment, self._utility, self._observed,
+                     *_NO_LEARNERS)
+        threads = numba.get_num_threads()
+        numba.set_num_threads(1)  # one episode is too short for numba's threads to pay for their start
+        try:
+            if self._kernel is None:
+                self._kernel = _compiled(engine.run_block, arguments)
+            else:
+                self._kernel(*arguments)
+        finally:
+            numba.set_num_threads(threads)
+        self.episode += 1
+        observed = self._observed
+        return Outcome(self._utility[:, 0], observed.sending, observed.child_of, observed.values,
+                       self._lanes.parent_types, np.ascontiguousarray(draws.order[:, 0]))
+
+    def observe(self, outcome: Outcome) -> tuple[dict[str, np.ndarray], np.ndarray]:
+        """Every child's observation of ``outcome`` and its reward (:mod:`mgrao_core.engine.observation`).
+
+        Returns:
+            New arrays: the observation's entries by key (``received``, ``task_type``, ``value``,
+            ``position``), each ``(children, worlds, parents, types_per_composite)``, and the rewards
+            ``(children, worlds)``.
+        """
+        shape = (self.params.n_children, *outcome.child_of.shape)
+        entries = {"received": np.zeros(shape, np.int8), "task_type": np.zeros(shape, np.int64),
+                   "value": np.zeros(shape), "position": np.zeros(shape, np.int64)}
+        rewards = np.zeros(shape[:2])
+        arguments = (outcome.sending, outcome.child_of, outcome.values, outcome.task_types, outcome.order,
+                     entries["received"], entries["task_type"], entries["value"], entries["position"], rewards)
+        if self._observer is None:
+            self._observer = _compiled(engine.child_observations, arguments)
+        else:
+            self._observer(*arguments)
+        return entries, rewards
+
+
+def _compiled(dispatcher: Any, arguments: tuple) -> Callable[..., None]:
+    """Call ``dispatcher`` on ``arguments`` (compiling or loading that signature), and return its compiled entry.
+
+    A step calls the kernel with arguments of the same types every time (the same lanes, draws of the same
+    shape), so it skips numba's dispatch, which types each of the tuples' fields on every call: on 64 worlds of
+    ``single`` that costs several times the episode itself (benchmarks/bench_vector_env.py). The entry is
+    numba's own compiled function for that signature (``Dispatcher.overloads``).
+    """
+    dispatcher(*arguments)
+    return dispatcher.overloads[tuple(dispatcher.typeof_pyval(a) for a in arguments)].entry_point

@@ -1,0 +1,225 @@
+"""mgrao_core.env.vector_env: many worlds at once, each the engine's world of its seed, step for step.
+
+The proof: uniform, the oracle's allocation and the reference MG-RAO policy acting through the vector
+environment give the engine's utilities for every world, in every preset with one resource; world i
+equals ``parallel_env(seed=seeds[i])`` step for step, observations included; and what the compiled
+episode sends back equals what the dense reference (:class:`mgrao_core.reference.SeedEnvironment`)
+sends back for the same actions.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pettingzoo.test import api_test, parallel_api_test
+from pettingzoo.utils.conversions import parallel_to_aec
+
+from mgrao_core import ConfigError, make_spec, run_experiment
+from mgrao_core.algorithms import family_of, parse_algorithm
+from mgrao_core.env import OBSERVATION_KEYS, parallel_env, system_params, vector_env
+from mgrao_core.presets import PRESETS
+from mgrao_core.reference import SeedEnvironment
+from mgrao_core.world import draw_world
+
+PRESETS_ONE_RESOURCE = [name for name in PRESETS if name != "multi-resource"]
+SEEDS = (0, 7, 3)
+EPISODES = 12
+
+
+def engine_utilities(system: str, algorithm: str) -> np.ndarray:
+    """``(seeds, episodes)``: the engine's run of ``algorithm`` on SEEDS."""
+    result = run_experiment(make_spec(system, [algorithm], list(SEEDS), EPISODES))
+    return np.stack([run.utilities for run in result.runs])
+
+
+def act(env, algorithm: str) -> np.ndarray:
+    """The family's dense reference children of every world acting through ``env``; ``(worlds, episodes)``.
+
+    Each child's action is its allocation; after each step it learns from every value that came back
+    to it in its world, in the order of ``position`` (algorithm 1 for MG-RAO).
+    """
+    params = env.params
+    alg = parse_algorithm(algorithm, params.n_parents)
+    env.reset()
+    children = [family_of(alg).reference_children(params, alg, draw_world(params, seed), seed) for seed in env.seeds]
+    utilities = []
+    while env.agents:
+        actions = {agent: np.stack([world[c].allocation() for world in children])
+                   for c, agent in enumerate(env.agents)}
+        observations, _, _, _, infos = env.step(actions)
+        utilities.append(infos["child_0"]["utility"])
+        for c, agent in enumerate(env.possible_agents):
+            for i, world in enumerate(children):
+                obs = {key: observations[agent][key][i] for key in OBSERVATION_KEYS}
+                parents, tasks = np.nonzero(obs["received"])
+                for j in np.argsort(obs["position"][parents, tasks]):
+                    p, k = parents[j], tasks[j]
+                    world[c].learn(int(p), int(obs["task_type"][p, k]), float(obs["value"][p, k]))
+    return np.array(utilities).T
+
+
+@pytest.mark.parametrize("system", PRESETS_ONE_RESOURCE)
+@pytest.mark.parametrize("algorithm", ["uniform", "oracle", "mgrao-max"])
+def test_every_world_is_the_engines_world_of_its_seed(system, algorithm):
+    env = vector_env(system, seeds=SEEDS, episodes=EPISODES)
+    np.testing.assert_allclose(act(env, algorithm), engine_utilities(system, algorithm), rtol=0, atol=1e-12,
+                               err_msg=f"{system} {algorithm}")
+
+
+def test_zeros_are_uniform_in_every_world():
+    env = vector_env("multi", seeds=SEEDS, episodes=EPISODES)
+    env.reset()
+    utilities = []
+    while env.agents:
+        _, _, _, _, infos = env.step({agent: np.zeros((len(SEEDS), 20)) for agent in env.agents})
+        utilities.append(infos["child_0"]["utility"])
+    np.testing.assert_array_equal(np.array(utilities).T, engine_utilities("multi", "uniform"))
+
+
+def _random_actions(env, rng):
+    return {agent: rng.random(env.action_space(agent).shape) for agent in env.agents}
+
+
+@pytest.mark.parametrize("system", ["multi", "volatile", "bursty"])
+def test_world_i_is_parallel_env_of_seed_i_step_for_step(system):
+    vector = vector_env(system, seeds=SEEDS, episodes=EPISODES)
+    singles = [parallel_env(system, seed=seed, episodes=EPISODES) for seed in SEEDS]
+    vector.reset()
+    for single in singles:
+        single.reset()
+    rng = np.random.default_rng(5)
+    while vector.agents:
+        actions = _random_actions(vector, rng)
+        observations, rewards, terminations, truncations, infos = vector.step(actions)
+        for i, single in enumerate(singles):
+            obs, rew, term, trunc, info = single.step({agent: action[i] for agent, action in actions.items()})
+            for agent in vector.possible_agents:
+                for key in OBSERVATION_KEYS:
+                    np.testing.assert_array_equal(observations[agent][key][i], obs[agent][key])
+                assert (rewards[agent][i], terminations[agent][i], truncations[agent][i]) == (
+                    rew[agent], term[agent], trunc[agent])
+                assert (infos[agent]["utility"][i], infos[agent]["episode"][i]) == (
+                    info[agent]["utility"], info[agent]["episode"])
+    assert all(single.agents == [] for single in singles)
+
+
+def _expected_observation(episode, c, shape):
+    """A child's observation from what the dense reference's episode sent back (module docstring of env)."""
+    n_parents, k = shape
+    received, task_type = np.zeros(shape, np.int8), np.zeros(shape, np.int64)
+    value, position = np.zeros(shape), np.zeros(shape, np.int64)
+    n = 0
+    for p in episode.order:
+        for j in range(k):
+            if episode.child_of[p, j] == c:
+                received[p, j], task_type[p, j], value[p, j], position[p, j] = 1, episode.task_types[p, j], \
+                    episode.values[p, j], n
+                n += 1
+    return {"received": received, "task_type": task_type, "value": value, "position": position}
+
+
+@pytest.mark.parametrize("system", ["multi", "volatile", "drift", "large"])
+@pytest.mark.parametrize("overrides", [{}, {"routing": "per-task", "load_sharing": True, "leave_probability": 0.3,
+                                            "join_probability": 0.4, "absent_tasks": "counted"}],
+                         ids=["preset", "per-task-volatile"])
+def test_what_comes_back_is_what_the_dense_reference_sends_back(system, overrides):
+    params = system_params(system, overrides)
+    env = vector_env(system, seeds=SEEDS, episodes=EPISODES, **overrides)
+    references = [SeedEnvironment(params, seed) for seed in SEEDS]
+    env.reset()
+    rng = np.random.default_rng(11)
+    while env.agents:
+        actions = _random_actions(env, rng)
+        observations, rewards, _, _, infos = env.step(actions)
+        for i, reference in enumerate(references):
+            episode = reference.step([env.allocation(actions[agent], agent)[i] for agent in env.possible_agents])
+            assert infos["child_0"]["utility"][i] == pytest.approx(episode.utility, abs=1e-12)
+            for c, agent in enumerate(env.possible_agents):
+                expected = _expected_observation(episode, c, (params.n_parents, params.types_per_composite))
+                for key in ("received", "task_type", "position"):
+                    np.testing.assert_array_equal(observations[agent][key][i], expected[key], err_msg=key)
+                np.testing.assert_allclose(observations[agent]["value"][i], expected["value"], rtol=0, atol=1e-12)
+                assert rewards[agent][i] == pytest.approx(expected["value"].sum(), abs=1e-12)
+
+
+def test_pettingzoo_api_test_passes_on_the_aec_conversion_of_parallel_env():
+    # (PettingZoo's tests read a termination or truncation as one bool: the vector env's are arrays, one per world)
+    api_test(parallel_to_aec(parallel_env("multi", episodes=30)), num_cycles=40)
+    parallel_api_test(parallel_env("bursty", episodes=30), num_cycles=40)
+
+
+def test_spaces_and_shapes_carry_the_world_axis_first():
+    env = vector_env("large", seeds=range(5), episodes=3, n_types=30)
+    assert env.action_space("child_0").shape == (5, 30)
+    space = env.observation_space("child_0")
+    assert all(s.shape == (5, 50, 5) for s in space.spaces.values())
+    observations, infos = env.reset()
+    assert space.contains(observations["child_0"]) and infos == {"child_0": {}}
+    observations, rewards, terminations, truncations, infos = env.step({"child_0": np.ones((5, 30))})
+    assert space.contains(observations["child_0"])
+    assert rewards["child_0"].shape == terminations["child_0"].shape == truncations["child_0"].shape == (5,)
+    assert infos["child_0"]["utility"].shape == (5,) and list(infos["child_0"]["episode"]) == [0] * 5
+    np.testing.assert_allclose(rewards["child_0"], infos["child_0"]["utility"], rtol=0, atol=1e-12)  # one child
+
+
+def test_reset_seeds_follow_gymnasiums_vector_convention():
+    env = vector_env("volatile", seeds=[5, 6, 7], episodes=4)
+    actions = {"child_0": np.ones((3, 20))}
+
+    def utilities(seed=None):
+        env.reset(seed=seed)
+        return np.array([env.step(actions)[4]["child_0"]["utility"] for _ in range(4)]).T
+
+    first = utilities()
+    assert env.world_seeds == (5, 6, 7)
+    other = utilities(seed=[1, 2, 3])
+    assert env.world_seeds == (1, 2, 3)
+    np.testing.assert_array_equal(utilities(seed=5), first)  # 5, 6, 7
+    np.testing.assert_array_equal(utilities(), first)  # the constructor's worlds again
+    np.testing.assert_array_equal(other[1], utilities(seed=[9, 2, 8])[1])  # a world is its seed's, wherever it is
+    with pytest.raises(ConfigError, match="3 seeds, one per world"):
+        env.reset(seed=[1, 2])
+
+
+@pytest.mark.parametrize("kwargs, field", [
+    ({"seeds": []}, "seeds"), ({"seeds": [1, 1]}, "seeds"), ({"seeds": [-1]}, "seeds[0]"), ({"seeds": 3}, "seeds"),
+    ({"seeds": "01"}, "seeds"), ({"episodes": 0}, "episodes"), ({"n_resources": 2}, "n_resources"),
+])
+def test_bad_configurations_name_the_field(kwargs, field):
+    with pytest.raises(ConfigError) as error:
+        vector_env("single", **kwargs)
+    assert error.value.field == field
+
+
+def test_a_huge_action_keeps_its_proportions():
+    # its sum overflows to inf: divided by its largest weight first, not read as all zeros
+    env = parallel_env("single")
+    np.testing.assert_array_equal(env.allocation(np.full(20, 1e308)), np.full(20, 0.05))
+    weights = np.arange(20.0) * 1e306  # sums to 1.9e308
+    np.testing.assert_allclose(env.allocation(weights), np.arange(20.0) / 190, rtol=1e-15)
+    vector = vector_env("single", seeds=[0, 1])
+    both = vector.allocation(np.stack([np.full(20, 1e308), np.full(20, 0.05)]))
+    np.testing.assert_array_equal(both, np.full((2, 20), 0.05))
+
+
+@pytest.mark.parametrize("make", [lambda: parallel_env("multi", episodes=3),
+                                  lambda: vector_env("multi", seeds=[0, 1], episodes=3)], ids=["parallel", "vector"])
+def test_bad_actions_are_refused_naming_the_child_and_nothing_is_stepped(make):
+    env = make()
+    env.reset()
+    good = {agent: np.ones(env.action_space(agent).shape) for agent in env.agents}
+    env.step(good)
+    for actions, match in [
+        (good | {"child_9": good["child_0"]}, "child_9: not an agent"),
+        (good | {"parent_0": good["child_0"]}, "parent_0: not an agent"),
+        (good | {"child_1": "abc"}, "child_1: an action is 20 numbers"),
+        (good | {"child_2": [[1, 2], [3]]}, "child_2: an action is 20 numbers"),
+        (good | {"child_1": -good["child_1"]}, "child_1: weights must be finite and at least 0"),
+        (good | {"child_0": np.ones(7)}, "child_0: an action is 20 weights"),
+        ({"child_0": good["child_0"]}, "no action for child_1, child_2"),
+    ]:
+        with pytest.raises(ValueError, match=match):
+            env.step(actions)
+        assert env.episode == 1
+    env.step(good)
+    assert env.episode == 2
