@@ -31,14 +31,23 @@ in the same world") describes them.
   - ``position`` (``MultiDiscrete(n_parents * types_per_composite)``, int64): the order of returns,
     0 for the first value that came back to this child in the episode, 1 for the next, and so on
     (composite by composite in the episode's random order of parents, then atomic task by atomic
-    task: the order in which MG-RAO learns from them).
+    task: the order in which MG-RAO learns from them);
 
+  and the child's own: ``allocation`` (``Box(0, 1, (n_types,))``) the weights it held in that episode (0
+  at reset), ``resources`` (``Box(0, inf, (n_types,))``) its resource per unit of weight of each type
+  (its amount over its capability), ``episode`` (``MultiDiscrete(episodes + 1)``, shape ``(1,)``) the
+  episodes played. With ``flatten=True`` the observation is one ``Box`` of :func:`flat_length` float64
+  numbers, these entries flattened in the order of :data:`OBSERVATION_KEYS`.
 * **Reward**: the sum of the absolute values returned to the child in the episode (added in the
-  order they came back).
+  order they came back); with ``reward="team"``, the system utility, for every child.
+* **State** (``state()``, ``state_space``), for centralised training: every child's flat observation in
+  agent order, then each parent's presence (1 or 0) in the last episode.
 * **Infos**: ``{"utility": system utility of the episode, "episode": its index from 0}``, the same
   for every child (empty at reset).
 * **Seeds**: ``reset(seed=s)`` gives the world of the engine's seed ``s``, with the same draws
-  (common random numbers); ``reset()`` without a seed, the constructor's ``seed`` again.
+  (common random numbers); ``reset()`` without a seed draws a fresh world from the environment's
+  generator, seeded by the last ``reset(seed=...)`` (Gymnasium's convention); the first ``reset()``
+  without any gives the constructor's ``seed``.
 * **Many worlds** (:func:`vector_env`): the same, world ``i`` being the engine's seed ``seeds[i]``, with
   a leading axis of length ``n_worlds`` on every action ``(n_worlds, n_types)``, observation entry,
   reward, termination, truncation and info entry, and on the spaces. ``reset(seed=s)`` with a whole
@@ -76,7 +85,11 @@ NORMALISED = 1e-12
 weights by a rounding, enough to turn a parent's exactly tied choice of child the other way."""
 DRAW_BLOCK = 256
 """Episodes drawn from the seeds' streams at a time (the numbers do not depend on it)."""
-OBSERVATION_KEYS = ("received", "task_type", "value", "position")
+RETURNED_KEYS = ("received", "task_type", "value", "position")
+"""The observation's entries of what came back to the child, one per parent and atomic task."""
+OBSERVATION_KEYS = (*RETURNED_KEYS, "allocation", "resources", "episode")
+"""Every entry of an observation, in the order of its flat form (``flatten=True``)."""
+REWARDS = ("child", "team")
 
 
 def _seed(value: Any, field: str = "seed") -> int:
@@ -145,6 +158,61 @@ def allocations(action: Any, agent: str, n_types: int) -> np.ndarray:
     return np.where(np.abs(total - 1.0) <= NORMALISED, weights, eq.sumnorm(weights))
 
 
+def _reward(value: Any) -> str:
+    if value not in REWARDS:
+        raise ConfigError("reward", f"must be one of {', '.join(REWARDS)} (got {value!r})")
+    return value
+
+
+def flat_length(params: SystemParams) -> int:
+    """The length of a flat observation: ``4 * n_parents * types_per_composite + 2 * n_types + 1``."""
+    return 4 * params.n_parents * params.types_per_composite + 2 * params.n_types + 1
+
+
+def _entry_bounds(params: SystemParams, episodes: int) -> dict[str, tuple[float, float, int]]:
+    """Each entry's lowest and highest value and its size (one world)."""
+    grid = params.n_parents * params.types_per_composite
+    n_types = params.n_types
+    return {"received": (0, 1, grid), "task_type": (0, n_types - 1, grid), "value": (0.0, 1.0, grid),
+            "position": (0, grid - 1, grid), "allocation": (0.0, 1.0, n_types), "resources": (0.0, np.inf, n_types),
+            "episode": (0, episodes, 1)}
+
+
+def observation_space(params: SystemParams, episodes: int, batch: tuple[int, ...] = (),
+                      flatten: bool = False) -> spaces.Space:
+    """A child's observation space, with ``batch`` as leading axes (module docstring: "Observation").
+
+    A ``Dict`` of :data:`OBSERVATION_KEYS`, or with ``flatten`` one ``Box`` of :func:`flat_length` numbers
+    (float64): the entries flattened in that order.
+    """
+    grid = (*batch, params.n_parents, params.types_per_composite)
+    types = (*batch, params.n_types)
+    if flatten:
+        bounds = _entry_bounds(params, episodes).values()
+        low = np.concatenate([np.full(size, low, np.float64) for low, _, size in bounds])
+        high = np.concatenate([np.full(size, high, np.float64) for _, high, size in bounds])
+        shape = (*batch, low.size)
+        return spaces.Box(np.broadcast_to(low, shape), np.broadcast_to(high, shape), shape, np.float64)
+    return spaces.Dict({
+        "received": spaces.MultiBinary(list(grid)),
+        "task_type": spaces.MultiDiscrete(np.full(grid, params.n_types, dtype=np.int64)),
+        "value": spaces.Box(0.0, 1.0, grid, np.float64),
+        "position": spaces.MultiDiscrete(np.full(grid, grid[-2] * grid[-1], dtype=np.int64)),
+        "allocation": spaces.Box(0.0, 1.0, types, np.float64),
+        "resources": spaces.Box(0.0, np.inf, types, np.float64),
+        "episode": spaces.MultiDiscrete(np.full((*batch, 1), episodes + 1, dtype=np.int64)),
+    })
+
+
+def state_space(params: SystemParams, episodes: int, batch: tuple[int, ...] = ()) -> spaces.Box:
+    """The state's space: every child's flat observation in agent order, then each parent's presence (0 or 1)."""
+    child = observation_space(params, episodes, (), flatten=True)
+    low = np.concatenate([np.tile(child.low, params.n_children), np.zeros(params.n_parents)])
+    high = np.concatenate([np.tile(child.high, params.n_children), np.ones(params.n_parents)])
+    shape = (*batch, low.size)
+    return spaces.Box(np.broadcast_to(low, shape), np.broadcast_to(high, shape), shape, np.float64)
+
+
 class MgraoVectorEnv(ParallelEnv):
     """Many worlds of a system, stepped together on the compiled engine (module docstring: "Many worlds").
 
@@ -160,12 +228,15 @@ class MgraoVectorEnv(ParallelEnv):
 
     metadata = {"name": "mgrao_vector_v0", "render_modes": [], "is_parallelizable": True}
 
-    def __init__(self, system: str = "single", seeds: Any = range(64), episodes: int = 100, **params: Any) -> None:
+    def __init__(self, system: str = "single", seeds: Any = range(64), episodes: int = 100, *, reward: str = "child",
+                 flatten: bool = False, **params: Any) -> None:
         self.system = system
         self.params = p = system_params(system, params)
         self.seeds = _seeds(seeds, None)
         self.n_worlds = len(self.seeds)
         self.episodes = _episodes(episodes)
+        self.reward = _reward(reward)
+        self.flatten = bool(flatten)
         self.render_mode = None
         if p.n_resources > 1:  # an action is one allocation; several resources would need one per resource
             raise ConfigError("n_resources", f"the PettingZoo environment supports one resource (got {p.n_resources}): "
@@ -173,25 +244,54 @@ class MgraoVectorEnv(ParallelEnv):
         self.possible_agents = [f"child_{c}" for c in range(p.n_children)]
         self.agents: list[str] = []
         self._index = {agent: c for c, agent in enumerate(self.possible_agents)}
-        self._shape = (self.n_worlds, p.n_parents, p.types_per_composite)
-        observation_space = self._observation_space()
-        self._observation_spaces = dict.fromkeys(self.possible_agents, observation_space)
+        self._observation_spaces = dict.fromkeys(
+            self.possible_agents, observation_space(p, self.episodes, (self.n_worlds,), self.flatten))
         self._action_spaces = {agent: spaces.Box(0.0, 1.0, (self.n_worlds, p.n_types), np.float64)
                                for agent in self.possible_agents}
+        self.state_space = state_space(p, self.episodes, (self.n_worlds,))
         self._worlds: SteppedWorlds | None = None
+        self._last: dict[str, np.ndarray] = {}
 
-    def _observation_space(self) -> spaces.Dict:
-        _, n_parents, k = self._shape
-        return spaces.Dict({
-            "received": spaces.MultiBinary(list(self._shape)),
-            "task_type": spaces.MultiDiscrete(np.full(self._shape, self.params.n_types, dtype=np.int64)),
-            "value": spaces.Box(0.0, 1.0, self._shape, np.float64),
-            "position": spaces.MultiDiscrete(np.full(self._shape, n_parents * k, dtype=np.int64)),
-        })
-
-    def observation_space(self, agent: str) -> spaces.Dict:
-        """The child's observation space, every entry ``(n_worlds, n_parents, types_per_composite)``."""
+    def observation_space(self, agent: str) -> spaces.Space:
+        """The child's observation space, a leading world axis on every entry (the same object on every call)."""
         return self._observation_spaces[agent]
+
+    def state(self) -> np.ndarray:
+        """The state for centralised training, ``(n_worlds, len)`` (:attr:`state_space`).
+
+        Every child's flat observation in agent order, then each parent's presence (1 present, 0 absent) in
+        the last episode.
+        """
+        if self._worlds is None:
+            raise RuntimeError("call reset() first: there is no state before it")
+        flat = self._flat(self._last)  # (children, worlds, flat_length)
+        children = flat.transpose(1, 0, 2).reshape(self.n_worlds, -1)
+        return np.concatenate([children, self._worlds.present.astype(np.float64)], axis=1)
+
+    def _flat(self, entries: dict[str, np.ndarray]) -> np.ndarray:
+        n_children = len(self.possible_agents)
+        return np.concatenate([entries[key].reshape(n_children, self.n_worlds, -1).astype(np.float64)
+                               for key in OBSERVATION_KEYS], axis=2)
+
+    def _observations(self, entries: dict[str, np.ndarray], agents: list[str]) -> dict[str, Any]:
+        """Each agent's observation from the entries ``(children, worlds, ...)`` (flat with ``flatten``)."""
+        self._last = entries
+        if self.flatten:
+            flat = self._flat(entries)
+            return {agent: flat[self._index[agent]] for agent in agents}
+        return {agent: {key: entries[key][self._index[agent]] for key in OBSERVATION_KEYS} for agent in agents}
+
+    def _entries(self, returned: dict[str, np.ndarray], weights: np.ndarray) -> dict[str, np.ndarray]:
+        """Every entry ``(children, worlds, ...)`` of the observations.
+
+        What came back (``returned``), the allocations ``weights (worlds, children, n_types)`` it came back
+        for, each child's resources and the episodes played.
+        """
+        n_children = len(self.possible_agents)
+        return returned | {
+            "allocation": weights.transpose(1, 0, 2).copy(),
+            "resources": self._worlds.resources.transpose(1, 0, 2).copy(),
+            "episode": np.full((n_children, self.n_worlds, 1), self._worlds.episode, np.int64)}
 
     def action_space(self, agent: str) -> spaces.Box:
         """The child's action space, ``(n_worlds, n_types)`` (the same object on every call)."""
@@ -216,10 +316,12 @@ class MgraoVectorEnv(ParallelEnv):
         seeds = self.seeds if seed is None else _seeds(seed, self.n_worlds, "seed")
         self._worlds = SteppedWorlds(self.params, seeds, block=min(self.episodes, DRAW_BLOCK))
         self.agents = list(self.possible_agents)
-        empty = {"received": np.zeros(self._shape, np.int8), "task_type": np.zeros(self._shape, np.int64),
-                 "value": np.zeros(self._shape), "position": np.zeros(self._shape, np.int64)}
-        return ({agent: {key: value.copy() for key, value in empty.items()} for agent in self.agents},
-                {agent: {} for agent in self.agents})
+        p = self.params
+        grid = (len(self.agents), self.n_worlds, p.n_parents, p.types_per_composite)
+        nothing = {"received": np.zeros(grid, np.int8), "task_type": np.zeros(grid, np.int64),
+                   "value": np.zeros(grid), "position": np.zeros(grid, np.int64)}
+        entries = self._entries(nothing, np.zeros((self.n_worlds, len(self.agents), p.n_types)))
+        return self._observations(entries, self.agents), {agent: {} for agent in self.agents}
 
     def allocation(self, action: Any, agent: str = "") -> np.ndarray:
         """The weights an action ``(n_worlds, n_types)`` stands for (:func:`allocations`).
@@ -263,14 +365,16 @@ class MgraoVectorEnv(ParallelEnv):
         """
         weights = self._allocations(actions)
         outcome = self._worlds.step(weights)
-        observed, rewards = self._worlds.observe(outcome)
+        returned, rewards = self._worlds.observe(outcome)
         done = self._worlds.episode >= self.episodes
         utility, episode = outcome.utility.copy(), np.full(self.n_worlds, self._worlds.episode - 1)
         agents = self.agents
         if done:
             self.agents = []
-        return ({agent: {key: observed[key][c] for key in OBSERVATION_KEYS} for c, agent in enumerate(agents)},
-                {agent: rewards[c] for c, agent in enumerate(agents)},
+        if self.reward == "team":
+            rewards = np.broadcast_to(utility, rewards.shape)
+        return (self._observations(self._entries(returned, weights), agents),
+                {agent: rewards[c].copy() for c, agent in enumerate(agents)},
                 {agent: np.zeros(self.n_worlds, np.bool_) for agent in agents},
                 {agent: np.full(self.n_worlds, done) for agent in agents},
                 {agent: {"utility": utility.copy(), "episode": episode.copy()} for agent in agents})
@@ -282,19 +386,22 @@ class MgraoVectorEnv(ParallelEnv):
         """Nothing to release."""
 
 
-def vector_env(system: str = "single", seeds: Any = range(64), episodes: int = 100, **params: Any) -> MgraoVectorEnv:
+def vector_env(system: str = "single", seeds: Any = range(64), episodes: int = 100, *, reward: str = "child",
+               flatten: bool = False, **params: Any) -> MgraoVectorEnv:
     """Many worlds of ``system`` with ``params`` on top, stepped together, as a batched PettingZoo ``ParallelEnv``.
 
     Args:
         system: a preset (``GET /api/systems`` lists them).
         seeds: the engine's seed of each world (world ``i`` is seed ``seeds[i]``, with its draws).
         episodes: steps (episodes) before every world is truncated.
+        reward: ``"child"`` (what came back to the child) or ``"team"`` (the system utility, for every child).
+        flatten: observations as one array of :func:`flat_length` numbers per world instead of a ``Dict``.
         **params: parameter overrides, as ``--set name=value`` (docs/model.md).
 
     Raises:
-        ConfigError: an unknown system or parameter, a value outside its limits, or bad seeds (naming it).
+        ConfigError: an unknown system or parameter, a value outside its limits, bad seeds or reward (naming it).
     """
-    return MgraoVectorEnv(system, seeds, episodes, **params)
+    return MgraoVectorEnv(system, seeds, episodes, reward=reward, flatten=flatten, **params)
 
 
 class MgraoParallelEnv(ParallelEnv):
@@ -305,33 +412,37 @@ class MgraoParallelEnv(ParallelEnv):
     Attributes:
         system: the preset it starts from.
         params: the full parameter set (preset plus overrides).
-        seed: the seed ``reset()`` without one uses.
+        seed: the seed of the world the first ``reset()`` without one gives.
         episodes: steps before truncation.
+        reward: ``"child"`` or ``"team"`` (module docstring: "Reward").
+        flatten: observations as one array (:func:`flat_length`) instead of a ``Dict``.
     """
 
     metadata = {"name": "mgrao_v0", "render_modes": [], "is_parallelizable": True}
 
-    def __init__(self, system: str = "single", seed: int = 0, episodes: int = 100, **params: Any) -> None:
+    def __init__(self, system: str = "single", seed: int = 0, episodes: int = 100, *, reward: str = "child",
+                 flatten: bool = False, **params: Any) -> None:
         self.seed = _seed(seed)
-        self._vector = MgraoVectorEnv(system, [self.seed], episodes, **params)
+        self._vector = MgraoVectorEnv(system, [self.seed], episodes, reward=reward, flatten=flatten, **params)
         self.system, self.params, self.episodes = system, self._vector.params, self._vector.episodes
+        self.reward, self.flatten = self._vector.reward, self._vector.flatten
         self.render_mode = None
         self.possible_agents = list(self._vector.possible_agents)
         self.agents: list[str] = []
-        n_parents, k = self.params.n_parents, self.params.types_per_composite
-        observation_space = spaces.Dict({
-            "received": spaces.MultiBinary([n_parents, k]),
-            "task_type": spaces.MultiDiscrete(np.full((n_parents, k), self.params.n_types, dtype=np.int64)),
-            "value": spaces.Box(0.0, 1.0, (n_parents, k), np.float64),
-            "position": spaces.MultiDiscrete(np.full((n_parents, k), n_parents * k, dtype=np.int64)),
-        })
-        self._observation_spaces = {agent: observation_space for agent in self.possible_agents}
+        self._observation_spaces = dict.fromkeys(self.possible_agents,
+                                                 observation_space(self.params, self.episodes, (), self.flatten))
         self._action_spaces = {agent: spaces.Box(0.0, 1.0, (self.params.n_types,), np.float64)
                                for agent in self.possible_agents}
+        self.state_space = state_space(self.params, self.episodes)
+        self._generator: np.random.Generator | None = None
 
-    def observation_space(self, agent: str) -> spaces.Dict:
+    def observation_space(self, agent: str) -> spaces.Space:
         """The child's observation space (the same object on every call)."""
         return self._observation_spaces[agent]
+
+    def state(self) -> np.ndarray:
+        """The state for centralised training (:attr:`state_space`; :meth:`MgraoVectorEnv.state`, one world)."""
+        return self._vector.state()[0]
 
     def action_space(self, agent: str) -> spaces.Box:
         """The child's action space (the same object on every call)."""
@@ -349,12 +460,24 @@ class MgraoParallelEnv(ParallelEnv):
         return self._vector.episode
 
     def reset(self, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict]:
-        """Start the world of the engine's seed ``seed`` (the constructor's when None) at episode 0.
+        """Start the world of the engine's seed ``seed`` at episode 0.
+
+        Without a seed, a fresh world drawn from the environment's own generator, which the last
+        ``reset(seed=...)`` seeded (Gymnasium's convention); the first ``reset()`` without any seed before it
+        gives the constructor's ``seed`` and seeds the generator with it.
 
         Returns:
-            Each child's observation (nothing received yet: every entry 0) and an empty info.
+            Each child's observation (nothing received yet: every entry of what came back is 0) and an
+            empty info.
         """
-        world_seed = self.seed if seed is None else _seed(seed)
+        if seed is not None:
+            world_seed = _seed(seed)
+            self._generator = np.random.default_rng(world_seed)
+        elif self._generator is None:
+            world_seed = self.seed
+            self._generator = np.random.default_rng(world_seed)
+        else:
+            world_seed = int(self._generator.integers(0, MAX_SEED_VALUE, endpoint=True))
         observations, infos = self._vector.reset(seed=[world_seed], options=options)
         self.agents = list(self._vector.agents)
         return {agent: _first(observation) for agent, observation in observations.items()}, infos
@@ -402,23 +525,28 @@ class MgraoParallelEnv(ParallelEnv):
         """Nothing to release."""
 
 
-def _first(observation: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+def _first(observation: dict[str, np.ndarray] | np.ndarray) -> dict[str, np.ndarray] | np.ndarray:
+    if isinstance(observation, np.ndarray):
+        return observation[0]
     return {key: value[0] for key, value in observation.items()}
 
 
-def parallel_env(system: str = "single", seed: int = 0, episodes: int = 100, **params: Any) -> MgraoParallelEnv:
+def parallel_env(system: str = "single", seed: int = 0, episodes: int = 100, *, reward: str = "child",
+                 flatten: bool = False, **params: Any) -> MgraoParallelEnv:
     """The world the engine simulates for ``system`` with ``params`` on top, as a PettingZoo ``ParallelEnv``.
 
     Args:
-        system: a preset: single, multi, volatile or large.
-        seed: the engine's seed whose world ``reset()`` without a seed gives.
+        system: a preset (``GET /api/systems`` lists them).
+        seed: the engine's seed whose world the first ``reset()`` without a seed gives.
         episodes: steps (episodes) before truncation.
+        reward: ``"child"`` (what came back to the child) or ``"team"`` (the system utility, for every child).
+        flatten: observations as one array of :func:`flat_length` numbers instead of a ``Dict``.
         **params: parameter overrides, as ``--set name=value`` (docs/model.md).
 
     Raises:
-        ConfigError: an unknown system or parameter, or a value outside its limits (naming it).
+        ConfigError: an unknown system or parameter, a value outside its limits, or a bad reward (naming it).
     """
-    return MgraoParallelEnv(system, seed, episodes, **params)
+    return MgraoParallelEnv(system, seed, episodes, reward=reward, flatten=flatten, **params)
 
 
 class MgraoSingleChildEnv(gymnasium.Env):
@@ -442,7 +570,7 @@ class MgraoSingleChildEnv(gymnasium.Env):
         self.render_mode = None
 
     def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict]:
-        """Start the world of the engine's seed ``seed`` (the constructor's when None)."""
+        """Start the world of the engine's seed ``seed`` (without one, as :meth:`MgraoParallelEnv.reset`)."""
         super().reset(seed=seed)
         observations, infos = self.parallel.reset(seed=seed, options=options)
         return observations[self.agent], infos[self.agent]

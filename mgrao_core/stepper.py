@@ -57,6 +57,7 @@ class SteppedWorlds:
     Attributes:
         params: the parameter set.
         seeds: the engine's seed of each world.
+        block: episodes drawn at a time.
         episode: episodes stepped so far.
     """
 
@@ -81,6 +82,16 @@ class SteppedWorlds:
         self._observer: Callable[..., None] | None = None
         self._start = 0
         self.episode = 0
+
+    @property
+    def resources(self) -> np.ndarray:
+        """``(worlds, children, n_types)`` each child's resource per unit of weight of each type (its world's)."""
+        return self._worlds.resources
+
+    @property
+    def present(self) -> np.ndarray:
+        """``(worlds, parents)`` the parents present in the last episode (at the start: before it)."""
+        return self._lanes.active
 
     def step(self, weights: np.ndarray) -> Outcome:
         """One episode of every world, child ``c`` of world ``i`` holding the allocation ``weights[i, c]``.

@@ -15,7 +15,8 @@ from pettingzoo.test import parallel_api_test, parallel_seed_test
 
 from mgrao_core import ConfigError, make_spec, run_experiment
 from mgrao_core.algorithms import family_of, parse_algorithm
-from mgrao_core.env import parallel_env, single_agent_env
+from mgrao_core.env import OBSERVATION_KEYS, RETURNED_KEYS, parallel_env, single_agent_env
+from mgrao_core.spec import MAX_SEED_VALUE
 from mgrao_core.world import EpisodeStreams, draw_world
 
 SYSTEMS = ("single", "multi", "volatile", "large")
@@ -153,14 +154,25 @@ def _same(a, b):
                 np.testing.assert_array_equal(obs_a[agent][key], obs_b[agent][key])
 
 
-def test_reset_without_a_seed_gives_the_constructors_world():
+def test_reset_without_a_seed_follows_gymnasiums_convention():
+    # the first reset() gives the constructor's world; after reset(seed=s), reset() draws a fresh world from the
+    # environment's generator, which s seeded: the same worlds for the same s, wherever
     env = parallel_env("volatile", seed=5, episodes=10)
     first = _play(env)
     assert env.world_seed == 5
+    _same(_play(parallel_env("volatile", seed=0, episodes=10), seed=5), first)
     _play(env, seed=9)
     assert env.world_seed == 9
-    _same(_play(env), first)
-    _same(_play(parallel_env("volatile", seed=0, episodes=10), seed=5), first)
+    fresh = _play(env)
+    drawn = np.random.default_rng(9).integers(0, MAX_SEED_VALUE, size=2, endpoint=True)
+    assert env.world_seed == drawn[0] != 9
+    _same(fresh, _play(parallel_env("volatile", episodes=10), seed=int(drawn[0])))
+    _play(env)
+    assert env.world_seed == drawn[1]
+    other = parallel_env("single", seed=1, episodes=3)
+    other.reset(seed=9)
+    other.reset()
+    assert other.world_seed == drawn[0]
 
 
 def test_other_seeds_give_other_worlds():
@@ -173,7 +185,7 @@ def test_observation_masks_what_came_back_in_the_order_of_returns():
     env = parallel_env("volatile", seed=3, episodes=10)
     observations, infos = env.reset()
     assert infos == {"child_0": {}}
-    assert all(not obs.any() for obs in observations["child_0"].values())
+    assert all(not observations["child_0"][key].any() for key in (*RETURNED_KEYS, "allocation", "episode"))
     world = draw_world(env.params, 3)
     present = np.ones(env.params.n_parents, dtype=bool)
     draws = EpisodeStreams(env.params, 3).draw(10)
@@ -238,8 +250,9 @@ def test_invalid_actions_are_refused(action, match):
 def test_spaces():
     env = parallel_env("large", n_types=30)
     space = env.observation_space("child_0")
-    assert set(space.spaces) == {"received", "task_type", "value", "position"}
-    assert all(s.shape == (50, 5) for s in space.spaces.values())
+    assert set(space.spaces) == set(OBSERVATION_KEYS)
+    assert all(space[key].shape == (50, 5) for key in RETURNED_KEYS)
+    assert space["allocation"].shape == space["resources"].shape == (30,) and space["episode"].shape == (1,)
     assert space["task_type"].nvec.max() == 30 and space["position"].nvec.max() == 250
     assert env.action_space("child_0").shape == (30,)
     assert env.observation_space("child_0") is space

@@ -16,7 +16,7 @@ from pettingzoo.utils.conversions import parallel_to_aec
 
 from mgrao_core import ConfigError, make_spec, run_experiment
 from mgrao_core.algorithms import family_of, parse_algorithm
-from mgrao_core.env import OBSERVATION_KEYS, parallel_env, system_params, vector_env
+from mgrao_core.env import OBSERVATION_KEYS, RETURNED_KEYS, flat_length, parallel_env, system_params, vector_env
 from mgrao_core.presets import PRESETS
 from mgrao_core.reference import SeedEnvironment
 from mgrao_core.world import draw_world
@@ -142,17 +142,19 @@ def test_what_comes_back_is_what_the_dense_reference_sends_back(system, override
                 assert rewards[agent][i] == pytest.approx(expected["value"].sum(), abs=1e-12)
 
 
-def test_pettingzoo_api_test_passes_on_the_aec_conversion_of_parallel_env():
+@pytest.mark.parametrize("flatten", [False, True])
+def test_pettingzoo_api_test_passes_on_the_aec_conversion_of_parallel_env(flatten):
     # (PettingZoo's tests read a termination or truncation as one bool: the vector env's are arrays, one per world)
-    api_test(parallel_to_aec(parallel_env("multi", episodes=30)), num_cycles=40)
-    parallel_api_test(parallel_env("bursty", episodes=30), num_cycles=40)
+    api_test(parallel_to_aec(parallel_env("multi", episodes=30, flatten=flatten)), num_cycles=40)
+    parallel_api_test(parallel_env("bursty", episodes=30, flatten=flatten, reward="team"), num_cycles=40)
 
 
 def test_spaces_and_shapes_carry_the_world_axis_first():
     env = vector_env("large", seeds=range(5), episodes=3, n_types=30)
     assert env.action_space("child_0").shape == (5, 30)
     space = env.observation_space("child_0")
-    assert all(s.shape == (5, 50, 5) for s in space.spaces.values())
+    assert all(space[key].shape == (5, 50, 5) for key in RETURNED_KEYS)
+    assert space["allocation"].shape == space["resources"].shape == (5, 30) and space["episode"].shape == (5, 1)
     observations, infos = env.reset()
     assert space.contains(observations["child_0"]) and infos == {"child_0": {}}
     observations, rewards, terminations, truncations, infos = env.step({"child_0": np.ones((5, 30))})
@@ -223,3 +225,80 @@ def test_bad_actions_are_refused_naming_the_child_and_nothing_is_stepped(make):
         assert env.episode == 1
     env.step(good)
     assert env.episode == 2
+
+
+# ---- what MARL libraries expect: state, team reward, a flat observation ------------------------------
+
+
+def test_a_flat_observation_is_the_dicts_entries_in_order():
+    params = system_params("large", {})
+    assert flat_length(params) == 4 * 50 * 5 + 2 * 20 + 1 == 1041
+    as_dict = vector_env("multi", seeds=SEEDS, episodes=4)
+    flat = vector_env("multi", seeds=SEEDS, episodes=4, flatten=True)
+    rng = np.random.default_rng(2)
+    observations, _ = as_dict.reset()
+    flats, _ = flat.reset()
+    while as_dict.agents:
+        for agent in as_dict.possible_agents:
+            expected = np.concatenate([observations[agent][key].reshape(len(SEEDS), -1) for key in OBSERVATION_KEYS],
+                                      axis=1)
+            np.testing.assert_array_equal(flats[agent], expected)
+            assert flat.observation_space(agent).contains(flats[agent])
+        actions = _random_actions(as_dict, rng)
+        observations, *_ = as_dict.step(actions)
+        flats, *_ = flat.step(actions)
+
+
+def test_allocation_resources_and_episode_are_the_childs_own():
+    env = vector_env("multi", seeds=SEEDS, episodes=3)
+    observations, _ = env.reset()
+    worlds = [draw_world(env.params, seed) for seed in SEEDS]
+    rng = np.random.default_rng(3)
+    for e in range(3):
+        actions = _random_actions(env, rng)
+        observations, *_ = env.step(actions)
+        for c, agent in enumerate(env.possible_agents):
+            obs = observations[agent]
+            np.testing.assert_array_equal(obs["allocation"], env.allocation(actions[agent], agent))
+            np.testing.assert_array_equal(obs["resources"], [world.type_resources_single[c] for world in worlds])
+            assert (obs["episode"] == e + 1).all()
+
+
+def test_team_reward_is_the_system_utility_for_every_child():
+    team = vector_env("multi", seeds=SEEDS, episodes=3, reward="team")
+    child = vector_env("multi", seeds=SEEDS, episodes=3)
+    team.reset()
+    child.reset()
+    actions = {agent: np.ones((len(SEEDS), 20)) for agent in team.possible_agents}
+    _, team_rewards, _, _, infos = team.step(actions)
+    _, child_rewards, *_ = child.step(actions)
+    for agent in team.possible_agents:
+        np.testing.assert_array_equal(team_rewards[agent], infos[agent]["utility"])
+    np.testing.assert_allclose(sum(child_rewards.values()), infos["child_0"]["utility"], rtol=0, atol=1e-12)
+    with pytest.raises(ConfigError) as error:
+        vector_env("multi", reward="shared")
+    assert error.value.field == "reward"
+
+
+def test_the_state_is_every_childs_flat_observation_and_the_parents_presence():
+    env = vector_env("volatile", seeds=SEEDS, episodes=6)
+    flat = vector_env("volatile", seeds=SEEDS, episodes=6, flatten=True)
+    env.reset()
+    flats, _ = flat.reset()
+    assert env.state_space.shape == (len(SEEDS), flat_length(env.params) + env.params.n_parents)
+    rng = np.random.default_rng(4)
+    while env.agents:
+        state = env.state()
+        assert env.state_space.contains(state)
+        np.testing.assert_array_equal(state[:, :-10], flats["child_0"])
+        actions = _random_actions(env, rng)
+        observations, *_ = env.step(actions)
+        flats, *_ = flat.step(actions)
+        # volatile: a present parent sends every episode, an absent one nothing
+        present = observations["child_0"]["received"].any(axis=2)
+        np.testing.assert_array_equal(env.state()[:, -10:], present)
+    single, one = parallel_env("volatile", seed=3, episodes=2), vector_env("volatile", seeds=[3], episodes=2)
+    single.reset()
+    one.reset()
+    assert single.state_space.shape == one.state_space.shape[1:]
+    np.testing.assert_array_equal(single.state(), one.state()[0])
