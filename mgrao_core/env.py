@@ -13,7 +13,8 @@ in the same world") describes them.
 * **Agents**: the children, ``"child_0"`` .. ``"child_{n-1}"``.
 * **One step is one episode**; the episodes end by truncation after ``episodes`` steps (never by
   termination).
-* **Action**: the child's resource weights over the atomic types, ``Box(0, 1, (n_types,), float64)``.
+* **Action**: the child's resource weights over the atomic types, ``Box(0, 1, (n_types,), float64)``;
+  with several resources (``n_resources`` R > 1), one allocation per resource, ``(R, n_types)``.
   The environment sum-normalises them (only proportions matter, so values above 1 are read as
   they are; weights already summing to 1 within 1e-12 are taken unchanged; weights whose sum
   overflows are divided by their largest first); all zeros means uniform. A negative, non-finite,
@@ -35,7 +36,8 @@ in the same world") describes them.
 
   and the child's own: ``allocation`` (``Box(0, 1, (n_types,))``) the weights it held in that episode (0
   at reset), ``resources`` (``Box(0, inf, (n_types,))``) its resource per unit of weight of each type
-  (its amount over its capability), ``episode`` (``MultiDiscrete(episodes + 1)``, shape ``(1,)``) the
+  (its amount over its capability; with several resources both are ``(R, n_types)``, each resource
+  relative to the type's need of it), ``episode`` (``MultiDiscrete(episodes + 1)``, shape ``(1,)``) the
   episodes played. With ``flatten=True`` the observation is one ``Box`` of :func:`flat_length` float64
   numbers, these entries flattened in the order of :data:`OBSERVATION_KEYS`.
 * **Reward**: the sum of the absolute values returned to the child in the episode (added in the
@@ -165,16 +167,21 @@ def _reward(value: Any) -> str:
 
 
 def flat_length(params: SystemParams) -> int:
-    """The length of a flat observation: ``4 * n_parents * types_per_composite + 2 * n_types + 1``."""
-    return 4 * params.n_parents * params.types_per_composite + 2 * params.n_types + 1
+    """The length of a flat observation: ``4 * n_parents * types_per_composite + 2 * n_resources * n_types + 1``."""
+    return 4 * params.n_parents * params.types_per_composite + 2 * params.n_resources * params.n_types + 1
+
+
+def action_shape(params: SystemParams) -> tuple[int, ...]:
+    """One child's action (and allocation): ``(n_types,)``, with several resources ``(n_resources, n_types)``."""
+    return (params.n_types,) if params.n_resources == 1 else (params.n_resources, params.n_types)
 
 
 def _entry_bounds(params: SystemParams, episodes: int) -> dict[str, tuple[float, float, int]]:
     """Each entry's lowest and highest value and its size (one world)."""
     grid = params.n_parents * params.types_per_composite
-    n_types = params.n_types
+    n_types, own = params.n_types, params.n_resources * params.n_types
     return {"received": (0, 1, grid), "task_type": (0, n_types - 1, grid), "value": (0.0, 1.0, grid),
-            "position": (0, grid - 1, grid), "allocation": (0.0, 1.0, n_types), "resources": (0.0, np.inf, n_types),
+            "position": (0, grid - 1, grid), "allocation": (0.0, 1.0, own), "resources": (0.0, np.inf, own),
             "episode": (0, episodes, 1)}
 
 
@@ -186,7 +193,7 @@ def observation_space(params: SystemParams, episodes: int, batch: tuple[int, ...
     (float64): the entries flattened in that order.
     """
     grid = (*batch, params.n_parents, params.types_per_composite)
-    types = (*batch, params.n_types)
+    types = (*batch, *action_shape(params))
     if flatten:
         bounds = _entry_bounds(params, episodes).values()
         low = np.concatenate([np.full(size, low, np.float64) for low, _, size in bounds])
@@ -238,15 +245,12 @@ class MgraoVectorEnv(ParallelEnv):
         self.reward = _reward(reward)
         self.flatten = bool(flatten)
         self.render_mode = None
-        if p.n_resources > 1:  # an action is one allocation; several resources would need one per resource
-            raise ConfigError("n_resources", f"the PettingZoo environment supports one resource (got {p.n_resources}): "
-                                             "its action is one allocation over the atomic types (docs/platform.md)")
         self.possible_agents = [f"child_{c}" for c in range(p.n_children)]
         self.agents: list[str] = []
         self._index = {agent: c for c, agent in enumerate(self.possible_agents)}
         self._observation_spaces = dict.fromkeys(
             self.possible_agents, observation_space(p, self.episodes, (self.n_worlds,), self.flatten))
-        self._action_spaces = {agent: spaces.Box(0.0, 1.0, (self.n_worlds, p.n_types), np.float64)
+        self._action_spaces = {agent: spaces.Box(0.0, 1.0, (self.n_worlds, *action_shape(p)), np.float64)
                                for agent in self.possible_agents}
         self.state_space = state_space(p, self.episodes, (self.n_worlds,))
         self._worlds: SteppedWorlds | None = None
@@ -284,17 +288,17 @@ class MgraoVectorEnv(ParallelEnv):
     def _entries(self, returned: dict[str, np.ndarray], weights: np.ndarray) -> dict[str, np.ndarray]:
         """Every entry ``(children, worlds, ...)`` of the observations.
 
-        What came back (``returned``), the allocations ``weights (worlds, children, n_types)`` it came back
-        for, each child's resources and the episodes played.
+        What came back (``returned``), the allocations ``weights (worlds, children, ...)`` it came back for,
+        each child's resources and the episodes played.
         """
         n_children = len(self.possible_agents)
         return returned | {
-            "allocation": weights.transpose(1, 0, 2).copy(),
-            "resources": self._worlds.resources.transpose(1, 0, 2).copy(),
+            "allocation": np.moveaxis(weights, 1, 0).copy(),
+            "resources": np.moveaxis(self._worlds.resources, 1, 0).copy(),
             "episode": np.full((n_children, self.n_worlds, 1), self._worlds.episode, np.int64)}
 
     def action_space(self, agent: str) -> spaces.Box:
-        """The child's action space, ``(n_worlds, n_types)`` (the same object on every call)."""
+        """The child's action space, ``(n_worlds, n_types)`` or ``(n_worlds, R, n_types)`` (the same object)."""
         return self._action_spaces[agent]
 
     @property
@@ -320,14 +324,14 @@ class MgraoVectorEnv(ParallelEnv):
         grid = (len(self.agents), self.n_worlds, p.n_parents, p.types_per_composite)
         nothing = {"received": np.zeros(grid, np.int8), "task_type": np.zeros(grid, np.int64),
                    "value": np.zeros(grid), "position": np.zeros(grid, np.int64)}
-        entries = self._entries(nothing, np.zeros((self.n_worlds, len(self.agents), p.n_types)))
+        entries = self._entries(nothing, np.zeros((self.n_worlds, len(self.agents), *action_shape(p))))
         return self._observations(entries, self.agents), {agent: {} for agent in self.agents}
 
     def allocation(self, action: Any, agent: str = "") -> np.ndarray:
-        """The weights an action ``(n_worlds, n_types)`` stands for (:func:`allocations`).
+        """The weights an action ``(n_worlds, n_types)`` (``(n_worlds, R, n_types)``) stands for (:func:`allocations`).
 
         Raises:
-            ValueError: not ``(n_worlds, n_types)`` finite values at least 0 (the message names the agent).
+            ValueError: not finite values at least 0 of that shape (the message names the agent).
         """
         shape = self._action_spaces[self.possible_agents[0]].shape
         weights = allocations(action, agent, self.params.n_types)
@@ -337,7 +341,7 @@ class MgraoVectorEnv(ParallelEnv):
         return weights
 
     def _allocations(self, actions: Any) -> np.ndarray:
-        """Every child's weights ``(n_worlds, children, n_types)``, or ValueError before anything is stepped."""
+        """Every child's weights ``(n_worlds, children, ...)``, or ValueError before anything is stepped."""
         if self._worlds is None or not self.agents:
             raise RuntimeError("call reset() first: no episode is under way")
         if not isinstance(actions, dict):
@@ -431,7 +435,7 @@ class MgraoParallelEnv(ParallelEnv):
         self.agents: list[str] = []
         self._observation_spaces = dict.fromkeys(self.possible_agents,
                                                  observation_space(self.params, self.episodes, (), self.flatten))
-        self._action_spaces = {agent: spaces.Box(0.0, 1.0, (self.params.n_types,), np.float64)
+        self._action_spaces = {agent: spaces.Box(0.0, 1.0, action_shape(self.params), np.float64)
                                for agent in self.possible_agents}
         self.state_space = state_space(self.params, self.episodes)
         self._generator: np.random.Generator | None = None
@@ -486,13 +490,14 @@ class MgraoParallelEnv(ParallelEnv):
         """The weights an action stands for (:func:`allocations`).
 
         Raises:
-            ValueError: not ``n_types`` finite values at least 0 (the message names the agent).
+            ValueError: not finite values at least 0 of the action's shape (the message names the agent).
         """
         n_types = self.params.n_types
         weights = allocations(action, agent, n_types)
-        if weights.shape != (n_types,):
-            raise ValueError(f"{agent}: an action is {n_types} weights, one per atomic type (got shape "
-                             f"{weights.shape})")
+        if weights.shape != action_shape(self.params):
+            raise ValueError(f"{agent}: an action is {n_types} weights, one per atomic type"
+                             f"{'' if self.params.n_resources == 1 else ', for each resource'}, shape "
+                             f"{action_shape(self.params)} (got shape {weights.shape})")
         return weights
 
     def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:

@@ -50,7 +50,7 @@ class Outcome(NamedTuple):
 
 
 class SteppedWorlds:
-    """The worlds of ``seeds`` for ``params``, at episode 0 (one resource: an allocation is one per child).
+    """The worlds of ``seeds`` for ``params``, at episode 0.
 
     ``block`` episodes are drawn from each seed's streams at a time (the numbers do not depend on it).
 
@@ -74,8 +74,10 @@ class SteppedWorlds:
         self._environment = engine.environment_of(p)
         self._streams = [EpisodeStreams(p, seed, world) for seed, world in zip(self.seeds, worlds, strict=True)]
         n, shape = len(worlds), (len(worlds), p.n_parents, p.types_per_composite)
-        self._observed = engine.Observed(sending=np.zeros((n, p.n_parents), np.bool_),
-                                         child_of=np.zeros(shape, np.int64), values=np.zeros(shape))
+        several = p.n_resources if p.n_resources > 1 else 0
+        self._outside = engine.Outside(resource_weights=np.zeros((n, p.n_children, several, p.n_types)),
+                                       sending=np.zeros((n, p.n_parents), np.bool_),
+                                       child_of=np.zeros(shape, np.int64), values=np.zeros(shape))
         self._utility = np.zeros((n, 1))
         self._draws: engine.Draws | None = None
         self._kernel: Callable[..., None] | None = None
@@ -85,8 +87,12 @@ class SteppedWorlds:
 
     @property
     def resources(self) -> np.ndarray:
-        """``(worlds, children, n_types)`` each child's resource per unit of weight of each type (its world's)."""
-        return self._worlds.resources
+        """Each child's resource per unit of weight of each type, its world's.
+
+        ``(worlds, children, n_types)``; with several resources ``(worlds, children, R, n_types)``, each relative
+        to the type's need of it.
+        """
+        return self._worlds.resources if self._several is None else self._several.per_resource
 
     @property
     def present(self) -> np.ndarray:
@@ -96,16 +102,21 @@ class SteppedWorlds:
     def step(self, weights: np.ndarray) -> Outcome:
         """One episode of every world, child ``c`` of world ``i`` holding the allocation ``weights[i, c]``.
 
-        ``weights (worlds, children, n_types)`` are taken as they are: sum-normalised, finite, at least 0
-        (the environments check and normalise actions).
+        ``weights (worlds, children, n_types)``, with several resources ``(worlds, children, R, n_types)`` (one
+        allocation per resource), are taken as they are: sum-normalised, finite, at least 0 (the environments
+        check and normalise actions).
         """
         if self._draws is None or self.episode >= self._start + self.block:
             self._start = self.episode
             self._draws = block_draws([stream.draw(self.block) for stream in self._streams])
         j = self.episode - self._start
         draws = engine.Draws(*(np.ascontiguousarray(block[:, j : j + 1]) for block in self._draws))
-        self._arrays["fixed_weights"][:] = weights
-        arguments = (self._lanes, self._worlds, self._several, draws, self._environment, self._utility, self._observed,
+        if self._several is None:
+            self._arrays["fixed_weights"][:] = weights
+        else:  # each resource's allocation; the lanes' weights are the first resource's, as in a run
+            self._arrays["fixed_weights"][:] = weights[:, :, 0]
+            self._outside.resource_weights[:] = weights
+        arguments = (self._lanes, self._worlds, self._several, draws, self._environment, self._utility, self._outside,
                      *_NO_LEARNERS)
         threads = numba.get_num_threads()
         numba.set_num_threads(1)  # one episode is too short for numba's threads to pay for their start
@@ -117,8 +128,8 @@ class SteppedWorlds:
         finally:
             numba.set_num_threads(threads)
         self.episode += 1
-        observed = self._observed
-        return Outcome(self._utility[:, 0], observed.sending, observed.child_of, observed.values,
+        outside = self._outside
+        return Outcome(self._utility[:, 0], outside.sending, outside.child_of, outside.values,
                        self._lanes.parent_types, np.ascontiguousarray(draws.order[:, 0]))
 
     def observe(self, outcome: Outcome) -> tuple[dict[str, np.ndarray], np.ndarray]:

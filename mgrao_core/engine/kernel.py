@@ -119,14 +119,18 @@ class SeveralResources(NamedTuple):
     needs: np.ndarray
 
 
-class Observed(NamedTuple):
-    """What each lane's last episode sent back, for an environment's observations (:mod:`mgrao_core.env`).
+class Outside(NamedTuple):
+    """An environment's side of each lane's episode (:mod:`mgrao_core.stepper`): what it gives, what it reads.
 
-    ``sending (lanes, parents)``: the parents that sent a composite task; ``child_of (lanes, parents,
-    types_per_composite)``: the child each atomic task went to and ``values``: the absolute value it returned
-    (both stale where the parent did not send). The runner passes ``None``: nothing is written, or compiled.
+    In: ``resource_weights (lanes, children, R, n_types)``, with several resources, each child's allocation of
+    each resource (a fixed family's lanes hold it instead of one split for every resource); ``(lanes, children,
+    0, n_types)`` with one. Out, what the last episode sent back: ``sending (lanes, parents)`` the parents that
+    sent a composite task; ``child_of (lanes, parents, types_per_composite)`` the child each atomic task went
+    to and ``values`` the absolute value it returned (both stale where the parent did not send). The runner
+    passes ``None``: nothing is read or written, or compiled.
     """
 
+    resource_weights: np.ndarray
     sending: np.ndarray
     child_of: np.ndarray
     values: np.ndarray
@@ -150,12 +154,13 @@ class Draws(NamedTuple):
 
 
 @njit(cache=True, parallel=True)
-def run_block(lanes, worlds, several, draws, env, utilities, observed, mgrao_lanes, adaptive_lanes,
+def run_block(lanes, worlds, several, draws, env, utilities, outside, mgrao_lanes, adaptive_lanes,
               independent_q_lanes, bandit_lanes):
     """Run every lane through the episodes of one block.
 
     The system utility of each lane and episode goes into ``utilities (lanes, episodes)``, and what came
-    back in the last episode into ``observed`` (:class:`Observed`; ``None``: nowhere);
+    back in the last episode into ``outside`` (:class:`Outside`, which may also give the allocation of each of
+    several resources; ``None``: nowhere);
     ``several`` is the seeds' :class:`SeveralResources` (``None`` with one resource);
     ``mgrao_lanes``, ``adaptive_lanes``, ``independent_q_lanes`` and ``bandit_lanes`` are each learner
     family's compiled lanes (:class:`~mgrao_core.algorithms.mgrao.compiled.MgraoLanes` and the like), in
@@ -190,11 +195,12 @@ def run_block(lanes, worlds, several, draws, env, utilities, observed, mgrao_lan
         a_scratch = np.zeros(n_resources)
         learner_of = np.zeros((n_parents, types_per_composite), dtype=np.int64)
         credit = np.zeros((n_parents, types_per_composite))
-        if observed is not None:  # the lane's rows, taken here: numba's parallel loop loses a write such as
-            # observed.values[lane, p, k] = x, made through the tuple's attribute (numba 0.68)
-            observed_sending = observed.sending[lane]
-            observed_child_of = observed.child_of[lane]
-            observed_values = observed.values[lane]
+        if outside is not None:  # the lane's rows, taken here: numba's parallel loop loses a write such as
+            # outside.values[lane, p, k] = x, made through the tuple's attribute (numba 0.68)
+            given_resource_weights = outside.resource_weights[lane]
+            observed_sending = outside.sending[lane]
+            observed_child_of = outside.child_of[lane]
+            observed_values = outside.values[lane]
         for e in range(n_episodes):
             # 1. Composite tasks arrive at the parents present whose composite type arrives.
             apply_changes(lanes.profiles[lane], parent_types, draws.changes[s, e], draws.event_profiles[s, e],
@@ -217,7 +223,10 @@ def run_block(lanes, worlds, several, draws, env, utilities, observed, mgrao_lan
                     bandit.allocate(bandit_lanes, lane, m, c, weights[c])
                 else:
                     weights[c, :] = lanes.fixed_weights[lane, c, :]
-                if several is not None:  # one split for every resource
+                if several is not None and outside is not None:  # the environment's allocation of each resource
+                    for r in range(n_resources):
+                        resource_weights[c, r, :] = given_resource_weights[c, r, :]
+                elif several is not None:  # one split for every resource
                     for r in range(n_resources):
                         resource_weights[c, r, :] = weights[c, :]
             # 2-3. Parents decompose their composite tasks and allocate the atomic tasks.
@@ -249,7 +258,7 @@ def run_block(lanes, worlds, several, draws, env, utilities, observed, mgrao_lan
                 elif env.absent_counted and not active[p]:
                     utility += env.absent_quality
             utilities[lane, e] = utility
-            if observed is not None:
+            if outside is not None:
                 for p in range(n_parents):
                     observed_sending[p] = sending[p]
                     for k in range(types_per_composite):

@@ -143,8 +143,8 @@ def test_the_kernel_is_compiled_for_the_families_a_job_runs(monkeypatch):
     def nones(algorithms, overrides=None):
         calls.clear()
         run_experiment(make_spec("single", algorithms, seeds=1, episodes=2, overrides=overrides))
-        several, observed, learners = calls[0][2], calls[0][6], calls[0][7:]  # learners as algorithms.LEARNERS
-        assert observed is None  # a run observes nothing (mgrao_core.env does)
+        several, outside, learners = calls[0][2], calls[0][6], calls[0][7:]  # learners as algorithms.LEARNERS
+        assert outside is None  # a run has no environment outside it (mgrao_core.env's steps do)
         return [several is None] + [lanes is None for lanes in learners]
 
     assert nones(["uniform", "mgrao-1:1", "mgrao-max"]) == [True, False, True, True, True]

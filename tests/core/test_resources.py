@@ -19,6 +19,7 @@ from mgrao_core.quality import (
     compiled_combined_resources,
     single_split_resource,
 )
+from mgrao_core.reference import SeedEnvironment
 from mgrao_core.world import EpisodeStreams, draw_world
 
 ALGORITHMS = ["uniform", "oracle", "mgrao-1:1", "mgrao-2:1", "mgrao-max", "mgrao-adaptive:2", "independent-q",
@@ -210,11 +211,25 @@ def test_the_preset_is_beside_the_papers_four():
     assert preset.description and "\n" not in preset.description
 
 
-def test_the_pettingzoo_environment_refuses_several_resources():
-    with pytest.raises(ConfigError) as info:
-        parallel_env("multi-resource")
-    assert info.value.field == "n_resources"
-    assert "one resource" in info.value.message
+@pytest.mark.parametrize("combination", ["scarcest", "weighted"])
+def test_the_pettingzoo_environment_takes_one_allocation_per_resource(combination):
+    env = parallel_env("multi-resource", seed=4, episodes=6, resource_combination=combination)
+    p = env.params
+    assert env.action_space("child_0").shape == (p.n_resources, p.n_types)
+    observations, _ = env.reset()
+    world = draw_world(p, 4)
+    np.testing.assert_array_equal(observations["child_0"]["resources"], world.resource_per_type[0])
+    reference = SeedEnvironment(p, 4)
+    rng = np.random.default_rng(0)
+    while env.agents:
+        action = rng.random((p.n_resources, p.n_types))  # each resource its own split
+        observations, rewards, _, _, infos = env.step({"child_0": action})
+        episode = reference.step([env.allocation(action)])
+        assert infos["child_0"]["utility"] == pytest.approx(episode.utility, abs=1e-12)
+        np.testing.assert_array_equal(observations["child_0"]["allocation"], env.allocation(action))
+    with pytest.raises(ValueError, match="for each resource"):
+        env.reset()
+        env.step({"child_0": np.ones(p.n_types)})
 
 
 def test_more_resources_count_in_the_group_updates():

@@ -21,7 +21,6 @@ from mgrao_core.presets import PRESETS
 from mgrao_core.reference import SeedEnvironment
 from mgrao_core.world import draw_world
 
-PRESETS_ONE_RESOURCE = [name for name in PRESETS if name != "multi-resource"]
 SEEDS = (0, 7, 3)
 EPISODES = 12
 
@@ -44,8 +43,9 @@ def act(env, algorithm: str) -> np.ndarray:
     children = [family_of(alg).reference_children(params, alg, draw_world(params, seed), seed) for seed in env.seeds]
     utilities = []
     while env.agents:
-        actions = {agent: np.stack([world[c].allocation() for world in children])
-                   for c, agent in enumerate(env.agents)}
+        # (a fixed family's one split is every resource's: the engine's one allocation for them all)
+        actions = {agent: np.stack([np.broadcast_to(world[c].allocation(), env.action_space(agent).shape[1:])
+                                    for world in children]) for c, agent in enumerate(env.agents)}
         observations, _, _, _, infos = env.step(actions)
         utilities.append(infos["child_0"]["utility"])
         for c, agent in enumerate(env.possible_agents):
@@ -58,7 +58,7 @@ def act(env, algorithm: str) -> np.ndarray:
     return np.array(utilities).T
 
 
-@pytest.mark.parametrize("system", PRESETS_ONE_RESOURCE)
+@pytest.mark.parametrize("system", list(PRESETS))
 @pytest.mark.parametrize("algorithm", ["uniform", "oracle", "mgrao-max"])
 def test_every_world_is_the_engines_world_of_its_seed(system, algorithm):
     env = vector_env(system, seeds=SEEDS, episodes=EPISODES)
@@ -118,7 +118,7 @@ def _expected_observation(episode, c, shape):
     return {"received": received, "task_type": task_type, "value": value, "position": position}
 
 
-@pytest.mark.parametrize("system", ["multi", "volatile", "drift", "large"])
+@pytest.mark.parametrize("system", ["multi", "volatile", "drift", "large", "multi-resource"])
 @pytest.mark.parametrize("overrides", [{}, {"routing": "per-task", "load_sharing": True, "leave_probability": 0.3,
                                             "join_probability": 0.4, "absent_tasks": "counted"}],
                          ids=["preset", "per-task-volatile"])
@@ -147,6 +147,7 @@ def test_pettingzoo_api_test_passes_on_the_aec_conversion_of_parallel_env(flatte
     # (PettingZoo's tests read a termination or truncation as one bool: the vector env's are arrays, one per world)
     api_test(parallel_to_aec(parallel_env("multi", episodes=30, flatten=flatten)), num_cycles=40)
     parallel_api_test(parallel_env("bursty", episodes=30, flatten=flatten, reward="team"), num_cycles=40)
+    parallel_api_test(parallel_env("multi-resource", episodes=30, flatten=flatten), num_cycles=40)
 
 
 def test_spaces_and_shapes_carry_the_world_axis_first():
@@ -185,7 +186,7 @@ def test_reset_seeds_follow_gymnasiums_vector_convention():
 
 @pytest.mark.parametrize("kwargs, field", [
     ({"seeds": []}, "seeds"), ({"seeds": [1, 1]}, "seeds"), ({"seeds": [-1]}, "seeds[0]"), ({"seeds": 3}, "seeds"),
-    ({"seeds": "01"}, "seeds"), ({"episodes": 0}, "episodes"), ({"n_resources": 2}, "n_resources"),
+    ({"seeds": "01"}, "seeds"), ({"episodes": 0}, "episodes"), ({"reward": "shared"}, "reward"),
 ])
 def test_bad_configurations_name_the_field(kwargs, field):
     with pytest.raises(ConfigError) as error:
