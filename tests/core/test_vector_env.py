@@ -303,3 +303,35 @@ def test_the_state_is_every_childs_flat_observation_and_the_parents_presence():
     one.reset()
     assert single.state_space.shape == one.state_space.shape[1:]
     np.testing.assert_array_equal(single.state(), one.state()[0])
+
+
+
+def _full_run(env):
+    """Every step's observations, rewards, truncations and infos of a whole run, each world acting at random
+    from a generator of its own seed (so that a world's actions do not depend on the others beside it)."""
+    generators = [np.random.default_rng(seed) for seed in env.seeds]
+    env.reset()
+    steps = []
+    while env.agents:
+        actions = {agent: np.stack([g.random(env.action_space(agent).shape[1:]) for g in generators])
+                   for agent in env.agents}
+        observations, rewards, _, truncations, infos = env.step(actions)
+        steps.append((observations, rewards, truncations, infos))
+    return steps
+
+
+@pytest.mark.parametrize("system", list(PRESETS))
+def test_a_whole_run_is_deterministic_however_the_worlds_are_split(system):
+    # (PettingZoo's parallel_seed_test stops after the first step; this runs to the end)
+    whole = _full_run(vector_env(system, seeds=SEEDS, episodes=EPISODES))
+    again = _full_run(vector_env(system, seeds=SEEDS, episodes=EPISODES))
+    apart = [_full_run(vector_env(system, seeds=[seed], episodes=EPISODES)) for seed in SEEDS]
+    for t, (obs, rew, trunc, info) in enumerate(whole):
+        for other, rows in [(again[t], slice(None))] + [(run[t], slice(i, i + 1)) for i, run in enumerate(apart)]:
+            obs2, rew2, trunc2, info2 = other
+            for agent in obs:
+                for key in OBSERVATION_KEYS:
+                    np.testing.assert_array_equal(obs[agent][key][rows], obs2[agent][key])
+                np.testing.assert_array_equal(rew[agent][rows], rew2[agent])
+                np.testing.assert_array_equal(trunc[agent][rows], trunc2[agent])
+                np.testing.assert_array_equal(info[agent]["utility"][rows], info2[agent]["utility"])
