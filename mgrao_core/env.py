@@ -59,7 +59,7 @@ in the same world") describes them.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -92,6 +92,7 @@ RETURNED_KEYS = ("received", "task_type", "value", "position")
 OBSERVATION_KEYS = (*RETURNED_KEYS, "allocation", "resources", "episode")
 """Every entry of an observation, in the order of its flat form (``flatten=True``)."""
 REWARDS = ("child", "team")
+_LARGEST = float(np.finfo(np.float64).max)
 
 
 def _seed(value: Any, field: str = "seed") -> int:
@@ -147,13 +148,17 @@ def allocations(action: Any, agent: str, n_types: int) -> np.ndarray:
     except (TypeError, ValueError):
         raise ValueError(f"{agent}: an action is {n_types} numbers, one weight per atomic type "
                          f"(got {str(action)[:60]!r})") from None
-    if not np.all(np.isfinite(weights)) or np.any(weights < 0):
+    highest = weights.max() if weights.size else 0.0
+    if weights.size and not (weights.min() >= 0.0 and highest < np.inf):  # NaN fails both comparisons
         raise ValueError(f"{agent}: weights must be finite and at least 0 (got {str(weights.tolist())[:200]})")
-    with np.errstate(over="ignore"):
+    if highest * weights.shape[-1] < _LARGEST:
         total = weights.sum(axis=-1, keepdims=True)
-    if np.all(np.abs(total - 1.0) <= NORMALISED):
+    else:
+        with np.errstate(over="ignore"):
+            total = weights.sum(axis=-1, keepdims=True)
+    if (np.abs(total - 1.0) <= NORMALISED).all():
         return weights  # normalised already: dividing again would only add rounding
-    if not np.all(np.isfinite(total)):  # sums past the largest float: the same proportions, scaled down first
+    if not np.isfinite(total).all():  # sums past the largest float: the same proportions, scaled down first
         largest = weights.max(axis=-1, keepdims=True)
         weights = weights / np.where(np.isfinite(total), 1.0, largest)
         total = weights.sum(axis=-1, keepdims=True)
@@ -293,8 +298,8 @@ class MgraoVectorEnv(ParallelEnv):
         """
         n_children = len(self.possible_agents)
         return returned | {
-            "allocation": np.moveaxis(weights, 1, 0).copy(),
-            "resources": np.moveaxis(self._worlds.resources, 1, 0).copy(),
+            "allocation": weights.swapaxes(0, 1).copy(),
+            "resources": self._resources.copy(),
             "episode": np.full((n_children, self.n_worlds, 1), self._worlds.episode, np.int64)}
 
     def action_space(self, agent: str) -> spaces.Box:
@@ -319,6 +324,7 @@ class MgraoVectorEnv(ParallelEnv):
         """
         seeds = self.seeds if seed is None else _seeds(seed, self.n_worlds, "seed")
         self._worlds = SteppedWorlds(self.params, seeds, block=min(self.episodes, DRAW_BLOCK))
+        self._resources = np.ascontiguousarray(np.moveaxis(self._worlds.resources, 1, 0))  # fixed for the worlds
         self.agents = list(self.possible_agents)
         p = self.params
         grid = (len(self.agents), self.n_worlds, p.n_parents, p.types_per_composite)
@@ -340,8 +346,11 @@ class MgraoVectorEnv(ParallelEnv):
                              f"{shape} (got shape {weights.shape})")
         return weights
 
-    def _allocations(self, actions: Any) -> np.ndarray:
-        """Every child's weights ``(n_worlds, children, ...)``, or ValueError before anything is stepped."""
+    def _allocations(self, actions: Any, read: Callable[[Any, str], np.ndarray] | None = None) -> np.ndarray:
+        """Every child's weights ``(n_worlds, children, ...)``, or ValueError before anything is stepped.
+
+        Each action is read by ``read`` (:meth:`allocation` when None).
+        """
         if self._worlds is None or not self.agents:
             raise RuntimeError("call reset() first: no episode is under way")
         if not isinstance(actions, dict):
@@ -353,7 +362,8 @@ class MgraoVectorEnv(ParallelEnv):
         missing = [agent for agent in self.agents if agent not in actions]
         if missing:
             raise ValueError(f"no action for {', '.join(missing)}")
-        return np.stack([self.allocation(actions[agent], agent) for agent in self.agents], axis=1)
+        read = read or self.allocation
+        return np.stack([read(actions[agent], agent) for agent in self.agents], axis=1)
 
     def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
         """One episode of every world, each child holding the allocation its action gives in each world.
@@ -367,7 +377,10 @@ class MgraoVectorEnv(ParallelEnv):
             ValueError: a child without an action, an agent that is none, or an action that is not one
                 (:meth:`allocation`); nothing is stepped.
         """
-        weights = self._allocations(actions)
+        return self._advance(self._allocations(actions))
+
+    def _advance(self, weights: np.ndarray) -> tuple[dict, dict, dict, dict, dict]:
+        """:meth:`step` with every child's weights read (:meth:`_allocations`)."""
         outcome = self._worlds.step(weights)
         returned, rewards = self._worlds.observe(outcome)
         done = self._worlds.episode >= self.episodes
@@ -511,10 +524,8 @@ class MgraoParallelEnv(ParallelEnv):
             ValueError: a child without an action, an agent that is none, or an action that is not one
                 (:meth:`allocation`); nothing is stepped.
         """
-        if isinstance(actions, dict):
-            actions = {agent: self.allocation(action, agent)[None] if agent in self._vector._index else action
-                       for agent, action in actions.items()}
-        observations, rewards, terminations, truncations, infos = self._vector.step(actions)
+        weights = self._vector._allocations(actions, lambda action, agent: self.allocation(action, agent)[None])
+        observations, rewards, terminations, truncations, infos = self._vector._advance(weights)
         self.agents = list(self._vector.agents)
         return ({agent: _first(observation) for agent, observation in observations.items()},
                 {agent: float(reward[0]) for agent, reward in rewards.items()},

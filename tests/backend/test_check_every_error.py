@@ -32,7 +32,8 @@ def test_every_refused_parameter_is_named_at_once(client: TestClient) -> None:
 def test_a_fields_own_rule_comes_before_the_work_limit_and_beside_the_parameters(client: TestClient) -> None:
     detail = check(client, {"system": "single", "seeds": 1e9, "episodes": 2.5, "params": BAD_PARAMS})
     assert {d["field"]: d["msg"] for d in detail} == {
-        "seeds": "seeds: must be at most 1000 (got 1000000000)", "episodes": "episodes: must be a whole number (got 2.5)",
+        "seeds": "seeds: must be at most 1000 (got 1000000000)",
+        "episodes": "episodes: must be a whole number (got 2.5)",
         "learning_rate": "learning_rate: must be in [0, 1] (got 5)",
         "n_types": "n_types: must be in [2, 200] (got 100000)",
         "resource_mean": "resource_mean: must be in [0.001, 1] (got -1)"}
