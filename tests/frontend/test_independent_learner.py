@@ -31,18 +31,25 @@ def finals(server: str, job_id: int) -> dict[str, dict[int, float]]:
 
 
 def test_the_example_learner_is_compared_beside_uniform_and_mgrao_max(browser, server, screenshots):
-    example = subprocess.run(
-        [sys.executable, str(ROOT / "examples" / "independent_learner.py"), "--url", server,
-         "--seeds", str(SEEDS), "--episodes", str(EPISODES)],
-        capture_output=True, text=True, timeout=600, cwd=ROOT)
+    compare_example(browser, server, screenshots, "independent_learner.py", ["--seeds", str(SEEDS)], "single",
+                    "value-prop", SEEDS, EPISODES, "example-learner-compare.png")
+
+
+def compare_example(browser, server, screenshots, script: str, arguments: list[str], system: str, label: str,
+                    seeds: int, episodes: int, screenshot: str) -> float:
+    """Run ``examples/SCRIPT`` against ``server``, then a built-in job of uniform and mgrao-max of the same system,
+    seeds and episodes, and check compare shows the example's run beside them, % from uniform paired seed by
+    seed; that mean %."""
+    example = subprocess.run([sys.executable, str(ROOT / "examples" / script), "--url", server, *arguments,
+                              "--episodes", str(episodes)], capture_output=True, text=True, timeout=600, cwd=ROOT)
     assert example.returncode == 0, example.stderr
     job_id = int(re.match(r"job (\d+): succeeded", example.stdout).group(1))
-    built_in = post_job(server, {"system": "single", "algorithms": ["uniform", "mgrao-max"], "seeds": SEEDS,
-                                 "episodes": EPISODES, "name": "built-in beside the example"})
+    built_in = post_job(server, {"system": system, "algorithms": ["uniform", "mgrao-max"], "seeds": seeds,
+                                 "episodes": episodes, "name": f"built-in beside {label}"})
     wait_succeeded(server, [built_in])
-    ours = finals(server, job_id)["value-prop"]
+    ours = finals(server, job_id)[label]
     theirs = finals(server, built_in["id"])
-    assert sorted(ours) == sorted(theirs["uniform"]) == list(range(SEEDS))
+    assert sorted(ours) == sorted(theirs["uniform"]) == list(range(seeds))
     pct = paired_pct_from_uniform(ours, theirs["uniform"])
     expected = sum(pct.values()) / len(pct)
 
@@ -52,8 +59,10 @@ def test_the_example_learner_is_compared_beside_uniform_and_mgrao_max(browser, s
         page.locator("main[data-all-drawn-ms]").wait_for()  # every chart, those below the fold too
         configs = page.eval_on_selector("#compare-chart", """el => el.data
             .filter(t => t.meta && t.meta.kind === 'mean').map(t => t.meta.config)""")
-        assert set(configs) == {"single · uniform", "single · mgrao-max", "single · value-prop · external"}
-        row = page.locator("#pooled-table tr").filter(has_text="value-prop")  # the configurations' table
-        expect(row).to_contain_text(f"{expected:+.1f}")  # the mean over the 30 seeds of each seed's %
+        assert set(configs) == {f"{system} · uniform", f"{system} · mgrao-max", f"{system} · {label} · external"}
+        row = page.locator("#pooled-table tr").filter(has_text=label)  # the configurations' table
+        expect(row).to_contain_text(f"{expected:+.1f}")  # the mean over the seeds of each seed's %
+        expect(row).to_contain_text(str(seeds))  # every seed paired with the built-in job's
         expect(page.locator("#pooled-table tr").filter(has_text="mgrao-max")).to_be_visible()
-        page.screenshot(path=str(screenshots / "example-learner-compare.png"), full_page=True)
+        page.screenshot(path=str(screenshots / screenshot), full_page=True)
+    return expected
