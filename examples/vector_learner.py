@@ -9,10 +9,11 @@ Every world's child learns on its own, numpy only, all worlds in one array: its 
 of one logit per atomic type, and after each episode each logit moves by ``--step`` times the value that
 came back for that type less the mean over types. The whole population is stepped together through
 :func:`mgrao_core.env.vector_env` (world ``i`` is the engine's seed ``i``), so a step costs one call of
-the compiled engine for every world. It is not MG-RAO (no parent groups, no trace): a learner of its own,
-in the same worlds. The script logs each world's episode utilities and final weights through
-:mod:`mgrao_client` as one run, then prints the run's job id and where to compare it with a built-in job
-of the same system, seeds and episodes (``uniform`` and ``mgrao-max``): docs/platform.md.
+the compiled engine for every world. It is not MG-RAO (no parent groups, no trace): a learner of its
+own, in the same worlds, for systems with one resource (an action is one allocation per world). The
+script logs each world's episode utilities and final weights through :mod:`mgrao_client` as one run,
+then prints the run's job id and where to compare it with a built-in job of the same system, seeds and
+episodes (``uniform`` and ``mgrao-max``): docs/platform.md.
 """
 
 from __future__ import annotations

@@ -86,7 +86,9 @@ NORMALISED = 1e-12
 """An action whose weights sum to 1 within this is taken as it is: normalising it again would move its
 weights by a rounding, enough to turn a parent's exactly tied choice of child the other way."""
 DRAW_BLOCK = 256
-"""Episodes drawn from the seeds' streams at a time (the numbers do not depend on it)."""
+"""Episodes drawn from the seeds' streams at a time (the numbers do not depend on it)..."""
+DRAWN_WORLD_EPISODES = 32_768
+"""... and at most this many world-episodes at once (about 90 MB of draws on large, 2.8 kB each)."""
 RETURNED_KEYS = ("received", "task_type", "value", "position")
 """The observation's entries of what came back to the child, one per parent and atomic task."""
 OBSERVATION_KEYS = (*RETURNED_KEYS, "allocation", "resources", "episode")
@@ -148,6 +150,8 @@ def allocations(action: Any, agent: str, n_types: int) -> np.ndarray:
     except (TypeError, ValueError):
         raise ValueError(f"{agent}: an action is {n_types} numbers, one weight per atomic type "
                          f"(got {str(action)[:60]!r})") from None
+    if weights.ndim == 0:
+        raise ValueError(f"{agent}: an action is {n_types} numbers, one weight per atomic type (got {action!r})")
     highest = weights.max() if weights.size else 0.0
     if weights.size and not (weights.min() >= 0.0 and highest < np.inf):  # NaN fails both comparisons
         raise ValueError(f"{agent}: weights must be finite and at least 0 (got {str(weights.tolist())[:200]})")
@@ -323,7 +327,8 @@ class MgraoVectorEnv(ParallelEnv):
             Each child's observation (nothing received yet: every entry 0) and an empty info.
         """
         seeds = self.seeds if seed is None else _seeds(seed, self.n_worlds, "seed")
-        self._worlds = SteppedWorlds(self.params, seeds, block=min(self.episodes, DRAW_BLOCK))
+        block = min(self.episodes, DRAW_BLOCK, max(1, DRAWN_WORLD_EPISODES // self.n_worlds))
+        self._worlds = SteppedWorlds(self.params, seeds, block=block)
         self._resources = np.ascontiguousarray(np.moveaxis(self._worlds.resources, 1, 0))  # fixed for the worlds
         self.agents = list(self.possible_agents)
         p = self.params

@@ -135,6 +135,8 @@ class SteppedWorlds:
     def observe(self, outcome: Outcome) -> tuple[dict[str, np.ndarray], np.ndarray]:
         """Every child's observation of ``outcome`` and its reward (:mod:`mgrao_core.engine.observation`).
 
+        ``outcome`` is the last :meth:`step`'s: the compiled entry trusts its arrays' types, so give it no other.
+
         Returns:
             New arrays: the observation's entries by key (``received``, ``task_type``, ``value``,
             ``position``), each ``(children, worlds, parents, types_per_composite)``, and the rewards
@@ -156,7 +158,9 @@ class SteppedWorlds:
 def _compiled(dispatcher: Any, arguments: tuple) -> Callable[..., None]:
     """Call ``dispatcher`` on ``arguments`` (compiling or loading that signature), and return its compiled entry.
 
-    A step calls the kernel with arguments of the same types every time (the same lanes, draws of the same
+    The entry does not check its arguments (an array of another type or layout would be read as if it were
+    the compiled one's): only arguments built by :class:`SteppedWorlds` itself reach it. A step calls the kernel
+    with arguments of the same types every time (the same lanes, draws of the same
     shape), so it skips numba's dispatch, which types each of the tuples' fields on every call: on 64 worlds of
     ``single`` that costs several times the episode itself (benchmarks/bench_vector_env.py). The entry is
     numba's own compiled function for that signature (``Dispatcher.overloads``).

@@ -216,6 +216,7 @@ def test_bad_actions_are_refused_naming_the_child_and_nothing_is_stepped(make):
         (good | {"child_9": good["child_0"]}, "child_9: not an agent"),
         (good | {"parent_0": good["child_0"]}, "parent_0: not an agent"),
         (good | {"child_1": "abc"}, "child_1: an action is 20 numbers"),
+        (good | {"child_1": 0.5}, "child_1: an action is 20 numbers"),
         (good | {"child_2": [[1, 2], [3]]}, "child_2: an action is 20 numbers"),
         (good | {"child_1": -good["child_1"]}, "child_1: weights must be finite and at least 0"),
         (good | {"child_0": np.ones(7)}, "child_0: an action is 20 weights"),
@@ -291,13 +292,14 @@ def test_the_state_is_every_childs_flat_observation_and_the_parents_presence():
     while env.agents:
         state = env.state()
         assert env.state_space.contains(state)
-        np.testing.assert_array_equal(state[:, :-10], flats["child_0"])
+        n_parents = env.params.n_parents
+        np.testing.assert_array_equal(state[:, :-n_parents], flats["child_0"])
         actions = _random_actions(env, rng)
         observations, *_ = env.step(actions)
         flats, *_ = flat.step(actions)
         # volatile: a present parent sends every episode, an absent one nothing
         present = observations["child_0"]["received"].any(axis=2)
-        np.testing.assert_array_equal(env.state()[:, -10:], present)
+        np.testing.assert_array_equal(env.state()[:, -n_parents:], present)
     single, one = parallel_env("volatile", seed=3, episodes=2), vector_env("volatile", seeds=[3], episodes=2)
     single.reset()
     one.reset()
@@ -335,3 +337,30 @@ def test_a_whole_run_is_deterministic_however_the_worlds_are_split(system):
                 np.testing.assert_array_equal(rew[agent][rows], rew2[agent])
                 np.testing.assert_array_equal(trunc[agent][rows], trunc2[agent])
                 np.testing.assert_array_equal(info[agent]["utility"][rows], info2[agent]["utility"])
+
+
+def test_the_state_holds_every_child_in_agent_order():
+    env = vector_env("multi", seeds=SEEDS, episodes=3)
+    flat = vector_env("multi", seeds=SEEDS, episodes=3, flatten=True)
+    env.reset()
+    flat.reset()
+    actions = _random_actions(env, np.random.default_rng(6))
+    env.step(actions)
+    flats, *_ = flat.step(actions)
+    length = flat_length(env.params)
+    state = env.state()
+    for c, agent in enumerate(env.possible_agents):
+        np.testing.assert_array_equal(state[:, c * length:(c + 1) * length], flats[agent])
+    assert state.shape[1] == 3 * length + env.params.n_parents
+
+
+def test_many_worlds_draw_fewer_episodes_at_a_time_and_the_same_numbers():
+    # draws are bounded: at most DRAWN_WORLD_EPISODES world-episodes are drawn at once (256 worlds: 128 episodes)
+    from mgrao_core import env as module
+
+    wide = vector_env("single", seeds=range(300), episodes=120)
+    wide.reset()
+    assert wide._worlds.block == module.DRAWN_WORLD_EPISODES // 300 == 109  # 120 episodes: two blocks
+    narrow = _full_run(vector_env("single", seeds=SEEDS, episodes=120))
+    for t, (_, _, _, info) in enumerate(_full_run(wide)):
+        np.testing.assert_array_equal(info["child_0"]["utility"][list(SEEDS)], narrow[t][3]["child_0"]["utility"])
