@@ -27,7 +27,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # run as a script: find mgrao_core
 import numpy as np  # noqa: E402
 
-from mgrao_core import make_spec, run_experiment  # noqa: E402
+from benchmarks.bench_env import engine_round  # noqa: E402
 from mgrao_core.env import vector_env  # noqa: E402
 
 SYSTEMS = ("single", "multi", "large")
@@ -64,13 +64,6 @@ def vector_rate(system: str, worlds: int, episodes: int) -> float:
     return worlds * episodes / (time.perf_counter() - started)
 
 
-def engine_rate(system: str, worlds: int, episodes: int) -> float:
-    spec = make_spec(system, ["uniform"], worlds, episodes)
-    started = time.perf_counter()
-    run_experiment(spec)
-    return worlds * episodes / (time.perf_counter() - started)
-
-
 def parallel_rate(root: Path, system: str, actions: str) -> float:
     done = subprocess.run([sys.executable, "-c", PARALLEL_ROUND, system, str(PARALLEL_SEEDS), str(PARALLEL_EPISODES),
                            actions],
@@ -91,11 +84,11 @@ def main() -> None:
           f"best of {args.repeat} each, alternated; episodes per second")
     for system in SYSTEMS:
         vector_rate(system, 2, 3)
-        engine_rate(system, 2, 3)  # compile, or load the cache, before timing
+        engine_round(system, "uniform", 2, 3)  # compile, or load the cache, before timing
         vector, engine = [], []
         for _ in range(args.repeat):
             vector.append(vector_rate(system, args.worlds, args.episodes))
-            engine.append(engine_rate(system, args.worlds, args.episodes))
+            engine.append(engine_round(system, "uniform", args.worlds, args.episodes))
         ratio = max(vector) / max(engine)
         print(f"  {system:7s} vector {max(vector):>10,.0f}  engine {max(engine):>10,.0f}  ratio {ratio:.2f} "
               f"(target >= 0.5: {'meets' if ratio >= 0.5 else 'MISSES'} it)")
