@@ -10,7 +10,7 @@
 * **parallel_env, now / before** (target >= 5), with ``--baseline DIR`` (a checkout of an earlier
   version, e.g. ``git worktree add /tmp/before 4abb38b``): episodes per second of ``parallel_env(system,
   episodes=1000)`` over 5 seeds with actions sampled from the action space (as benchmarks/bench_env.py:
-  the issue's measure; gymnasium's ``Box.sample`` is timed with it), then with one fixed uniform action
+  the issue's measure; the action space's ``sample`` is timed with it), then with one fixed uniform action
   (the environment's own cost), each a whole process on that checkout (``PYTHONPATH``), warmed up before
   timing, alternated, best of ``--repeat``.
 """

@@ -13,7 +13,7 @@ in the same world") describes them.
 * **Agents**: the children, ``"child_0"`` .. ``"child_{n-1}"``.
 * **One step is one episode**; the episodes end by truncation after ``episodes`` steps (never by
   termination).
-* **Action**: the child's resource weights over the atomic types, ``Box(0, 1, (n_types,), float64)``;
+* **Action**: the child's resource weights over the atomic types, ``Box(0, 1, (n_types,), float64)`` (a :class:`WeightsSpace`);
   with several resources (``n_resources`` R > 1), one allocation per resource, ``(R, n_types)``.
   The environment sum-normalises them (only proportions matter, so values above 1 are read as
   they are; weights already summing to 1 within 1e-12 are taken unchanged; weights whose sum
@@ -160,8 +160,14 @@ def allocations(action: Any, agent: str, n_types: int) -> np.ndarray:
     else:
         with np.errstate(over="ignore"):
             total = weights.sum(axis=-1, keepdims=True)
-    if (np.abs(total - 1.0) <= NORMALISED).all():
-        return weights  # normalised already: dividing again would only add rounding
+    if total.size == 1:  # one allocation: the same tests on a Python float, a fraction of numpy's cost
+        one = float(total.flat[0])
+        if abs(one - 1.0) <= NORMALISED:
+            return weights  # normalised already: dividing again would only add rounding
+        if 0.0 < one < np.inf:
+            return weights / one  # eq.sumnorm's division, the same numbers
+    elif (np.abs(total - 1.0) <= NORMALISED).all():
+        return weights
     if not np.isfinite(total).all():  # sums past the largest float: the same proportions, scaled down first
         largest = weights.max(axis=-1, keepdims=True)
         weights = weights / np.where(np.isfinite(total), 1.0, largest)
@@ -178,6 +184,24 @@ def _reward(value: Any) -> str:
 def flat_length(params: SystemParams) -> int:
     """The length of a flat observation: ``4 * n_parents * types_per_composite + 2 * n_resources * n_types + 1``."""
     return 4 * params.n_parents * params.types_per_composite + 2 * params.n_resources * params.n_types + 1
+
+
+class WeightsSpace(spaces.Box):
+    """The action space: weights in [0, 1] of a given shape, a gymnasium ``Box``.
+
+    :meth:`sample` draws the numbers ``Box.sample`` draws (one uniform draw per weight from
+    ``np_random``, in order), in one call: gymnasium's general sampler sorts every bound into four kinds
+    first, which cost several times a step of the environment (benchmarks/bench_vector_env.py).
+    """
+
+    def __init__(self, shape: tuple[int, ...]) -> None:
+        super().__init__(0.0, 1.0, shape, np.float64)
+
+    def sample(self, mask: None = None, probability: None = None) -> np.ndarray:
+        """Uniform weights, as ``Box.sample`` (which refuses a mask or probability; so does this)."""
+        if mask is not None or probability is not None:
+            return super().sample(mask, probability)
+        return self.np_random.uniform(0.0, 1.0, self.shape)
 
 
 def action_shape(params: SystemParams) -> tuple[int, ...]:
@@ -259,7 +283,7 @@ class MgraoVectorEnv(ParallelEnv):
         self._index = {agent: c for c, agent in enumerate(self.possible_agents)}
         self._observation_spaces = dict.fromkeys(
             self.possible_agents, observation_space(p, self.episodes, (self.n_worlds,), self.flatten))
-        self._action_spaces = {agent: spaces.Box(0.0, 1.0, (self.n_worlds, *action_shape(p)), np.float64)
+        self._action_spaces = {agent: WeightsSpace((self.n_worlds, *action_shape(p)))
                                for agent in self.possible_agents}
         self.state_space = state_space(p, self.episodes, (self.n_worlds,))
         self._worlds: SteppedWorlds | None = None
@@ -286,13 +310,18 @@ class MgraoVectorEnv(ParallelEnv):
         return np.concatenate([entries[key].reshape(n_children, self.n_worlds, -1).astype(np.float64)
                                for key in OBSERVATION_KEYS], axis=2)
 
-    def _observations(self, entries: dict[str, np.ndarray], agents: list[str]) -> dict[str, Any]:
-        """Each agent's observation from the entries ``(children, worlds, ...)`` (flat with ``flatten``)."""
+    def _observations(self, entries: dict[str, np.ndarray], agents: list[str],
+                      world: int | None = None) -> dict[str, Any]:
+        """Each agent's observation from the entries ``(children, worlds, ...)`` (flat with ``flatten``).
+
+        With ``world``, that world's alone (no world axis).
+        """
         self._last = entries
+        index = self._index if world is None else {agent: (c, world) for agent, c in self._index.items()}
         if self.flatten:
             flat = self._flat(entries)
-            return {agent: flat[self._index[agent]] for agent in agents}
-        return {agent: {key: entries[key][self._index[agent]] for key in OBSERVATION_KEYS} for agent in agents}
+            return {agent: flat[index[agent]] for agent in agents}
+        return {agent: {key: entries[key][index[agent]] for key in OBSERVATION_KEYS} for agent in agents}
 
     def _entries(self, returned: dict[str, np.ndarray], weights: np.ndarray) -> dict[str, np.ndarray]:
         """Every entry ``(children, worlds, ...)`` of the observations.
@@ -360,6 +389,16 @@ class MgraoVectorEnv(ParallelEnv):
             raise RuntimeError("call reset() first: no episode is under way")
         if not isinstance(actions, dict):
             raise ValueError(f"actions must be a dict of the agents' actions (got {type(actions).__name__})")
+        if actions.keys() != self._index.keys():  # every agent acts while any does
+            self._refuse_agents(actions)
+        read = read or self.allocation
+        weights = np.empty((self.n_worlds, len(self.agents), *action_shape(self.params)))
+        for c, agent in enumerate(self.agents):
+            weights[:, c] = read(actions[agent], agent)
+        return weights
+
+    def _refuse_agents(self, actions: dict[str, Any]) -> None:
+        """ValueError naming an agent of ``actions`` that is none, or an agent without an action."""
         unknown = [str(agent) for agent in actions if agent not in self._index]
         if unknown:
             raise ValueError(f"{', '.join(unknown)}: not an agent of this environment (agents: "
@@ -367,8 +406,6 @@ class MgraoVectorEnv(ParallelEnv):
         missing = [agent for agent in self.agents if agent not in actions]
         if missing:
             raise ValueError(f"no action for {', '.join(missing)}")
-        read = read or self.allocation
-        return np.stack([read(actions[agent], agent) for agent in self.agents], axis=1)
 
     def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
         """One episode of every world, each child holding the allocation its action gives in each world.
@@ -384,18 +421,30 @@ class MgraoVectorEnv(ParallelEnv):
         """
         return self._advance(self._allocations(actions))
 
-    def _advance(self, weights: np.ndarray) -> tuple[dict, dict, dict, dict, dict]:
-        """:meth:`step` with every child's weights read (:meth:`_allocations`)."""
+    def _play(self, weights: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, list[str]]:
+        """One episode of every world with every child's weights read (:meth:`_allocations`).
+
+        Returns:
+            The observations' entries ``(children, worlds, ...)`` (kept for :meth:`state`), the rewards
+            ``(children, worlds)``, the system utility ``(worlds,)`` and the agents that acted (:attr:`agents`
+            is empty after the last episode).
+        """
         outcome = self._worlds.step(weights)
         returned, rewards = self._worlds.observe(outcome)
-        done = self._worlds.episode >= self.episodes
-        utility, episode = outcome.utility.copy(), np.full(self.n_worlds, self._worlds.episode - 1)
         agents = self.agents
-        if done:
+        if self._worlds.episode >= self.episodes:
             self.agents = []
+        utility = outcome.utility.copy()
         if self.reward == "team":
             rewards = np.broadcast_to(utility, rewards.shape)
-        return (self._observations(self._entries(returned, weights), agents),
+        self._last = self._entries(returned, weights)
+        return self._last, rewards, utility, agents
+
+    def _advance(self, weights: np.ndarray) -> tuple[dict, dict, dict, dict, dict]:
+        """:meth:`step` with every child's weights read (:meth:`_allocations`)."""
+        entries, rewards, utility, agents = self._play(weights)
+        done, episode = not self.agents, np.full(self.n_worlds, self._worlds.episode - 1)
+        return (self._observations(entries, agents),
                 {agent: rewards[c].copy() for c, agent in enumerate(agents)},
                 {agent: np.zeros(self.n_worlds, np.bool_) for agent in agents},
                 {agent: np.full(self.n_worlds, done) for agent in agents},
@@ -453,7 +502,7 @@ class MgraoParallelEnv(ParallelEnv):
         self.agents: list[str] = []
         self._observation_spaces = dict.fromkeys(self.possible_agents,
                                                  observation_space(self.params, self.episodes, (), self.flatten))
-        self._action_spaces = {agent: spaces.Box(0.0, 1.0, action_shape(self.params), np.float64)
+        self._action_spaces = {agent: WeightsSpace(action_shape(self.params))
                                for agent in self.possible_agents}
         self.state_space = state_space(self.params, self.episodes)
         self._generator: np.random.Generator | None = None
@@ -529,15 +578,14 @@ class MgraoParallelEnv(ParallelEnv):
             ValueError: a child without an action, an agent that is none, or an action that is not one
                 (:meth:`allocation`); nothing is stepped.
         """
-        weights = self._vector._allocations(actions, lambda action, agent: self.allocation(action, agent)[None])
-        observations, rewards, terminations, truncations, infos = self._vector._advance(weights)
-        self.agents = list(self._vector.agents)
-        return ({agent: _first(observation) for agent, observation in observations.items()},
-                {agent: float(reward[0]) for agent, reward in rewards.items()},
-                {agent: bool(value[0]) for agent, value in terminations.items()},
-                {agent: bool(value[0]) for agent, value in truncations.items()},
-                {agent: {"utility": float(info["utility"][0]), "episode": int(info["episode"][0])}
-                 for agent, info in infos.items()})
+        vector = self._vector
+        entries, rewards, utility, agents = vector._play(vector._allocations(actions, self.allocation))
+        self.agents = list(vector.agents)
+        done, value, episode = not self.agents, float(utility[0]), vector.episode - 1
+        return (vector._observations(entries, agents, world=0),
+                {agent: float(rewards[c, 0]) for c, agent in enumerate(agents)},
+                dict.fromkeys(agents, False), dict.fromkeys(agents, done),
+                {agent: {"utility": value, "episode": episode} for agent in agents})
 
     def render(self) -> None:
         """Nothing to render (the dashboard shows runs)."""

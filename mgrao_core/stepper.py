@@ -110,7 +110,10 @@ class SteppedWorlds:
             self._start = self.episode
             self._draws = block_draws([stream.draw(self.block) for stream in self._streams])
         j = self.episode - self._start
-        draws = engine.Draws(*(np.ascontiguousarray(block[:, j : j + 1]) for block in self._draws))
+        if len(self.seeds) == 1:  # one world: its episode's slice of each (stacked, contiguous) block is contiguous
+            draws = engine.Draws(*(block[:, j : j + 1] for block in self._draws))
+        else:
+            draws = engine.Draws(*(np.ascontiguousarray(block[:, j : j + 1]) for block in self._draws))
         if self._several is None:
             self._arrays["fixed_weights"][:] = weights
         else:  # each resource's allocation; the lanes' weights are the first resource's, as in a run

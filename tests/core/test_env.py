@@ -8,14 +8,25 @@ engine's utilities to 1e-12 for the same system, seed and configuration, in ever
 
 from __future__ import annotations
 
+import gymnasium
 import numpy as np
 import pytest
+from gymnasium import spaces
 from gymnasium.utils.env_checker import check_env  # the env extra, part of the test extra
 from pettingzoo.test import parallel_api_test, parallel_seed_test
 
 from mgrao_core import ConfigError, make_spec, run_experiment
+from mgrao_core import equations as eq
 from mgrao_core.algorithms import family_of, parse_algorithm
-from mgrao_core.env import OBSERVATION_KEYS, RETURNED_KEYS, parallel_env, single_agent_env
+from mgrao_core.env import (
+    NORMALISED,
+    OBSERVATION_KEYS,
+    RETURNED_KEYS,
+    WeightsSpace,
+    allocations,
+    parallel_env,
+    single_agent_env,
+)
 from mgrao_core.spec import MAX_SEED_VALUE
 from mgrao_core.world import EpisodeStreams, draw_world
 
@@ -233,6 +244,33 @@ def test_actions_are_sum_normalised_and_zeros_are_uniform():
     _, rewards_a, *_ = a.step({"child_0": weights / 19})
     _, rewards_b, *_ = b.step({"child_0": weights / weights.sum()})
     assert rewards_a["child_0"] == pytest.approx(rewards_b["child_0"], abs=1e-14)
+
+
+def test_one_allocation_is_normalised_as_sumnorm_bit_for_bit():
+    """The one-allocation shortcut of ``allocations`` gives eq.sumnorm's numbers, over sums from 1e-300 to overflow."""
+    rng = np.random.default_rng(5)
+    for _ in range(3000):
+        n = int(rng.integers(1, 40))
+        action = rng.uniform(0.0, 10.0 ** rng.integers(-300, 308), n) * (rng.uniform(size=n) > 0.2)
+        total = action.sum() if np.isfinite(action.sum()) else np.inf
+        expected = action if abs(total - 1.0) <= NORMALISED else None
+        if expected is None:
+            scaled = action / action.max() if np.isinf(total) else action
+            expected = eq.sumnorm(scaled)
+        assert allocations(action, "child_0", n).tobytes() == expected.tobytes(), action
+
+
+def test_the_action_space_samples_what_a_box_samples():
+    """``WeightsSpace.sample`` is gymnasium's ``Box.sample`` of the same bounds in one draw: the same numbers."""
+    for shape in [(20,), (2, 7), (3, 1, 5)]:
+        ours, box = WeightsSpace(shape), spaces.Box(0.0, 1.0, shape, np.float64)
+        ours.seed(11)
+        box.seed(11)
+        for _ in range(5):
+            sample = ours.sample()
+            assert sample.tobytes() == box.sample().tobytes() and ours.contains(sample)
+    with pytest.raises(gymnasium.error.Error, match="mask"):
+        WeightsSpace((3,)).sample(mask=np.ones(3))
 
 
 @pytest.mark.parametrize("action, match", [
