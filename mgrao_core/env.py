@@ -13,8 +13,9 @@ in the same world") describes them.
 * **Agents**: the children, ``"child_0"`` .. ``"child_{n-1}"``.
 * **One step is one episode**; the episodes end by truncation after ``episodes`` steps (never by
   termination).
-* **Action**: the child's resource weights over the atomic types, ``Box(0, 1, (n_types,), float64)`` (a :class:`WeightsSpace`);
-  with several resources (``n_resources`` R > 1), one allocation per resource, ``(R, n_types)``.
+* **Action**: the child's resource weights over the atomic types, ``Box(0, 1, (n_types,), float64)``
+  (a :class:`WeightsSpace`); with several resources (``n_resources`` R > 1), one allocation per
+  resource, ``(R, n_types)``.
   The environment sum-normalises them (only proportions matter, so values above 1 are read as
   they are; weights already summing to 1 within 1e-12 are taken unchanged; weights whose sum
   overflows are divided by their largest first); all zeros means uniform. A negative, non-finite,
