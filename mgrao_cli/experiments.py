@@ -22,6 +22,7 @@ from mgrao_core.presets import PAPER_SYSTEMS, PRESETS
 from mgrao_core.report import text_table
 from mgrao_core.reproduction import DEFAULT_SEEDS, READINGS, reproduction_table
 from mgrao_core.reproduction import reproduce as run_reproduction
+from mgrao_core.sequential import Until, Verdict, make_until, parse_until, run_until
 from mgrao_core.spec import MAX_SEED_VALUE
 
 PROGRESS_BAR_WORK = 20_000_000
@@ -145,30 +146,50 @@ def _seed_range(count: int, first: int) -> int | list[int]:
               help="Parameter values from a JSON file: an object of them, or a saved system's file (mgrao "
               "systems export); --set applies on top.")
 @click.option("--format", "fmt", default="table", show_default=True, type=click.Choice(["table", "json", "csv"]))
+@click.option("--until", "until_text", metavar="KEY=VALUE,...",
+              help="Run seeds in blocks from --first-seed until a question is answered (instead of --seeds): "
+              "half_width=H (every configuration's 95%% interval within +-H), decide=A+B (the paired difference "
+              "decided; half_width then the margin of no practical difference), of=pct_from_uniform|"
+              "final_utility, max_seeds=500, block=10 (docs/statistics.md).")
 @click.option("--out", type=click.Path(dir_okay=False, writable=True), callback=_check_out,
               help="Write to FILE instead of stdout.")
-def run(system: str | None, algorithms: str | None, seeds: int, first_seed: int, episodes: int,
-        sets: tuple[str, ...], params_file: str | None, fmt: str, out: str | None) -> None:
+@click.pass_context
+def run(ctx: click.Context, system: str | None, algorithms: str | None, seeds: int, first_seed: int, episodes: int,
+        sets: tuple[str, ...], params_file: str | None, fmt: str, until_text: str | None, out: str | None) -> None:
     """Simulate one system with several algorithms and seeds; print the summary or every episode."""
     labels = _algorithm_labels(algorithms)
     base, overrides = read_params_file(params_file) if params_file else (None, {})
     system = system or base
     if system is None:
         raise click.UsageError("give --system, or a saved system's file as --params-file")
+    if until_text is not None and ctx.get_parameter_source("seeds") != click.core.ParameterSource.DEFAULT:
+        raise click.UsageError("give either --seeds or --until: a rule runs as many seeds as its question needs "
+                               "(its max_seeds bounds them)")
+    until = None
     try:
-        spec = make_spec(system, labels, _seed_range(seeds, first_seed), episodes, overrides | _parse_sets(sets))
+        if until_text is None:
+            spec = make_spec(system, labels, _seed_range(seeds, first_seed), episodes, overrides | _parse_sets(sets))
+        else:
+            spec, until = _until_spec(system, labels, first_seed, episodes, overrides | _parse_sets(sets), until_text)
     except ConfigError as error:
         _fail(error)
     load_engine()
     started = time.perf_counter()
     with _progress(f"{system}", spec.work >= PROGRESS_BAR_WORK) as update:
-        result = mgrao_core.run_experiment(spec, on_progress=update)
+        if until is None:
+            result, done = mgrao_core.run_experiment(spec, on_progress=update), None
+        else:
+            done = run_until(spec, until, mgrao_core.run_experiment,
+                             on_block=lambda _result, verdict: update(verdict.seeds / until.max_seeds))
+            result, spec = done.result, done.result.spec
     elapsed = time.perf_counter() - started
     summary = result.summary()
     if fmt == "json":
         payload = {
             "spec": spec.as_dict(),
             "simulation_seconds": elapsed,
+            **({} if done is None else {"until": until.as_dict(), "stopped": done.stopped.as_dict(),
+                                        "blocks": [verdict.as_dict() for verdict in done.blocks]}),
             "summary": {label: s.as_dict() for label, s in summary.items()},
             "runs": [
                 {"algorithm": r.algorithm, "seed": r.seed, "utilities": r.utilities.tolist(),
@@ -193,7 +214,34 @@ def run(system: str | None, algorithms: str | None, seeds: int, first_seed: int,
         headers = ["algorithm", "final mean", "95% CI", "% from uniform", "95% CI", "% of max"]
         title = (f"{system}: {len(spec.seeds)} seeds x {spec.episodes} episodes, "
                  f"mean of the last 10 episodes ({elapsed:.2f} s)")
-        _emit(f"{title}\n{text_table(headers, rows)}", out)
+        stopped = "" if done is None else f"\n{_stopped_line(done.stopped)}"
+        _emit(f"{title}\n{text_table(headers, rows)}{stopped}", out)
+
+
+def _until_spec(system: str, labels: list[str] | None, first_seed: int, episodes: int, overrides: dict[str, Any],
+                text: str) -> tuple[mgrao_core.ExperimentSpec, Until]:
+    """The spec of a rule's largest run (``max_seeds`` from ``first_seed``) and the rule.
+
+    Raises:
+        ConfigError: naming the field (``until.<field>`` for the rule's).
+    """
+    probe = make_spec(system, labels, [first_seed], episodes, overrides)
+    until = make_until(parse_until(text), probe.algorithms)
+    if first_seed + until.max_seeds - 1 > MAX_SEED_VALUE:
+        raise ConfigError("until.max_seeds", f"the last seed {first_seed + until.max_seeds - 1} would be over "
+                                             f"{MAX_SEED_VALUE}: lower max_seeds or --first-seed")
+    seeds = list(range(first_seed, first_seed + until.max_seeds))
+    return make_spec(system, labels, seeds, episodes, overrides), until
+
+
+def _stopped_line(verdict: Verdict) -> str:
+    """Why a rule stopped, and the interval of a decided pair."""
+    line = f"stopped: {verdict.reason} after {verdict.seeds} seeds"
+    if verdict.outcome is not None or len(verdict.intervals) == 1 and " - " in next(iter(verdict.intervals)):
+        (key, (mean, low, high)), = verdict.intervals.items()
+        line += f"; {key}: {_fmt(mean, 2)} {_interval((low, high), 2)}" + (
+            f" ({verdict.outcome})" if verdict.outcome else "")
+    return line
 
 
 @click.command()

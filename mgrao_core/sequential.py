@@ -1,0 +1,293 @@
+"""Seeds until decided: a stopping rule on an experiment, checked after each block of seeds.
+
+A rule (:class:`Until`) states a question; :func:`run_until` runs the experiment's seeds in blocks from
+its first seed, in order (common random numbers: every configuration of a block faces the same worlds),
+and :func:`judge` asks after each block whether the question is answered. Two rules:
+
+* **half_width** (``{"half_width": h}``): stop once every configuration's 95% interval of ``of`` is at most
+  ``h`` on each side. The interval is the summary's Student-t interval over the seeds run
+  (:func:`mgrao_core.stats.mean_ci95`): a fixed-width sequential interval in the manner of Chow and
+  Robbins (1965), with Student's quantile and a minimum of :data:`MIN_SEEDS` seeds as its small-sample
+  correction, looked at once per block. Its coverage at a data-dependent stop is not guaranteed in
+  theory; it is measured (benchmarks/sequential_coverage.py, docs/statistics.md).
+* **decide** (``{"decide": [A, B]}``, optionally ``half_width`` as the margin of "no practical
+  difference"): stop once the paired difference ``A - B`` of ``of`` is decided: its interval excludes 0
+  (``A`` or ``B`` is better), or lies within ``(-h, h)`` (equivalent). The interval is an asymptotic
+  confidence sequence (Waudby-Smith, Arbour, Sinha, Kennedy and Ramdas 2021, "Time-uniform central
+  limit theory and asymptotic confidence sequences", the conjugate-mixture boundary): valid however
+  often it is looked at, so a decision taken at the first look that allows it keeps its 5% error; a
+  t-interval looked at after every block would not (its false decisions grow with the looks).
+
+Either rule stops at ``max_seeds`` seeds unanswered. ``of`` is ``pct_from_uniform`` (each seed's % from
+uniform's run of the same seed; uniform must run, and is not judged itself) or ``final_utility``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from mgrao_core.errors import ConfigError, raise_all
+from mgrao_core.results import ExperimentResult
+from mgrao_core.spec import MAX_SEEDS, ExperimentSpec
+from mgrao_core.stats import BASELINE, CONFIDENCE, final_utilities, mean_ci95, paired_pct_from_uniform
+
+OF = ("pct_from_uniform", "final_utility")
+"""What a rule judges: each seed's % from uniform, or its final utility."""
+MIN_SEEDS = 10
+"""No rule stops before this many seeds."""
+DEFAULT_BLOCK = 10
+DEFAULT_MAX_SEEDS = 500
+MAX_HALF_WIDTH = 1e6
+CS_TUNED_FOR = 100
+"""Seeds at which the confidence sequence of the decide rule is narrowest (its ``rho``; any choice is valid)."""
+FIELDS = ("half_width", "of", "max_seeds", "block", "decide")
+REASONS = ("half_width", "decided", "max_seeds", "cancelled")
+
+
+@dataclass(frozen=True)
+class Until:
+    """A stopping rule (module docstring). ``decide`` None is the half_width rule."""
+
+    half_width: float | None = None
+    of: str = "pct_from_uniform"
+    max_seeds: int = DEFAULT_MAX_SEEDS
+    block: int = DEFAULT_BLOCK
+    decide: tuple[str, str] | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready, every field."""
+        return {"half_width": self.half_width, "of": self.of, "max_seeds": self.max_seeds, "block": self.block,
+                "decide": None if self.decide is None else list(self.decide)}
+
+
+def _whole(field: str, value: Any, low: int, high: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | float) or value != int(value):
+        raise ConfigError(field, f"must be a whole number between {low} and {high} (got {value!r})")
+    if not low <= value <= high:
+        raise ConfigError(field, f"must be between {low} and {high} (got {int(value)})")
+    return int(value)
+
+
+def make_until(data: Mapping[str, Any], algorithms: Sequence[str]) -> Until:
+    """A validated rule for an experiment of ``algorithms`` (its labels).
+
+    Raises:
+        ConfigError: every field refused, each named ``until.<field>`` with its limit.
+    """
+    if not isinstance(data, Mapping):
+        raise ConfigError("until", f"must be an object of {', '.join(FIELDS)} (got {type(data).__name__})")
+    errors: list[ConfigError] = []
+
+    def field(name: str, check: Callable[[], Any], default: Any = None) -> Any:
+        if name not in data or data[name] is None:
+            return default
+        try:
+            return check()
+        except ConfigError as error:
+            errors.append(error)
+            return default
+
+    errors += [ConfigError(f"until.{name}", f"is not a field of a rule (fields: {', '.join(FIELDS)})")
+               for name in data if name not in FIELDS]
+    half_width = field("half_width", lambda: _half_width(data["half_width"]))
+    of = field("of", lambda: _of(data["of"]), OF[0])
+    max_seeds = field("max_seeds", lambda: _whole("until.max_seeds", data["max_seeds"], MIN_SEEDS, MAX_SEEDS),
+                      DEFAULT_MAX_SEEDS)
+    block = field("block", lambda: _whole("until.block", data["block"], 1, MAX_SEEDS), DEFAULT_BLOCK)
+    decide = field("decide", lambda: _pair(data["decide"], algorithms))
+    if block > max_seeds:
+        errors.append(ConfigError("until.block", f"must be at most max_seeds, {max_seeds} (got {block})"))
+    if decide is None and half_width is None and not any(e.field in ("until.half_width", "until.decide")
+                                                         for e in errors):
+        errors.append(ConfigError("until.half_width", "is needed unless the rule decides a pair (give half_width, "
+                                                      "decide, or both)"))
+    if of == "pct_from_uniform" and BASELINE not in algorithms:
+        errors.append(ConfigError("until.of", f"pct_from_uniform needs {BASELINE} among the algorithms, or of "
+                                              f"final_utility"))
+    raise_all(errors)
+    return Until(half_width, of, max_seeds, block, decide)
+
+
+def _half_width(value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value <= MAX_HALF_WIDTH:
+        raise ConfigError("until.half_width", f"must be a number above 0 and at most {MAX_HALF_WIDTH:g} "
+                                              f"(got {value!r})")
+    return float(value)
+
+
+def _of(value: Any) -> str:
+    if value not in OF:
+        raise ConfigError("until.of", f"must be one of {', '.join(OF)} (got {value!r})")
+    return value
+
+
+def _pair(value: Any, algorithms: Sequence[str]) -> tuple[str, str]:
+    if isinstance(value, str) or not isinstance(value, Sequence) or len(value) != 2:
+        raise ConfigError("until.decide", f"must be two of the algorithms run (got {value!r})")
+    missing = [str(label) for label in value if label not in algorithms]
+    if missing:
+        raise ConfigError("until.decide", f"{', '.join(missing)}: not run by this experiment (algorithms: "
+                                          f"{', '.join(algorithms)})")
+    if value[0] == value[1]:
+        raise ConfigError("until.decide", f"must be two different algorithms (got {value[0]} twice)")
+    return str(value[0]), str(value[1])
+
+
+def parse_until(text: str) -> dict[str, Any]:
+    """A rule from ``KEY=VALUE,...`` (the command line's ``--until``): ``decide=A+B``; numbers as numbers.
+
+    Raises:
+        ConfigError: an item without ``=``, or a number that is none (validated further by :func:`make_until`).
+    """
+    data: dict[str, Any] = {}
+    for item in (part.strip() for part in text.split(",")):
+        key, sep, value = item.partition("=")
+        key, value = key.strip(), value.strip()
+        if not sep or not key:
+            raise ConfigError("until", f"must be KEY=VALUE items between commas, e.g. half_width=2 or "
+                                       f"decide=mgrao-5:1+mgrao-max (got {item!r})")
+        if key == "decide":
+            data[key] = [label.strip() for label in value.split("+")]
+        elif key == "of":
+            data[key] = value
+        else:
+            try:
+                number = float(value)
+            except ValueError:
+                raise ConfigError(f"until.{key}", f"must be a number (got {value!r})") from None
+            data[key] = int(number) if number.is_integer() and key != "half_width" else number
+    return data
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """What the rule said after a block.
+
+    Attributes:
+        reason: one of :data:`REASONS`, or None to go on.
+        seeds: seeds run so far.
+        intervals: per configuration judged, ``(mean, low, high)`` of ``of`` over the seeds run (half_width
+            rule: the t-intervals; decide rule: the pair's difference under its confidence sequence, keyed
+            ``"A - B"``).
+        outcome: with a decision, the better configuration, or ``"equivalent"``; else None.
+    """
+
+    reason: str | None
+    seeds: int
+    intervals: dict[str, tuple[float, float, float]]
+    outcome: str | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready (non-finite numbers as None)."""
+        def clean(x: float) -> float | None:
+            return x if math.isfinite(x) else None
+        return {"reason": self.reason, "seeds": self.seeds, "outcome": self.outcome,
+                "intervals": {k: [clean(v) for v in value] for k, value in self.intervals.items()}}
+
+
+def cs_half_width(sd: float, n: int, confidence: float = CONFIDENCE, tuned_for: int = CS_TUNED_FOR) -> float:
+    """The half width of the two-sided asymptotic confidence sequence of a mean at ``n`` observations.
+
+    ``sd * sqrt(2 (n r + 1) / (n^2 r) * log(sqrt(n r + 1) / (alpha / 2)))``, ``r = rho^2`` chosen so that it is
+    narrowest at ``tuned_for`` observations (Waudby-Smith et al. 2021, the conjugate-mixture boundary with
+    each side at ``alpha / 2``).
+    """
+    alpha = (1.0 - confidence) / 2.0
+    r = (-2.0 * math.log(alpha) + math.log(-2.0 * math.log(alpha) + 1.0)) / tuned_for
+    return sd * math.sqrt(2.0 * (n * r + 1.0) / (n * n * r) * math.log(math.sqrt(n * r + 1.0) / alpha))
+
+
+def judged_values(until: Until, finals: Mapping[str, Mapping[int, float]]) -> dict[str, dict[int, float]]:
+    """Per configuration, each seed's value of ``until.of`` (% from uniform: the seeds it pairs with)."""
+    if until.of == "final_utility":
+        return {label: dict(by_seed) for label, by_seed in finals.items()}
+    base = finals.get(BASELINE)
+    return {label: paired_pct_from_uniform(by_seed, base) for label, by_seed in finals.items() if label != BASELINE}
+
+
+def judge(until: Until, finals: Mapping[str, Mapping[int, float]], seeds_run: int) -> Verdict:
+    """The rule's verdict on the final utilities ``finals`` (label -> seed -> final) of ``seeds_run`` seeds."""
+    values = judged_values(until, finals)
+    done = seeds_run >= until.max_seeds
+    if until.decide is None:
+        intervals = {label: mean_ci95(np.array(list(v.values()))) if v else (math.nan,) * 3
+                     for label, v in values.items()}
+        narrow = seeds_run >= MIN_SEEDS and all(high - low <= 2 * until.half_width
+                                                for _, low, high in intervals.values())
+        reason = "half_width" if narrow else "max_seeds" if done else None
+        return Verdict(reason, seeds_run, intervals)
+    a, b = until.decide
+    if until.of == "pct_from_uniform" and BASELINE in until.decide:  # uniform's % is 0 on every seed it pairs with
+        values[BASELINE] = {seed: 0.0 for seed in values[b if a == BASELINE else a]}
+    common = sorted(set(values[a]) & set(values[b]))
+    differences = np.array([values[a][s] - values[b][s] for s in common])
+    key = f"{a} - {b}"
+    if differences.size < 2:
+        return Verdict("max_seeds" if done else None, seeds_run, {key: (math.nan,) * 3})
+    mean = float(differences.mean())
+    half = cs_half_width(float(differences.std(ddof=1)), differences.size)
+    interval = (mean, mean - half, mean + half)
+    outcome = None
+    if seeds_run >= MIN_SEEDS:
+        if interval[1] > 0 or interval[2] < 0:
+            outcome = a if interval[1] > 0 else b
+        elif until.half_width is not None and -until.half_width < interval[1] and interval[2] < until.half_width:
+            outcome = "equivalent"
+    reason = "decided" if outcome else "max_seeds" if done else None
+    return Verdict(reason, seeds_run, {key: interval}, outcome)
+
+
+@dataclass(frozen=True)
+class SequentialResult:
+    """An experiment run until its rule answered: the runs, the verdict that stopped it, one per block."""
+
+    result: ExperimentResult
+    stopped: Verdict
+    blocks: tuple[Verdict, ...]
+
+
+class StopSeeds(Exception):
+    """Raised by :func:`run_until`'s ``should_stop`` to end after the blocks run (reason ``cancelled``)."""
+
+
+def run_until(spec: ExperimentSpec, until: Until, run_block: Callable[[ExperimentSpec], ExperimentResult],
+              should_stop: Callable[[], bool] | None = None,
+              on_block: Callable[[ExperimentResult, Verdict], None] | None = None) -> SequentialResult:
+    """Run ``spec``'s configurations on blocks of seeds from its first seed until ``until`` answers.
+
+    Args:
+        spec: the experiment over ``until.max_seeds`` seeds from its first (validated so by
+            :func:`mgrao_core.make_spec`: every block is a part of it); its seeds run in that order.
+        until: the rule (:func:`make_until`).
+        run_block: runs one block's spec (:func:`mgrao_core.run_experiment`).
+        should_stop: polled between blocks; True stops with reason ``cancelled``.
+        on_block: called with each block's runs and the verdict after it.
+    """
+    if len(spec.seeds) != until.max_seeds:
+        raise ValueError(f"the spec runs {len(spec.seeds)} seeds, the rule's max_seeds is {until.max_seeds}")
+    runs: list = []
+    finals: dict[str, dict[int, float]] = {label: {} for label in spec.algorithms}
+    blocks: list[Verdict] = []
+    verdict = Verdict(None, 0, {})
+    while verdict.reason is None:
+        if should_stop is not None and should_stop():
+            verdict = Verdict("cancelled", verdict.seeds, verdict.intervals, verdict.outcome)
+            break
+        seeds = spec.seeds[verdict.seeds : min(verdict.seeds + until.block, until.max_seeds)]
+        result = run_block(replace(spec, seeds=tuple(seeds)))
+        runs += result.runs
+        for run in result.runs:
+            finals[run.algorithm][run.seed] = float(final_utilities(run.utilities[None])[0])
+        verdict = judge(until, finals, verdict.seeds + len(seeds))
+        blocks.append(verdict)
+        if on_block is not None:
+            on_block(result, verdict)
+    whole = replace(spec, seeds=spec.seeds[: verdict.seeds])
+    order = {label: i for i, label in enumerate(spec.algorithms)}
+    runs.sort(key=lambda run: (order[run.algorithm], run.seed))
+    return SequentialResult(ExperimentResult(whole, tuple(runs)), verdict, tuple(blocks))

@@ -1,0 +1,187 @@
+"""Seeds until decided (mgrao_core.sequential): the rule's fields, its verdicts, runs in blocks, the command line."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from mgrao_core import ConfigError, final_utilities, make_spec, run_experiment
+from mgrao_core.errors import ConfigErrors
+from mgrao_core.sequential import MIN_SEEDS, Until, cs_half_width, judge, make_until, parse_until, run_until
+from mgrao_core.stats import mean_ci95, t_quantile
+
+LABELS = ("uniform", "mgrao-1:1", "mgrao-max")
+
+
+@pytest.mark.parametrize("data, field, words", [
+    ({"half_width": 0}, "until.half_width", "above 0"),
+    ({"half_width": -1}, "until.half_width", "above 0"),
+    ({"half_width": "2"}, "until.half_width", "a number"),
+    ({"half_width": 2e6}, "until.half_width", "at most 1e+06"),
+    ({"half_width": 1, "of": "median"}, "until.of", "pct_from_uniform, final_utility"),
+    ({"half_width": 1, "max_seeds": 9}, "until.max_seeds", "between 10 and 1000"),
+    ({"half_width": 1, "max_seeds": 1001}, "until.max_seeds", "between 10 and 1000"),
+    ({"half_width": 1, "max_seeds": 10.5}, "until.max_seeds", "whole number"),
+    ({"half_width": 1, "block": 0}, "until.block", "between 1 and 1000"),
+    ({"half_width": 1, "block": 60, "max_seeds": 50}, "until.block", "at most max_seeds, 50"),
+    ({"decide": ["mgrao-max"]}, "until.decide", "two of the algorithms"),
+    ({"decide": "mgrao-max"}, "until.decide", "two of the algorithms"),
+    ({"decide": ["mgrao-max", "mgrao-max"]}, "until.decide", "two different"),
+    ({"decide": ["mgrao-max", "oracle"]}, "until.decide", "oracle: not run by this experiment"),
+    ({"half_width": 1, "seeds": 3}, "until.seeds", "not a field"),
+    ({}, "until.half_width", "is needed unless the rule decides a pair"),
+    ({"of": "final_utility"}, "until.half_width", "is needed"),
+])
+def test_a_bad_rule_is_refused_naming_the_field_and_limit(data, field, words):
+    with pytest.raises(ConfigError) as refused:
+        make_until(data, LABELS)
+    assert refused.value.field == field and words in refused.value.message
+
+
+def test_every_bad_field_is_named_at_once_and_pct_needs_uniform():
+    with pytest.raises(ConfigErrors) as refused:
+        make_until({"half_width": 0, "block": 0, "of": "x"}, LABELS)
+    assert [e.field for e in refused.value.errors] == ["until.half_width", "until.of", "until.block"]
+    with pytest.raises(ConfigError, match="pct_from_uniform needs uniform among the algorithms"):
+        make_until({"half_width": 1}, ("mgrao-1:1", "mgrao-max"))
+    assert make_until({"half_width": 1, "of": "final_utility"}, ("mgrao-1:1",)).of == "final_utility"
+
+
+def test_defaults_and_the_command_lines_form():
+    assert make_until({"half_width": 2}, LABELS) == Until(half_width=2.0, of="pct_from_uniform", max_seeds=500,
+                                                          block=10, decide=None)
+    assert parse_until("half_width=1.5, max_seeds=200,block=20,decide=mgrao-max+mgrao-1:1,of=final_utility") == {
+        "half_width": 1.5, "max_seeds": 200, "block": 20, "decide": ["mgrao-max", "mgrao-1:1"], "of": "final_utility"}
+    with pytest.raises(ConfigError, match="KEY=VALUE"):
+        parse_until("half_width")
+    with pytest.raises(ConfigError) as refused:
+        parse_until("max_seeds=lots")
+    assert refused.value.field == "until.max_seeds"
+    with pytest.raises(ConfigError, match="whole number"):  # 10.5 reaches make_until as a number, not rounded
+        make_until(parse_until("half_width=1,max_seeds=10.5"), LABELS)
+
+
+def _finals(per_seed: dict[str, np.ndarray]) -> dict[str, dict[int, float]]:
+    return {label: dict(enumerate(values.tolist())) for label, values in per_seed.items()}
+
+
+def test_the_half_width_rule_waits_for_the_minimum_and_stops_when_every_interval_is_narrow():
+    rng = np.random.default_rng(3)
+    uniform = np.ones(40)
+    narrow, wide = 1.2 + 0.002 * rng.standard_normal(40), 1.2 + 0.2 * rng.standard_normal(40)
+    until = make_until({"half_width": 1.0, "max_seeds": 40}, LABELS)
+    early = judge(until, _finals({"uniform": uniform[:5], "mgrao-1:1": narrow[:5], "mgrao-max": narrow[:5]}), 5)
+    assert early.reason is None  # narrow already, but fewer than MIN_SEEDS seeds
+    at_minimum = judge(until, _finals({"uniform": uniform[:10], "mgrao-1:1": narrow[:10], "mgrao-max": narrow[:10]}),
+                       MIN_SEEDS)
+    assert at_minimum.reason == "half_width" and set(at_minimum.intervals) == {"mgrao-1:1", "mgrao-max"}
+    pct = 100 * (narrow[:10] - 1)
+    assert at_minimum.intervals["mgrao-max"] == pytest.approx(mean_ci95(pct), abs=1e-12)
+    one_wide = judge(until, _finals({"uniform": uniform[:20], "mgrao-1:1": narrow[:20], "mgrao-max": wide[:20]}), 20)
+    assert one_wide.reason is None  # every configuration must be narrow
+    at_most = judge(until, _finals({"uniform": uniform, "mgrao-1:1": narrow, "mgrao-max": wide}), 40)
+    assert at_most.reason == "max_seeds"
+
+
+def test_the_decide_rule_takes_a_confidence_sequence_and_names_the_outcome():
+    assert cs_half_width(1.0, 100) > t_quantile(99) / 10  # wider than a t-interval at the same count
+    assert cs_half_width(1.0, 1000) < cs_half_width(1.0, 100) < cs_half_width(1.0, 10)
+    rng = np.random.default_rng(4)
+    uniform = np.ones(30)
+    base = 1.2 + 0.05 * rng.standard_normal(30)
+    better = base + 0.05 + 0.01 * rng.standard_normal(30)  # 5 points of % from uniform above
+    same = base + 0.001 * rng.standard_normal(30)
+    until = make_until({"decide": ["mgrao-max", "mgrao-1:1"], "half_width": 1.0}, LABELS)
+    decided = judge(until, _finals({"uniform": uniform, "mgrao-1:1": base, "mgrao-max": better}), 30)
+    assert decided.reason == "decided" and decided.outcome == "mgrao-max"
+    (key, (mean, low, high)), = decided.intervals.items()
+    differences = 100 * (better - base)
+    assert key == "mgrao-max - mgrao-1:1" and mean == pytest.approx(differences.mean(), abs=1e-9)
+    assert high - mean == pytest.approx(cs_half_width(float(differences.std(ddof=1)), 30), rel=1e-9)
+    flipped = make_until({"decide": ["mgrao-1:1", "mgrao-max"]}, LABELS)
+    assert judge(flipped, _finals({"uniform": uniform, "mgrao-1:1": base, "mgrao-max": better}), 30).outcome == \
+        "mgrao-max"
+    equivalent = judge(until, _finals({"uniform": uniform, "mgrao-1:1": base, "mgrao-max": same}), 30)
+    assert equivalent.reason == "decided" and equivalent.outcome == "equivalent"
+    no_margin = make_until({"decide": ["mgrao-max", "mgrao-1:1"], "max_seeds": 30}, LABELS)
+    undecided = judge(no_margin, _finals({"uniform": uniform, "mgrao-1:1": base, "mgrao-max": same}), 30)
+    assert undecided.reason == "max_seeds" and undecided.outcome is None
+
+
+def test_a_run_until_runs_blocks_from_the_first_seed_with_the_numbers_of_a_plain_run():
+    until = make_until({"half_width": 2.5, "block": 7, "max_seeds": 200}, LABELS)
+    spec = make_spec("single", list(LABELS), list(range(1000, 1200)), 30)
+    seen = []
+    done = run_until(spec, until, run_experiment, on_block=lambda result, verdict: seen.append(
+        (result.spec.seeds, verdict.seeds)))
+    assert done.stopped.reason in ("half_width", "max_seeds") and done.stopped == done.blocks[-1]
+    n = done.stopped.seeds
+    assert [seeds for seeds, _ in seen] == [tuple(range(1000 + i, min(1000 + i + 7, 1000 + n)))
+                                            for i in range(0, n, 7)]
+    assert [count for _, count in seen] == [min(i + 7, n) for i in range(0, n, 7)]
+    plain = run_experiment(make_spec("single", list(LABELS), list(range(1000, 1000 + n)), 30))
+    assert done.result.spec.seeds == plain.spec.seeds
+    for label in LABELS:  # common random numbers: the same worlds, bit for bit, however the seeds were split
+        assert done.result.utilities(label).tobytes() == plain.utilities(label).tobytes()
+    summary = plain.summary()
+    for label, (_, low, high) in done.stopped.intervals.items():
+        assert (low, high) == summary[label].pct_ci95  # the interval judged is the summary's
+    if done.stopped.reason == "half_width":
+        earlier = done.blocks[-2] if len(done.blocks) > 1 else None
+        assert earlier is None or earlier.reason is None
+
+
+def test_a_run_until_stops_when_asked_and_keeps_its_blocks():
+    until = make_until({"half_width": 0.01, "block": 10, "max_seeds": 100}, LABELS)
+    spec = make_spec("single", list(LABELS), list(range(100)), 20)
+    asked = iter([False, False, True])
+    done = run_until(spec, until, run_experiment, should_stop=lambda: next(asked))
+    assert done.stopped.reason == "cancelled" and done.stopped.seeds == 20 and len(done.result.runs) == 3 * 20
+    finals = final_utilities(done.result.utilities("mgrao-max"))
+    assert finals.shape == (20,) and np.isfinite(finals).all()
+
+
+def _mgrao(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "mgrao_cli", *args], capture_output=True, text=True, timeout=600)
+
+
+def test_the_command_line_runs_the_rule_in_process_and_prints_only_json():
+    done = _mgrao("run", "--system", "single", "--episodes", "30", "--first-seed", "500", "--until",
+                  "half_width=3,block=5,max_seeds=60", "--format", "json")
+    assert done.returncode == 0, done.stderr
+    data = json.loads(done.stdout)  # stdout holds only the JSON
+    stopped, summary = data["stopped"], data["summary"]
+    assert stopped["reason"] in ("half_width", "max_seeds") and data["until"]["block"] == 5
+    assert data["spec"]["seeds"] == list(range(500, 500 + stopped["seeds"]))
+    assert [block["seeds"] for block in data["blocks"]] == list(range(5, stopped["seeds"] + 1, 5))
+    for label, (_, low, high) in stopped["intervals"].items():
+        assert summary[label]["pct_ci95"] == [low, high]
+    until = make_until({"half_width": 3, "block": 5, "max_seeds": 60}, LABELS)
+    spec = make_spec("single", list(LABELS), list(range(500, 560)), 30)
+    in_process = run_until(spec, until, run_experiment).stopped
+    assert in_process.as_dict() == stopped  # the same seeds, the same verdict
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--seeds", "40", "--until", "half_width=1"], "give either --seeds or --until"),
+    (["--until", "half_width=0"], "until.half_width: must be a number above 0"),
+    (["--until", "decide=mgrao-max+oracle"], "until.decide: oracle: not run by this experiment"),
+    (["--first-seed", str(2**32 - 5), "--until", "half_width=1"], "until.max_seeds: the last seed"),
+])
+def test_the_command_line_refuses_a_bad_rule(args, words):
+    done = _mgrao("run", "--system", "single", *args)
+    assert done.returncode == 2 and words in done.stderr and not done.stdout
+
+
+def test_the_table_says_why_it_stopped():
+    done = _mgrao("run", "--system", "single", "--episodes", "30", "--until",
+                  "decide=mgrao-max+uniform,half_width=1,max_seeds=30")
+    assert done.returncode == 0, done.stderr
+    last = done.stdout.strip().splitlines()[-1]
+    assert last.startswith("stopped: decided after ") and "mgrao-max - uniform:" in last and "(mgrao-max)" in last
+    assert not math.isnan(float(last.split(":")[-1].split()[0]))
