@@ -22,7 +22,7 @@ from mgrao_core.presets import PAPER_SYSTEMS, PRESETS
 from mgrao_core.report import text_table
 from mgrao_core.reproduction import DEFAULT_SEEDS, READINGS, reproduction_table
 from mgrao_core.reproduction import reproduce as run_reproduction
-from mgrao_core.sequential import Until, Verdict, make_until, parse_until, run_until
+from mgrao_core.sequential import Verdict, parse_until, run_until, until_spec
 from mgrao_core.spec import MAX_SEED_VALUE
 
 PROGRESS_BAR_WORK = 20_000_000
@@ -170,7 +170,8 @@ def run(ctx: click.Context, system: str | None, algorithms: str | None, seeds: i
         if until_text is None:
             spec = make_spec(system, labels, _seed_range(seeds, first_seed), episodes, overrides | _parse_sets(sets))
         else:
-            spec, until = _until_spec(system, labels, first_seed, episodes, overrides | _parse_sets(sets), until_text)
+            spec, until = until_spec(system, labels, first_seed, episodes, overrides | _parse_sets(sets),
+                                     parse_until(until_text))
     except ConfigError as error:
         _fail(error)
     load_engine()
@@ -216,22 +217,6 @@ def run(ctx: click.Context, system: str | None, algorithms: str | None, seeds: i
                  f"mean of the last 10 episodes ({elapsed:.2f} s)")
         stopped = "" if done is None else f"\n{_stopped_line(done.stopped)}"
         _emit(f"{title}\n{text_table(headers, rows)}{stopped}", out)
-
-
-def _until_spec(system: str, labels: list[str] | None, first_seed: int, episodes: int, overrides: dict[str, Any],
-                text: str) -> tuple[mgrao_core.ExperimentSpec, Until]:
-    """The spec of a rule's largest run (``max_seeds`` from ``first_seed``) and the rule.
-
-    Raises:
-        ConfigError: naming the field (``until.<field>`` for the rule's).
-    """
-    probe = make_spec(system, labels, [first_seed], episodes, overrides)
-    until = make_until(parse_until(text), probe.algorithms)
-    if first_seed + until.max_seeds - 1 > MAX_SEED_VALUE:
-        raise ConfigError("until.max_seeds", f"the last seed {first_seed + until.max_seeds - 1} would be over "
-                                             f"{MAX_SEED_VALUE}: lower max_seeds or --first-seed")
-    seeds = list(range(first_seed, first_seed + until.max_seeds))
-    return make_spec(system, labels, seeds, episodes, overrides), until
 
 
 def _stopped_line(verdict: Verdict) -> str:

@@ -33,7 +33,7 @@ import numpy as np
 
 from mgrao_core.errors import ConfigError, raise_all
 from mgrao_core.results import ExperimentResult
-from mgrao_core.spec import MAX_SEEDS, ExperimentSpec
+from mgrao_core.spec import MAX_SEED_VALUE, MAX_SEEDS, ExperimentSpec, make_spec
 from mgrao_core.stats import BASELINE, CONFIDENCE, final_utilities, mean_ci95, paired_pct_from_uniform
 
 OF = ("pct_from_uniform", "final_utility")
@@ -111,6 +111,27 @@ def make_until(data: Mapping[str, Any], algorithms: Sequence[str]) -> Until:
                                               f"final_utility"))
     raise_all(errors)
     return Until(half_width, of, max_seeds, block, decide)
+
+
+def until_spec(system: str, algorithms: Sequence[str] | None, first_seed: int, episodes: int,
+               overrides: Mapping[str, Any], rule: Mapping[str, Any],
+               memory_budget: int | None = None) -> tuple[ExperimentSpec, Until]:
+    """The spec of a rule's largest run (``max_seeds`` seeds from ``first_seed``) and the rule, both validated.
+
+    What ``mgrao run --until`` and a job with ``until`` run (:func:`run_until`).
+
+    Raises:
+        ConfigError: naming the field (``until.<field>`` for the rule's), as :func:`mgrao_core.make_spec` and
+            :func:`make_until`; WorkLimitError as :func:`mgrao_core.make_spec`, for ``max_seeds`` seeds.
+    """
+    budget = {} if memory_budget is None else {"memory_budget": memory_budget}
+    probe = make_spec(system, algorithms, [first_seed], episodes, overrides, **budget)
+    until = make_until(rule, probe.algorithms)
+    if first_seed + until.max_seeds - 1 > MAX_SEED_VALUE:
+        raise ConfigError("until.max_seeds", f"the last seed {first_seed + until.max_seeds - 1} would be over "
+                                             f"{MAX_SEED_VALUE}: lower max_seeds or the first seed")
+    seeds = list(range(first_seed, first_seed + until.max_seeds))
+    return make_spec(system, algorithms, seeds, episodes, overrides, **budget), until
 
 
 def _half_width(value: Any) -> float:
@@ -251,8 +272,39 @@ class SequentialResult:
     blocks: tuple[Verdict, ...]
 
 
-class StopSeeds(Exception):
-    """Raised by :func:`run_until`'s ``should_stop`` to end after the blocks run (reason ``cancelled``)."""
+def next_block(spec: ExperimentSpec, until: Until, judged: int) -> tuple[int, ...]:
+    """The seeds of the block after ``judged`` seeds: the next ``block`` of ``spec``'s, up to ``max_seeds``."""
+    return spec.seeds[judged : min(judged + until.block, until.max_seeds)]
+
+
+def replay(spec: ExperimentSpec, until: Until, finals: Mapping[str, Mapping[int, float]]) -> tuple[Verdict, ...]:
+    """The verdicts after each block of ``spec`` whose every run is among ``finals``, in order.
+
+    A job resumed after its worker died judges its stored blocks again: the same numbers give the same
+    verdicts, so it stops where it would have. Stops at the first verdict that stops; a block stored in part
+    is not judged (its missing seeds run first).
+    """
+    verdicts: list[Verdict] = []
+    judged = 0
+    while not verdicts or verdicts[-1].reason is None:
+        block = next_block(spec, until, judged)
+        if not block or any(seed not in finals.get(label, {}) for label in spec.algorithms for seed in block):
+            break
+        judged += len(block)
+        seeds = spec.seeds[:judged]
+        verdicts.append(judge(until, {label: {s: finals[label][s] for s in seeds} for label in spec.algorithms},
+                              judged))
+    return tuple(verdicts)
+
+
+def stopped_dict(verdicts: Sequence[Verdict], cancelled: bool = False) -> dict[str, Any] | None:
+    """What a job says of its rule: the last verdict (``reason`` ``cancelled`` if so) with ``blocks``, every one."""
+    if not verdicts and not cancelled:
+        return None
+    last = verdicts[-1] if verdicts else Verdict(None, 0, {})
+    reason = "cancelled" if cancelled and last.reason is None else last.reason
+    return Verdict(reason, last.seeds, last.intervals, last.outcome).as_dict() | {
+        "blocks": [{"seeds": v.seeds, "intervals": v.as_dict()["intervals"]} for v in verdicts]}
 
 
 def run_until(spec: ExperimentSpec, until: Until, run_block: Callable[[ExperimentSpec], ExperimentResult],
@@ -278,7 +330,7 @@ def run_until(spec: ExperimentSpec, until: Until, run_block: Callable[[Experimen
         if should_stop is not None and should_stop():
             verdict = Verdict("cancelled", verdict.seeds, verdict.intervals, verdict.outcome)
             break
-        seeds = spec.seeds[verdict.seeds : min(verdict.seeds + until.block, until.max_seeds)]
+        seeds = next_block(spec, until, verdict.seeds)
         result = run_block(replace(spec, seeds=tuple(seeds)))
         runs += result.runs
         for run in result.runs:

@@ -24,7 +24,7 @@ from pydantic_core import PydanticCustomError, core_schema
 from backend.services.saved_systems import NAME_PATTERN as SAVED_NAME_PATTERN
 from backend.store.external import MAX_BATCH_ENTRIES, MAX_PIECE_VALUES
 from backend.store.models import has_nul
-from mgrao_core import MAX_ALGORITHMS, MAX_EPISODES, MAX_SEEDS, PARAMETERS, PRESETS, search
+from mgrao_core import MAX_ALGORITHMS, MAX_EPISODES, MAX_SEEDS, PARAMETERS, PRESETS, search, sequential
 from mgrao_core.params import PARAMETERS_BY_NAME
 from mgrao_core.spec import MAX_SEED_VALUE
 
@@ -241,6 +241,22 @@ Kind = Literal["simulation", "external"]
 Sort = Literal["-created_at", "created_at", "name", "-name", "status", "-status"]
 
 
+class UntilBody(BaseModel):
+    """A job's stopping rule (docs/statistics.md "Seeds until decided"), checked again by the core."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    half_width: Annotated[float, Field(gt=0, le=sequential.MAX_HALF_WIDTH)] | None = Field(
+        None, description="The 95% interval's half width to reach; with decide, the margin of no practical difference.")
+    of: Literal[sequential.OF] = Field("pct_from_uniform", description="What is judged (pct_from_uniform needs "
+                                                                      "uniform among the algorithms).")
+    max_seeds: whole(sequential.MIN_SEEDS, MAX_SEEDS) = Field(sequential.DEFAULT_MAX_SEEDS,
+                                                               description="The most seeds run.")
+    block: whole(1, MAX_SEEDS) = Field(sequential.DEFAULT_BLOCK, description="Seeds run between two checks.")
+    decide: Annotated[list[Label], Field(min_length=2, max_length=2)] | None = Field(
+        None, description="Two of the job's algorithms: stop when their paired difference is decided.")
+
+
 class JobCreate(BaseModel):
     """Body of ``POST /api/jobs``: what to run (validated again by the core) and how to label it."""
 
@@ -249,6 +265,9 @@ class JobCreate(BaseModel):
     system: JobSystem
     algorithms: Annotated[list[Label], Field(min_length=1, max_length=MAX_ALGORITHMS)] | None = None
     seeds: SeedCount | SeedList = 30
+    until: UntilBody | None = Field(None, description="Run seeds in blocks from first_seed until the rule answers "
+                                                      "(instead of seeds).")
+    first_seed: Seed | None = Field(None, description="With until: the first seed (default 0).")
     episodes: whole(1, MAX_EPISODES) = 100
     params: Params = Field(default_factory=dict)
     name: Name = ""
@@ -308,6 +327,11 @@ class JobOut(BaseModel):
     saved_system: str | None = Field(None, description="The saved system the job ran (its tag system:NAME names it); "
                                                      "`system` is its base preset. Null for a preset's job.")
     """``simulation`` (run by the service's workers) or ``external`` (logged from outside: docs/platform.md)."""
+    until: dict[str, Any] | None = None
+    """The job's stopping rule (every field), or null."""
+    stopped: dict[str, Any] | None = None
+    """With a rule: its last verdict (reason null while it runs; half_width, decided, max_seeds or cancelled), seeds,
+    intervals, outcome, and blocks (every block's intervals); null without one."""
     summaries: dict[str, dict[str, Any]] = {}
     """Per configuration, once the job succeeded (``GET /api/jobs`` and ``GET /api/jobs/{id}``): n_runs,
     final_mean, ci95, pct_from_uniform, pct_ci95, pct_of_max."""

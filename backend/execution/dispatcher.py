@@ -68,6 +68,13 @@ class _Job:
     done_seeds: int
     pending: deque[_Chunk]
     running: dict[str, _Chunk] = field(default_factory=dict)
+    made: int = 0
+    """Chunks made so far (a job with a stopping rule makes each block's when the one before is judged)."""
+
+    def add_chunks(self, chunks: Sequence[tuple[int, ...]]) -> None:
+        """Queue chunks to send, each numbered after the ones before (their Dask keys stay unique)."""
+        self.pending.extend(_Chunk(self.made + i, chunk) for i, chunk in enumerate(chunks))
+        self.made += len(chunks)
 
     @property
     def progress(self) -> float:
@@ -250,12 +257,13 @@ class Dispatcher:
         except MgraoError as error:
             self._fail(claim, failure(error))
             return
-        job = _Job(claim, plan, plan.done_seeds, deque(_Chunk(i, chunk) for i, chunk in enumerate(plan.chunks)))
+        job = _Job(claim, plan, plan.done_seeds, deque())
+        job.add_chunks(plan.chunks)
         self.jobs[claim.job_id] = job
         self.beats.add(claim)
         self.beats.set_progress(claim.job_id, job.progress)
         if not plan.chunks:
-            self._finish(job)
+            self._block_done(job)
 
     def _start_batch(self, claims: list[queue.Claim], specs: dict) -> None:
         """Plan small jobs as a local worker does (:meth:`Lifecycle.plan_batch`) and hold them as batches.
@@ -313,7 +321,7 @@ class Dispatcher:
             del job.running[key]
             rows = queue.run_rows(job.claim.job_id, runs)
             progress = (job.done_seeds + len(chunk.seeds)) / len(job.plan.spec.seeds)
-            stored = self.lifecycle.store(job.claim, rows, progress)
+            stored = self.lifecycle.store(job.claim, rows, progress, job.plan)
             if not stored:
                 log.info("job %s was cancelled or taken over; its futures are cancelled", job.claim.job_id)
                 self._drop(job)
@@ -321,7 +329,7 @@ class Dispatcher:
             job.done_seeds += len(chunk.seeds)
             self.beats.set_progress(job.claim.job_id, job.progress)
             if not job.pending and not job.running:
-                self._finish(job)
+                self._block_done(job)
             return
         if future.status in ("cancelled", "lost"):  # not by us: the scheduler went away
             log.warning("chunk %s was lost (%s); it is sent again", key, future.status)
@@ -384,6 +392,24 @@ class Dispatcher:
             for claim in batch.claims:
                 self.beats.remove(claim.job_id)
         self.lifecycle.ended(*(claim.job_id for claim in batch.claims))
+
+    def _block_done(self, job: _Job) -> None:
+        """Every chunk planned is stored: finish the job, or judge its block and send the next block's chunks.
+
+        A job without a stopping rule, or whose rule has answered, finishes.
+        """
+        if job.plan.stopped:
+            self._finish(job)
+            return
+        plan = self.lifecycle.judge_block(job.claim, job.plan)
+        if plan is None:
+            log.info("job %s was cancelled or taken over", job.claim.job_id)
+            self._drop(job)
+            return
+        job.plan = plan
+        job.add_chunks(plan.chunks)
+        if not plan.chunks:
+            self._finish(job)
 
     def _finish(self, job: _Job) -> None:
         finished = self.lifecycle.finish(job.claim, job.plan)

@@ -14,7 +14,7 @@ import logging
 import threading
 from collections import Counter
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from typing import TypeVar
 
 from backend.execution.failures import Failure, failure
@@ -23,6 +23,7 @@ from backend.store import queue, summaries
 from backend.store.db import Database
 from backend.store.retry import HealthClock, persist
 from mgrao_core import ExperimentSpec, MgraoError, plan_chunks, spec_from_dict
+from mgrao_core.sequential import Until, Verdict, judge, make_until, next_block, replay, stopped_dict
 
 log = logging.getLogger("mgrao.lifecycle")
 T = TypeVar("T")
@@ -34,16 +35,35 @@ jobs are told at once, so that a study advances once per batch)."""
 
 @dataclass(frozen=True)
 class Plan:
-    """A claimed job's validated configuration and the chunks of seeds it still has to run."""
+    """A claimed job's validated configuration and the chunks of seeds it still has to run.
+
+    A job with a stopping rule (``until``) is planned a block at a time: ``chunks`` are the next block's seeds
+    not yet stored, ``done_seeds`` the seeds judged, ``verdicts`` the rule's after each block, ``finals`` every
+    stored run's final utility (kept up to date by :meth:`Lifecycle.store`); :meth:`Lifecycle.judge_block`
+    judges a block once its chunks are stored and plans the next, until :attr:`stopped`.
+    """
 
     spec: ExperimentSpec
     done_seeds: int
     chunks: list[tuple[int, ...]]
+    until: Until | None = None
+    verdicts: tuple[Verdict, ...] = ()
+    finals: dict[str, dict[int, float]] = field(default_factory=dict)
+
+    @property
+    def stopped(self) -> bool:
+        """Whether the job's rule has answered (or it has none)."""
+        return self.until is None or bool(self.verdicts) and self.verdicts[-1].reason is not None
+
+    @property
+    def ran_seeds(self) -> tuple[int, ...]:
+        """The seeds the finished job runs: every seed, or those its rule judged."""
+        return self.spec.seeds if self.until is None else self.spec.seeds[: self.done_seeds]
 
     @property
     def expected_runs(self) -> int:
-        """The runs the finished job stores: every algorithm over every seed."""
-        return len(self.spec.seeds) * len(self.spec.algorithms)
+        """The runs the finished job stores: every algorithm over every seed it runs."""
+        return len(self.ran_seeds) * len(self.spec.algorithms)
 
     def completed(self, claim: queue.Claim, runs: Sequence) -> queue.Completed:
         """The job's remaining ``runs``, done, as :meth:`Lifecycle.finish_batch` stores them.
@@ -137,28 +157,75 @@ class Lifecycle:
     def plan(self, claim: queue.Claim) -> Plan:
         """The job's configuration, validated again, and its seeds not yet stored, in chunks the job budget holds.
 
+        With a stopping rule, the next block's: the stored blocks are judged again first (:func:`replay`), so a
+        job resumed after its worker died stops where it would have.
+
         Raises:
             MgraoError: the stored configuration is no longer valid.
         """
         budget = self.settings.job_memory_bytes
         spec = spec_from_dict(claim.config, memory_budget=budget)
+        if claim.config.get("until") is not None:
+            until = make_until(claim.config["until"], spec.algorithms)
+
+            def read() -> dict[str, dict[int, float]]:
+                with self.db.session() as session:
+                    return summaries.finals(session, claim.job_id)
+
+            finals = self.persist(read, "reading stored runs")
+            return self._block(Plan(spec, 0, [], until, replay(spec, until, finals), finals))
         done = self.persist(lambda: self.stored_seeds(claim.job_id, len(spec.algorithms)), "reading stored runs")
         missing = tuple(seed for seed in spec.seeds if seed not in done)
         return Plan(spec, len(spec.seeds) - len(missing), plan_chunks(spec, missing, budget=budget))
+
+    def _block(self, plan: Plan) -> Plan:
+        """``plan`` with the seeds judged after its verdicts and the next block's missing seeds in chunks."""
+        judged = plan.verdicts[-1].seeds if plan.verdicts else 0
+        chunks: list[tuple[int, ...]] = []
+        if not (plan.verdicts and plan.verdicts[-1].reason is not None):
+            block = next_block(plan.spec, plan.until, judged)
+            missing = tuple(s for s in block if any(s not in plan.finals.get(a, {}) for a in plan.spec.algorithms))
+            chunks = plan_chunks(plan.spec, missing, budget=self.settings.job_memory_bytes) if missing else []
+        return replace(plan, done_seeds=judged, chunks=chunks)
+
+    def judge_block(self, claim: queue.Claim, plan: Plan) -> Plan | None:
+        """Judge the block whose chunks are stored, store the verdicts, and plan the next block (none: stopped).
+
+        None when the job is no longer ours (cancelled or taken over).
+        """
+        block = next_block(plan.spec, plan.until, plan.done_seeds)
+        judged = plan.done_seeds + len(block)
+        seeds = plan.spec.seeds[:judged]
+        verdict = judge(plan.until, {a: {s: plan.finals[a][s] for s in seeds} for a in plan.spec.algorithms}, judged)
+        verdicts = (*plan.verdicts, verdict)
+        stopped = stopped_dict(verdicts)
+        if not self.persist(lambda: queue.record_stopped(self.db, claim=claim, stopped=stopped,
+                                                         progress=judged / len(plan.spec.seeds)),
+                            f"storing the verdict of job {claim.job_id}"):
+            return None
+        return self._block(replace(plan, verdicts=verdicts))
 
     def stored_seeds(self, job_id: int, algorithms: int) -> set[int]:
         """The seeds of which every algorithm's run is stored: a retried job runs only the others."""
         with self.db.session() as session:
             return queue.stored_seeds(session, job_id=job_id, algorithms=algorithms)
 
-    def store(self, claim: queue.Claim, rows: list[dict], progress: float) -> bool:
-        """Store a chunk's runs (:func:`~backend.store.queue.run_rows`) and the progress; False when not ours."""
-        return self.persist(lambda: queue.store_runs(self.db, claim=claim, rows=rows, progress=progress),
-                            f"storing runs of job {claim.job_id}")
+    def store(self, claim: queue.Claim, rows: list[dict], progress: float, plan: Plan | None = None) -> bool:
+        """Store a chunk's runs (:func:`~backend.store.queue.run_rows`) and the progress; False when not ours.
+
+        With a ``plan`` that has a stopping rule, the runs' final utilities join its ``finals``.
+        """
+        stored = self.persist(lambda: queue.store_runs(self.db, claim=claim, rows=rows, progress=progress),
+                              f"storing runs of job {claim.job_id}")
+        if stored and plan is not None and plan.until is not None:
+            for algorithm, by_seed in summaries.finals_of_rows(rows).items():
+                plan.finals.setdefault(algorithm, {}).update(by_seed)
+        return stored
 
     def finish(self, claim: queue.Claim, plan: Plan) -> bool:
-        """Mark the job succeeded; False when it was cancelled or taken over meanwhile."""
-        return self.persist(lambda: queue.finish(self.db, claim=claim, expected_runs=plan.expected_runs),
+        """Mark the job succeeded (with a rule: why it stopped); False when it was cancelled or taken over meanwhile."""
+        ran = {} if plan.until is None else {"stopped": stopped_dict(plan.verdicts), "seeds": plan.ran_seeds}
+        return self.persist(lambda: queue.finish(self.db, claim=claim, expected_runs=plan.expected_runs, **ran),
                             f"finishing job {claim.job_id}")
 
     def fail(self, claim: queue.Claim, error: BaseException | Failure, *, where: str = "") -> None:

@@ -41,8 +41,8 @@ def small_spec(settings: Settings, claim: Claim) -> ExperimentSpec | None:
     whole, so a job whose every seed at once would take more than :data:`SMALL_JOB_BYTES` (few
     tasks, but large learner state or stored weights) runs alone, chunk by chunk, within its budget.
     """
-    if claim.work is None or claim.work > settings.small_job_work:
-        return None
+    if claim.work is None or claim.work > settings.small_job_work or claim.config.get("until") is not None:
+        return None  # a job with a stopping rule runs a block at a time, judged between blocks
     from mgrao_core import spec_from_dict
     from mgrao_core.budget import chunk_cost
 

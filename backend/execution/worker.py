@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, TypeVar
 from backend import wakeup
 from backend.execution.handback import local_worker_id
 from backend.execution.heartbeats import Heartbeats
-from backend.execution.lifecycle import Ended, Lifecycle
+from backend.execution.lifecycle import Ended, Lifecycle, Plan
 from backend.execution.lifeline import stop_on_signals
 from backend.execution.presence import Presence, refresh_interval
 from backend.execution.small_jobs import BATCH_BYTES, one_numba_thread, run_small_job, small_spec
@@ -189,19 +189,28 @@ class Worker:
             return beats.lost(claim.job_id) or self.shutdown.is_set()
 
         try:
-            plan = lifecycle.plan(claim)
+            plan: Plan | None = lifecycle.plan(claim)
             seeds, finished = len(plan.spec.seeds), plan.done_seeds
-            for chunk in plan.chunks:
-                def progress(fraction: float, chunk: tuple[int, ...] = chunk, finished: int = finished) -> None:
-                    beats.set_progress(claim.job_id, (finished + fraction * len(chunk)) / seeds)
+            while True:  # once; with a stopping rule, once per block until the rule answers
+                for chunk in plan.chunks:
+                    def progress(fraction: float, chunk: tuple[int, ...] = chunk, finished: int = finished) -> None:
+                        beats.set_progress(claim.job_id, (finished + fraction * len(chunk)) / seeds)
 
-                runs = run_chunk(plan.spec, chunk, on_progress=progress, should_stop=should_stop)
-                rows = queue.run_rows(claim.job_id, runs)
-                del runs
-                finished += len(chunk)
-                stored = lifecycle.store(claim, rows, finished / seeds)
-                del rows
-                if not stored:
+                    runs = run_chunk(plan.spec, chunk, on_progress=progress, should_stop=should_stop)
+                    rows = queue.run_rows(claim.job_id, runs)
+                    del runs
+                    finished += len(chunk)
+                    stored = lifecycle.store(claim, rows, finished / seeds, plan)
+                    del rows
+                    if not stored:
+                        log.info("job %s was cancelled or taken over; stopped", claim.job_id)
+                        return
+                if plan.stopped:
+                    break
+                if should_stop():
+                    raise Cancelled()  # between two blocks: handed back, or left to whoever cancelled it
+                plan = lifecycle.judge_block(claim, plan)
+                if plan is None:
                     log.info("job %s was cancelled or taken over; stopped", claim.job_id)
                     return
             if not lifecycle.finish(claim, plan):

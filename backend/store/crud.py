@@ -17,16 +17,17 @@ from backend.errors import Conflict, NotFound
 from backend.store.job_order import parse_sort
 from backend.store.models import CANCELLED, QUEUED, RUNNING, SAVED_SYSTEM_TAG_PREFIX, SIMULATION, Job, JobTag, utcnow
 from mgrao_core import PRESETS, ExperimentSpec, complete_params
+from mgrao_core.sequential import Until
 
 
 def config_hash(config: dict[str, Any]) -> str:
-    """sha256 of the canonical JSON of a configuration without its seeds and algorithms.
+    """sha256 of the canonical JSON of a configuration without its seeds, algorithms and stopping rule.
 
     A *configuration* in comparisons is ``(config_hash, algorithm)``: system, resolved
     parameters and episodes; lanes are independent, so seeds and the other algorithms of a
     job never change a run's numbers.
     """
-    core = {k: v for k, v in config.items() if k not in ("seeds", "algorithms")}
+    core = {k: v for k, v in config.items() if k not in ("seeds", "algorithms", "until")}
     canonical = json.dumps(core, sort_keys=True, separators=(",", ":"), allow_nan=False)
     return hashlib.sha256(canonical.encode()).hexdigest()
 
@@ -53,7 +54,22 @@ def job_dict(job: Job | Row, config: dict[str, Any] | None = None) -> dict[str, 
         "study_id": job.study_id, "trial_id": job.trial_id, "kind": job.kind,
         "saved_system": next((t.removeprefix(SAVED_SYSTEM_TAG_PREFIX) for t in job.tags
                               if t.startswith(SAVED_SYSTEM_TAG_PREFIX)), None),
+        "until": config.get("until"), "stopped": stopped_of(job.status, config, job.stopped),
     }
+
+
+NOT_JUDGED = {"reason": None, "seeds": 0, "outcome": None, "intervals": {}, "blocks": []}
+"""What a job with a stopping rule says before its first block is judged."""
+
+
+def stopped_of(status: str, config: dict[str, Any], stopped: dict[str, Any] | None) -> dict[str, Any] | None:
+    """A job's ``stopped`` as the API shows it: None without a rule; a cancelled job's reason is ``cancelled``."""
+    if not config.get("until"):
+        return None
+    stopped = stopped or NOT_JUDGED
+    if status == CANCELLED and stopped["reason"] is None:
+        return stopped | {"reason": "cancelled"}
+    return stopped
 
 
 def set_tags(session: Session, job: Job, tags: Sequence[str]) -> None:
@@ -65,10 +81,14 @@ def set_tags(session: Session, job: Job, tags: Sequence[str]) -> None:
 
 def create_job(
     session: Session, *, spec: ExperimentSpec, name: str = "", tags: Sequence[str] = (), notes: str = "",
-    study_id: int | None = None, trial_id: int | None = None,
+    study_id: int | None = None, trial_id: int | None = None, until: Until | None = None,
 ) -> Job:
-    """Add a queued job for a validated spec (the caller commits); a study's trial names its study and trial."""
-    config = spec.as_dict()
+    """Add a queued job for a validated spec (the caller commits); a study's trial names its study and trial.
+
+    With ``until`` (a stopping rule, :func:`mgrao_core.sequential.make_until`), ``spec`` runs ``until.max_seeds``
+    seeds at most, in blocks, until the rule answers (docs/statistics.md "Seeds until decided").
+    """
+    config = spec.as_dict() | ({} if until is None else {"until": until.as_dict()})
     job = Job(
         name=name, notes=notes, system=spec.system, config=config, config_hash=config_hash(config), kind=SIMULATION,
         status=QUEUED, progress=0.0, attempts=0, version=mgrao_core.__version__, created_at=utcnow(),
@@ -84,15 +104,15 @@ def create_jobs(session: Session, *, jobs: Sequence[dict[str, Any]]) -> list[int
     """Add many queued jobs in two statements (the caller commits); their ids, in order.
 
     Each item holds ``spec`` (validated) and, as :func:`create_job` takes them, ``name``, ``tags``,
-    ``notes``, ``study_id`` and ``trial_id``: each job is the same as :func:`create_job` makes.
+    ``notes``, ``study_id``, ``trial_id`` and ``until``: each job is the same as :func:`create_job` makes.
     """
     if not jobs:
         return []
     now, version = utcnow(), mgrao_core.__version__
     rows, tags = [], []
     for item in jobs:
-        spec = item["spec"]
-        config = spec.as_dict()
+        spec, until = item["spec"], item.get("until")
+        config = spec.as_dict() | ({} if until is None else {"until": until.as_dict()})
         unique = list(dict.fromkeys(item.get("tags", ())))
         tags.append(unique)
         rows.append({"name": item.get("name", ""), "tags": unique, "notes": item.get("notes", ""),
@@ -196,7 +216,7 @@ def _filters(*, status: str | None, system: str | None, tag: str | None, q: str 
 
 LISTED = (Job.id, Job.name, Job.tags, Job.notes, Job.system, cast(Job.config, Text).label("config_json"),
           Job.config_hash, Job.status, Job.progress, Job.attempts, Job.error, Job.requeue_reason, Job.created_at,
-          Job.started_at, Job.finished_at, Job.version, Job.study_id, Job.trial_id, Job.kind)
+          Job.started_at, Job.finished_at, Job.version, Job.study_id, Job.trial_id, Job.kind, Job.stopped)
 """The columns a listing shows: no ORM objects, and the configuration as its stored JSON text.
 
 orjson reads that text several times faster than the JSON type's ``json.loads`` (PostgreSQL's

@@ -94,6 +94,9 @@ class Job(Base):
 
     None for jobs stored before migration 0010: those are claimed one at a time."""
 
+    stopped: Mapped[dict[str, Any] | None] = mapped_column(JSON, nullable=True)
+    """A job with a stopping rule (``config["until"]``): the rule's last verdict and every block's (migration 0014)."""
+
     tag_rows: Mapped[list[JobTag]] = relationship(cascade="all, delete-orphan", passive_deletes=True)
 
 

@@ -264,17 +264,29 @@ def stored_seeds_of(session: Session, *, algorithms: dict[int, int]) -> dict[int
     return out
 
 
-def finish(db: Database, *, claim: Claim, expected_runs: int) -> bool:
+def record_stopped(db: Database, *, claim: Claim, stopped: dict[str, Any], progress: float) -> bool:
+    """Store a job's stopping rule's verdicts so far (``jobs.stopped``) and its progress; False when not ours."""
+    with db.write() as session:
+        values = {"stopped": stopped, "progress": progress, "heartbeat_at": dialect.db_now(session)}
+        return session.execute(update(Job).where(*_held(claim)).values(**values)).rowcount == 1
+
+
+def finish(db: Database, *, claim: Claim, expected_runs: int, stopped: dict[str, Any] | None = None,
+           seeds: Sequence[int] | None = None) -> bool:
     """Mark the job succeeded once every run is stored, with its summaries; False when the job is not ours.
+
+    A job that ran until its rule answered stores why it stopped (``stopped``) and the ``seeds`` it ran as its
+    configuration's (the rule, ``config["until"]``, says how many it might have run).
 
     Raises:
         RuntimeError: the job is ours but runs are missing (a bug: nothing is changed).
     """
+    ran = {} if seeds is None else {"config": claim.config | {"seeds": list(seeds)}, "stopped": stopped}
     with db.write() as session:
         stored = session.scalar(select(func.count()).select_from(Run).where(Run.job_id == claim.job_id)) or 0
         result = session.execute(
             update(Job).where(*_held(claim))
-            .values(status=SUCCEEDED, progress=1.0, finished_at=utcnow(), lease=None, error=None)
+            .values(status=SUCCEEDED, progress=1.0, finished_at=utcnow(), lease=None, error=None, **ran)
         )
         if result.rowcount != 1:
             return False

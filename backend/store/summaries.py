@@ -24,14 +24,19 @@ RESULT_FIELDS = ("final_mean", "pct_from_uniform", "pct_of_max")
 """The summary values a listing can sort by."""
 
 
-def compute(session: Session, job_id: int) -> dict[str, ConfigSummary]:
-    """The per-configuration summaries of a job's stored runs (final utilities only)."""
-    finals: dict[str, dict[int, float]] = defaultdict(dict)
+def finals(session: Session, job_id: int) -> dict[str, dict[int, float]]:
+    """Each stored run's final utility, by algorithm and seed (the runs streamed a few at a time)."""
+    out: dict[str, dict[int, float]] = defaultdict(dict)
     statement = select(Run.algorithm, Run.seed, Run.utilities).where(Run.job_id == job_id).execution_options(
         yield_per=32)
     for algorithm, seed, blob in session.execute(statement):
-        finals[algorithm][seed] = float(final_utilities(np.frombuffer(blob, dtype="<f8"))[0])
-    return summarise(dict(finals))
+        out[algorithm][seed] = float(final_utilities(np.frombuffer(blob, dtype="<f8"))[0])
+    return dict(out)
+
+
+def compute(session: Session, job_id: int) -> dict[str, ConfigSummary]:
+    """The per-configuration summaries of a job's stored runs (final utilities only)."""
+    return summarise(finals(session, job_id))
 
 
 def finals_of_rows(rows: Iterable[dict[str, Any]]) -> dict[str, dict[int, float]]:

@@ -11,6 +11,7 @@ import { axisControls, withAxis, tableCsvButton } from './chartcontrols.js';
 import { fmtParam } from './studydata.js';
 import { configRows, differenceSummary, summaryCsv, configJson, listLines } from './jobconfig.js';
 import { weightsSection } from './jobweights.js';
+import { ruleSection } from './jobrule.js';
 
 const POINTS = 600;
 const SMOOTH_CHOICES = [1, 5, 11, 25, 51, 101]; // episodes, centred
@@ -36,8 +37,10 @@ export async function mount(root, params, ctx) {
   const headActions = h('div', { class: 'toolbar' });
   const metaBox = h('dl', { class: 'meta' });
   const configBox = h('section', { 'aria-labelledby': 'h-config', class: 'config' });
+  const ruleBox = h('div'); // a job with a stopping rule: why it stopped, the intervals block by block
+  let ruleSignature = null;
   const body = h('div');
-  root.append(h('div', { class: 'view-head' }, title, headActions), statusBox, metaBox, configBox, body);
+  root.append(h('div', { class: 'view-head' }, title, headActions), statusBox, ruleBox, metaBox, configBox, body);
 
   let job;
   try {
@@ -119,7 +122,16 @@ export async function mount(root, params, ctx) {
         r.differs ? h('div', { class: 'preset help' }, `preset: ${preset}`) : null));
   }
 
+  /** The stopping rule's section, drawn again only when a block was judged or the job ended. */
+  function renderRule() {
+    const signature = JSON.stringify([job.status, job.stopped && job.stopped.seeds, job.stopped && job.stopped.reason]);
+    if (signature === ruleSignature) return;
+    ruleSignature = signature;
+    ruleBox.replaceChildren(...[ruleSection(job)].filter(Boolean));
+  }
+
   function renderStatus() {
+    renderRule();
     const pct = pctProgress(job.progress);
     if (job.status === 'queued' || job.status === 'running') {
       const waiting = waitingMessage(workers, pct, queue);

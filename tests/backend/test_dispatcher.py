@@ -296,3 +296,25 @@ def test_cancelling_a_job_cancels_its_futures_and_keeps_its_chunks(topology: Top
     after_id = topology.submit(after)
     topology.wait(after_id)  # the dispatcher goes on with other jobs
     topology.assert_stored_exactly_once(after_id, after)
+
+
+def test_a_job_with_a_stopping_rule_runs_block_by_block_and_its_successor_resumes(topology: Topology) -> None:
+    """A rule's blocks on the cluster (each block several chunks), the dispatcher killed between them: the same
+    verdicts and seeds as the rule run in one process, every run of the seeds judged stored once."""
+    from mgrao_core.sequential import run_until, stopped_dict, until_spec
+
+    rule = {"half_width": 0.5, "block": 4, "max_seeds": 24}
+    spec, until = until_spec("large", None, 7, 300, {}, rule)
+    topology.start_cluster(workers=2)
+    first = topology.start_dispatcher(MGRAO_JOB_MEMORY_MIB="16")  # several chunks a block
+    with topology.db.write() as session:
+        job_id = crud.create_job(session, spec=spec, until=until).id
+    topology.wait_for(lambda: (topology.job(job_id).stopped or {}).get("seeds", 0) >= 8, "two blocks judged")
+    first.send_signal(signal.SIGKILL)
+    first.wait()
+    topology.start_dispatcher(MGRAO_JOB_MEMORY_MIB="16")
+    job = topology.wait(job_id)
+    expected = run_until(spec, until, run_experiment)
+    assert job.attempts == 2 and job.stopped == stopped_dict(expected.blocks)
+    assert job.config["seeds"] == list(expected.result.spec.seeds)
+    topology.assert_stored_exactly_once(job_id, expected.result.spec)

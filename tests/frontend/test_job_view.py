@@ -156,3 +156,33 @@ def test_a_drift_jobs_utility_chart_marks_its_scheduled_event(page, server, scre
     assert max(heights) < 2 * min(heights) + 1, f"one event per line, not a wrapped character column: {heights}"
     chart.scroll_into_view_if_needed()
     page.screenshot(path=str(screenshots / "job-drift-events.png"), full_page=True)
+
+
+def test_a_job_run_until_decided_shows_why_it_stopped_and_its_intervals_narrowing(page, server, screenshots):
+    """A job with a stopping rule: the rule in words, the reason it stopped, the judged intervals, and their chart
+    with one point per block (issue "seeds until decided")."""
+    job = post_job(server, {"system": "single", "episodes": 40, "first_seed": 300, "name": "until decided",
+                            "until": {"half_width": 2.5, "block": 10, "max_seeds": 200}})
+    done = wait_for(lambda: (lambda j: j if j["status"] == "succeeded" else None)(get_job(server, job["id"])), 120,
+                    "the job to stop")
+    stopped = done["stopped"]
+    assert stopped["reason"] in ("half_width", "max_seeds") and len(stopped["blocks"]) == stopped["seeds"] // 10
+    page.goto(f"/#/jobs/{job['id']}")
+    reason = page.locator("#rule-reason")
+    reason.wait_for()
+    words = {"half_width": f"Stopped after {stopped['seeds']} seeds: every interval is within ±2.5",
+             "max_seeds": f"Stopped at max_seeds, {stopped['seeds']} seeds"}[stopped["reason"]]
+    assert words in reason.inner_text()
+    assert "blocks of 10" in page.locator("#stopping-rule").inner_text()
+    rows = page.locator("#rule-intervals tbody tr")
+    assert rows.count() == 2  # mgrao-1:1 and mgrao-max; uniform is the baseline, not judged
+    page.locator("#rule-chart .main-svg").first.wait_for(timeout=60000)
+    points = page.evaluate("() => document.getElementById('rule-chart').data.filter(t => t.mode === 'lines+markers')"
+                           ".map(t => t.x.length)")
+    assert points == [len(stopped["blocks"])] * 2
+    widths = page.evaluate("() => document.getElementById('rule-chart').data.filter(t => t.fill === 'toself')"
+                           ".map(t => { const n = t.x.length / 2; return [t.y[0] - t.y[2 * n - 1], "
+                           "t.y[n - 1] - t.y[n]]; })")
+    assert all(last < first for first, last in widths)  # the intervals narrowed from the first block to the last
+    page.locator("#stopping-rule").scroll_into_view_if_needed()
+    page.screenshot(path=str(screenshots / "job-stopping-rule.png"), full_page=True)

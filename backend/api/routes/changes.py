@@ -16,6 +16,7 @@ from pydantic import ValidationError
 from sqlalchemy import and_, func, or_, select
 from sqlalchemy.orm import Session
 
+from backend.api import submission
 from backend.api.deps import DatabaseDep, SessionDep, SettingsDep
 from backend.api.responses import JobChanges, JobCheck, JobStatus, answers
 from backend.api.schemas import JobCreate
@@ -26,7 +27,7 @@ from backend.execution import presence
 from backend.services import saved_systems
 from backend.store import crud
 from backend.store.models import MAX_JOB_ID, OPEN, QUEUED, RUNNING, Job, Run
-from mgrao_core import MAX_WORK, ConfigError, WorkLimitError, make_spec
+from mgrao_core import MAX_WORK, ConfigError, WorkLimitError
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"], route_class=StrictQueryRoute)
 
@@ -106,12 +107,11 @@ def check_job(body: Annotated[dict[str, Any], Body()], settings: SettingsDep, db
     except ValidationError as error:
         raw = [{**item, "loc": ("body", *item["loc"])} for item in error.errors()]
         refused = {item["loc"][0] for item in error.errors() if item["loc"]}
-        return {"valid": False, "detail": validation_details(raw) + _core_refusals(body, refused, settings, db)}
+        return {"valid": False, "detail": validation_details(raw, body) + _core_refusals(body, refused, settings, db)}
     try:
         with db.session() as session:  # a saved system as POST /api/jobs reads it
             system, overrides, _ = saved_systems.resolve(session, job.system, job.params)
-        spec = make_spec(system, job.algorithms, job.seeds, job.episodes, overrides,
-                         memory_budget=settings.job_memory_bytes)
+        spec, _ = submission.experiment(job, system, overrides, settings.job_memory_bytes)
     except ConfigError as error:
         refused = InvalidSpec.from_config_error(error, params=job.params)
         return {"valid": False, "detail": [validation_detail(e.loc, e.field, e.msg) for e in refused.every]}
@@ -126,7 +126,7 @@ def _core_refusals(body: dict[str, Any], refused: set[Any], settings: Any, db: A
         job = JobCreate.model_validate({k: v for k, v in body.items() if k not in refused})
         with db.session() as session:
             system, overrides, _ = saved_systems.resolve(session, job.system, job.params)
-        make_spec(system, job.algorithms, job.seeds, job.episodes, overrides, memory_budget=settings.job_memory_bytes)
+        submission.experiment(job, system, overrides, settings.job_memory_bytes)
     except (ValidationError, InvalidSpec, WorkLimitError):  # nothing more to say of the fields taken
         return []
     except ConfigError as error:

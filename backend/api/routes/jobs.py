@@ -15,6 +15,7 @@ from fastapi.responses import StreamingResponse
 from sqlalchemy import select
 
 from backend import wakeup
+from backend.api import submission
 from backend.api.deps import Authorized, DatabaseDep, SessionDep, SettingsDep
 from backend.api.links import JOB, links
 from backend.api.responses import LOCATION, EpisodeRow, Results, Weights, answers
@@ -26,7 +27,7 @@ from backend.services.cache import SharedBuilds
 from backend.store import crud, summaries
 from backend.store.job_order import SORT_HELP, SORT_PATTERN
 from backend.store.models import MAX_JOB_ID, Job
-from mgrao_core import MAX_EPISODES, ConfigError, make_spec
+from mgrao_core import MAX_EPISODES, ConfigError
 from mgrao_core.spec import MAX_SEED_VALUE
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"], route_class=StrictQueryRoute)
@@ -49,14 +50,13 @@ def submit_job(body: JobCreate, db: DatabaseDep, settings: SettingsDep, response
     with db.session() as session:  # a saved system: its base preset and overrides, the body's on top
         system, overrides, saved = saved_systems.resolve(session, body.system, body.params)
     try:
-        spec = make_spec(system, body.algorithms, body.seeds, body.episodes, overrides,
-                         memory_budget=settings.job_memory_bytes)
+        spec, until = submission.experiment(body, system, overrides, settings.job_memory_bytes)
     except ConfigError as error:
         raise InvalidSpec.from_config_error(error, params=overrides) from None
     tags = [*body.tags, saved_systems.tag(saved)] if saved else body.tags
     db.require_room()
     with db.write() as session:
-        job = crud.create_job(session, spec=spec, name=body.name, tags=tags, notes=body.notes)
+        job = crud.create_job(session, spec=spec, name=body.name, tags=tags, notes=body.notes, until=until)
         session.flush()
         out = crud.job_dict(job)
     wakeup.wake_workers()  # committed: an idle local worker claims it now, not at its next poll
@@ -72,8 +72,7 @@ def submit_jobs(body: JobBatchCreate, db: DatabaseDep, settings: SettingsDep) ->
     specs = []
     for index, item in enumerate(body.jobs):
         try:
-            specs.append(make_spec(item.system, item.algorithms, item.seeds, item.episodes, item.params,
-                                   memory_budget=settings.job_memory_bytes))
+            specs.append(submission.experiment(item, item.system, item.params, settings.job_memory_bytes))
         except ConfigError as error:
             invalid = InvalidSpec.from_config_error(error, params=item.params)
             raise InvalidSpec(["body", "jobs", index, *invalid.loc[1:]], f"jobs[{index}].{invalid.field}",
@@ -81,8 +80,8 @@ def submit_jobs(body: JobBatchCreate, db: DatabaseDep, settings: SettingsDep) ->
     db.require_room()
     with db.write() as session:
         ids = crud.create_jobs(session, jobs=[
-            {"spec": spec, "name": item.name, "tags": item.tags, "notes": item.notes}
-            for spec, item in zip(specs, body.jobs, strict=True)])
+            {"spec": spec, "until": until, "name": item.name, "tags": item.tags, "notes": item.notes}
+            for (spec, until), item in zip(specs, body.jobs, strict=True)])
         rows = {job.id: job for job in session.scalars(select(Job).where(Job.id.in_(ids)))}
         out = [crud.job_dict(rows[job_id]) for job_id in ids]
     wakeup.wake_workers()
