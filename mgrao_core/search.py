@@ -28,6 +28,7 @@ from mgrao_core.algorithms import divisors
 from mgrao_core.errors import ConfigError
 from mgrao_core.params import PARAMETERS_BY_NAME
 from mgrao_core.presets import PRESETS
+from mgrao_core.sequential import Until, make_until
 from mgrao_core.spec import MAX_EPISODES, MAX_SEED_VALUE, MAX_SEEDS, ExperimentSpec, make_spec
 from mgrao_core.stats import ConfigSummary
 
@@ -124,6 +125,9 @@ class StudyPlan:
     max_in_flight: int
     seed: int = 0
     _cells: int = field(default=0, compare=False)
+    until: Until | None = None
+    """Every trial's jobs run seeds in blocks from the first until this rule answers (``seeds`` are then the
+    ``max_seeds`` they may run): a trial's objective decided to a stated precision (docs/studies.md)."""
     variants: dict[str, tuple[str, dict[str, Any]]] = field(default_factory=dict)
     """The base's named systems that are no preset (saved systems, inlined when the study was made): name ->
     (preset, overrides). Each runs its preset with its overrides, the base's ``params`` and the trial's on top."""
@@ -200,6 +204,9 @@ class StudyPlan:
             "system": systems if len(systems) > 1 or self.variants else systems[0],
             "seeds": list(self.seeds), "episodes": self.episodes, "params": dict(self.params),
         }
+        if self.until is not None:  # the seeds follow from the rule
+            del base["seeds"]
+            base |= {"first_seed": self.seeds[0], "until": self.until.as_dict()}
         if self.algorithms is not None:
             base["algorithms"] = list(self.algorithms)
         objective = {"metric": self.objective.metric, "direction": self.objective.direction}
@@ -422,12 +429,25 @@ def make_plan(data: Mapping[str, Any]) -> StudyPlan:
     base = data.get("base")
     if not isinstance(base, Mapping):
         raise ConfigError("base", "must be an object: system, algorithms, seeds, episodes, params")
-    unknown = set(base) - {"system", "algorithms", "seeds", "first_seed", "episodes", "params"}
+    unknown = set(base) - {"system", "algorithms", "seeds", "first_seed", "episodes", "params", "until"}
     if unknown:
         raise ConfigError(f"base.{sorted(unknown)[0]}", "unknown field")
     systems, variants = _systems(base.get("system", "single"))
     algorithms = base.get("algorithms")
     seeds = base.get("seeds", 10)
+    until = None
+    if base.get("until") is not None:
+        if "seeds" in base:
+            raise ConfigError("base.seeds", "give either seeds or until: a rule runs as many seeds as its question "
+                                            "needs (until.max_seeds bounds them, from first_seed)")
+        for system in systems:
+            preset, _ = variants.get(system, (system, {}))
+            try:
+                until = make_until(base["until"], list(algorithms or PRESETS[preset].algorithms))
+            except ConfigError as error:
+                raise ConfigError(f"base.{error.field}", error.message) from None
+        seeds = until.max_seeds
+        base = {"first_seed": 0, **base}  # the rule's seeds start at first_seed (default 0)
     if "first_seed" in base:  # seeds F, F+1, ... (e.g. 10000 on: the calibration seeds)
         first = _count("base.first_seed", base["first_seed"], 0, MAX_SEED_VALUE)
         count = _count("base.seeds", seeds, 1, MAX_SEEDS)
@@ -468,7 +488,7 @@ def make_plan(data: Mapping[str, Any]) -> StudyPlan:
     seed = _count("seed", data.get("seed", 0), 0, 2**32 - 1)
     plan = StudyPlan(name, method, systems, tuple(algorithms) if algorithms is not None else None, seed_list,
                      episodes, dict(params), dimensions, objective, max_trials, max_in_flight, seed,
-                     variants=variants)
+                     variants=variants, until=until)
     if method == "grid":
         size = math.prod(len(d.grid()) for d in dimensions)
         if size > MAX_TRIALS:

@@ -426,6 +426,8 @@ class TrialOut(BaseModel):
     error: str | None
     runs: int
     job_ids: list[int]
+    max_seeds_jobs: list[int] = Field([], description="Its jobs whose stopping rule (the base's until) reached "
+                                                      "max_seeds unanswered: the objective is less precise than asked.")
 
 
 class StudyDetail(BaseModel):

@@ -396,6 +396,8 @@ class StudyBase(BaseModel):
     first_seed: Seed = 0
     episodes: whole(1, MAX_EPISODES) = 100
     params: Params = Field(default_factory=dict)
+    until: UntilBody | None = Field(None, description="Every trial's jobs run seeds from first_seed until the rule "
+                                                      "answers (instead of seeds).")
 
 
 class StudyDimension(BaseModel):

@@ -289,7 +289,7 @@ def _make_trials(session: Session, study: Study, plan: StudyPlan, numbered: list
     name = study.name or "study"
     crud.create_jobs(session, jobs=[
         {"spec": spec, "name": f"{name} #{number}", "tags": job_tags(study, plan, system), "study_id": study.id,
-         "trial_id": trial_id}
+         "trial_id": trial_id, "until": plan.until}
         for trial_id, (number, _), trial_specs in zip(ids, numbered, specs, strict=True)
         for system, spec in trial_specs])
 
@@ -317,7 +317,7 @@ def _submit(session: Session, study: Study, plan: StudyPlan, trial: Trial) -> No
         if system in done:  # re-run after a failure elsewhere: the system that succeeded stands
             continue
         crud.create_job(session, spec=spec, name=f"{study.name or 'study'} #{trial.number}",
-                        tags=job_tags(study, plan, system), study_id=study.id, trial_id=trial.id)
+                        tags=job_tags(study, plan, system), study_id=study.id, trial_id=trial.id, until=plan.until)
     trial.status, trial.error = QUEUED, None
 
 
@@ -463,16 +463,19 @@ def study_detail(session: Session, study_id: int, *, trials: bool = True) -> dic
         counts = trial_counts(session, [study_id])[study_id]
         return {"study": study_dict(study, counts), "definition": study.definition}
     jobs: dict[int, list[int]] = defaultdict(list)
-    for trial_id, job_id in session.execute(select(Job.trial_id, Job.id).where(Job.study_id == study_id,
-                                                                              Job.trial_id.is_not(None))
-                                            .order_by(Job.id)):
+    at_most: dict[int, list[int]] = defaultdict(list)  # the jobs whose rule stopped at max_seeds, unanswered
+    for trial_id, job_id, stopped in session.execute(
+            select(Job.trial_id, Job.id, Job.stopped).where(Job.study_id == study_id, Job.trial_id.is_not(None))
+            .order_by(Job.id)):
         jobs[trial_id].append(job_id)
+        if stopped and stopped.get("reason") == "max_seeds":
+            at_most[trial_id].append(job_id)
     rows = session.execute(select(Trial.id, Trial.number, Trial.params, Trial.status, Trial.value, Trial.low,
                                   Trial.high, Trial.error, Trial.runs).where(Trial.study_id == study_id)
                            .order_by(Trial.number)).all()
     listed = [{"number": r.number, "params": r.params, "status": r.status, "value": r.value,
                "ci95": [r.low, r.high] if r.low is not None else None, "error": r.error, "runs": r.runs,
-               "job_ids": jobs.get(r.id, [])} for r in rows]
+               "job_ids": jobs.get(r.id, []), "max_seeds_jobs": at_most.get(r.id, [])} for r in rows]
     counts: dict[str, int] = defaultdict(int)
     for trial in listed:
         counts[trial["status"]] += 1

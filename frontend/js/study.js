@@ -11,6 +11,7 @@ import {
   sortTrials, pageOf, fmtParam, historyTraces, importanceTrace, sliceTraces, studyHeatmapTrace, parallelPlot,
 } from './studydata.js';
 import { objectiveText, studyProgress } from './studies.js';
+import { ruleText } from './jobrule.js';
 
 const PAGE = 50;
 const POLL_MS = 2000;
@@ -101,7 +102,9 @@ export async function mount(root, params, ctx) {
       ['Method', `${s.method}${detail.definition.seed ? ` (seed ${detail.definition.seed})` : ''}`],
       ['Objective', objectiveText(s.objective)],
       ['Best', best ? `${fmtNumber(best.value, 4)} at trial ${best.number}: ${Object.entries(best.params).map(([k, v]) => `${k} ${fmtParam(v)}`).join(', ')}` : '–'],
-      ['Base', `${[].concat(base.system).map((s) => (typeof s === 'string' ? s : s.name)).join(', ')}; ${base.seeds.length} seeds × ${base.episodes} episodes`],
+      ['Base', `${[].concat(base.system).map((s) => (typeof s === 'string' ? s : s.name)).join(', ')}; ${base.until
+        ? `seeds from ${base.first_seed ?? 0} until the rule answers` : `${base.seeds.length} seeds`} × ${base.episodes} episodes`],
+      ...(base.until ? [['Stopping rule', ruleText(base.until)]] : []),
       ['Space', dimensions().map((d) => {
         const dim = detail.definition.space[d];
         return dim.values ? `${d} ∈ {${dim.values.map(fmtParam).join(', ')}}`
@@ -144,7 +147,8 @@ export async function mount(root, params, ctx) {
         h('td', { class: 'num' }, fmtNumber(t.value, 4)),
         h('td', { class: 'num ci' }, t.ci95 ? `[${fmtNumber(t.ci95[0], 3)}, ${fmtNumber(t.ci95[1], 3)}]` : ''),
         h('td', { class: 'nowrap' }, jobs),
-        h('td', { class: 'note', title: t.error || '' }, t.error || ''));
+        h('td', { class: 'note', title: t.error || '' }, t.error || '',
+          (t.max_seeds_jobs || []).length ? h('span', { class: 'max-seeds' }, `${t.error ? ' ' : ''}stopped at max_seeds`) : null));
       if (t.job_ids.length) {
         tr.classList.add('clickable');
         tr.addEventListener('click', (ev) => { if (!ev.target.closest('a, button')) ctx.navigate(`/jobs/${t.job_ids[0]}`); });
@@ -155,9 +159,13 @@ export async function mount(root, params, ctx) {
       h('button', { type: 'button', class: 'secondary small', disabled: shown.page === 0, onclick: () => { page -= 1; renderTable(); } }, 'Previous'),
       h('span', { class: 'pct' }, `page ${shown.page + 1} of ${shown.pages} (${detail.trials.length} trials)`),
       h('button', { type: 'button', class: 'secondary small', disabled: shown.page >= shown.pages - 1, onclick: () => { page += 1; renderTable(); } }, 'Next'));
+    const atMost = detail.trials.filter((t) => (t.max_seeds_jobs || []).length).length;
     tableBox.replaceChildren(
       h('h2', { id: 'h-trials' }, 'Trials'),
       h('p', { class: 'help' }, 'Sort by any column; a row opens its job (a study over several systems has a job per system).'),
+      atMost ? h('p', { class: 'notice warn', id: 'max-seeds-trials', role: 'status' },
+        `${atMost} trial${atMost === 1 ? '' : 's'} stopped at max_seeds before the stopping rule answered: `
+        + 'their objective is less precise than the rule asks (marked "stopped at max_seeds").') : null,
       h('div', { class: 'table-wrap' }, h('table', { class: 'trials' },
         h('caption', { class: 'visually-hidden' }, 'Trials of the study'),
         h('thead', {}, h('tr', {}, header('#', 'number', true), header('Status', 'status'),

@@ -371,3 +371,40 @@ def test_a_trial_whose_other_system_failed_cancels_its_queued_sibling(client: Te
         assert session.get(Job, multi_job).status == "cancelled"
     assert detail(client, study_id)["study"]["status"] == "finished"
     assert not worker.run_once()
+
+
+def test_a_study_whose_trials_run_until_decided_says_which_stopped_at_max_seeds(client: TestClient,
+                                                                                  worker: Worker) -> None:
+    """The base's until goes to every trial's job; a trial's objective stands on the seeds its rule ran; the
+    trials whose rule reached max_seeds unanswered are named (issue "seeds until decided")."""
+    from mgrao_core import run_experiment
+    from mgrao_core.sequential import run_until, until_spec
+
+    rules = {"loose": {"half_width": 50, "block": 10, "max_seeds": 30},
+             "strict": {"half_width": 0.01, "max_seeds": 20}}
+    for name, rule in rules.items():
+        study_id = submit(client, {"name": name, "base": {"system": "single", "episodes": 20, "first_seed": 5,
+                                                          "until": rule},
+                                   "space": {"learning_rate": {"values": [0.05, 0.2]}},
+                                   "objective": {"metric": "pct_from_uniform", "direction": "maximize",
+                                                 "configuration": "mgrao-max"}})
+        answer = run_study(client, worker, study_id)
+        assert answer["definition"]["base"]["until"]["max_seeds"] == rule["max_seeds"]
+        for trial in answer["trials"]:
+            job = client.get(f"/api/jobs/{trial['job_ids'][0]}").json()
+            spec, until = until_spec("single", None, 5, 20, {"learning_rate": trial["params"]["learning_rate"]},
+                                     rule)
+            expected = run_until(spec, until, run_experiment)
+            assert job["stopped"]["reason"] == expected.stopped.reason
+            assert job["seeds"] == list(expected.result.spec.seeds)
+            assert trial["value"] == pytest.approx(expected.result.summary()["mgrao-max"].pct_from_uniform, abs=1e-12)
+            assert trial["max_seeds_jobs"] == ([job["id"]] if job["stopped"]["reason"] == "max_seeds" else [])
+        reasons = {client.get(f"/api/jobs/{t['job_ids'][0]}").json()["stopped"]["reason"] for t in answer["trials"]}
+        assert reasons == ({"half_width"} if name == "loose" else {"max_seeds"})
+    objective = {"metric": "pct_from_uniform", "direction": "maximize", "configuration": "mgrao-max"}
+    refused = client.post("/api/studies", json={"base": {"seeds": 5, "until": {"half_width": 1}},
+                                                "space": {"learning_rate": {"values": [0.1]}}, "objective": objective})
+    assert refused.status_code == 422 and refused.json()["detail"][0]["field"] == "base.seeds"
+    refused = client.post("/api/studies", json={"base": {"until": {"decide": ["mgrao-max", "oracle"]}},
+                                                "space": {"learning_rate": {"values": [0.1]}}, "objective": objective})
+    assert refused.status_code == 422 and refused.json()["detail"][0]["field"] == "base.until.decide"

@@ -142,3 +142,24 @@ def test_the_studies_list_shows_progress_and_links(page, server):
     row.get_by_role("link", name="listed").click()
     page.wait_for_url(re.compile(rf"#/studies/{study_id}$"))
     expect(page.get_by_role("heading", name="listed")).to_be_visible()
+
+
+def test_a_study_run_until_decided_names_the_trials_that_stopped_at_max_seeds(page, server, screenshots):
+    """A study whose base has a stopping rule: the rule in the study's summary, and the trials whose rule reached
+    max_seeds unanswered marked, with a note saying their objective is less precise than asked."""
+    created = api(server, "POST", "/studies", {
+        "name": "until max", "base": {"system": "single", "episodes": 20, "until": {"half_width": 0.01,
+                                                                                    "max_seeds": 20}},
+        "space": {"learning_rate": {"values": [0.05, 0.2]}},
+        "objective": {"metric": "pct_from_uniform", "direction": "maximize", "configuration": "mgrao-max"}})
+    study_id = created["study"]["id"]
+    done = wait_study(server, study_id)
+    assert all(t["max_seeds_jobs"] for t in done["trials"])
+    page.goto(f"/#/studies/{study_id}")
+    note = page.locator("#max-seeds-trials")
+    note.wait_for(timeout=60_000)
+    assert note.inner_text().startswith("2 trials stopped at max_seeds before the stopping rule answered")
+    assert page.locator("table.trials .max-seeds").count() == 2
+    assert "Seeds run in blocks of 10 until every configuration's 95% interval" in page.locator(".meta").inner_text()
+    assert_local(page, server)
+    page.screenshot(path=str(screenshots / "study-until-max-seeds.png"), full_page=True)
