@@ -206,6 +206,8 @@ def run(ctx: click.Context, system: str | None, algorithms: str | None, seeds: i
         for r in result.runs:
             writer.writerows((r.algorithm, r.seed, e, repr(float(u))) for e, u in enumerate(r.utilities))
         _emit(buffer.getvalue(), out)
+        if done is not None:  # the rows are every episode; why they stop where they do goes beside them
+            click.echo(_stopped_line(done.stopped), err=True)
     else:
         rows = [
             [s.algorithm, _fmt(s.final_mean, 3), _interval(s.ci95, 3), _fmt(s.pct_from_uniform),

@@ -151,9 +151,10 @@ def allocations(action: Any, agent: str, n_types: int) -> np.ndarray:
     except (TypeError, ValueError):
         raise ValueError(f"{agent}: an action is {n_types} numbers, one weight per atomic type "
                          f"(got {str(action)[:60]!r})") from None
-    if weights.ndim == 0:
-        raise ValueError(f"{agent}: an action is {n_types} numbers, one weight per atomic type (got {action!r})")
-    highest = weights.max() if weights.size else 0.0
+    if weights.ndim == 0 or weights.shape[-1] == 0:
+        raise ValueError(f"{agent}: an action is {n_types} numbers, one weight per atomic type (got "
+                         f"{str(action)[:60] if weights.ndim == 0 else 'none'})")
+    highest = float(weights.max()) if weights.size else 0.0  # a Python float: its product overflows to inf quietly
     if weights.size and not (weights.min() >= 0.0 and highest < np.inf):  # NaN fails both comparisons
         raise ValueError(f"{agent}: weights must be finite and at least 0 (got {str(weights.tolist())[:200]})")
     if highest * weights.shape[-1] < _LARGEST:

@@ -66,7 +66,8 @@ class Until:
 
 
 def _whole(field: str, value: Any, low: int, high: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | float) or value != int(value):
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value) \
+            or value != int(value):
         raise ConfigError(field, f"must be a whole number between {low} and {high} (got {value!r})")
     if not low <= value <= high:
         raise ConfigError(field, f"must be between {low} and {high} (got {int(value)})")
@@ -109,6 +110,9 @@ def make_until(data: Mapping[str, Any], algorithms: Sequence[str]) -> Until:
     if of == "pct_from_uniform" and BASELINE not in algorithms:
         errors.append(ConfigError("until.of", f"pct_from_uniform needs {BASELINE} among the algorithms, or of "
                                               f"final_utility"))
+    elif decide is None and of == "pct_from_uniform" and set(algorithms) <= {BASELINE}:
+        errors.append(ConfigError("until", f"has nothing to judge: {BASELINE} is the baseline of % from uniform; "
+                                           f"run another algorithm beside it"))
     raise_all(errors)
     return Until(half_width, of, max_seeds, block, decide)
 
@@ -167,8 +171,12 @@ def parse_until(text: str) -> dict[str, Any]:
     """
     data: dict[str, Any] = {}
     for item in (part.strip() for part in text.split(",")):
+        if not item:  # a trailing comma, or two in a row
+            continue
         key, sep, value = item.partition("=")
         key, value = key.strip(), value.strip()
+        if key in data:
+            raise ConfigError(f"until.{key}", f"is given twice (got {item!r} after {key}={data[key]!r})")
         if not sep or not key:
             raise ConfigError("until", f"must be KEY=VALUE items between commas, e.g. half_width=2 or "
                                        f"decide=mgrao-5:1+mgrao-max (got {item!r})")
@@ -214,11 +222,12 @@ class Verdict:
 def cs_half_width(sd: float, n: int, confidence: float = CONFIDENCE, tuned_for: int = CS_TUNED_FOR) -> float:
     """The half width of the two-sided asymptotic confidence sequence of a mean at ``n`` observations.
 
-    ``sd * sqrt(2 (n r + 1) / (n^2 r) * log(sqrt(n r + 1) / (alpha / 2)))``, ``r = rho^2`` chosen so that it is
-    narrowest at ``tuned_for`` observations (Waudby-Smith et al. 2021, the conjugate-mixture boundary with
-    each side at ``alpha / 2``).
+    ``sd * sqrt(2 (n r + 1) / (n^2 r) * log(sqrt(n r + 1) / alpha))``, ``alpha = 1 - confidence``, ``r = rho^2``
+    chosen so that it is narrowest at ``tuned_for`` observations (Waudby-Smith et al. 2021, the
+    conjugate-mixture boundary: its mixture over a symmetric normal is a function of the sum's size, so one
+    ``alpha`` bounds both sides at once).
     """
-    alpha = (1.0 - confidence) / 2.0
+    alpha = 1.0 - confidence
     r = (-2.0 * math.log(alpha) + math.log(-2.0 * math.log(alpha) + 1.0)) / tuned_for
     return sd * math.sqrt(2.0 * (n * r + 1.0) / (n * n * r) * math.log(math.sqrt(n * r + 1.0) / alpha))
 
@@ -238,8 +247,9 @@ def judge(until: Until, finals: Mapping[str, Mapping[int, float]], seeds_run: in
     if until.decide is None:
         intervals = {label: mean_ci95(np.array(list(v.values()))) if v else (math.nan,) * 3
                      for label, v in values.items()}
-        narrow = seeds_run >= MIN_SEEDS and all(high - low <= 2 * until.half_width
-                                                for _, low, high in intervals.values())
+        judged = min((len(v) for v in values.values()), default=0)  # % from uniform drops seeds it cannot pair
+        narrow = judged >= MIN_SEEDS and all(high - low <= 2 * until.half_width
+                                             for _, low, high in intervals.values())
         reason = "half_width" if narrow else "max_seeds" if done else None
         return Verdict(reason, seeds_run, intervals)
     a, b = until.decide
@@ -254,7 +264,7 @@ def judge(until: Until, finals: Mapping[str, Mapping[int, float]], seeds_run: in
     half = cs_half_width(float(differences.std(ddof=1)), differences.size)
     interval = (mean, mean - half, mean + half)
     outcome = None
-    if seeds_run >= MIN_SEEDS:
+    if differences.size >= MIN_SEEDS:
         if interval[1] > 0 or interval[2] < 0:
             outcome = a if interval[1] > 0 else b
         elif until.half_width is not None and -until.half_width < interval[1] and interval[2] < until.half_width:

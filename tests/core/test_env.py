@@ -275,6 +275,7 @@ def test_the_action_space_samples_what_a_box_samples():
 
 @pytest.mark.parametrize("action, match", [
     (np.ones(19), "shape"), (-np.ones(20), "at least 0"), (np.full(20, np.nan), "finite"),
+    ([], "child_0: an action is 20 numbers, one weight per atomic type \\(got none\\)"),
 ])
 def test_invalid_actions_are_refused(action, match):
     env = parallel_env("single")

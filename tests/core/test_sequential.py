@@ -36,6 +36,8 @@ LABELS = ("uniform", "mgrao-1:1", "mgrao-max")
     ({"half_width": 1, "seeds": 3}, "until.seeds", "not a field"),
     ({}, "until.half_width", "is needed unless the rule decides a pair"),
     ({"of": "final_utility"}, "until.half_width", "is needed"),
+    ({"half_width": 1, "max_seeds": float("inf")}, "until.max_seeds", "whole number"),
+    ({"half_width": 1, "block": float("nan")}, "until.block", "whole number"),
 ])
 def test_a_bad_rule_is_refused_naming_the_field_and_limit(data, field, words):
     with pytest.raises(ConfigError) as refused:
@@ -52,6 +54,12 @@ def test_every_bad_field_is_named_at_once_and_pct_needs_uniform():
     assert make_until({"half_width": 1, "of": "final_utility"}, ("mgrao-1:1",)).of == "final_utility"
 
 
+def test_a_rule_with_nothing_to_judge_is_refused():
+    with pytest.raises(ConfigError, match="nothing to judge"):
+        make_until({"half_width": 1}, ("uniform",))
+    assert make_until({"half_width": 1, "of": "final_utility"}, ("uniform",)).of == "final_utility"
+
+
 def test_defaults_and_the_command_lines_form():
     assert make_until({"half_width": 2}, LABELS) == Until(half_width=2.0, of="pct_from_uniform", max_seeds=500,
                                                           block=10, decide=None)
@@ -59,6 +67,10 @@ def test_defaults_and_the_command_lines_form():
         "half_width": 1.5, "max_seeds": 200, "block": 20, "decide": ["mgrao-max", "mgrao-1:1"], "of": "final_utility"}
     with pytest.raises(ConfigError, match="KEY=VALUE"):
         parse_until("half_width")
+    assert parse_until("half_width=2,") == {"half_width": 2.0}  # a trailing comma is nothing
+    with pytest.raises(ConfigError, match="is given twice") as twice:
+        parse_until("of=final_utility,of=pct_from_uniform")
+    assert twice.value.field == "until.of"
     with pytest.raises(ConfigError) as refused:
         parse_until("max_seeds=lots")
     assert refused.value.field == "until.max_seeds"
@@ -68,6 +80,15 @@ def test_defaults_and_the_command_lines_form():
 
 def _finals(per_seed: dict[str, np.ndarray]) -> dict[str, dict[int, float]]:
     return {label: dict(enumerate(values.tolist())) for label, values in per_seed.items()}
+
+
+def test_the_minimum_counts_the_values_judged_not_the_seeds_run():
+    until = make_until({"half_width": 5.0}, LABELS)
+    uniform = np.ones(12)
+    uniform[:3] = 0.0  # three worlds without a % from uniform
+    better = np.full(12, 1.2)
+    verdict = judge(until, _finals({"uniform": uniform, "mgrao-1:1": better, "mgrao-max": better}), 12)
+    assert verdict.reason is None  # 12 seeds run, 9 judged: not yet
 
 
 def test_the_half_width_rule_waits_for_the_minimum_and_stops_when_every_interval_is_narrow():
@@ -90,6 +111,7 @@ def test_the_half_width_rule_waits_for_the_minimum_and_stops_when_every_interval
 
 def test_the_decide_rule_takes_a_confidence_sequence_and_names_the_outcome():
     assert cs_half_width(1.0, 100) > t_quantile(99) / 10  # wider than a t-interval at the same count
+    assert cs_half_width(1.0, 100) == pytest.approx(0.30352, abs=1e-5)  # alpha 0.05 for both sides, tuned at 100
     assert cs_half_width(1.0, 1000) < cs_half_width(1.0, 100) < cs_half_width(1.0, 10)
     rng = np.random.default_rng(4)
     uniform = np.ones(30)
