@@ -352,7 +352,9 @@ class Systems(BaseModel):
     limits: dict[str, Any] = Field(description="max_seeds, max_episodes, max_algorithms, max_work, work_factors "
                                                "(the factors whose product max_work bounds), max_body_bytes, "
                                                "max_response_values (numbers in the curves of one results or "
-                                               "compare answer).")
+                                               "compare answer), until (a stopping rule's choices of of, its "
+                                               "least seeds, its default max_seeds and block, its largest "
+                                               "half_width).")
     studies: dict[str, Any]
 
 

@@ -6,6 +6,7 @@ import { h, notice, nextId, confirmDialog } from './ui.js';
 import { parseTags } from './stats.js';
 import { experimentFields, STUDY_DRAFT } from './experimentfields.js';
 import { families, literalLabels, ready } from './algorithms.js';
+import { untilFields } from './untilfields.js';
 
 const PAPER_SEEDS = 100;
 const PAPER_EPISODES = 100;
@@ -39,6 +40,7 @@ export async function mount(root, params, ctx) {
     nameIn.placeholder = `${s.name} experiment`;
   });
   nameIn.addEventListener('input', () => { nameIn.dataset.touched = '1'; });
+  const rule = untilFields(schema.limits.until, fields.fieldBlock, fields.seedsIn);
 
   // "Clone into a new experiment" on a job's page: its whole configuration, ready to edit
   let clonedSeeds = null; // the job's seed list when it is not 0 .. n-1 (kept unless the count is edited)
@@ -52,8 +54,9 @@ export async function mount(root, params, ctx) {
       nameIn.dataset.touched = '1';
       tagsIn.value = (job.tags || []).join(', ');
       notesIn.value = `Cloned from job ${job.id}.`;
-      const plain = job.seeds.every((seed, i) => seed === i);
+      const plain = job.until || job.seeds.every((seed, i) => seed === i);
       if (!plain) clonedSeeds = job.seeds;
+      rule.load(job); // a job run until decided: its rule, from its first seed
       cloneNote.textContent = `A copy of job ${job.id}'s configuration: change what you need and run it.` +
         (plain ? '' : ` It runs the same seeds (${job.seeds.join(', ')}) unless you change their number.`);
       fields.seedsIn.addEventListener('input', () => { clonedSeeds = null; }, { once: true });
@@ -78,6 +81,7 @@ export async function mount(root, params, ctx) {
         h('div', { class: 'row' },
           fields.fieldBlock('seeds', 'Seeds (number of runs)', fields.seedsIn, `1 to ${schema.limits.max_seeds}`),
           fields.fieldBlock('episodes', 'Episodes per run', fields.episodesIn, `1 to ${schema.limits.max_episodes}`)),
+        rule.element,
         budgetSlot),
       h('div', {},
         fields.fieldBlock('name', 'Name', nameIn, null),
@@ -107,6 +111,9 @@ export async function mount(root, params, ctx) {
       tags: parseTags(tagsIn.value),
       notes: notesIn.value,
     };
+    const ruled = rule.body(); // with a stopping rule: its seeds follow from it
+    if (ruled.until) delete body.seeds;
+    Object.assign(body, ruled);
     submitBtn.disabled = true;
     submitBtn.textContent = 'Submitting…';
     try {

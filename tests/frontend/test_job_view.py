@@ -186,3 +186,38 @@ def test_a_job_run_until_decided_shows_why_it_stopped_and_its_intervals_narrowin
     assert all(last < first for first, last in widths)  # the intervals narrowed from the first block to the last
     page.locator("#stopping-rule").scroll_into_view_if_needed()
     page.screenshot(path=str(screenshots / "job-stopping-rule.png"), full_page=True)
+
+
+def test_the_new_experiment_form_runs_seeds_until_decided(page, server, screenshots):
+    """The form's stopping rule: a bad half width refused beside its field, then a rule that runs, its job view."""
+    page.goto("/#/new")
+    page.locator("form.newjob").wait_for()
+    page.get_by_label("System preset").select_option("single")
+    page.get_by_label("Episodes per run").fill("30")
+    page.locator("#until-on").check()
+    assert page.locator("input[name=seeds]").is_disabled()  # the rule runs as many seeds as it needs
+    page.fill("#until-max-seeds", "120")
+    page.wait_for_function("() => document.querySelector('.budget-text').textContent.startsWith('Work: 120 seeds')")
+    page.fill("#until-half-width", "0")
+    page.get_by_role("button", name="Run experiment").click()
+    error = page.locator('.field[data-for="until.half_width"] .field-error')
+    error.wait_for(timeout=10000)
+    page.wait_for_function("(el) => el.textContent.includes('must be more than 0')", arg=error.element_handle())
+    page.fill("#until-half-width", "3")
+    page.fill("#until-max-seeds", "40")
+    page.fill("#until-first-seed", "200")
+    page.get_by_role("button", name="Run experiment").click()
+    page.wait_for_url(re.compile(r"#/jobs/\d+$"))
+    job_id = int(page.url.rsplit("/", 1)[1])
+    done = wait_for(lambda: (lambda j: j if j["status"] == "succeeded" else None)(get_job(server, job_id)), 120,
+                    "the job to stop")
+    assert done["until"] == {"half_width": 3.0, "of": "pct_from_uniform", "max_seeds": 40, "block": 10, "decide": None}
+    assert done["seeds"][0] == 200 and done["stopped"]["reason"] in ("half_width", "max_seeds")
+    page.wait_for_function(  # the view polls the running job, and says why once it stopped (a new element)
+        "n => { const el = document.getElementById('rule-reason'); "
+        "return !!el && el.textContent.startsWith('Stopped') && el.textContent.includes(`${n} seeds`); }",
+        arg=done["stopped"]["seeds"], timeout=30000)
+    page.locator("#clone-job").click()  # a clone keeps the rule
+    page.locator("#until-on:checked").wait_for(timeout=10000)
+    assert page.input_value("#until-half-width") == "3" and page.input_value("#until-first-seed") == "200"
+    page.screenshot(path=str(screenshots / "new-experiment-until.png"), full_page=True)

@@ -27,6 +27,7 @@ from mgrao_core import (
     WORK_FACTORS,
     make_spec,
     search,
+    sequential,
 )
 from mgrao_core.algorithms import ORACLE, registry, sort_key
 from mgrao_core.params import GROUP_TITLES
@@ -89,7 +90,10 @@ def systems(settings: SettingsDep, db: DatabaseDep) -> dict:
         "algorithms": algorithm_labels(),
         "limits": {"max_seeds": MAX_SEEDS, "max_episodes": MAX_EPISODES, "max_algorithms": MAX_ALGORITHMS,
                    "max_work": MAX_WORK, "work_factors": list(WORK_FACTORS),
-                   "max_body_bytes": settings.max_body_bytes, "max_response_values": MAX_RESPONSE_VALUES},
+                   "max_body_bytes": settings.max_body_bytes, "max_response_values": MAX_RESPONSE_VALUES,
+                   "until": {"of": list(sequential.OF), "min_seeds": sequential.MIN_SEEDS,
+                             "max_seeds": sequential.DEFAULT_MAX_SEEDS, "block": sequential.DEFAULT_BLOCK,
+                             "max_half_width": sequential.MAX_HALF_WIDTH}},
         "studies": {"methods": list(search.METHODS), "metrics": list(search.METRICS),
                     "max_trials": search.MAX_TRIALS, "max_in_flight": search.MAX_IN_FLIGHT,
                     "max_dimensions": search.MAX_DIMENSIONS, "max_steps": search.MAX_STEPS,
