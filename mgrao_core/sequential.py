@@ -301,20 +301,22 @@ def replay(spec: ExperimentSpec, until: Until, finals: Mapping[str, Mapping[int,
         if not block or any(seed not in finals.get(label, {}) for label in spec.algorithms for seed in block):
             break
         judged += len(block)
-        seeds = spec.seeds[:judged]
-        verdicts.append(judge(until, {label: {s: finals[label][s] for s in seeds} for label in spec.algorithms},
-                              judged))
+        verdicts.append(judge_first(spec, until, finals, judged))
     return tuple(verdicts)
 
 
-def stopped_dict(verdicts: Sequence[Verdict], cancelled: bool = False) -> dict[str, Any] | None:
-    """What a job says of its rule: the last verdict (``reason`` ``cancelled`` if so) with ``blocks``, every one."""
-    if not verdicts and not cancelled:
-        return None
+def judge_first(spec: ExperimentSpec, until: Until, finals: Mapping[str, Mapping[int, float]],
+                judged: int) -> Verdict:
+    """:func:`judge` of the first ``judged`` seeds of ``spec`` (``finals`` may hold more: a block stored in part)."""
+    seeds = spec.seeds[:judged]
+    return judge(until, {label: {s: finals[label][s] for s in seeds} for label in spec.algorithms}, judged)
+
+
+def stopped_dict(verdicts: Sequence[Verdict]) -> dict[str, Any]:
+    """What a job says of its rule: the last verdict (none judged yet: reason null, 0 seeds) with ``blocks``."""
     last = verdicts[-1] if verdicts else Verdict(None, 0, {})
-    reason = "cancelled" if cancelled and last.reason is None else last.reason
-    return Verdict(reason, last.seeds, last.intervals, last.outcome).as_dict() | {
-        "blocks": [{"seeds": v.seeds, "intervals": v.as_dict()["intervals"]} for v in verdicts]}
+    return last.as_dict() | {"blocks": [{"seeds": v.seeds, "intervals": v.as_dict()["intervals"]}
+                                        for v in verdicts]}
 
 
 def run_until(spec: ExperimentSpec, until: Until, run_block: Callable[[ExperimentSpec], ExperimentResult],

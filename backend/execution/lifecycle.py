@@ -23,7 +23,7 @@ from backend.store import queue, summaries
 from backend.store.db import Database
 from backend.store.retry import HealthClock, persist
 from mgrao_core import ExperimentSpec, MgraoError, plan_chunks, spec_from_dict
-from mgrao_core.sequential import Until, Verdict, judge, make_until, next_block, replay, stopped_dict
+from mgrao_core.sequential import Until, Verdict, judge_first, make_until, next_block, replay, stopped_dict
 
 log = logging.getLogger("mgrao.lifecycle")
 T = TypeVar("T")
@@ -193,11 +193,8 @@ class Lifecycle:
 
         None when the job is no longer ours (cancelled or taken over).
         """
-        block = next_block(plan.spec, plan.until, plan.done_seeds)
-        judged = plan.done_seeds + len(block)
-        seeds = plan.spec.seeds[:judged]
-        verdict = judge(plan.until, {a: {s: plan.finals[a][s] for s in seeds} for a in plan.spec.algorithms}, judged)
-        verdicts = (*plan.verdicts, verdict)
+        judged = plan.done_seeds + len(next_block(plan.spec, plan.until, plan.done_seeds))
+        verdicts = (*plan.verdicts, judge_first(plan.spec, plan.until, plan.finals, judged))
         stopped = stopped_dict(verdicts)
         if not self.persist(lambda: queue.record_stopped(self.db, claim=claim, stopped=stopped,
                                                          progress=judged / len(plan.spec.seeds)),

@@ -17,7 +17,7 @@ from backend.errors import Conflict, NotFound
 from backend.store.job_order import parse_sort
 from backend.store.models import CANCELLED, QUEUED, RUNNING, SAVED_SYSTEM_TAG_PREFIX, SIMULATION, Job, JobTag, utcnow
 from mgrao_core import PRESETS, ExperimentSpec, complete_params
-from mgrao_core.sequential import Until
+from mgrao_core.sequential import Until, stopped_dict
 
 
 def config_hash(config: dict[str, Any]) -> str:
@@ -58,7 +58,7 @@ def job_dict(job: Job | Row, config: dict[str, Any] | None = None) -> dict[str, 
     }
 
 
-NOT_JUDGED = {"reason": None, "seeds": 0, "outcome": None, "intervals": {}, "blocks": []}
+NOT_JUDGED = stopped_dict(())
 """What a job with a stopping rule says before its first block is judged."""
 
 
@@ -79,6 +79,11 @@ def set_tags(session: Session, job: Job, tags: Sequence[str]) -> None:
     job.tag_rows = [JobTag(tag=t) for t in unique]
 
 
+def job_config(spec: ExperimentSpec, until: Until | None) -> dict[str, Any]:
+    """A job's stored configuration: the spec's, with its stopping rule when it has one."""
+    return spec.as_dict() | ({} if until is None else {"until": until.as_dict()})
+
+
 def create_job(
     session: Session, *, spec: ExperimentSpec, name: str = "", tags: Sequence[str] = (), notes: str = "",
     study_id: int | None = None, trial_id: int | None = None, until: Until | None = None,
@@ -88,7 +93,7 @@ def create_job(
     With ``until`` (a stopping rule, :func:`mgrao_core.sequential.make_until`), ``spec`` runs ``until.max_seeds``
     seeds at most, in blocks, until the rule answers (docs/statistics.md "Seeds until decided").
     """
-    config = spec.as_dict() | ({} if until is None else {"until": until.as_dict()})
+    config = job_config(spec, until)
     job = Job(
         name=name, notes=notes, system=spec.system, config=config, config_hash=config_hash(config), kind=SIMULATION,
         status=QUEUED, progress=0.0, attempts=0, version=mgrao_core.__version__, created_at=utcnow(),
@@ -111,8 +116,8 @@ def create_jobs(session: Session, *, jobs: Sequence[dict[str, Any]]) -> list[int
     now, version = utcnow(), mgrao_core.__version__
     rows, tags = [], []
     for item in jobs:
-        spec, until = item["spec"], item.get("until")
-        config = spec.as_dict() | ({} if until is None else {"until": until.as_dict()})
+        spec = item["spec"]
+        config = job_config(spec, item.get("until"))
         unique = list(dict.fromkeys(item.get("tags", ())))
         tags.append(unique)
         rows.append({"name": item.get("name", ""), "tags": unique, "notes": item.get("notes", ""),
