@@ -154,6 +154,14 @@ def allocations(action: Any, agent: str, n_types: int) -> np.ndarray:
     if weights.ndim == 0 or weights.shape[-1] == 0:
         raise ValueError(f"{agent}: an action is {n_types} numbers, one weight per atomic type (got "
                          f"{str(action)[:60] if weights.ndim == 0 else 'none'})")
+    if weights.size == weights.shape[-1]:  # one allocation: tested on Python floats, a fraction of numpy's cost
+        listed = weights.ravel().tolist()
+        if min(listed) >= 0.0 and max(listed) * len(listed) < _LARGEST:  # a NaN may pass these; its sum will not
+            one = float(weights.sum())
+            if abs(one - 1.0) <= NORMALISED:
+                return weights  # normalised already: dividing again would only add rounding
+            if 0.0 < one < np.inf:
+                return weights / one  # eq.sumnorm's division, the same numbers
     highest = float(weights.max()) if weights.size else 0.0  # a Python float: its product overflows to inf quietly
     if weights.size and not (weights.min() >= 0.0 and highest < np.inf):  # NaN fails both comparisons
         raise ValueError(f"{agent}: weights must be finite and at least 0 (got {str(weights.tolist())[:200]})")
@@ -162,13 +170,7 @@ def allocations(action: Any, agent: str, n_types: int) -> np.ndarray:
     else:
         with np.errstate(over="ignore"):
             total = weights.sum(axis=-1, keepdims=True)
-    if total.size == 1:  # one allocation: the same tests on a Python float, a fraction of numpy's cost
-        one = float(total.flat[0])
-        if abs(one - 1.0) <= NORMALISED:
-            return weights  # normalised already: dividing again would only add rounding
-        if 0.0 < one < np.inf:
-            return weights / one  # eq.sumnorm's division, the same numbers
-    elif (np.abs(total - 1.0) <= NORMALISED).all():
+    if (np.abs(total - 1.0) <= NORMALISED).all():
         return weights
     if not np.isfinite(total).all():  # sums past the largest float: the same proportions, scaled down first
         largest = weights.max(axis=-1, keepdims=True)
@@ -283,6 +285,7 @@ class MgraoVectorEnv(ParallelEnv):
         self.possible_agents = [f"child_{c}" for c in range(p.n_children)]
         self.agents: list[str] = []
         self._index = {agent: c for c, agent in enumerate(self.possible_agents)}
+        self._world_index: dict[int, dict[str, tuple[int, int]]] = {}  # one world's entries (_observations)
         self._observation_spaces = dict.fromkeys(
             self.possible_agents, observation_space(p, self.episodes, (self.n_worlds,), self.flatten))
         self._action_spaces = {agent: WeightsSpace((self.n_worlds, *action_shape(p)))
@@ -319,7 +322,10 @@ class MgraoVectorEnv(ParallelEnv):
         With ``world``, that world's alone (no world axis).
         """
         self._last = entries
-        index = self._index if world is None else {agent: (c, world) for agent, c in self._index.items()}
+        if world is None:
+            index = self._index
+        elif (index := self._world_index.get(world)) is None:
+            index = self._world_index[world] = {agent: (c, world) for agent, c in self._index.items()}
         if self.flatten:
             flat = self._flat(entries)
             return {agent: flat[index[agent]] for agent in agents}
@@ -504,8 +510,8 @@ class MgraoParallelEnv(ParallelEnv):
         self.agents: list[str] = []
         self._observation_spaces = dict.fromkeys(self.possible_agents,
                                                  observation_space(self.params, self.episodes, (), self.flatten))
-        self._action_spaces = {agent: WeightsSpace(action_shape(self.params))
-                               for agent in self.possible_agents}
+        self._shape = action_shape(self.params)
+        self._action_spaces = {agent: WeightsSpace(self._shape) for agent in self.possible_agents}
         self.state_space = state_space(self.params, self.episodes)
         self._generator: np.random.Generator | None = None
 
@@ -561,12 +567,12 @@ class MgraoParallelEnv(ParallelEnv):
         Raises:
             ValueError: not finite values at least 0 of the action's shape (the message names the agent).
         """
-        n_types = self.params.n_types
+        n_types, shape = self.params.n_types, self._shape
         weights = allocations(action, agent, n_types)
-        if weights.shape != action_shape(self.params):
+        if weights.shape != shape:
             raise ValueError(f"{agent}: an action is {n_types} weights, one per atomic type"
                              f"{'' if self.params.n_resources == 1 else ', for each resource'}, shape "
-                             f"{action_shape(self.params)} (got shape {weights.shape})")
+                             f"{shape} (got shape {weights.shape})")
         return weights
 
     def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:

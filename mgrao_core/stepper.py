@@ -79,7 +79,7 @@ class SteppedWorlds:
                                        sending=np.zeros((n, p.n_parents), np.bool_),
                                        child_of=np.zeros(shape, np.int64), values=np.zeros(shape))
         self._utility = np.zeros((n, 1))
-        self._draws: engine.Draws | None = None
+        self._draws: list[engine.Draws] | None = None
         self._kernel: Callable[..., None] | None = None
         self._observer: Callable[..., None] | None = None
         self._start = 0
@@ -108,12 +108,8 @@ class SteppedWorlds:
         """
         if self._draws is None or self.episode >= self._start + self.block:
             self._start = self.episode
-            self._draws = block_draws([stream.draw(self.block) for stream in self._streams])
-        j = self.episode - self._start
-        if len(self.seeds) == 1:  # one world: its episode's slice of each (stacked, contiguous) block is contiguous
-            draws = engine.Draws(*(block[:, j : j + 1] for block in self._draws))
-        else:
-            draws = engine.Draws(*(np.ascontiguousarray(block[:, j : j + 1]) for block in self._draws))
+            self._draws = _by_episode(block_draws([stream.draw(self.block) for stream in self._streams]))
+        draws = self._draws[self.episode - self._start]
         if self._several is None:
             self._arrays["fixed_weights"][:] = weights
         else:  # each resource's allocation; the lanes' weights are the first resource's, as in a run
@@ -121,19 +117,20 @@ class SteppedWorlds:
             self._outside.resource_weights[:] = weights
         arguments = (self._lanes, self._worlds, self._several, draws, self._environment, self._utility, self._outside,
                      *_NO_LEARNERS)
-        threads = numba.get_num_threads()
-        numba.set_num_threads(1)  # one episode is too short for numba's threads to pay for their start
+        set_threads, get_threads = _THREADS or _thread_functions()
+        threads = get_threads()
+        set_threads(1)  # one episode is too short for numba's threads to pay for their start
         try:
             if self._kernel is None:
                 self._kernel = _compiled(engine.run_block, arguments)
             else:
                 self._kernel(*arguments)
         finally:
-            numba.set_num_threads(threads)
+            set_threads(threads)
         self.episode += 1
         outside = self._outside
         return Outcome(self._utility[:, 0], outside.sending, outside.child_of, outside.values,
-                       self._lanes.parent_types, np.ascontiguousarray(draws.order[:, 0]))
+                       self._lanes.parent_types, draws.order[:, 0])
 
     def observe(self, outcome: Outcome) -> tuple[dict[str, np.ndarray], np.ndarray]:
         """Every child's observation of ``outcome`` and its reward (:mod:`mgrao_core.engine.observation`).
@@ -156,6 +153,37 @@ class SteppedWorlds:
         else:
             self._observer(*arguments)
         return entries, rewards
+
+
+_THREADS: list[Callable[..., Any]] = []
+
+
+def _thread_functions() -> list[Callable[..., Any]]:
+    """Numba's setter and getter of the calling thread's number of threads, once its threads are launched.
+
+    ``numba.set_num_threads`` and ``get_num_threads`` check, under a lock, that the threads are launched on
+    every call: 3 microseconds a step, more than running the kernel on both threads of a 2-core machine
+    instead of one would cost. Once they are launched, both call numba's own C functions
+    (``numba.np.ufunc.parallel._set_num_threads`` and ``_get_num_threads``), which this returns; where
+    numba's layout differs, its public functions. A compiled wrapper would set the count as cheaply but
+    could not be cached (numba does not cache code that calls its thread functions).
+    """
+    from numba.np.ufunc import parallel
+
+    numba.get_num_threads()  # launches numba's threads
+    setter, getter = getattr(parallel, "_set_num_threads", None), getattr(parallel, "_get_num_threads", None)
+    _THREADS[:] = (setter, getter) if callable(setter) and callable(getter) else (numba.set_num_threads,
+                                                                                    numba.get_num_threads)
+    return _THREADS
+
+
+def _by_episode(draws: engine.Draws) -> list[engine.Draws]:
+    """A block's draws, episode by episode: entry ``j`` is episode ``j``'s as the kernel reads a block of one episode.
+
+    Each of its arrays is ``(seeds, 1, ...)``, a contiguous view of a copy of the block laid out episode first.
+    """
+    first = [list(np.ascontiguousarray(np.moveaxis(block, 1, 0)[:, :, None])) for block in draws]
+    return list(map(engine.Draws._make, zip(*first, strict=True)))
 
 
 def _compiled(dispatcher: Any, arguments: tuple) -> Callable[..., None]:

@@ -258,6 +258,7 @@ def test_one_allocation_is_normalised_as_sumnorm_bit_for_bit():
             scaled = action / action.max() if np.isinf(total) else action
             expected = eq.sumnorm(scaled)
         assert allocations(action, "child_0", n).tobytes() == expected.tobytes(), action
+        assert allocations(action[None], "child_0", n).tobytes() == expected.tobytes(), action  # one world's
 
 
 def test_the_action_space_samples_what_a_box_samples():
@@ -275,6 +276,8 @@ def test_the_action_space_samples_what_a_box_samples():
 
 @pytest.mark.parametrize("action, match", [
     (np.ones(19), "shape"), (-np.ones(20), "at least 0"), (np.full(20, np.nan), "finite"),
+    (np.r_[np.nan, np.ones(19)], "finite"), (np.r_[np.ones(19), np.nan], "finite"),  # a NaN that min and max
+    (np.r_[0.5, np.nan, np.ones(18)], "finite"), (np.r_[np.ones(19), np.inf], "finite"),  # of a list let pass
     ([], "child_0: an action is 20 numbers, one weight per atomic type \\(got none\\)"),
 ])
 def test_invalid_actions_are_refused(action, match):
