@@ -132,8 +132,17 @@ def _episodes(value: Any) -> int:
 
 
 def system_params(system: str, params: dict[str, Any]) -> SystemParams:
-    """A preset's parameters with ``params`` on top, validated as a job's (:func:`mgrao_core.make_params`)."""
-    return make_params(params, base=get_preset(system).params)
+    """A preset's parameters with ``params`` on top, validated as a job's (:func:`mgrao_core.make_params`).
+
+    Raises:
+        ConfigError: a ``learning_cost``: the children here are the caller's learner, whose learning the
+            environment cannot price (it would have to know what the learner keeps).
+    """
+    system_params = make_params(params, base=get_preset(system).params)
+    if system_params.learning_cost:
+        raise ConfigError("learning_cost", "must be 0 in the environments: their children are your learner, whose "
+                                           "learning they cannot price")
+    return system_params
 
 
 def allocations(action: Any, agent: str, n_types: int) -> np.ndarray:

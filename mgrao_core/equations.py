@@ -95,3 +95,14 @@ def composite_quality(ctv: np.ndarray, quality: np.ndarray) -> float:
 def absolute_values(ctv: np.ndarray, taq: float) -> np.ndarray:
     """Component tasks absolute values ``atv = taq * ctv``."""
     return taq * ctv
+
+
+def task_share(learning_cost: float, learned: int, learned_by_max: int) -> float:
+    """The share of a child's resources left for its tasks when learning takes its cost (docs/model.md).
+
+    Learning ``learned`` numbers takes ``learning_cost * learned / learned_by_max`` of each resource, at most all
+    of it: ``learned_by_max`` is what ``mgrao-max`` keeps (one model per parent, the paper's "unlimited"
+    learning), which pays ``learning_cost`` itself. A child gives a task of type ``t`` the resource
+    ``task_share * w[t] * ar`` instead of ``w[t] * ar``; a share of 1 (nothing learned, or no cost) changes nothing.
+    """
+    return 1.0 - min(1.0, learning_cost * learned / learned_by_max)

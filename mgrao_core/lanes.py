@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from mgrao_core.algorithms import FAMILIES, FAMILIES_BY_NAME, KINDS, Algorithm
+from mgrao_core.algorithms import FAMILIES, FAMILIES_BY_NAME, KINDS, Algorithm, task_share
 from mgrao_core.algorithms.state import StateArray, allocate, nbytes, sizes_of
 
 if TYPE_CHECKING:
@@ -24,6 +24,8 @@ ENVIRONMENT: tuple[StateArray, ...] = (
     StateArray("seed_index", ("lanes",), "int64", help="the lane's seed, an index into the chunk's seeds"),
     StateArray("kind", ("lanes",), "int64", help="the code of the lane's family (mgrao_core.algorithms.KINDS)"),
     StateArray("groups", ("lanes",), "int64", help="parent groups per child of the lane's algorithm (0: none)"),
+    StateArray("task_share", ("lanes",), fill=1.0,
+               help="the share of each child's resources its tasks get, what learning leaves (learning_cost)"),
     StateArray("weights", ("lanes", "children", "n_types"), fill="uniform",
                help="each child's allocation in the current episode"),
     StateArray("resource_weights", ("lanes", "children", "extra_resources", "n_types"), fill="uniform",
@@ -74,7 +76,7 @@ def lane_bytes(params: SystemParams, algorithms: Sequence[Algorithm], n_seeds: i
 
 
 def allocate_lanes(params: SystemParams, algorithms: Sequence[Algorithm], n_seeds: int) -> dict[str, np.ndarray]:
-    """Every per-lane array of a chunk, by name, with the lanes' seeds, families and groups set.
+    """Every per-lane array of a chunk, by name, with the lanes' seeds, families, groups and task shares set.
 
     Lanes are seed-major (lane ``seed * len(algorithms) + algorithm``): the kernel's parallel loop
     hands each thread a contiguous range of lanes, and interleaving the algorithms gives every thread
@@ -86,6 +88,7 @@ def allocate_lanes(params: SystemParams, algorithms: Sequence[Algorithm], n_seed
     arrays["seed_index"][:] = np.repeat(np.arange(n_seeds), len(algorithms))
     arrays["kind"][:] = np.tile([KINDS[a.kind] for a in algorithms], n_seeds)
     arrays["groups"][:] = np.tile([a.n_groups for a in algorithms], n_seeds)
+    arrays["task_share"][:] = np.tile([task_share(a, params) for a in algorithms], n_seeds)
     arrays["estimates"][:] = params.initial_estimate
     for code, family in enumerate(FAMILIES):
         lanes = np.flatnonzero(arrays["kind"] == code)

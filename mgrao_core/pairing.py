@@ -8,7 +8,8 @@ configurations is computed on the seeds they share.
 A **configuration** is a world, an algorithm label and the values of the parameters that only that
 algorithm's learning reads (:attr:`mgrao_core.algorithms.base.Family.own_parameters`: MG-RAO's
 ``learning_rate``, ``trace_decay``, ``temperature``, ``group_blend`` and ``resource_credit``; the adaptive
-family's ``regroup_*`` and MG-RAO's; ``q_*``; ``bandit_step``). ``uniform`` and the ``oracle`` read none,
+family's ``regroup_*`` and MG-RAO's; ``q_*``; ``bandit_step``; and every learner's ``learning_cost``, what its
+learning takes from its tasks). ``uniform`` and the ``oracle`` read none,
 so a job that changes ``learning_rate`` still pairs its learners with the uniform runs of any job of the
 same world. A label no family knows (a run logged from outside) owns every learner parameter: its
 configuration is the parameters it was opened with.

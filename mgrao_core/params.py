@@ -218,18 +218,31 @@ _RESOURCES: tuple[Parameter, ...] = (
     ),
 )
 
+_LEARNING: tuple[Parameter, ...] = (
+    # The cost of learning (the paper's future work): docs/model.md ("The cost of learning").
+    Parameter(
+        "learning_cost", "float", 0.0,
+        "Share of a child's resources that learning one model per parent (mgrao-max) takes from its tasks; a "
+        "learner keeping fewer numbers pays in proportion, uniform and the oracle nothing; 0 is the paper's "
+        "experiments.",
+        "learning", 0.0, 1.0,
+    ),
+)
+
 PARAMETERS: tuple[Parameter, ...] = (
-    *_ENVIRONMENT, *(p for f in FAMILIES for p in f.parameters), *_ALLOCATION, *_DYNAMICS, *_RESOURCES,
+    *_ENVIRONMENT, *(p for f in FAMILIES for p in f.parameters), *_ALLOCATION, *_DYNAMICS, *_RESOURCES, *_LEARNING,
 )
 """Every parameter: the system's, values' and quality's, then each algorithm family's own (MG-RAO's
 ``learning_rate``, ``trace_decay``, ``temperature``, declared in :mod:`mgrao_core.algorithms.mgrao`), then
 the parents' allocation and volatility, then the system's dynamics (frequencies, schedule, unpredictable
-parents, capability), then several resources (``n_resources`` and how they combine)."""
+parents, capability), then several resources (``n_resources`` and how they combine), then the cost of
+learning."""
 PARAMETERS_BY_NAME: dict[str, Parameter] = {p.name: p for p in PARAMETERS}
 GROUP_TITLES: dict[str, str] = {
     "system": "System", "values": "Values", "quality": "Quality (environment)",
     "allocation": "Allocation (environment)", "volatility": "Volatility (environment)",
     "dynamics": "Dynamics (environment)", "resources": "Resources (environment)",
+    "learning": "Learning cost",
     **{f.name: f"{f.title} (algorithm)" for f in FAMILIES if f.parameters},
 }
 """Each parameter group's heading in forms and tables: the model's parts, then each family's (its title)."""

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mgrao_core import equations as eq
-from mgrao_core.algorithms import family_of, parse_algorithm
+from mgrao_core.algorithms import family_of, parse_algorithm, task_share
 from mgrao_core.algorithms.base import ReferenceChild
 from mgrao_core.params import SystemParams
 from mgrao_core.quality import atomic_quality, combine_resources
@@ -256,13 +256,17 @@ class SeedEnvironment:
 
 def simulate(params: SystemParams, algorithm: str, seed: int,
              episodes: int) -> tuple[np.ndarray, list[ReferenceChild]]:
-    """One run; returns the utility of every episode and the children's final state."""
+    """One run; returns the utility of every episode and the children's final state.
+
+    Each child's tasks get ``task_share`` of its allocation (``learning_cost``, :func:`.equations.task_share`).
+    """
     environment = SeedEnvironment(params, seed, block=episodes)
     alg = parse_algorithm(algorithm, params.n_parents)
     children = family_of(alg).reference_children(params, alg, environment.world, seed)
+    share = task_share(alg, params)  # what learning leaves each child's tasks (equations.task_share)
     utilities = np.zeros(episodes)
     for e in range(episodes):
-        episode = environment.step([child.allocation() for child in children])
+        episode = environment.step([share * child.allocation() for child in children])
         utilities[e] = episode.utility
         for p, k, c, value in episode.returns():
             if episode.shares is None:

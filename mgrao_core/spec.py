@@ -6,7 +6,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
-from mgrao_core.algorithms import Algorithm, parse_algorithms
+from mgrao_core.algorithms import Algorithm, parse_algorithms, task_share
 from mgrao_core.budget import MAX_CHUNK_BYTES, MAX_RESULT_BYTES, chunk_cost, result_bytes
 from mgrao_core.errors import ConfigError, WorkLimitError, raise_all
 from mgrao_core.params import SystemParams, complete_params, make_params
@@ -153,6 +153,8 @@ def make_spec(
         labels = checked(lambda: tuple(a.label for a in parse_algorithms(given, parents)))
     checked_seeds = checked(lambda: _seeds(seeds))
     checked_episodes = checked(lambda: _count("episodes", episodes, MAX_EPISODES))
+    if params is not None and labels is not None:  # a learner that cannot say what it keeps cannot run under a cost
+        checked(lambda: [task_share(a, params) for a in parse_algorithms(labels, params.n_parents)])
     raise_all(errors)  # every field refused by its own rule, before any limit on their product
     spec = ExperimentSpec(system, params, labels, checked_seeds, checked_episodes)
     if spec.work > MAX_WORK:

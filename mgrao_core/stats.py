@@ -167,7 +167,8 @@ def summarise(finals: Mapping[str, Mapping[int, float]], baseline: str = BASELIN
             seed, over the seeds both have where the baseline's utility is positive (a world where every
             parent is absent has no ratio); None when no seed qualifies.
         reference: the label "% of max" divides by: both gains averaged over the seeds the configuration,
-            the baseline and the reference all have.
+            the baseline and the reference all have; None where the reference gained nothing over the
+            baseline (under a learning cost ``mgrao-max`` can fall below uniform: a share of a loss means nothing).
 
     Returns:
         Label -> :class:`ConfigSummary`, in the order of ``finals``.
@@ -184,7 +185,7 @@ def summarise(finals: Mapping[str, Mapping[int, float]], baseline: str = BASELIN
         share = None
         if shared:
             gain = float(np.mean([of_reference[s] for s in shared]))
-            if gain != 0:
+            if gain > 0:
                 share = 100.0 * float(np.mean([own[s] for s in shared])) / gain
         summaries[label] = ConfigSummary(
             algorithm=label,

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from mgrao_core import equations
 from mgrao_core.algorithms import adaptive, bandit, independent_q, mgrao, oracle, uniform
 from mgrao_core.algorithms.base import PALETTE_SLOTS, Algorithm, Family
 from mgrao_core.algorithms.mgrao import MAX_LABEL as MGRAO_MAX
@@ -63,6 +64,26 @@ def parse_algorithm(label: Any, n_parents: int | None, field: str = "algorithm")
             if algorithm is not None:
                 return algorithm
     raise ConfigError(field, f"unknown algorithm {label!r}: use {', '.join(f.hint(n_parents) for f in FAMILIES)}")
+
+
+def task_share(algorithm: Algorithm, params: System) -> float:
+    """The share of each child's resources its tasks get under ``learning_cost`` (:func:`.equations.task_share`).
+
+    What ``algorithm``'s children learn (:meth:`Family.learned_numbers`) priced against ``mgrao-max``'s; 1 without
+    a cost (the paper's experiments: nothing computed, every family's numbers unchanged).
+
+    Raises:
+        ConfigError: naming ``learning_cost``, for a learner that does not declare what it learns.
+    """
+    cost = getattr(params, "learning_cost", 0.0)
+    if not cost:
+        return 1.0
+    try:
+        learned = family_of(algorithm).learned_numbers(algorithm, params)
+    except NotImplementedError as error:
+        raise ConfigError("learning_cost", str(error)) from None
+    by_max = mgrao.FAMILY.learned_numbers(Algorithm(MGRAO_MAX, "mgrao", params.n_parents), params)
+    return equations.task_share(cost, learned, by_max)
 
 
 def parse_algorithms(labels: list[str] | tuple[str, ...], n_parents: int) -> tuple[Algorithm, ...]:

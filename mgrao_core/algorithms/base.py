@@ -50,6 +50,9 @@ def load(entry: str) -> Any:
     loaded = importlib.import_module(module)
     return getattr(loaded, name) if name else loaded
 
+LEARNERS_OWN = ("learning_cost",)
+"""Parameters every learner reads as its own and no fixed family reads (:attr:`Family.own_parameters`)."""
+
 PALETTE_SLOTS = 8
 """Colour keys are slots ``0 .. PALETTE_SLOTS - 1`` of the dashboard's colour-blind-safe palette."""
 
@@ -190,10 +193,13 @@ class Family:
     def own_parameters(self) -> tuple[str, ...]:
         """The names of the parameters only this family's learning reads: its :attr:`parameters`, then :attr:`reads`.
 
+        A learner's also include ``learning_cost``, which every learner reads and nothing else does (what its
+        learning takes from its tasks; uniform and the oracle pay nothing, so their runs are the same at any cost).
         A configuration is a world, a label and these parameters' values (:mod:`mgrao_core.pairing`): two jobs
         that differ in them run the same world, so their uniform runs pair with both.
         """
-        return tuple(p.name for p in self.parameters) + self.reads
+        names = (*(p.name for p in self.parameters), *self.reads, *(LEARNERS_OWN if self.learns else ()))
+        return tuple(dict.fromkeys(names))
 
     @property
     def learns(self) -> bool:
@@ -211,6 +217,18 @@ class Family:
 
     def preparation_bytes(self, params: System, n_seeds: int) -> int:
         """Bytes the family allocates, beyond its lane state, to prepare a chunk of ``n_seeds`` seeds."""
+        return 0
+
+    def learned_numbers(self, algorithm: Algorithm, params: System) -> int:
+        """The numbers one child of ``algorithm`` learns and keeps, as the algorithm defines them.
+
+        What ``learning_cost`` prices (docs/model.md, "The cost of learning"): the algorithm's own quantities (a
+        row of weights per group, a count...), not the bytes the engine stores them in, so that a change of
+        layout changes no result. A family that learns nothing keeps none; a learner must say.
+        """
+        if self.learns:
+            raise NotImplementedError(f"{self.name} does not declare the numbers its children learn "
+                                      "(Family.learned_numbers), so learning_cost cannot price its learning")
         return 0
 
     def initialise(self, arrays: Mapping[str, np.ndarray], lanes: np.ndarray, params: System) -> None:

@@ -3,13 +3,14 @@
 Not registered (it is not in :data:`mgrao_core.algorithms.FAMILIES`), so nothing runs it; the tests
 check that it still satisfies the interface. Its learner is deliberately trivial: each child adds up
 the values each atomic type brings back and gives each type a share proportional to ``1 +`` its
-total. A real family replaces the four parts marked below:
+total. A real family replaces the five parts marked below:
 
 1. the label grammar (:meth:`parse`, :meth:`forms`, :meth:`examples`, :meth:`hint`, :meth:`colour_key`);
 2. its own parameters (:attr:`parameters`: listed in the schema after the quality's, once registered);
 3. each lane's state (:attr:`state`, shapes in named sizes: the runner allocates it, the budget counts it);
 4. its steps: compiled in :mod:`~mgrao_core.algorithms.template_steps` (what the kernel calls) and dense
-   in :class:`TemplateChild` (what :mod:`mgrao_core.reference` runs, for the equivalence tests).
+   in :class:`TemplateChild` (what :mod:`mgrao_core.reference` runs, for the equivalence tests);
+5. what a child learns and keeps (:meth:`learned_numbers`: what ``learning_cost`` prices).
 """
 
 from __future__ import annotations
@@ -56,6 +57,10 @@ class Template(OneLabel, Family):
     steps = "mgrao_core.algorithms.template_steps"  # 4. the compiled steps the kernel calls (an entry: loaded
     reference = "mgrao_core.algorithms.template:reference_children"  # by the layer that runs them) and the dense one
     form_description = "the template learner"
+
+    def learned_numbers(self, algorithm: Algorithm, params: System) -> int:  # 5. what learning_cost prices
+        """Each type's total returned value."""
+        return params.n_types
 
     # 1. the label grammar
 

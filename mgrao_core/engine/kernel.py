@@ -72,6 +72,8 @@ class Lanes(NamedTuple):
         seed_index: index of the lane's seed in the block's per-seed arrays.
         kind: the code of the lane's family (:data:`mgrao_core.algorithms.KINDS`).
         groups: parent groups ``m`` per child of the lane's algorithm.
+        task_share: the share of each child's resources its tasks get, what learning leaves
+            (:func:`mgrao_core.algorithms.task_share`; 1 without ``learning_cost``).
         fixed_weights: ``(lanes, children, n_types)`` the allocation of a fixed family's lanes.
         weights: ``(lanes, children, n_types)`` each child's allocation in this episode (with several
             resources: of the first resource).
@@ -87,6 +89,7 @@ class Lanes(NamedTuple):
     seed_index: np.ndarray
     kind: np.ndarray
     groups: np.ndarray
+    task_share: np.ndarray
     fixed_weights: np.ndarray
     weights: np.ndarray
     resource_weights: np.ndarray
@@ -178,6 +181,7 @@ def run_block(lanes, worlds, several, draws, env, utilities, outside, mgrao_lane
         parent_types = lanes.parent_types[lane]
         weights = lanes.weights[lane]
         m = lanes.groups[lane]
+        task_share = lanes.task_share[lane]
         if mgrao_lanes is not None:  # the views once per lane, unpacked for the learning (its docstring says why)
             mgrao_views = mgrao.lane_of(mgrao_lanes, lane)
             Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, _ = mgrao_views
@@ -248,12 +252,12 @@ def run_block(lanes, worlds, several, draws, env, utilities, outside, mgrao_lane
             for p in range(n_parents):
                 if several is not None and sending[p]:
                     taq[p] = perform_composite_task_resources(ctv[p], child_of[p], parent_types[p], resource_weights,
-                                                              several.per_resource[s], several.needs[s], load, env,
-                                                              values[p], shares[p], w_scratch, a_scratch)
+                                                              task_share, several.per_resource[s], several.needs[s],
+                                                              load, env, values[p], shares[p], w_scratch, a_scratch)
                     utility += taq[p]
                 elif sending[p]:
                     taq[p] = perform_composite_task(ctv[p], child_of[p], parent_types[p],
-                                                    weights, worlds.resources[s], load, env, values[p])
+                                                    weights, task_share, worlds.resources[s], load, env, values[p])
                     utility += taq[p]
                 elif env.absent_counted and not active[p]:
                     utility += env.absent_quality

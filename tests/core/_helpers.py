@@ -34,3 +34,31 @@ def assert_matches_reference(result, atol=1e-12):
             np.testing.assert_allclose(run.combined_weights, combined, rtol=0, atol=1000 * atol)
         else:
             np.testing.assert_allclose(run.combined_weights, combined, rtol=0, atol=atol)
+
+
+def assert_resources_match_reference(result, atol=1e-12):
+    """Every run equals the reference: utilities, each resource's allocation and (MG-RAO) PW, to ``atol``."""
+    spec = result.spec
+    p = spec.params
+    for run in result.runs:
+        utilities, children = reference.simulate(p, run.algorithm, run.seed, spec.episodes)
+        where = f"{run.algorithm} seed {run.seed}"
+        np.testing.assert_allclose(run.utilities, utilities, rtol=0, atol=atol, err_msg=where)
+        allocations = np.stack([np.broadcast_to(c.allocation(), (p.n_resources, p.n_types)) for c in children])
+        assert run.resource_weights.shape == (p.n_resources, p.n_children, p.n_types)
+        np.testing.assert_array_equal(run.combined_weights, run.resource_weights[0])
+        if hasattr(children[0], "resources"):  # MG-RAO: a PW per resource
+            pw = np.stack([np.stack([r.pw for r in c.resources]) for c in children]).transpose(1, 0, 2, 3)
+            np.testing.assert_allclose(run.resource_group_weights, pw, rtol=0, atol=atol, err_msg=where)
+            np.testing.assert_array_equal(run.group_weights, run.resource_group_weights[0])
+            counts = [[r.counts for r in c.resources] for c in children]
+            on_engine_pw = np.stack([[eq.combined_weights(run.resource_group_weights[r, c], counts[c][r],
+                                                          p.effective_temperature) for r in range(p.n_resources)]
+                                     for c in range(p.n_children)])
+            np.testing.assert_allclose(run.resource_weights.transpose(1, 0, 2), on_engine_pw, rtol=0, atol=atol,
+                                       err_msg=where)
+            np.testing.assert_allclose(run.resource_weights.transpose(1, 0, 2), allocations, rtol=0,
+                                       atol=1000 * atol, err_msg=where)
+        else:
+            np.testing.assert_allclose(run.resource_weights.transpose(1, 0, 2), allocations, rtol=0, atol=atol,
+                                       err_msg=where)

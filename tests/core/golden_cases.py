@@ -3,7 +3,9 @@
 Every paper system with its algorithms and the oracle, and every reading of the environment and
 of the learner that changes which floating-point operations run: quality models, load sharing,
 per-task routing, tie breaks, rejoining profiles, counted absent tasks, the paper-literal
-temperature, and children with more than ``MIN_BOUNDED_GROUPS`` groups (the bounded lazy update).
+temperature, and children with more than ``MIN_BOUNDED_GROUPS`` groups (the bounded lazy update); the
+standard learners and adaptive groups, and several resources (each added with the numbers of the code before it
+changed: the cost of learning's, issue 33).
 
 Regenerate the fixture only for an intended change of numbers:
 ``python -m tests.core.golden_cases`` (and say why in the commit).
@@ -37,6 +39,13 @@ CASES: dict[str, dict] = {
                 "algorithms": ["uniform", "mgrao-75:1", "mgrao-max"], "episodes": 30},
     "bounded-multi": {"system": "multi", "overrides": {"n_parents": 90, "routing": "per-task"},
                       "algorithms": ["uniform", "mgrao-90:1"], "episodes": 25},
+    "learners": {"system": "multi", "algorithms": ["uniform", "mgrao-adaptive:2", "independent-q", "bandit"]},
+    "multi-resource": {"system": "multi-resource", "algorithms": ["uniform", "oracle", "mgrao-1:1", "mgrao-max",
+                                                                 "mgrao-adaptive:2", "independent-q", "bandit"]},
+    "resources-several-children": {
+        "system": "multi", "overrides": {"n_resources": 2, "resource_combination": "weighted",
+                                         "resource_credit": "by-share"},
+        "algorithms": ["uniform", "mgrao-2:1", "independent-q", "bandit"]},
 }
 SEEDS = (0, 7, 123)
 EPISODES = 40

@@ -9,8 +9,7 @@ combination's two forms agree; determinism over chunks and blocks; bad input nam
 import numpy as np
 import pytest
 
-from mgrao_core import ConfigError, make_params, make_spec, reference, run_experiment
-from mgrao_core import equations as eq
+from mgrao_core import ConfigError, make_params, make_spec, run_experiment
 from mgrao_core.env import parallel_env
 from mgrao_core.presets import PAPER_SYSTEMS, PRESETS
 from mgrao_core.quality import (
@@ -22,38 +21,12 @@ from mgrao_core.quality import (
 from mgrao_core.reference import SeedEnvironment
 from mgrao_core.world import EpisodeStreams, draw_world
 
+from ._helpers import assert_resources_match_reference
+
 ALGORITHMS = ["uniform", "oracle", "mgrao-1:1", "mgrao-2:1", "mgrao-max", "mgrao-adaptive:2", "independent-q",
               "bandit"]
 SETTINGS = [(r, combination, credit) for r in (2, 3) for combination in ("scarcest", "weighted")
             for credit in ("shared", "by-share")]
-
-
-def assert_resources_match_reference(result, atol=1e-12):
-    """Every run equals the reference: utilities, each resource's allocation and (MG-RAO) PW, to ``atol``."""
-    spec = result.spec
-    p = spec.params
-    for run in result.runs:
-        utilities, children = reference.simulate(p, run.algorithm, run.seed, spec.episodes)
-        where = f"{run.algorithm} seed {run.seed}"
-        np.testing.assert_allclose(run.utilities, utilities, rtol=0, atol=atol, err_msg=where)
-        allocations = np.stack([np.broadcast_to(c.allocation(), (p.n_resources, p.n_types)) for c in children])
-        assert run.resource_weights.shape == (p.n_resources, p.n_children, p.n_types)
-        np.testing.assert_array_equal(run.combined_weights, run.resource_weights[0])
-        if hasattr(children[0], "resources"):  # MG-RAO: a PW per resource
-            pw = np.stack([np.stack([r.pw for r in c.resources]) for c in children]).transpose(1, 0, 2, 3)
-            np.testing.assert_allclose(run.resource_group_weights, pw, rtol=0, atol=atol, err_msg=where)
-            np.testing.assert_array_equal(run.group_weights, run.resource_group_weights[0])
-            counts = [[r.counts for r in c.resources] for c in children]
-            on_engine_pw = np.stack([[eq.combined_weights(run.resource_group_weights[r, c], counts[c][r],
-                                                          p.effective_temperature) for r in range(p.n_resources)]
-                                     for c in range(p.n_children)])
-            np.testing.assert_allclose(run.resource_weights.transpose(1, 0, 2), on_engine_pw, rtol=0, atol=atol,
-                                       err_msg=where)
-            np.testing.assert_allclose(run.resource_weights.transpose(1, 0, 2), allocations, rtol=0,
-                                       atol=1000 * atol, err_msg=where)
-        else:
-            np.testing.assert_allclose(run.resource_weights.transpose(1, 0, 2), allocations, rtol=0, atol=atol,
-                                       err_msg=where)
 
 
 @pytest.mark.parametrize(("n_resources", "combination", "credit"), SETTINGS)

@@ -124,6 +124,16 @@ def test_summarise_without_max():
     assert out["mgrao-1:1"].pct_of_max is None
 
 
+def test_no_share_of_max_when_max_gained_nothing():
+    # under a learning cost mgrao-max can fall below uniform: a share of its loss would flip signs (+10% "of" -20%)
+    out = summarise({"uniform": {0: 2.0, 1: 4.0}, "mgrao-1:1": {0: 2.2, 1: 4.4}, "mgrao-max": {0: 1.6, 1: 3.2}})
+    assert out["mgrao-1:1"].pct_from_uniform == pytest.approx(10.0)
+    assert out["mgrao-max"].pct_from_uniform == pytest.approx(-20.0)
+    assert out["mgrao-1:1"].pct_of_max is None and out["mgrao-max"].pct_of_max is None
+    tied = summarise({"uniform": {0: 2.0}, "mgrao-1:1": {0: 2.2}, "mgrao-max": {0: 2.0}})
+    assert tied["mgrao-1:1"].pct_of_max is None
+
+
 def test_summary_as_dict_turns_nan_into_none():
     data = summarise({"uniform": {0: 2.0}})["uniform"].as_dict()
     assert data["ci95"] == [None, None]

@@ -3,7 +3,7 @@
 import numpy as np
 from numba import njit
 
-from mgrao_core import PARAMETERS, get_preset
+from mgrao_core import PARAMETERS, get_preset, make_params
 from mgrao_core.algorithms import FAMILIES, parse_algorithm, template_steps
 from mgrao_core.algorithms import template as template_module
 from mgrao_core.algorithms.base import Family, ReferenceChild
@@ -28,6 +28,8 @@ def test_the_template_is_a_learner_family_that_is_not_registered():
     assert not {p.name for p in FAMILY.parameters} & {p.name for p in PARAMETERS}
     assert all(set(a.shape) <= set(SIZES) for a in FAMILY.state)
     assert FAMILY.steps == template_steps.__name__
+    params = make_params({})  # what learning_cost prices: a total per type, as its state holds
+    assert FAMILY.learned_numbers(FAMILY.parse("template", 10, "algorithm"), params) == params.n_types
 
 
 def test_the_templates_labels_describe_themselves():

@@ -163,6 +163,14 @@ class Adaptive(Family):
         sizes = sizes_of(params, 1, algorithm.n_groups, self.sizes(algorithm, params))
         return nbytes(learner, sizes | {"children": 1, "tracked_children": 1, "learners": sizes["resources"]})
 
+    def learned_numbers(self, algorithm: Algorithm, params: System) -> int:
+        """MG-RAO's for x groups, and per parent its group and five statistics.
+
+        The statistics: its returns, and the running mean and squared deviations of its type signature and of its
+        value spread.
+        """
+        return MGRAO.learned_numbers(algorithm, params) + 6 * params.n_parents
+
     def initialise(self, arrays: Mapping[str, np.ndarray], lanes: np.ndarray, params: System) -> None:
         """MG-RAO's initial rows; parent ``p`` in group ``floor(p * x / n_parents)``, the first recorded membership."""
         MGRAO.initialise(arrays, lanes, params)

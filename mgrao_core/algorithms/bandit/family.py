@@ -18,7 +18,7 @@ Memory per child: ``n_types`` preferences and two numbers (the baseline and the 
 from __future__ import annotations
 
 from mgrao_core.algorithms.base import Algorithm, Family, OneLabel
-from mgrao_core.algorithms.state import StateArray
+from mgrao_core.algorithms.state import StateArray, System
 from mgrao_core.parameter import Parameter
 
 LABEL = "bandit"
@@ -46,6 +46,10 @@ class GradientBandit(OneLabel, Family):
     steps = "mgrao_core.algorithms.bandit.compiled"
     reference = "mgrao_core.algorithms.bandit.reference:children"
     form_description = "a gradient bandit over atomic types"
+
+    def learned_numbers(self, algorithm: Algorithm, params: System) -> int:
+        """A preference per type, the running mean of returned values and their count."""
+        return params.n_types + 2
 
     def colour_key(self, algorithm: Algorithm) -> int:
         """Yellow (slot 7), MG-RAO's 8-15 groups' slot: free beside uniform, 1:1, 5:1, max, oracle and independent-q."""

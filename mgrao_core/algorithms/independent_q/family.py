@@ -13,7 +13,7 @@ were chosen (``benchmarks/calibrate_learners.py``).
 from __future__ import annotations
 
 from mgrao_core.algorithms.base import Algorithm, Family, OneLabel
-from mgrao_core.algorithms.state import StateArray
+from mgrao_core.algorithms.state import StateArray, System
 from mgrao_core.parameter import Parameter
 
 LABEL = "independent-q"
@@ -41,6 +41,10 @@ class IndependentQ(OneLabel, Family):
     steps = "mgrao_core.algorithms.independent_q.compiled"
     reference = "mgrao_core.algorithms.independent_q.reference:children"
     form_description = "independent Q-learning over atomic types"
+
+    def learned_numbers(self, algorithm: Algorithm, params: System) -> int:
+        """A running value per type."""
+        return params.n_types
 
     def colour_key(self, algorithm: Algorithm) -> int:
         """Bluish green (slot 3), MG-RAO's 2-3 groups' slot.

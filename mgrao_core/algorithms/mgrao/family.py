@@ -155,6 +155,13 @@ class Mgrao(Family):
         """x:1 by increasing x, then max."""
         return 2**62 if algorithm.label == MAX_LABEL else algorithm.n_groups
 
+    def learned_numbers(self, algorithm: Algorithm, params: System) -> int:
+        """Per group a row of PW, one of its eligibility trace (``n_types`` each) and a sample count.
+
+        With several resources, that for each resource's PW.
+        """
+        return algorithm.n_groups * (2 * params.n_types + 1) * getattr(params, "n_resources", 1)
+
     def initialise(self, arrays: Mapping[str, np.ndarray], lanes: np.ndarray, params: System) -> None:
         """The active rows of the children of ``lanes`` before the first episode.
 
