@@ -138,11 +138,11 @@ def system_params(system: str, params: dict[str, Any]) -> SystemParams:
         ConfigError: a ``learning_cost``: the children here are the caller's learner, whose learning the
             environment cannot price (it would have to know what the learner keeps).
     """
-    system_params = make_params(params, base=get_preset(system).params)
-    if system_params.learning_cost:
+    validated = make_params(params, base=get_preset(system).params)
+    if validated.learning_cost:
         raise ConfigError("learning_cost", "must be 0 in the environments: their children are your learner, whose "
                                            "learning they cannot price")
-    return system_params
+    return validated
 
 
 def allocations(action: Any, agent: str, n_types: int) -> np.ndarray:

@@ -146,15 +146,16 @@ def make_spec(
     # an x of mgrao-x:1 is checked against the parents given, or the preset's where other parameters are refused;
     # against the grammar alone where the count of parents is
     parents = None if "n_parents" in refused else (params or preset.params).n_parents
-    labels = None
+    parsed = None
     if len(given) > MAX_ALGORITHMS:
         errors.append(ConfigError("algorithms", f"at most {MAX_ALGORITHMS} algorithms (got {len(given)})"))
     else:
-        labels = checked(lambda: tuple(a.label for a in parse_algorithms(given, parents)))
+        parsed = checked(lambda: parse_algorithms(given, parents))
+    labels = None if parsed is None else tuple(a.label for a in parsed)
     checked_seeds = checked(lambda: _seeds(seeds))
     checked_episodes = checked(lambda: _count("episodes", episodes, MAX_EPISODES))
-    if params is not None and labels is not None:  # a learner that cannot say what it keeps cannot run under a cost
-        checked(lambda: [task_share(a, params) for a in parse_algorithms(labels, params.n_parents)])
+    if params is not None and parsed is not None:  # a learner that cannot say what it keeps cannot run under a cost
+        checked(lambda: [task_share(a, params) for a in parsed])
     raise_all(errors)  # every field refused by its own rule, before any limit on their product
     spec = ExperimentSpec(system, params, labels, checked_seeds, checked_episodes)
     if spec.work > MAX_WORK:

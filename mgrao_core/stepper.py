@@ -11,6 +11,7 @@ environments of :mod:`mgrao_core.env` are built on it.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
 
@@ -117,7 +118,7 @@ class SteppedWorlds:
             self._outside.resource_weights[:] = weights
         arguments = (self._lanes, self._worlds, self._several, draws, self._environment, self._utility, self._outside,
                      *_NO_LEARNERS)
-        set_threads, get_threads = _THREADS or _thread_functions()
+        set_threads, get_threads = _thread_functions()
         threads = get_threads()
         set_threads(1)  # one episode is too short for numba's threads to pay for their start
         try:
@@ -155,10 +156,8 @@ class SteppedWorlds:
         return entries, rewards
 
 
-_THREADS: list[Callable[..., Any]] = []
-
-
-def _thread_functions() -> list[Callable[..., Any]]:
+@functools.cache
+def _thread_functions() -> tuple[Callable[..., Any], Callable[..., Any]]:
     """Numba's setter and getter of the calling thread's number of threads, once its threads are launched.
 
     ``numba.set_num_threads`` and ``get_num_threads`` check, under a lock, that the threads are launched on
@@ -172,9 +171,9 @@ def _thread_functions() -> list[Callable[..., Any]]:
 
     numba.get_num_threads()  # launches numba's threads
     setter, getter = getattr(parallel, "_set_num_threads", None), getattr(parallel, "_get_num_threads", None)
-    _THREADS[:] = (setter, getter) if callable(setter) and callable(getter) else (numba.set_num_threads,
-                                                                                    numba.get_num_threads)
-    return _THREADS
+    if callable(setter) and callable(getter):
+        return setter, getter
+    return numba.set_num_threads, numba.get_num_threads
 
 
 def _by_episode(draws: engine.Draws) -> list[engine.Draws]:
