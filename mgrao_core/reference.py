@@ -258,7 +258,8 @@ def simulate(params: SystemParams, algorithm: str, seed: int,
              episodes: int) -> tuple[np.ndarray, list[ReferenceChild]]:
     """One run; returns the utility of every episode and the children's final state.
 
-    Each child's tasks get ``task_share`` of its allocation (``learning_cost``, :func:`.equations.task_share`).
+    Each child's tasks get ``task_share`` of its allocation (``learning_cost``, :func:`.equations.task_share`), or
+    the share the child gives for the episode (:meth:`ReferenceChild.task_share`, after its allocation).
     """
     environment = SeedEnvironment(params, seed, block=episodes)
     alg = parse_algorithm(algorithm, params.n_parents)
@@ -266,7 +267,9 @@ def simulate(params: SystemParams, algorithm: str, seed: int,
     share = task_share(alg, params)  # what learning leaves each child's tasks (equations.task_share)
     utilities = np.zeros(episodes)
     for e in range(episodes):
-        episode = environment.step([share * child.allocation() for child in children])
+        allocations = [child.allocation() for child in children]
+        episode = environment.step([child.task_share(share) * allocation
+                                    for child, allocation in zip(children, allocations, strict=True)])
         utilities[e] = episode.utility
         for p, k, c, value in episode.returns():
             if episode.shares is None:

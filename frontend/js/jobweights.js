@@ -1,7 +1,7 @@
 // The job view's learned weights: one seed's final weights (or the mean over seeds), a heatmap of a
 // child's parent-group weights (PW) and its combined weights beside the oracle's allocation.
 // Every seed draws its own composite types and value profiles, so one seed shows what the mean hides.
-// An algorithm whose parent groups change (mgrao-adaptive:x) also shows a child's group membership over
+// An algorithm whose parent groups change (mgrao-adaptive:x, mgrao-balance) also shows a child's group membership over
 // the run: parents by recorded regroupings, each cell the parent's group (the paper's adaptive groups).
 // A system with several resources (n_resources > 1) shows one heatmap per resource, titled by resource:
 // MG-RAO keeps a PW per resource (the paper's pgw_{c,r,t}); the answer's `resources` lists each one's.

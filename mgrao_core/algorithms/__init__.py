@@ -9,7 +9,9 @@ The families, in the order an unknown label's error lists them:
 * :mod:`~mgrao_core.algorithms.adaptive`: MG-RAO with adaptive parent groups, ``mgrao-adaptive:x``
   (the paper's future work);
 * :mod:`~mgrao_core.algorithms.independent_q`: ``independent-q``, a standard independent learner;
-* :mod:`~mgrao_core.algorithms.bandit`: ``bandit``, a gradient bandit over atomic types.
+* :mod:`~mgrao_core.algorithms.bandit`: ``bandit``, a gradient bandit over atomic types;
+* :mod:`~mgrao_core.algorithms.balance`: MG-RAO that chooses its number of parent groups as it learns,
+  ``mgrao-balance[:M]`` (the paper's future work on the cost of learning).
 
 :func:`parse_algorithm` turns a label into an :class:`Algorithm` by asking each family in turn;
 :func:`describe_label` and :func:`registry` are what the API's ``GET /api/algorithms`` and
@@ -22,7 +24,7 @@ from __future__ import annotations
 from typing import Any
 
 from mgrao_core import equations
-from mgrao_core.algorithms import adaptive, bandit, independent_q, mgrao, oracle, uniform
+from mgrao_core.algorithms import adaptive, balance, bandit, independent_q, mgrao, oracle, uniform
 from mgrao_core.algorithms.base import PALETTE_SLOTS, Algorithm, Family
 from mgrao_core.algorithms.mgrao import MAX_LABEL as MGRAO_MAX
 from mgrao_core.algorithms.mgrao import divisors, parent_groups
@@ -32,7 +34,7 @@ from mgrao_core.algorithms.uniform import LABEL as UNIFORM
 from mgrao_core.errors import ConfigError
 
 FAMILIES: tuple[Family, ...] = (uniform.FAMILY, oracle.FAMILY, mgrao.FAMILY, adaptive.FAMILY, independent_q.FAMILY,
-                                bandit.FAMILY)
+                                bandit.FAMILY, balance.FAMILY)
 """Every registered family. A new family is a module with a ``FAMILY`` and a line here."""
 FAMILIES_BY_NAME: dict[str, Family] = {f.name: f for f in FAMILIES}
 KINDS: dict[str, int] = {f.name: code for code, f in enumerate(FAMILIES)}

@@ -106,6 +106,14 @@ class ReferenceChild:
     def learn(self, parent: int, task_type: int, value: float) -> None:
         """The child receives the absolute ``value`` of an atomic task of ``task_type`` from ``parent``."""
 
+    def task_share(self, share: float) -> float:
+        """The share of its resources the child's tasks get in the episode its :meth:`allocation` began.
+
+        ``share`` is its family's (:func:`mgrao_core.algorithms.task_share`); a child whose learning changes while it
+        runs (``mgrao-balance``) gives its own.
+        """
+        return share
+
     def learn_resources(self, parent: int, task_type: int, value: float, shares: np.ndarray) -> None:
         """With several resources: ``shares[r]`` is resource ``r``'s share of the task's quality.
 

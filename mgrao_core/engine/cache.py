@@ -24,12 +24,12 @@ from typing import Any
 
 PACKAGE_DIR = Path(__file__).resolve().parents[1]
 
-COMPILED_SOURCES = ("engine/*.py", "quality.py", "world.py", "algorithms.py", "algorithms/**/*.py")
+COMPILED_SOURCES = ("engine/*.py", "quality.py", "equations.py", "world.py", "algorithms.py", "algorithms/**/*.py")
 """Every place, as a glob under ``mgrao_core/``, whose code the kernel compiles or reads at compile time.
 
-The engine package; the quality models' compiled forms; the algorithms, a module or a package of
-modules (a place that does not exist matches nothing). A module that gives the kernel compiled code
-or constants belongs here: numba would not notice its edits.
+The engine package; the quality models' compiled forms; the equations it compiles (a task share); the
+algorithms, a module or a package of modules (a place that does not exist matches nothing). A module that gives
+the kernel compiled code or constants belongs here: numba would not notice its edits.
 """
 
 

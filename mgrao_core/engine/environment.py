@@ -212,15 +212,15 @@ def perform_composite_task(ctv, child_of, task_types, weights, task_share, resou
     """Children perform the atomic tasks; returns the composite task quality ``taq = sum(ctv * q)``.
 
     ``resources[c, t]`` is child ``c``'s resource per unit of weight of type ``t`` (its amount over its
-    capability factor); ``task_share`` the share of it that learning leaves to tasks (the weight given is
-    ``task_share * w``; 1 without a learning cost, a product that changes no bit). Each atomic task's absolute
+    capability factor); ``task_share[c]`` the share of it that learning leaves to its tasks (the weight given is
+    ``task_share[c] * w``; 1 without a learning cost, a product that changes no bit). Each atomic task's absolute
     value ``atv = taq * ctv`` goes into ``values``.
     """
     taq = 0.0
     for k in range(ctv.shape[0]):
         c = child_of[k]
         t = task_types[k]
-        taq += ctv[k] * atomic_task_quality(task_share * weights[c, t], resources[c, t], load[c, t], env)
+        taq += ctv[k] * atomic_task_quality(task_share[c] * weights[c, t], resources[c, t], load[c, t], env)
     for k in range(ctv.shape[0]):
         values[k] = taq * ctv[k]
     return taq
@@ -231,8 +231,8 @@ def perform_composite_task_resources(ctv, child_of, task_types, weights, task_sh
                                      values, shares, w, a):
     """:func:`perform_composite_task` with several resources: returns ``taq``.
 
-    ``weights (children, R, n_types)`` each child's allocation of each resource (learning leaving ``task_share``
-    of every resource to tasks), ``resources (children, R,
+    ``weights (children, R, n_types)`` each child's allocation of each resource (learning leaving ``task_share[c]``
+    of every resource to child ``c``'s tasks), ``resources (children, R,
     n_types)`` its amount per unit of weight relative to the type's need, ``needs (n_types, R)``. Each task's
     quality is the quality model at the combination's effective weight and resource; each resource's share
     of it goes into ``shares[k]``; ``w`` and ``a`` are scratch (one entry per resource).
@@ -243,7 +243,7 @@ def perform_composite_task_resources(ctv, child_of, task_types, weights, task_sh
         c = child_of[k]
         t = task_types[k]
         for r in range(n_resources):
-            w[r] = task_share * weights[c, r, t]
+            w[r] = task_share[c] * weights[c, r, t]
             a[r] = resources[c, r, t]
         w_eff, a_eff = combined_resources(w, a, needs[t], env.resource_combination, shares[k])
         taq += ctv[k] * atomic_task_quality(w_eff, a_eff, load[c, t], env)

@@ -45,6 +45,7 @@ from numba import njit, prange
 
 from mgrao_core.algorithms import KINDS
 from mgrao_core.algorithms.adaptive import compiled as adaptive
+from mgrao_core.algorithms.balance import compiled as balance
 from mgrao_core.algorithms.bandit import compiled as bandit
 from mgrao_core.algorithms.independent_q import compiled as independent_q
 from mgrao_core.algorithms.mgrao import compiled as mgrao
@@ -63,6 +64,7 @@ MGRAO = KINDS["mgrao"]
 ADAPTIVE = KINDS["mgrao-adaptive"]
 INDEPENDENT_Q = KINDS["independent-q"]
 BANDIT = KINDS["bandit"]
+BALANCE = KINDS["mgrao-balance"]
 
 
 class Lanes(NamedTuple):
@@ -72,8 +74,8 @@ class Lanes(NamedTuple):
         seed_index: index of the lane's seed in the block's per-seed arrays.
         kind: the code of the lane's family (:data:`mgrao_core.algorithms.KINDS`).
         groups: parent groups ``m`` per child of the lane's algorithm.
-        task_share: the share of each child's resources its tasks get, what learning leaves
-            (:func:`mgrao_core.algorithms.task_share`; 1 without ``learning_cost``).
+        task_share: ``(lanes, children)`` the share of each child's resources its tasks get, what learning leaves
+            (:func:`mgrao_core.algorithms.task_share`, or a family's own each episode; 1 without ``learning_cost``).
         fixed_weights: ``(lanes, children, n_types)`` the allocation of a fixed family's lanes.
         weights: ``(lanes, children, n_types)`` each child's allocation in this episode (with several
             resources: of the first resource).
@@ -158,15 +160,15 @@ class Draws(NamedTuple):
 
 @njit(cache=True, parallel=True)
 def run_block(lanes, worlds, several, draws, env, utilities, outside, mgrao_lanes, adaptive_lanes,
-              independent_q_lanes, bandit_lanes):
+              independent_q_lanes, bandit_lanes, balance_lanes):
     """Run every lane through the episodes of one block.
 
     The system utility of each lane and episode goes into ``utilities (lanes, episodes)``, and what came
     back in the last episode into ``outside`` (:class:`Outside`, which may also give the allocation of each of
     several resources; ``None``: nowhere);
     ``several`` is the seeds' :class:`SeveralResources` (``None`` with one resource);
-    ``mgrao_lanes``, ``adaptive_lanes``, ``independent_q_lanes`` and ``bandit_lanes`` are each learner
-    family's compiled lanes (:class:`~mgrao_core.algorithms.mgrao.compiled.MgraoLanes` and the like), in
+    ``mgrao_lanes``, ``adaptive_lanes``, ``independent_q_lanes``, ``bandit_lanes`` and ``balance_lanes`` are each
+    learner family's compiled lanes (:class:`~mgrao_core.algorithms.mgrao.compiled.MgraoLanes` and the like), in
     registry order, ``None`` for a family with no lane here (the module says why).
     """
     n_lanes = lanes.seed_index.shape[0]
@@ -187,6 +189,8 @@ def run_block(lanes, worlds, several, draws, env, utilities, outside, mgrao_lane
             Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, _ = mgrao_views
         if adaptive_lanes is not None:
             adaptive_views = adaptive.lane_of(adaptive_lanes, lane)
+        if balance_lanes is not None:
+            balance_views = balance.lane_of(balance_lanes, lane)
         child_of = np.zeros((n_parents, types_per_composite), dtype=np.int64)
         ctv = np.zeros((n_parents, types_per_composite))
         values = np.zeros((n_parents, types_per_composite))
@@ -225,6 +229,8 @@ def run_block(lanes, worlds, several, draws, env, utilities, outside, mgrao_lane
                     independent_q.allocate(independent_q_lanes, lane, m, c, weights[c])
                 elif bandit_lanes is not None and kind == BANDIT:
                     bandit.allocate(bandit_lanes, lane, m, c, weights[c])
+                elif balance_lanes is not None and kind == BALANCE:
+                    balance.allocate(balance_lanes, balance_views, m, c, weights[c], task_share)
                 else:
                     weights[c, :] = lanes.fixed_weights[lane, c, :]
                 if several is not None and outside is not None:  # the environment's allocation of each resource
@@ -295,10 +301,12 @@ def run_block(lanes, worlds, several, draws, env, utilities, outside, mgrao_lane
                 elif bandit_lanes is not None and kind == BANDIT:
                     bandit.learn(bandit_lanes, lane, m, p, n_parents, child_of[p], parent_types[p], values[p],
                                  weights)
+                elif balance_lanes is not None and kind == BALANCE:
+                    balance.learn(balance_lanes, balance_views, p, n_parents, child_of[p], parent_types[p], values[p])
 
 
 @njit(cache=True)
-def finish(lanes, several, mgrao_lanes, adaptive_lanes, independent_q_lanes, bandit_lanes):
+def finish(lanes, several, mgrao_lanes, adaptive_lanes, independent_q_lanes, bandit_lanes, balance_lanes):
     """Materialise every learner lane's final state and allocation (after the last episode).
 
     The arguments after ``lanes`` are :func:`run_block`'s (``None`` where it takes ``None``).
@@ -317,6 +325,8 @@ def finish(lanes, several, mgrao_lanes, adaptive_lanes, independent_q_lanes, ban
             independent_q.finish(independent_q_lanes, lane, lanes.groups[lane], lanes.weights[lane])
         elif bandit_lanes is not None and kind == BANDIT:
             bandit.finish(bandit_lanes, lane, lanes.groups[lane], lanes.weights[lane])
+        elif balance_lanes is not None and kind == BALANCE:
+            balance.finish(balance_lanes, lane, lanes.weights[lane])
         if several is not None and kind != MGRAO:  # one split for every resource
             for r in range(n_resources):
                 lanes.resource_weights[lane, :, r, :] = lanes.weights[lane]

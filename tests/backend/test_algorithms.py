@@ -28,7 +28,8 @@ def test_registry_for_a_system_gives_its_valid_arguments(client: TestClient) -> 
     # a form's parent count beside the preset's
     twelve = client.get("/api/algorithms", params={"system": "single", "n_parents": 12}).json()["data"]
     valid = {f["name"]: form["valid"] for f in twelve for form in f["forms"] if form["argument"]}
-    assert valid == {"mgrao": [1, 2, 3, 4, 6, 12], "mgrao-adaptive": list(range(1, 13))}  # adaptive: any x
+    assert valid == {"mgrao": [1, 2, 3, 4, 6, 12], "mgrao-adaptive": list(range(1, 13)),  # adaptive: any x
+                     "mgrao-balance": [1, 2, 3, 4, 6, 12]}
 
 
 def test_unknown_system_or_parents_without_one_is_a_422_naming_the_field(client: TestClient) -> None:
@@ -70,8 +71,8 @@ def test_systems_algorithms_come_from_the_registry(client: TestClient) -> None:
     algorithms = client.get("/api/systems").json()["algorithms"]
     # spelling and values of before, with the examples of families added since (issue 21's) in view order
     assert algorithms["fixed"] == ["uniform", "mgrao-1:1", "mgrao-max", "mgrao-adaptive:2", "mgrao-adaptive:5",
-                                   "independent-q", "bandit", "oracle"]
-    assert algorithms["pattern"] == "mgrao-<x>:1, mgrao-adaptive:<x>"
+                                   "mgrao-balance", "independent-q", "bandit", "oracle"]
+    assert algorithms["pattern"] == "mgrao-<x>:1, mgrao-adaptive:<x>, mgrao-balance:<M>"
     assert (algorithms["baseline"], algorithms["reference"], algorithms["best_fixed"]) == (
         "uniform", "mgrao-max", "oracle")
 

@@ -147,10 +147,10 @@ def test_the_kernel_is_compiled_for_the_families_a_job_runs(monkeypatch):
         assert outside is None  # a run has no environment outside it (mgrao_core.env's steps do)
         return [several is None] + [lanes is None for lanes in learners]
 
-    assert nones(["uniform", "mgrao-1:1", "mgrao-max"]) == [True, False, True, True, True]
-    assert nones(["uniform", "bandit"]) == [True, True, True, True, False]
-    assert nones(["mgrao-max", "independent-q"], {"n_resources": 2}) == [False, False, True, False, True]
-    assert nones(["uniform"]) == [True, True, True, True, True]
+    assert nones(["uniform", "mgrao-1:1", "mgrao-max"]) == [True, False, True, True, True, True]
+    assert nones(["uniform", "bandit"]) == [True, True, True, True, False, True]
+    assert nones(["mgrao-max", "independent-q"], {"n_resources": 2}) == [False, False, True, False, True, True]
+    assert nones(["uniform"]) == [True, True, True, True, True, True]
     # and numba compiled a kernel of that signature: uniform alone, without any learner's code, several resources
     # or observations
     assert any(sum(isinstance(t, types.NoneType) for t in sig) == 6 for sig in run_block.signatures)

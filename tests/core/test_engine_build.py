@@ -79,7 +79,7 @@ def test_editing_an_inlined_engine_file_recompiles_the_kernel(tmp_path: Path) ->
     assert {mine, theirs} <= {p.parent for p in (root / "cache").rglob("*.nbi")} <= allowed
     assert not list(root.joinpath("mgrao_core").rglob("*.nb[ci]"))
     _edit(root / "mgrao_core" / "engine" / "environment.py",
-          "taq += ctv[k] * atomic_task_quality(task_share * weights[c, t], resources[c, t], load[c, t], env)",
+          "taq += ctv[k] * atomic_task_quality(task_share[c] * weights[c, t], resources[c, t], load[c, t], env)",
           "taq += ctv[k] * 0.5")
     after = _run(root, "single")
     assert after != before  # the kernel inlines environment.py: it must not come from the old cache

@@ -26,7 +26,7 @@ test('labels described by the server: order by sort key, undescribed last by spe
 });
 
 test('the pickers come from the label forms: literal labels and forms with an argument', () => {
-  assert.deepEqual(literalLabels(FIXTURE.families).sort(), ['bandit', 'independent-q', 'mgrao-max', 'oracle', 'uniform']);
+  assert.deepEqual(literalLabels(FIXTURE.families).sort(), ['bandit', 'independent-q', 'mgrao-balance', 'mgrao-max', 'oracle', 'uniform']);
   const [{ form }] = argumentForms(FIXTURE.families);
   assert.equal(labelFor(form, 5), 'mgrao-5:1');
   assert.equal(argumentOf(form, 'MGRAO-05:1'), 5);
