@@ -64,7 +64,8 @@ def _edit(path: Path, old: str, new: str) -> None:
     path.write_text(source.replace(old, new))
 
 
-def test_editing_an_inlined_engine_file_recompiles_the_kernel(tmp_path: Path) -> None:
+def test_the_cache_is_the_users_and_editing_any_compiled_source_recompiles_the_kernel(tmp_path: Path) -> None:
+    """One copy of the package through every kind of edit (each compile costs about 15 s)."""
     root = _copy_package(tmp_path)
     before = _run(root, "single")
     # in the user's cache (never beside the package, where an uninstall would leave it), in numba's
@@ -78,17 +79,6 @@ def test_editing_an_inlined_engine_file_recompiles_the_kernel(tmp_path: Path) ->
                         for d in learners}
     assert {mine, theirs} <= {p.parent for p in (root / "cache").rglob("*.nbi")} <= allowed
     assert not list(root.joinpath("mgrao_core").rglob("*.nb[ci]"))
-    _edit(root / "mgrao_core" / "engine" / "environment.py",
-          "taq += ctv[k] * atomic_task_quality(task_share[c] * weights[c, t], resources[c, t], load[c, t], env)",
-          "taq += ctv[k] * 0.5")
-    after = _run(root, "single")
-    assert after != before  # the kernel inlines environment.py: it must not come from the old cache
-    assert '"single": [[5.0, 5.0, 5.0]' in after  # uniform, 10 parents at quality 0.5
-
-
-def test_editing_an_algorithm_module_or_the_quality_models_recompiles_the_kernel(tmp_path: Path) -> None:
-    root = _copy_package(tmp_path)
-    before = _run(root, "single")
     compiled = _kernel_index(root)
     assert _run(root, "single") == before and _kernel_index(root) == compiled  # unchanged: loaded, not compiled
     package = root / "mgrao_core"
@@ -103,6 +93,11 @@ def test_editing_an_algorithm_module_or_the_quality_models_recompiles_the_kernel
     after = _run(root, "single")
     assert _kernel_index(root) != recompiled  # the kernel inlines quality.py: it must not come from the old cache
     assert '"single": [[5.0, 5.0, 5.0]' in after  # uniform, 10 parents at hyperbolic quality 0.5
+    _edit(package / "engine" / "environment.py",
+          "taq += ctv[k] * atomic_task_quality(task_share[c] * weights[c, t], resources[c, t], load[c, t], env)",
+          "taq += ctv[k] * 0.25")
+    after = _run(root, "single")  # the kernel inlines environment.py: it must not come from the old cache
+    assert '"single": [[2.5, 2.5, 2.5]' in after  # uniform, 10 parents at quality 0.25
 
 
 def test_no_index_is_out_of_bounds_in_any_system(tmp_path: Path) -> None:
