@@ -22,7 +22,7 @@ class Run:
             uniform and oracle, whose weights are fixed).
         combined_weights: ``(n_children, n_types)`` each child's final combined weights.
         membership: ``(n_children, snapshots, n_parents)`` each parent's group in each recorded
-            membership, for an algorithm whose groups change (``mgrao-adaptive:x``); None otherwise.
+            membership, for an algorithm whose groups change (``mgrao-adaptive:x``, ``mgrao-balance``); None otherwise.
         membership_every: episodes between two recorded memberships (the first is at episode 0).
         resource_weights: with several resources, ``(n_resources, n_children, n_types)`` each child's final
             allocation of each resource (``combined_weights`` is the first's); None with one.

@@ -105,7 +105,8 @@ def mean_over_seeds(session: Session, job_id: int, algorithm: str) -> dict[str, 
 def of_seed(session: Session, *, job_id: int, seed: int | None = None) -> dict[str, Any]:
     """``GET /api/jobs/{id}/weights`` (docs/api.md "Weights"): every configuration's final weights for one seed.
 
-    A configuration whose parent groups change (``mgrao-adaptive:x``) also gives its recorded memberships.
+    A configuration whose parent groups change (``mgrao-adaptive:x``, ``mgrao-balance``) also gives its recorded
+    memberships.
 
     ``seed`` None: the job's first seed that has stored runs. A seed that is not the job's is
     refused (422 naming ``seed``); one of its seeds with no run stored yet is a conflict (409).

@@ -132,7 +132,7 @@ export function weightsSection({ jobId, results, plots, state }) {
       purge(heat);
       heat.hidden = true;
       heatNote.textContent = c.groups === null ? `${c.algorithm}: ${c.groups_omitted}.`
-        : `${c.algorithm} learns no group weights; only its combined weights are shown.`;
+        : `${c.algorithm} stores no group weights; only its combined weights are shown.`;
     }
     drawMembership(c, child, height);
     const shown = [c, ...answer.configurations.filter((x) => x.algorithm === bestFixed && x !== c)];

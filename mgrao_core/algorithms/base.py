@@ -77,8 +77,8 @@ class LabelForm:
     """One way of writing a family's labels, for forms that build labels from it.
 
     A literal form (``argument`` None) is the label ``template`` itself; a form with an argument
-    is ``template`` with ``{x}`` replaced by a whole number (``pattern`` matches the canonical and
-    the accepted spellings, with the number as its first group).
+    is ``template`` with ``{argument}`` (``{x}``, ``{M}``) replaced by a whole number (``pattern`` matches the
+    canonical and the accepted spellings, with the number as its first group).
     """
 
     template: str

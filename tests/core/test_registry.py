@@ -54,7 +54,8 @@ def test_registry_examples_are_valid_for_the_system_and_match_their_forms():
             for form in entry["forms"]:
                 if form["argument"]:
                     for x in form["valid"]:
-                        assert parse_algorithm(form["template"].format(x=x), n_parents).kind == entry["name"]
+                        label = form["template"].replace("{" + form["argument"] + "}", str(x))
+                        assert parse_algorithm(label, n_parents).kind == entry["name"]
 
 
 def test_every_paper_label_is_an_example_or_matches_a_form():

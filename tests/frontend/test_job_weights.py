@@ -67,7 +67,7 @@ def test_weights_of_one_seed_beside_the_oracle(page, server, screenshots):
 
     # a learner without groups shows its combined weights only; the choice of seed holds
     configuration.select_option("uniform")
-    wait_for(lambda: "learns no group weights" in page.locator("#weights-heat-note").inner_text(), 30, "the note")
+    wait_for(lambda: "stores no group weights" in page.locator("#weights-heat-note").inner_text(), 30, "the note")
     assert page.locator("#weights-heatmap").is_hidden()
 
 

@@ -73,6 +73,18 @@ def record_state() -> tuple[StateArray, ...]:
     )
 
 
+def recorded_membership(arrays: Mapping[str, np.ndarray], lane: int, params: System,
+                        every: int) -> tuple[np.ndarray, int]:
+    """A lane's recorded memberships (:func:`record_state`) and the episodes between two, ``every`` between two changes.
+
+    ``(children, snapshots, n_parents)``: the records every child made (as many as the child with fewest).
+    """
+    n = int(arrays["n_snapshots"][lane].min())
+    stride = int(arrays["snapshot_stride"][lane].max())
+    history = arrays["membership_history"][lane, :, :n, : params.n_parents].astype(np.int64)
+    return history, stride * every
+
+
 class Adaptive(Family):
     """MG-RAO whose x parent groups per child are re-formed every ``regroup_every`` episodes."""
 
@@ -187,10 +199,7 @@ class Adaptive(Family):
     def membership(self, arrays: Mapping[str, np.ndarray], lane: int, algorithm: Algorithm,
                    params: System) -> tuple[np.ndarray, int] | None:
         """Each child's recorded memberships ``(children, snapshots, n_parents)`` and the episodes between two."""
-        n = int(arrays["n_snapshots"][lane].min())
-        stride = int(arrays["snapshot_stride"][lane].max())
-        history = arrays["membership_history"][lane, :, :n, : params.n_parents].astype(np.int64)
-        return history, stride * params.regroup_every
+        return recorded_membership(arrays, lane, params, params.regroup_every)
 
 
 FAMILY = Adaptive()

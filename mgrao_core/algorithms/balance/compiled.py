@@ -182,10 +182,9 @@ def decide(bl, views, bound, c):
         views[13][c] = q
     else:
         views[14][c] = True
-    membership = views[16][c]
-    n_parents = membership.shape[0]
-    for p in range(n_parents):
-        membership[p] = (p * m) // n_parents
+    n_parents = views[16].shape[1]
+    for p in range(n_parents):  # through the tuple's item (see MG-RAO's allocate)
+        views[16][c][p] = (p * m) // n_parents
     return m
 
 
@@ -244,3 +243,4 @@ def finish(bl, lane, weights):
                                            m > bl.min_bounded_groups, bl.gamma_pow[views[8][c]], bl.trace_tail,
                                            bl.temperature, weights[c], views[11], bl.use_counts)
         views[8][c] = 0
+        views[10][c] = False

@@ -35,10 +35,10 @@ from typing import Any
 import numpy as np
 
 from mgrao_core.algorithms.adaptive.family import FAMILY as ADAPTIVE
-from mgrao_core.algorithms.adaptive.family import SNAPSHOTS, record_state
-from mgrao_core.algorithms.base import Algorithm, Family, LabelForm, invalid
+from mgrao_core.algorithms.adaptive.family import SNAPSHOTS, record_state, recorded_membership
+from mgrao_core.algorithms.base import Algorithm, Family, LabelForm
 from mgrao_core.algorithms.mgrao import FAMILY as MGRAO
-from mgrao_core.algorithms.mgrao import divisors
+from mgrao_core.algorithms.mgrao.family import check_divisor, divisors
 from mgrao_core.algorithms.state import StateArray, System, nbytes, sizes_of
 from mgrao_core.parameter import Parameter
 
@@ -75,7 +75,8 @@ class Balance(Family):
     title = "MG-RAO, balanced groups"
     description = ("MG-RAO whose children choose their number of parent groups as they learn (the paper's future "
                    "work): each starts with one group and splits them every few episodes while the rows of its last "
-                   "split differ by more than what learning costs (learning_cost), up to a bound of M groups.")
+                   "split differ by at least balance_tolerance times what learning costs (learning_cost), up to a "
+                   "bound of M groups.")
     rank = 1  # beside MG-RAO: after uniform, before the oracle
     parameters = (
         Parameter("balance_every", "int", 10, "Episodes between two of mgrao-balance's decisions to split its groups.",
@@ -109,12 +110,7 @@ class Balance(Family):
         if match.group(1) is None:
             return Algorithm(NAME, self.name, n_parents or 0)
         bound = int(match.group(1))
-        if n_parents is None:
-            if bound < 1:
-                raise invalid(field, f"{text}: M must be a whole number of at least 1")
-        elif bound < 1 or bound > n_parents or n_parents % bound:
-            raise invalid(field, f"{text}: M must be a divisor of n_parents = {n_parents} "
-                                 f"(valid: {', '.join(str(d) for d in divisors(n_parents))})")
+        check_divisor(text, bound, n_parents, field, "M")
         return Algorithm(balance_label(bound), self.name, bound)
 
     def forms(self, n_parents: int | None) -> list[dict[str, Any]]:
@@ -183,10 +179,7 @@ class Balance(Family):
     def membership(self, arrays: Mapping[str, np.ndarray], lane: int, algorithm: Algorithm,
                    params: System) -> tuple[np.ndarray, int] | None:
         """Each child's recorded groups ``(children, snapshots, n_parents)``: one record per decision."""
-        n = int(arrays["n_snapshots"][lane].min())
-        stride = int(arrays["snapshot_stride"][lane].max())
-        history = arrays["membership_history"][lane, :, :n, : params.n_parents].astype(np.int64)
-        return history, stride * params.balance_every
+        return recorded_membership(arrays, lane, params, params.balance_every)
 
 
 FAMILY = Balance()

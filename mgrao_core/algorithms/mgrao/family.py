@@ -43,6 +43,20 @@ def parent_groups(n_parents: int, n_groups: int) -> np.ndarray:
     return (np.arange(n_parents) * n_groups) // n_parents
 
 
+def check_divisor(text: str, value: int, n_parents: int | None, field: str, name: str) -> None:
+    """Refuse the argument ``name`` (= ``value``) of label ``text`` unless it divides ``n_parents``.
+
+    Without a system (``n_parents`` None) it need only be at least 1. Raises :class:`ConfigError` naming ``field``
+    and, with a system, the valid values.
+    """
+    if n_parents is None:
+        if value < 1:
+            raise invalid(field, f"{text}: {name} must be a whole number of at least 1")
+    elif value < 1 or value > n_parents or n_parents % value:
+        raise invalid(field, f"{text}: {name} must be a divisor of n_parents = {n_parents} "
+                             f"(valid: {', '.join(str(d) for d in divisors(n_parents))})")
+
+
 def ratio_label(groups: int) -> str:
     """The canonical label of x groups per child, ``mgrao-x:1``."""
     return f"mgrao-{groups}:1"
@@ -108,12 +122,7 @@ class Mgrao(Family):
         groups, children = int(match.group(1)), int(match.group(2))
         if children != 1:
             raise invalid(field, f"{text}: only x:1 (groups per child) is supported, got y = {children}")
-        if n_parents is None:
-            if groups < 1:
-                raise invalid(field, f"{text}: x must be a whole number of at least 1")
-        elif groups < 1 or groups > n_parents or n_parents % groups:
-            raise invalid(field, f"{text}: x must be a divisor of n_parents = {n_parents} "
-                                 f"(valid: {', '.join(str(d) for d in divisors(n_parents))})")
+        check_divisor(text, groups, n_parents, field, "x")
         return Algorithm(ratio_label(groups), self.name, groups)
 
     def forms(self, n_parents: int | None) -> list[dict[str, Any]]:
