@@ -68,6 +68,11 @@ def parse_algorithm(label: Any, n_parents: int | None, field: str = "algorithm")
     raise ConfigError(field, f"unknown algorithm {label!r}: use {', '.join(f.hint(n_parents) for f in FAMILIES)}")
 
 
+def learned_by_max(params: System) -> int:
+    """What one child of ``mgrao-max`` keeps (:meth:`Family.learned_numbers`): the yardstick of ``learning_cost``."""
+    return mgrao.FAMILY.learned_numbers(Algorithm(MGRAO_MAX, mgrao.FAMILY.name, params.n_parents), params)
+
+
 def task_share(algorithm: Algorithm, params: System) -> float:
     """The share of each child's resources its tasks get under ``learning_cost`` (:func:`.equations.task_share`).
 
@@ -84,8 +89,7 @@ def task_share(algorithm: Algorithm, params: System) -> float:
         learned = family_of(algorithm).learned_numbers(algorithm, params)
     except NotImplementedError as error:
         raise ConfigError("learning_cost", str(error)) from None
-    by_max = mgrao.FAMILY.learned_numbers(Algorithm(MGRAO_MAX, "mgrao", params.n_parents), params)
-    return equations.task_share(cost, learned, by_max)
+    return equations.task_share(cost, learned, learned_by_max(params))
 
 
 def parse_algorithms(labels: list[str] | tuple[str, ...], n_parents: int) -> tuple[Algorithm, ...]:

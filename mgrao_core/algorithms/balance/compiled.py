@@ -44,8 +44,8 @@ class BalanceLanes(NamedTuple):
     """Every lane's state and the parameters as the kernel reads them: MG-RAO's fields, then the family's.
 
     One flat tuple (numba's parallel loop takes no nested one). The family's arrays are declared in
-    :mod:`mgrao_core.algorithms.balance.family`. ``learned_per_group`` (``2 * n_types + 1``), ``rule_numbers`` and
-    ``learned_by_max`` price the groups (:meth:`~mgrao_core.algorithms.balance.family.Balance.learned_for`).
+    :mod:`mgrao_core.algorithms.balance.family`. ``learned_per_group * m + rule_numbers`` is
+    :meth:`~mgrao_core.algorithms.balance.family.Balance.learned_for` ``m`` groups, priced against ``learned_by_max``.
     """
 
     Y: np.ndarray
@@ -85,13 +85,13 @@ class BalanceLanes(NamedTuple):
 
 def lanes_of(arrays: Mapping[str, np.ndarray], params: System) -> BalanceLanes:
     """The kernel's view of the chunk's balance arrays (by name, as declared) and of a validated parameter set."""
-    from mgrao_core.algorithms import MGRAO_MAX, Algorithm
-    from mgrao_core.algorithms.mgrao import FAMILY as MGRAO
+    from mgrao_core.algorithms import learned_by_max
 
-    by_max = MGRAO.learned_numbers(Algorithm(MGRAO_MAX, MGRAO.name, params.n_parents), params)
+    without_groups = family.FAMILY.learned_for(0, params)  # learned_for(m) is per_group * m + without_groups
+    per_group = family.FAMILY.learned_for(1, params) - without_groups
     return BalanceLanes(*mgrao.lanes_of(arrays, params), *(arrays[name] for name in _OWN), int(params.balance_every),
                         params.balance_tolerance * params.learning_cost, params.learning_cost,
-                        2 * params.n_types + 1, family.RULE_NUMBERS, by_max)
+                        per_group, without_groups, learned_by_max(params))
 
 
 @njit(cache=True, inline="always")

@@ -48,9 +48,9 @@ RULE_NUMBERS = 2
 _LABEL = re.compile(r"^mgrao-balance(?::0*(\d{1,9}))?$")
 
 
-def balance_label(bound: int | None) -> str:
-    """The canonical label: ``mgrao-balance`` (bound ``n_parents``) or ``mgrao-balance:M``."""
-    return NAME if bound is None else f"{NAME}:{bound}"
+def balance_label(bound: int) -> str:
+    """The canonical label of a bound of ``M`` groups, ``mgrao-balance:M`` (the bare label's bound is ``n_parents``)."""
+    return f"{NAME}:{bound}"
 
 
 def smallest_prime_factor(n: int) -> int:

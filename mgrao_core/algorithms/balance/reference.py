@@ -13,10 +13,9 @@ import math
 import numpy as np
 
 from mgrao_core import equations
-from mgrao_core.algorithms import MGRAO_MAX, Algorithm
+from mgrao_core.algorithms import Algorithm, learned_by_max
 from mgrao_core.algorithms.balance.family import FAMILY, next_split
 from mgrao_core.algorithms.base import ReferenceChild, World
-from mgrao_core.algorithms.mgrao import FAMILY as MGRAO
 from mgrao_core.algorithms.mgrao.family import parent_groups
 from mgrao_core.algorithms.mgrao.reference import Child as MgraoChild
 from mgrao_core.algorithms.state import System
@@ -35,7 +34,7 @@ class Child(MgraoChild):
         self.settled = False
         self.episodes = 0
         self.history = [1]
-        self.by_max = MGRAO.learned_numbers(Algorithm(MGRAO_MAX, MGRAO.name, params.n_parents), params)
+        self.by_max = learned_by_max(params)
 
     @property
     def n_groups(self) -> int:
