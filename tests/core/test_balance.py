@@ -137,8 +137,9 @@ def test_deterministic_whatever_runs_beside_it_and_whatever_the_blocks():
     reordered = _by_run(run_experiment(make_spec("volatile", labels[::-1], seeds=[9, 1, 4], episodes=22,
                                                  overrides=overrides)))
     assert whole == reordered
-    alone = _by_run(run_experiment(make_spec("volatile", ["mgrao-balance"], seeds=[1], episodes=22,
-                                             overrides=overrides)))  # a kernel without MG-RAO's lanes
+    beside = ["mgrao-balance", "mgrao-adaptive:3"]  # no MG-RAO lanes: one kernel for both tests
+    alone = _by_run(run_experiment(make_spec("volatile", beside, seeds=[1], episodes=22,
+                                             overrides=overrides)))
     assert alone[("mgrao-balance", 1)] == whole[("mgrao-balance", 1)]
 
 
