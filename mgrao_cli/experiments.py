@@ -184,17 +184,17 @@ def run(ctx: click.Context, system: str | None, algorithms: str | None, seeds: i
                              on_block=lambda _result, verdict: update(verdict.seeds / until.max_seeds))
             result, spec = done.result, done.result.spec
     elapsed = time.perf_counter() - started
-    summary = result.summary()
+    summary, tasks = result.summary(), result.task_counts()
     if fmt == "json":
         payload = {
             "spec": spec.as_dict(),
             "simulation_seconds": elapsed,
             **({} if done is None else {"until": until.as_dict(), "stopped": done.stopped.as_dict(),
                                         "blocks": [verdict.as_dict() for verdict in done.blocks]}),
-            "summary": {label: s.as_dict() for label, s in summary.items()},
+            "summary": {label: {**s.as_dict(), **tasks[label].rates()} for label, s in summary.items()},
             "runs": [
                 {"algorithm": r.algorithm, "seed": r.seed, "utilities": r.utilities.tolist(),
-                 "combined_weights": r.combined_weights.tolist()}
+                 "combined_weights": r.combined_weights.tolist(), **r.tasks.rates()}
                 for r in result.runs
             ],
         }
@@ -215,6 +215,10 @@ def run(ctx: click.Context, system: str | None, algorithms: str | None, seeds: i
             for s in summary.values()
         ]
         headers = ["algorithm", "final mean", "95% CI", "% from uniform", "95% CI", "% of max"]
+        if spec.params.task_need > 0:  # tasks can fail: what became of them
+            rows = [[*row, _fmt(100 * tasks[row[0]].failure_rate), _fmt(100 * tasks[row[0]].handover_rate)]
+                    for row in rows]
+            headers += ["% failed", "% handed over"]
         title = (f"{system}: {len(spec.seeds)} seeds x {spec.episodes} episodes, "
                  f"mean of the last 10 episodes ({elapsed:.2f} s)")
         stopped = "" if done is None else f"\n{_stopped_line(done.stopped)}"

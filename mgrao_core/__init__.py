@@ -13,7 +13,7 @@ from mgrao_core.budget import MAX_CHUNK_BYTES, MAX_RESULT_BYTES, plan_chunks
 from mgrao_core.errors import Cancelled, ConfigError, MgraoError, NumericalError, WorkLimitError
 from mgrao_core.params import PARAMETERS, Parameter, SystemParams, complete_params, identity_params, make_params
 from mgrao_core.presets import PAPER_SYSTEMS, PRESETS, Preset, get_preset
-from mgrao_core.results import ExperimentResult, Run
+from mgrao_core.results import ExperimentResult, Run, TaskCounts
 from mgrao_core.spec import (
     MAX_ALGORITHMS,
     MAX_EPISODES,
@@ -75,6 +75,7 @@ __all__ = [
     "Preset",
     "Run",
     "SystemParams",
+    "TaskCounts",
     "WorkLimitError",
     "complete_params",
     "divisors",

@@ -106,3 +106,29 @@ def task_share(learning_cost: float, learned: int, learned_by_max: int) -> float
     ``task_share * w[t] * ar`` instead of ``w[t] * ar``; a share of 1 (nothing learned, or no cost) changes nothing.
     """
     return 1.0 - min(1.0, learning_cost * learned / learned_by_max)
+
+
+def need_amount(task_need: float, resource_mean: float, n_types: int) -> float:
+    """The amount below which an atomic task fails: ``task_need`` times the mean child's uniform amount.
+
+    The amount a task gets is what the quality model reads, ``x = w * a / load`` (with several resources, of the last
+    resource relative to the type's need); the unit is what a uniform split gives a child of mean resource,
+    ``resource_mean / n_types`` (docs/model.md, "Tasks that fail, and hierarchical allocation").
+    """
+    return task_need * resource_mean / n_types
+
+
+def neighbour(child: int, i: int, n_children: int, ring: bool) -> int:
+    """The ``i``-th child that ``child`` turns to for a task it cannot complete.
+
+    Every other child from the next one on (``all``: ``child + 1, child + 2, ...``, ``n_children - 1`` of them), or
+    the next and the previous one (``ring``: :func:`n_neighbours` says how many).
+    """
+    if ring and i == 1:
+        return (child - 1) % n_children
+    return (child + 1 + i) % n_children
+
+
+def n_neighbours(n_children: int, ring: bool) -> int:
+    """How many children a child can turn to (:func:`neighbour`)."""
+    return min(2, n_children - 1) if ring else n_children - 1

@@ -39,6 +39,8 @@ ENVIRONMENT: tuple[StateArray, ...] = (
     StateArray("parent_types", ("lanes", "n_parents", "types_per_composite"), "int64",
                help="the atomic types of each parent's composite type (scheduled events and unpredictable parents "
                     "change them)"),
+    StateArray("task_counts", ("lanes", "task_outcomes"), "int64",
+               help="where tasks can fail (task_need): atomic tasks allocated, failed, completed through a neighbour"),
 )
 """What every lane holds whatever its algorithm: the parents' side of the system and the children's
 allocation in force."""

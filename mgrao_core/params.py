@@ -30,6 +30,8 @@ MAX_PERIOD = 1000
 MAX_RESOURCES = 8
 RESOURCE_COMBINATIONS = ("scarcest", "weighted")
 RESOURCE_CREDITS = ("shared", "by-share")
+HIERARCHIES = ("none", "borrow", "hand-over")
+NEIGHBOURHOODS = ("all", "ring")
 
 
 _ENVIRONMENT: tuple[Parameter, ...] = (
@@ -229,20 +231,51 @@ _LEARNING: tuple[Parameter, ...] = (
     ),
 )
 
+_HIERARCHY: tuple[Parameter, ...] = (
+    # Tasks that fail and hierarchical resource allocation (the paper's future work): docs/model.md ("Tasks that
+    # fail, and hierarchical allocation").
+    Parameter(
+        "task_need", "float", 0.0,
+        "Amount of its child's resource an atomic task needs (with several resources, of the last one), in units "
+        "of the mean child's uniform amount (resource_mean / n_types); below it the task fails, its value lost; 0: "
+        "no task fails (the paper's experiments).",
+        "hierarchy", 0.0, 10.0,
+    ),
+    Parameter(
+        "hierarchy", "choice", "none",
+        "What a child does with a task it cannot complete: return the failure (none), borrow the shortfall from a "
+        "neighbour whose own tasks of that type keep their need (borrow, the lender's loss), or hand the task "
+        "over to a neighbour that meets the need (hand-over, its quality discounted by handover_cost).",
+        "hierarchy", choices=HIERARCHIES,
+    ),
+    Parameter(
+        "neighbours", "choice", "all",
+        "Which children a child can turn to, in the order it asks them: every other child, from the next one on "
+        "(all), or the next and the previous one (ring).",
+        "hierarchy", choices=NEIGHBOURHOODS,
+    ),
+    Parameter(
+        "handover_cost", "float", 0.5,
+        "Share of a handed-over task's quality lost to the hand-over's delay (hierarchy = hand-over).",
+        "hierarchy", 0.0, 1.0,
+    ),
+)
+
 PARAMETERS: tuple[Parameter, ...] = (
     *_ENVIRONMENT, *(p for f in FAMILIES for p in f.parameters), *_ALLOCATION, *_DYNAMICS, *_RESOURCES, *_LEARNING,
+    *_HIERARCHY,
 )
 """Every parameter: the system's, values' and quality's, then each algorithm family's own (MG-RAO's
 ``learning_rate``, ``trace_decay``, ``temperature``, declared in :mod:`mgrao_core.algorithms.mgrao`), then
 the parents' allocation and volatility, then the system's dynamics (frequencies, schedule, unpredictable
 parents, capability), then several resources (``n_resources`` and how they combine), then the cost of
-learning."""
+learning, then tasks that fail and the hierarchy that completes them."""
 PARAMETERS_BY_NAME: dict[str, Parameter] = {p.name: p for p in PARAMETERS}
 GROUP_TITLES: dict[str, str] = {
     "system": "System", "values": "Values", "quality": "Quality (environment)",
     "allocation": "Allocation (environment)", "volatility": "Volatility (environment)",
     "dynamics": "Dynamics (environment)", "resources": "Resources (environment)",
-    "learning": "Learning cost",
+    "learning": "Learning cost", "hierarchy": "Failures and hierarchy",
     **{f.name: f"{f.title} (algorithm)" for f in FAMILIES if f.parameters},
 }
 """Each parameter group's heading in forms and tables: the model's parts, then each family's (its title)."""

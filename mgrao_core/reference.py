@@ -25,6 +25,7 @@ from mgrao_core.algorithms import family_of, parse_algorithm, task_share
 from mgrao_core.algorithms.base import ReferenceChild
 from mgrao_core.params import SystemParams
 from mgrao_core.quality import atomic_quality, combine_resources
+from mgrao_core.results import TaskCounts
 from mgrao_core.world import NEW_COMPOSITE, NEW_PROFILE, EpisodeDraws, EpisodeStreams, draw_world, is_dynamic
 
 
@@ -162,6 +163,8 @@ class SeedEnvironment:
         self._task_types = np.array(self.world.parent_types, dtype=np.int64)
         self._volatile = params.leave_probability > 0 or params.join_probability > 0
         self._dynamic = is_dynamic(params)
+        self.tasks = TaskCounts()
+        """What became of the atomic tasks so far, where tasks can fail (``task_need > 0``)."""
 
     def _draws_of(self, e: int) -> EpisodeDraws:
         if self._draws is None or e >= self._start + self._block:
@@ -232,6 +235,12 @@ class SeedEnvironment:
             quality = atomic_quality(w_eff, a_eff, params, load)
             shares = np.zeros((params.n_parents, params.types_per_composite, params.n_resources))
             shares[present] = task_shares
+        failed = np.zeros(quality.shape, dtype=bool)
+        if params.task_need > 0:  # tasks that fail, and the hierarchy that completes some of them
+            allocation = allocation if params.n_resources > 1 else allocation[:, None, :]
+            quality, failed, task_shares = self._tasks_that_fail(children, types, allocation)
+            if shares is not None:
+                shares[present] = task_shares
         self._present[:] = False
         self._present[present] = True
         row = 0  # of quality: the present parents in order
@@ -243,7 +252,7 @@ class SeedEnvironment:
             ctv = eq.proportional_values(parent.profile, draws.noise[e, p], params.value_noise)
             taqs[p] = eq.composite_quality(ctv, quality[row])
             row += 1
-            values[p] = eq.absolute_values(ctv, taqs[p])
+            values[p] = np.where(failed[row - 1], 0.0, eq.absolute_values(ctv, taqs[p]))  # a failure returns 0
             utility += taqs[p]
         # 5. Values come back composite by composite, in a random order of parents: first to the
         # parents' estimates of their children (the children's learning is the caller's).
@@ -254,9 +263,86 @@ class SeedEnvironment:
         return Episode(utility, self._present, self._task_types, child_of, values, taqs, order, shares)
 
 
+    def _tasks_that_fail(self, children: np.ndarray, types: np.ndarray,
+                         allocation: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Each atomic task's quality where tasks can fail, task by task in the order of parents and their tasks.
+
+        ``children`` and ``types`` are the present parents' (rows) atomic tasks', ``allocation (children, R,
+        n_types)`` what each child gives each type of each resource (its tasks' share). A task gets
+        ``x = w[c, last, t] * a[c, last, t] / load`` of the last resource (less what its child lent of the type), and
+        fails below the need (``equations.need_amount``); under ``borrow`` the first neighbour (``equations.neighbour``)
+        that keeps the need for its own tasks of the type lends the shortfall, under ``hand-over`` the first one
+        whose own amount meets the need performs it, at ``1 - handover_cost`` of its quality. Returns the qualities,
+        which tasks failed (quality 0) and, with several resources, each resource's share of each quality.
+        """
+        params = self.params
+        need = eq.need_amount(params.task_need, params.resource_mean, params.n_types)
+        per_weight = self.world.resource_per_type  # (children, R, n_types)
+        last = per_weight.shape[1] - 1
+        load = np.ones((params.n_children, params.n_types))
+        if params.load_sharing:
+            load[:] = 0.0
+            np.add.at(load, (children, types), 1.0)
+        available = allocation[:, last, :] * per_weight[:, last, :]
+        lent = np.zeros_like(available)
+        neighbours = [eq.neighbour(c, i, params.n_children, params.neighbours == "ring")
+                      for c in range(params.n_children)
+                      for i in range(eq.n_neighbours(params.n_children, params.neighbours == "ring"))]
+        per_child = len(neighbours) // params.n_children
+        outcome = np.full(children.shape, "own", dtype=object)
+        performer = children.copy()
+        for row, k in np.ndindex(children.shape):
+            c, t = children[row, k], types[row, k]
+            own = (available[c, t] - lent[c, t]) / load[c, t]
+            if own >= need:
+                continue
+            outcome[row, k] = "failed"
+            for d in (neighbours[c * per_child:(c + 1) * per_child] if params.hierarchy != "none" else []):
+                room = available[d, t] - lent[d, t]
+                if params.hierarchy == "borrow" and (room - (need - own)) / max(load[d, t], 1.0) >= need:
+                    lent[d, t] += need - own
+                    outcome[row, k], performer[row, k] = "borrowed", d
+                    break
+                if params.hierarchy == "hand-over" and room / max(load[d, t], 1.0) >= need:
+                    outcome[row, k], performer[row, k] = "handed over", d
+                    break
+        quality = np.zeros(children.shape)
+        shares = np.zeros((*children.shape, per_weight.shape[1]))
+        for row, k in np.ndindex(children.shape):
+            if outcome[row, k] == "failed":
+                continue
+            c = children[row, k] if outcome[row, k] == "borrowed" else performer[row, k]
+            t = types[row, k]
+            w, a, tasks = allocation[c, :, t].copy(), per_weight[c, :, t], max(load[c, t], 1.0)
+            if outcome[row, k] == "borrowed":
+                w[last] = need * tasks / a[last]
+            elif lent[c, t] > 0:
+                w[last] -= lent[c, t] / a[last]
+            if len(w) == 1:
+                w_eff, a_eff = w[0], a[0]
+            else:
+                w_eff, a_eff, task_shares = combine_resources(w[None], a[None], self.world.needs[t][None],
+                                                              params.resource_combination)
+                w_eff, a_eff, shares[row, k] = w_eff[0], a_eff[0], task_shares[0]
+            quality[row, k] = atomic_quality(w_eff, a_eff, params, tasks)
+            if outcome[row, k] == "handed over":
+                quality[row, k] *= 1.0 - params.handover_cost
+        failed = outcome == "failed"
+        helped = np.isin(outcome, ["borrowed", "handed over"])
+        self.tasks += TaskCounts(children.size, int(failed.sum()), int(helped.sum()))
+        return quality, failed, shares
+
+
 def simulate(params: SystemParams, algorithm: str, seed: int,
              episodes: int) -> tuple[np.ndarray, list[ReferenceChild]]:
-    """One run; returns the utility of every episode and the children's final state.
+    """One run; returns the utility of every episode and the children's final state (:func:`simulate_run`'s)."""
+    utilities, children, _ = simulate_run(params, algorithm, seed, episodes)
+    return utilities, children
+
+
+def simulate_run(params: SystemParams, algorithm: str, seed: int,
+                 episodes: int) -> tuple[np.ndarray, list[ReferenceChild], TaskCounts]:
+    """One run; returns the utility of every episode, the children's final state and what became of the tasks.
 
     Each child's tasks get ``task_share`` of its allocation (``learning_cost``, :func:`.equations.task_share`), or
     the share the child gives for the episode (:meth:`ReferenceChild.task_share`, after its allocation).
@@ -276,4 +362,4 @@ def simulate(params: SystemParams, algorithm: str, seed: int,
                 children[c].learn(p, int(episode.task_types[p, k]), value)
             else:
                 children[c].learn_resources(p, int(episode.task_types[p, k]), value, episode.shares[p, k])
-    return utilities, children
+    return utilities, children, environment.tasks

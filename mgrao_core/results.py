@@ -11,6 +11,40 @@ from mgrao_core.stats import ConfigSummary, episode_band, final_utilities, summa
 
 
 @dataclass(frozen=True)
+class TaskCounts:
+    """What became of a run's atomic tasks when tasks can fail (``task_need``; docs/model.md, "Tasks that fail").
+
+    Attributes:
+        allocated: atomic tasks the parents allocated to children (counted only where a task can fail).
+        failed: those that returned a failure, their value lost.
+        handed_over: those the hierarchy completed through a neighbouring child (a borrowed share of its
+            resource, or the task handed over to it; ``hierarchy``).
+    """
+
+    allocated: int = 0
+    failed: int = 0
+    handed_over: int = 0
+
+    def __add__(self, other: TaskCounts) -> TaskCounts:
+        return TaskCounts(self.allocated + other.allocated, self.failed + other.failed,
+                          self.handed_over + other.handed_over)
+
+    @property
+    def failure_rate(self) -> float:
+        """Share of the allocated atomic tasks that failed, in [0, 1]; 0 where none was counted."""
+        return self.failed / self.allocated if self.allocated else 0.0
+
+    @property
+    def handover_rate(self) -> float:
+        """Share of the allocated atomic tasks completed through a neighbour, in [0, 1]; 0 where none was counted."""
+        return self.handed_over / self.allocated if self.allocated else 0.0
+
+    def rates(self) -> dict[str, float]:
+        """``{"failure_rate": ..., "handover_rate": ...}``, as summaries carry them."""
+        return {"failure_rate": self.failure_rate, "handover_rate": self.handover_rate}
+
+
+@dataclass(frozen=True)
 class Run:
     """One (algorithm, seed) run.
 
@@ -28,6 +62,7 @@ class Run:
             allocation of each resource (``combined_weights`` is the first's); None with one.
         resource_group_weights: with several resources, ``(n_resources, n_children, m, n_types)`` each
             resource's final PW (MG-RAO keeps one per resource; ``group_weights`` is the first's); None with one.
+        tasks: what became of its atomic tasks (:class:`TaskCounts`; all 0 where no task can fail).
     """
 
     algorithm: str
@@ -39,6 +74,7 @@ class Run:
     membership_every: int = 0
     resource_weights: np.ndarray | None = None
     resource_group_weights: np.ndarray | None = None
+    tasks: TaskCounts = TaskCounts()
 
 
 @dataclass(frozen=True)
@@ -59,6 +95,13 @@ class ExperimentResult:
             for a in self.spec.algorithms
         }
         return summarise(finals)
+
+    def task_counts(self) -> dict[str, TaskCounts]:
+        """Per algorithm, its runs' :class:`TaskCounts` summed over seeds (rates pooled over every atomic task)."""
+        out = {a: TaskCounts() for a in self.spec.algorithms}
+        for run in self.runs:
+            out[run.algorithm] = out[run.algorithm] + run.tasks
+        return out
 
     def episode_bands(self, points: int | None = None) -> dict[str, dict[str, list[float]]]:
         """Per algorithm, the per-episode mean over seeds with its 95% band."""

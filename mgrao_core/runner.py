@@ -17,7 +17,7 @@ from mgrao_core.algorithms.base import FixedFamily
 from mgrao_core.budget import MAX_CHUNK_BYTES, block_episodes, plan_chunks
 from mgrao_core.errors import Cancelled, NumericalError
 from mgrao_core.lanes import allocate_lanes
-from mgrao_core.results import ExperimentResult, Run
+from mgrao_core.results import ExperimentResult, Run, TaskCounts
 from mgrao_core.spec import ExperimentSpec
 from mgrao_core.world import EpisodeDraws, EpisodeStreams, World, draw_world
 
@@ -119,6 +119,7 @@ def run_chunk(
     environment = engine.environment_of(p)
     streams = [EpisodeStreams(p, seed, world) for seed, world in zip(seeds, worlds, strict=True)]
     utilities = np.zeros((len(lanes.kind), spec.episodes))
+    failing = engine.Failing(counts=arrays["task_counts"]) if p.task_need > 0 else None
     block = episodes_per_block or block_episodes(spec, len(seeds))
     done = 0
     while done < spec.episodes:
@@ -127,7 +128,7 @@ def run_chunk(
         count = min(block, spec.episodes - done)
         out = np.zeros((len(lanes.kind), count))
         engine.run_block(lanes, world, several, block_draws([s.draw(count) for s in streams]), environment, out,
-                         None, *learners)
+                         None, failing, *learners)
         utilities[:, done : done + count] = out
         done += count
         if on_progress is not None:
@@ -162,6 +163,7 @@ def run_chunk(
                 membership_every=every,
                 resource_weights=resource_weights,
                 resource_group_weights=resource_group_weights,
+                tasks=TaskCounts(*map(int, arrays["task_counts"][lane])) if failing is not None else TaskCounts(),
             ))
     check_finite(runs)
     return tuple(runs)

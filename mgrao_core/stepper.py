@@ -80,6 +80,7 @@ class SteppedWorlds:
                                        sending=np.zeros((n, p.n_parents), np.bool_),
                                        child_of=np.zeros(shape, np.int64), values=np.zeros(shape))
         self._utility = np.zeros((n, 1))
+        self._failing = engine.Failing(counts=self._arrays["task_counts"]) if p.task_need > 0 else None
         self._draws: list[engine.Draws] | None = None
         self._kernel: Callable[..., None] | None = None
         self._observer: Callable[..., None] | None = None
@@ -117,7 +118,7 @@ class SteppedWorlds:
             self._arrays["fixed_weights"][:] = weights[:, :, 0]
             self._outside.resource_weights[:] = weights
         arguments = (self._lanes, self._worlds, self._several, draws, self._environment, self._utility, self._outside,
-                     *_NO_LEARNERS)
+                     self._failing, *_NO_LEARNERS)
         set_threads, get_threads = _thread_functions()
         threads = get_threads()
         set_threads(1)  # one episode is too short for numba's threads to pay for their start

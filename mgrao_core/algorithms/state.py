@@ -29,7 +29,8 @@ class System(Protocol):
     def __getattr__(self, name: str) -> Any: ...  # noqa: D105
 
 SIZES = ("lanes", "children", "groups", "n_types", "n_parents", "choices", "types_per_composite",
-         "tracked_parents", "tracked_children", "snapshots", "learners", "resources", "extra_resources")
+         "tracked_parents", "tracked_children", "snapshots", "learners", "resources", "extra_resources",
+         "task_outcomes")
 """The sizes a shape may name: the chunk's lanes, the system's children, the most parent groups of
 the chunk's algorithms (at least 1), atomic types, parents, a parent's child choices per composite
 (:func:`mgrao_core.world.routing_choices`) and atomic types per composite; and two a family asks for
@@ -38,7 +39,8 @@ algorithms, else 0): parents and children a learner keeps statistics or counters
 bounded history. So a chunk that runs no such family holds none of those arrays. With several resources
 (docs/model.md, "Several resources"): ``learners``, a child's learners, one per resource (``n_children *
 n_resources``: MG-RAO keeps a PW per resource), ``resources`` (``n_resources``) and ``extra_resources``
-(``n_resources`` when above 1, else 0: what one resource needs no array of)."""
+(``n_resources`` when above 1, else 0: what one resource needs no array of). Where tasks can fail
+(``task_need > 0``), ``task_outcomes``: 3 (allocated, failed, completed through a neighbour), else 0."""
 FAMILY_SIZES = ("tracked_parents", "tracked_children", "snapshots")
 """The sizes of :data:`SIZES` a family's :meth:`~mgrao_core.algorithms.base.Family.sizes` sets (else 0)."""
 
@@ -97,7 +99,8 @@ def sizes_of(params: System, lanes: int, groups: int, family_sizes: Mapping[str,
     return {"lanes": lanes, "children": params.n_children, "groups": max(groups, 1), "n_types": params.n_types,
             "n_parents": params.n_parents, "choices": routing_choices(params),
             "types_per_composite": params.types_per_composite, "learners": params.n_children * resources,
-            "resources": resources, "extra_resources": resources if resources > 1 else 0} | {
+            "resources": resources, "extra_resources": resources if resources > 1 else 0,
+            "task_outcomes": 3 if getattr(params, "task_need", 0.0) > 0 else 0} | {
                 name: 0 for name in FAMILY_SIZES} | dict(family_sizes or {})
 
 

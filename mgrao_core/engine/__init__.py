@@ -13,7 +13,7 @@ Everything here is checked against the dense reference (:mod:`mgrao_core.referen
 import mgrao_core._numba_cache  # noqa: F401, I001  (first: picks a writable numba cache before numba loads)
 from mgrao_core.engine.cache import bind_to_sources, load_without_compiler
 from mgrao_core.engine.environment import Environment, environment_of
-from mgrao_core.engine.kernel import Draws, Lanes, Outside, SeveralResources, Worlds, finish, run_block
+from mgrao_core.engine.kernel import Draws, Failing, Lanes, Outside, SeveralResources, Worlds, finish, run_block
 from mgrao_core.engine.observation import child_observations
 
 bind_to_sources([run_block, finish, child_observations])
@@ -23,6 +23,7 @@ __all__ = [
     "child_observations",
     "Draws",
     "Environment",
+    "Failing",
     "Lanes",
     "Outside",
     "SeveralResources",

@@ -16,7 +16,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from mgrao_core.params import SystemParams
+from mgrao_core import equations
+from mgrao_core.params import HIERARCHIES, SystemParams
 from mgrao_core.quality import (
     RESOURCE_COMBINATION_CODES,
     compiled_atomic_quality,
@@ -29,6 +30,12 @@ atomic_task_quality = compiled_atomic_quality()
 """Quality of an atomic task under the environment's quality model (see :mod:`mgrao_core.quality`)."""
 combined_resources = compiled_combined_resources()
 """Several resources' effective (weight, resource) of a task and their shares (see :mod:`mgrao_core.quality`)."""
+neighbour = njit(inline="always")(equations.neighbour)
+n_neighbours = njit(inline="always")(equations.n_neighbours)
+
+OWN, FAILED, BORROWED, HANDED_OVER = 0, 1, 2, 3
+"""What became of an atomic task when tasks can fail (:func:`resolve_failures`)."""
+BORROW, HAND_OVER = HIERARCHIES.index("borrow"), HIERARCHIES.index("hand-over")
 
 
 class Environment(NamedTuple):
@@ -54,6 +61,10 @@ class Environment(NamedTuple):
     n_resources: int
     resource_combination: int
     by_share: bool
+    need: float
+    hierarchy: int
+    ring: bool
+    handover_cost: float
 
 
 def environment_of(params: SystemParams) -> Environment:
@@ -79,6 +90,10 @@ def environment_of(params: SystemParams) -> Environment:
         n_resources=params.n_resources,
         resource_combination=RESOURCE_COMBINATION_CODES[params.resource_combination],
         by_share=params.resource_credit == "by-share",
+        need=equations.need_amount(params.task_need, params.resource_mean, params.n_types),
+        hierarchy=HIERARCHIES.index(params.hierarchy),
+        ring=params.neighbours == "ring",
+        handover_cost=params.handover_cost,
     )
 
 
@@ -249,6 +264,99 @@ def perform_composite_task_resources(ctv, child_of, task_types, weights, task_sh
         taq += ctv[k] * atomic_task_quality(w_eff, a_eff, load[c, t], env)
     for k in range(ctv.shape[0]):
         values[k] = taq * ctv[k]
+    return taq
+
+
+@njit(cache=True)
+def resolve_failures(sending, child_of, task_types, weights, task_share, per_weight, load, env, available, lent,
+                     status, performer, counts):
+    """Which atomic tasks fail and which the hierarchy completes, in the order of parents and of their tasks.
+
+    A task of type ``t`` at child ``c`` gets ``x = (available[c, t] - lent[c, t]) / load[c, t]``, where
+    ``available[c, t] = task_share[c] * weights[c, R - 1, t] * per_weight[c, R - 1, t]`` is the amount of the last
+    resource the allocation gives the type, and fails below ``env.need`` (:func:`mgrao_core.equations.need_amount`).
+    Under ``borrow`` it takes the shortfall from the first neighbour (:func:`mgrao_core.equations.neighbour`) that
+    keeps ``env.need`` for each of its own tasks of the type after lending (``lent``: the lender's loss, for every
+    task of that type it performs); under ``hand-over`` the first neighbour whose own amount meets the need performs
+    it. Writes ``status`` (:data:`OWN`, :data:`FAILED`, :data:`BORROWED`, :data:`HANDED_OVER`) and ``performer``
+    (the lender, or the neighbour it was handed to) of each task of a sending parent, and adds to ``counts``: tasks
+    allocated, failed, completed through a neighbour. ``weights`` and ``per_weight`` are ``(children, R, n_types)``.
+    """
+    n_children, last = weights.shape[0], weights.shape[1] - 1
+    for c in range(n_children):
+        for t in range(weights.shape[2]):
+            available[c, t] = task_share[c] * weights[c, last, t] * per_weight[c, last, t]
+            lent[c, t] = 0.0
+    need = env.need
+    for p in range(sending.shape[0]):
+        if not sending[p]:
+            continue
+        for k in range(child_of.shape[1]):
+            c, t = child_of[p, k], task_types[p, k]
+            counts[0] += 1
+            status[p, k] = OWN
+            performer[p, k] = c
+            own = (available[c, t] - lent[c, t]) / load[c, t]
+            if own >= need:
+                continue
+            status[p, k] = FAILED
+            for i in range(n_neighbours(n_children, env.ring) if env.hierarchy != 0 else 0):
+                d = neighbour(c, i, n_children, env.ring)
+                room = available[d, t] - lent[d, t]
+                if env.hierarchy == BORROW and (room - (need - own)) / max(load[d, t], 1.0) >= need:
+                    lent[d, t] += need - own
+                    status[p, k] = BORROWED
+                elif env.hierarchy == HAND_OVER and room / max(load[d, t], 1.0) >= need:
+                    status[p, k] = HANDED_OVER
+                if status[p, k] != FAILED:
+                    performer[p, k] = d
+                    break
+            if status[p, k] == FAILED:
+                counts[1] += 1
+            else:
+                counts[2] += 1
+
+
+@njit(cache=True, inline="always")
+def perform_composite_task_failing(ctv, child_of, task_types, weights, task_share, per_weight, needs, load, env,
+                                   status, performer, lent, values, shares, w, a):
+    """:func:`perform_composite_task_resources` where tasks can fail (after :func:`resolve_failures`): returns ``taq``.
+
+    A failed task's quality is 0 and its returned value 0 (the failure is its answer). A task performed by its own
+    child gets its allocation less what the child lent of the type; a borrowing one exactly the need of the last
+    resource (its other resources its child's own); a handed-over one its neighbour's amount, less what the
+    neighbour lent, its quality times ``1 - handover_cost``. ``weights``, ``per_weight`` are ``(children, R,
+    n_types)``, ``needs (n_types, R)`` (read with several resources only); ``w``, ``a`` scratch of ``R``.
+    """
+    taq = 0.0
+    n_resources = w.shape[0]
+    last = n_resources - 1
+    for k in range(ctv.shape[0]):
+        if status[k] == FAILED:
+            for r in range(n_resources):
+                shares[k, r] = 0.0
+            continue
+        c = child_of[k] if status[k] == BORROWED else performer[k]
+        t = task_types[k]
+        for r in range(n_resources):
+            w[r] = task_share[c] * weights[c, r, t]
+            a[r] = per_weight[c, r, t]
+        tasks = max(load[c, t], 1.0)
+        if status[k] == BORROWED:
+            w[last] = env.need * tasks / a[last]
+        elif lent[c, t] > 0.0:
+            w[last] -= lent[c, t] / a[last]
+        if n_resources == 1:
+            w_eff, a_eff = w[0], a[0]
+            shares[k, 0] = 1.0
+        else:
+            w_eff, a_eff = combined_resources(w, a, needs[t], env.resource_combination, shares[k])
+        quality = atomic_task_quality(w_eff, a_eff, tasks, env)
+        if status[k] == HANDED_OVER:
+            quality *= 1.0 - env.handover_cost
+        taq += ctv[k] * quality
+    for k in range(ctv.shape[0]):
+        values[k] = 0.0 if status[k] == FAILED else taq * ctv[k]
     return taq
 
 

@@ -55,8 +55,10 @@ from mgrao_core.engine.environment import (
     composite_tasks_arrive,
     parents_leave_and_join,
     perform_composite_task,
+    perform_composite_task_failing,
     perform_composite_task_resources,
     proportional_values,
+    resolve_failures,
     update_estimates,
 )
 
@@ -141,6 +143,16 @@ class Outside(NamedTuple):
     values: np.ndarray
 
 
+class Failing(NamedTuple):
+    """Where atomic tasks can fail (``task_need > 0``; docs/model.md, "Tasks that fail, and hierarchical allocation").
+
+    ``counts (lanes, 3)``: each lane's atomic tasks allocated, failed, and completed through a neighbour, added to
+    every episode. The kernel takes ``None`` instead where no task can fail: the code is neither typed nor compiled.
+    """
+
+    counts: np.ndarray
+
+
 class Draws(NamedTuple):
     """The block's randomness per seed, first axes ``(seeds, episodes)``.
 
@@ -159,14 +171,15 @@ class Draws(NamedTuple):
 
 
 @njit(cache=True, parallel=True)
-def run_block(lanes, worlds, several, draws, env, utilities, outside, mgrao_lanes, adaptive_lanes,
+def run_block(lanes, worlds, several, draws, env, utilities, outside, failing, mgrao_lanes, adaptive_lanes,
               independent_q_lanes, bandit_lanes, balance_lanes):
     """Run every lane through the episodes of one block.
 
     The system utility of each lane and episode goes into ``utilities (lanes, episodes)``, and what came
     back in the last episode into ``outside`` (:class:`Outside`, which may also give the allocation of each of
     several resources; ``None``: nowhere);
-    ``several`` is the seeds' :class:`SeveralResources` (``None`` with one resource);
+    ``several`` is the seeds' :class:`SeveralResources` (``None`` with one resource); ``failing`` the lanes'
+    :class:`Failing` counts where tasks can fail (``None``: none can);
     ``mgrao_lanes``, ``adaptive_lanes``, ``independent_q_lanes``, ``bandit_lanes`` and ``balance_lanes`` are each
     learner family's compiled lanes (:class:`~mgrao_core.algorithms.mgrao.compiled.MgraoLanes` and the like), in
     registry order, ``None`` for a family with no lane here (the module says why).
@@ -209,6 +222,16 @@ def run_block(lanes, worlds, several, draws, env, utilities, outside, mgrao_lane
             observed_sending = outside.sending[lane]
             observed_child_of = outside.child_of[lane]
             observed_values = outside.values[lane]
+        # where tasks can fail: what became of each atomic task, the amounts of the last resource and what each child
+        # lent, and one resource's allocation and amounts as those of several (R = 1); allocated whatever ``failing``
+        # is, since an array defined under a pruned branch of numba's parallel loop is freed wrongly (numba 0.68)
+        status = np.zeros((n_parents, types_per_composite), dtype=np.int64)
+        performer = np.zeros((n_parents, types_per_composite), dtype=np.int64)
+        available = np.zeros((n_children, lanes.weights.shape[2]))
+        lent = np.zeros((n_children, lanes.weights.shape[2]))
+        one_weights = weights.reshape((n_children, 1, weights.shape[1]))
+        one_resources = worlds.resources[s].reshape((n_children, 1, weights.shape[1]))
+        one_needs = np.ones((weights.shape[1], 1))
         for e in range(n_episodes):
             # 1. Composite tasks arrive at the parents present whose composite type arrives.
             apply_changes(lanes.profiles[lane], parent_types, draws.changes[s, e], draws.event_profiles[s, e],
@@ -254,9 +277,27 @@ def run_block(lanes, worlds, several, draws, env, utilities, outside, mgrao_lane
                         for k in range(types_per_composite):
                             load[child_of[p, k], parent_types[p, k]] += 1.0
             # 4. Children perform the atomic tasks; composite qualities make the system utility.
+            if failing is not None and several is not None:
+                resolve_failures(sending, child_of, parent_types, resource_weights, task_share, several.per_resource[s],
+                                 load, env, available, lent, status, performer, failing.counts[lane])
+            elif failing is not None:
+                resolve_failures(sending, child_of, parent_types, one_weights, task_share, one_resources, load, env,
+                                 available, lent, status, performer, failing.counts[lane])
             utility = 0.0
             for p in range(n_parents):
-                if several is not None and sending[p]:
+                if failing is not None and sending[p]:
+                    if several is not None:
+                        taq[p] = perform_composite_task_failing(ctv[p], child_of[p], parent_types[p], resource_weights,
+                                                                task_share, several.per_resource[s], several.needs[s],
+                                                                load, env, status[p], performer[p], lent, values[p],
+                                                                shares[p], w_scratch, a_scratch)
+                    else:
+                        taq[p] = perform_composite_task_failing(ctv[p], child_of[p], parent_types[p], one_weights,
+                                                                task_share, one_resources, one_needs, load, env,
+                                                                status[p], performer[p], lent, values[p], shares[p],
+                                                                w_scratch, a_scratch)
+                    utility += taq[p]
+                elif several is not None and sending[p]:
                     taq[p] = perform_composite_task_resources(ctv[p], child_of[p], parent_types[p], resource_weights,
                                                               task_share, several.per_resource[s], several.needs[s],
                                                               load, env, values[p], shares[p], w_scratch, a_scratch)

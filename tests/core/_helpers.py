@@ -9,9 +9,9 @@ from mgrao_core import reference
 def assert_matches_reference(result, atol=1e-12):
     """Every run of ``result`` equals the dense per-agent reference simulator.
 
-    Utilities and the learned PW must agree to ``atol``. The combined weights (algorithm 2) must
-    agree to ``atol`` with algorithm 2 applied to the engine's own PW, and to ``1000 * atol`` with
-    the reference's: ``dkl`` of a row within ``d`` of uniform is of order ``n d**2``, so a one-ulp
+    Utilities and the learned PW must agree to ``atol``, and what became of the atomic tasks exactly. The combined
+    weights (algorithm 2) must agree to ``atol`` with algorithm 2 applied to the engine's own PW, and to
+    ``1000 * atol`` with the reference's: ``dkl`` of a row within ``d`` of uniform is of order ``n d**2``, so a one-ulp
     difference in PW (lazy versus dense update) changes it by up to 1e-5 relative when every row
     is nearly uniform (a child that hardly received a task), which moves the weights by ~1e-12.
     """
@@ -19,9 +19,10 @@ def assert_matches_reference(result, atol=1e-12):
     temperature = spec.params.effective_temperature
     use_counts = spec.params.group_blend == "dkl-and-count"
     for run in result.runs:
-        utilities, children = reference.simulate(spec.params, run.algorithm, run.seed, spec.episodes)
+        utilities, children, tasks = reference.simulate_run(spec.params, run.algorithm, run.seed, spec.episodes)
         np.testing.assert_allclose(run.utilities, utilities, rtol=0, atol=atol,
                                    err_msg=f"{run.algorithm} seed {run.seed}")
+        assert run.tasks == tasks, f"{run.algorithm} seed {run.seed}: {run.tasks} != {tasks}"
         combined = np.stack([c.allocation() for c in children])
         if run.group_weights.size:
             pw = np.stack([c.pw for c in children])
@@ -41,8 +42,9 @@ def assert_resources_match_reference(result, atol=1e-12):
     spec = result.spec
     p = spec.params
     for run in result.runs:
-        utilities, children = reference.simulate(p, run.algorithm, run.seed, spec.episodes)
+        utilities, children, tasks = reference.simulate_run(p, run.algorithm, run.seed, spec.episodes)
         where = f"{run.algorithm} seed {run.seed}"
+        assert run.tasks == tasks, f"{where}: {run.tasks} != {tasks}"
         np.testing.assert_allclose(run.utilities, utilities, rtol=0, atol=atol, err_msg=where)
         allocations = np.stack([np.broadcast_to(c.allocation(), (p.n_resources, p.n_types)) for c in children])
         assert run.resource_weights.shape == (p.n_resources, p.n_children, p.n_types)

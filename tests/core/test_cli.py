@@ -31,6 +31,24 @@ def test_run_json(runner):
     assert data["summary"]["uniform"]["pct_from_uniform"] == 0.0
     assert len(data["runs"]) == 6
     assert len(data["runs"][0]["utilities"]) == 12
+    for summary in [*data["summary"].values(), *data["runs"]]:  # nothing can fail: 0, never null
+        assert summary["failure_rate"] == summary["handover_rate"] == 0.0
+
+
+def test_run_json_and_table_give_what_became_of_tasks_that_can_fail(runner):
+    args = ["run", "--system", "multi", "--algorithms", "uniform,mgrao-1:1", "--seeds", "2", "--episodes", "10",
+            "--set", "task_need=1.5", "--set", "hierarchy=hand-over"]
+    data = json.loads(_run(runner, *args, "--format", "json").stdout)  # stdout holds only the JSON
+    from mgrao_core import make_spec, run_experiment
+
+    expected = run_experiment(make_spec("multi", ["uniform", "mgrao-1:1"], seeds=2, episodes=10,
+                                        overrides={"task_need": 1.5, "hierarchy": "hand-over"})).task_counts()
+    for label, counts in expected.items():
+        assert data["summary"][label]["failure_rate"] == counts.failure_rate > 0
+        assert data["summary"][label]["handover_rate"] == counts.handover_rate > 0
+    table = _run(runner, *args).stdout
+    assert "% failed" in table and "% handed over" in table
+    assert f"{100 * expected['uniform'].failure_rate:.1f}" in table
 
 
 def test_run_csv(runner):

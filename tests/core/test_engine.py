@@ -144,8 +144,9 @@ def test_the_kernel_is_compiled_for_the_families_a_job_runs(monkeypatch):
     def nones(algorithms, overrides=None):
         calls.clear()
         run_experiment(make_spec("single", algorithms, seeds=1, episodes=2, overrides=overrides))
-        several, outside, learners = calls[0][2], calls[0][6], calls[0][7:]  # learners as algorithms.LEARNERS
+        several, outside, failing, learners = calls[0][2], calls[0][6], calls[0][7], calls[0][8:]  # as LEARNERS
         assert outside is None  # a run has no environment outside it (mgrao_core.env's steps do)
+        assert failing is None  # no task can fail (task_need 0)
         return [several is None] + [lanes is None for lanes in learners]
 
     assert nones(["uniform", "mgrao-1:1", "mgrao-max"]) == [True, False, True, True, True, True]
@@ -154,6 +155,6 @@ def test_the_kernel_is_compiled_for_the_families_a_job_runs(monkeypatch):
     assert nones(["mgrao-max", "mgrao-adaptive:2", "independent-q", "bandit"], {"n_resources": 2}) == [
         False, False, False, False, False, True]
     assert nones(["uniform"]) == [True, True, True, True, True, True]
-    # and numba compiled a kernel of that signature: uniform alone, without any learner's code, several resources
-    # or observations
-    assert any(sum(isinstance(t, types.NoneType) for t in sig) == 2 + len(LEARNERS) for sig in run_block.signatures)
+    # and numba compiled a kernel of that signature: uniform alone, without any learner's code, several resources,
+    # observations or tasks that fail
+    assert any(sum(isinstance(t, types.NoneType) for t in sig) == 3 + len(LEARNERS) for sig in run_block.signatures)

@@ -125,6 +125,18 @@ def _expected_observation(episode, c, shape):
                                             "join_probability": 0.4, "absent_tasks": "counted"}],
                          ids=["preset", "per-task-volatile"])
 def test_what_comes_back_is_what_the_dense_reference_sends_back(system, overrides):
+    _assert_sends_back_what_the_reference_does(system, overrides)
+
+
+@pytest.mark.parametrize("overrides", [
+    {"task_need": 1.2, "hierarchy": "borrow", "routing": "per-task", "load_sharing": True},
+    {"n_resources": 2, "task_need": 1.0, "hierarchy": "hand-over", "neighbours": "ring"},
+], ids=["borrow", "hand-over-resources"])
+def test_tasks_that_fail_come_back_as_the_dense_reference_sends_them(overrides):
+    _assert_sends_back_what_the_reference_does("multi", overrides)
+
+
+def _assert_sends_back_what_the_reference_does(system, overrides):
     params = system_params(system, overrides)
     env = vector_env(system, seeds=SEEDS, episodes=EPISODES, **overrides)
     references = [SeedEnvironment(params, seed) for seed in SEEDS]
