@@ -1,8 +1,9 @@
 """The paper's four simulated systems (section 5, appendix "Simulation parameter values"), and systems beyond them.
 
 :data:`PAPER_SYSTEMS` names the paper's four: ``mgrao reproduce`` and the paper view run those, never every
-preset. The others (``drift``, ``bursty``) exercise the parts of the paper's system model its experiments
-leave out (docs/model.md, "Task frequencies", "Changes over time").
+preset. The others (``drift``, ``bursty``, ``multi-resource``, ``cloud``) exercise the parts of the paper's system
+model its experiments leave out (docs/model.md, "Task frequencies", "Changes over time", "Several resources", "A
+cloud").
 """
 
 from __future__ import annotations
@@ -93,6 +94,15 @@ PRESETS: dict[str, Preset] = {
         {"n_parents": 10, "n_children": 1, "n_resources": 2, "need_concentration": 1.0},
         ("uniform", "mgrao-1:1", "mgrao-max"),
     ),
+    "cloud": Preset(
+        "cloud",
+        "40 services send composite requests of 4 atomic tasks to 8 servers with CPU and memory; a task fails "
+        "without enough memory and borrows it from a neighbouring server (docs/model.md, \"A cloud\").",
+        {"n_parents": 40, "n_children": 8, "n_types": 12, "types_per_composite": 4, "n_resources": 2,
+         "need_concentration": 1.0, "routing": "per-task", "load_sharing": True, "task_need": 0.3,
+         "hierarchy": "borrow"},
+        ("uniform", "mgrao-1:1", "mgrao-5:1", "mgrao-max", "mgrao-balance", "oracle"),
+    ),
 }
 PAPER_SYSTEMS: tuple[str, ...] = ("single", "multi", "volatile", "large")
 """The paper's four systems, in its order: what ``mgrao reproduce`` and the paper view run."""
@@ -102,7 +112,7 @@ def get_preset(name: str) -> Preset:
     """The preset called ``name``.
 
     Raises:
-        ConfigError: ``name`` is no preset's (single, multi, volatile, large, drift, bursty, multi-resource).
+        ConfigError: ``name`` is no preset's (single, multi, volatile, large, drift, bursty, multi-resource, cloud).
     """
     try:
         return PRESETS[name]

@@ -272,7 +272,8 @@ class SeedEnvironment:
         ``x = w[c, last, t] * a[c, last, t] / load`` of the last resource (less what its child lent of the type), and
         fails below the need (``equations.need_amount``); under ``borrow`` the first neighbour (``equations.neighbour``)
         that keeps the need for its own tasks of the type lends the shortfall, under ``hand-over`` the first one
-        whose own amount meets the need performs it, at ``1 - handover_cost`` of its quality. Returns the qualities,
+        that meets the need for its tasks of the type with this one among them performs it (under load sharing the
+        task moves to the tasks sharing its amount), at ``1 - handover_cost`` of its quality. Returns the qualities,
         which tasks failed (quality 0) and, with several resources, each resource's share of each quality.
         """
         params = self.params
@@ -285,6 +286,8 @@ class SeedEnvironment:
             np.add.at(load, (children, types), 1.0)
         available = allocation[:, last, :] * per_weight[:, last, :]
         lent = np.zeros_like(available)
+        sharing = load.copy()  # the tasks that share each child's amount of each type
+        joins = 1.0 if params.load_sharing else 0.0  # a handed-over task moves to its performer's share
         neighbours = [eq.neighbour(c, i, params.n_children, params.neighbours == "ring")
                       for c in range(params.n_children)
                       for i in range(eq.n_neighbours(params.n_children, params.neighbours == "ring"))]
@@ -293,17 +296,19 @@ class SeedEnvironment:
         performer = children.copy()
         for row, k in np.ndindex(children.shape):
             c, t = children[row, k], types[row, k]
-            own = (available[c, t] - lent[c, t]) / load[c, t]
+            own = (available[c, t] - lent[c, t]) / sharing[c, t]
             if own >= need:
                 continue
             outcome[row, k] = "failed"
             for d in (neighbours[c * per_child:(c + 1) * per_child] if params.hierarchy != "none" else []):
                 room = available[d, t] - lent[d, t]
-                if params.hierarchy == "borrow" and (room - (need - own)) / max(load[d, t], 1.0) >= need:
+                if params.hierarchy == "borrow" and (room - (need - own)) / max(sharing[d, t], 1.0) >= need:
                     lent[d, t] += need - own
                     outcome[row, k], performer[row, k] = "borrowed", d
                     break
-                if params.hierarchy == "hand-over" and room / max(load[d, t], 1.0) >= need:
+                if params.hierarchy == "hand-over" and room / max(sharing[d, t] + joins, 1.0) >= need:
+                    sharing[d, t] += joins
+                    sharing[c, t] -= joins
                     outcome[row, k], performer[row, k] = "handed over", d
                     break
         quality = np.zeros(children.shape)
@@ -313,7 +318,7 @@ class SeedEnvironment:
                 continue
             c = children[row, k] if outcome[row, k] == "borrowed" else performer[row, k]
             t = types[row, k]
-            w, a, tasks = allocation[c, :, t].copy(), per_weight[c, :, t], max(load[c, t], 1.0)
+            w, a, tasks = allocation[c, :, t].copy(), per_weight[c, :, t], max(sharing[c, t], 1.0)
             if outcome[row, k] == "borrowed":
                 w[last] = need * tasks / a[last]
             elif lent[c, t] > 0:

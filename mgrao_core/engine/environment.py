@@ -269,25 +269,30 @@ def perform_composite_task_resources(ctv, child_of, task_types, weights, task_sh
 
 @njit(cache=True)
 def resolve_failures(sending, child_of, task_types, weights, task_share, per_weight, load, env, available, lent,
-                     status, performer, counts):
+                     tasks, status, performer, counts):
     """Which atomic tasks fail and which the hierarchy completes, in the order of parents and of their tasks.
 
-    A task of type ``t`` at child ``c`` gets ``x = (available[c, t] - lent[c, t]) / load[c, t]``, where
+    A task of type ``t`` at child ``c`` gets ``x = (available[c, t] - lent[c, t]) / tasks[c, t]``, where
     ``available[c, t] = task_share[c] * weights[c, R - 1, t] * per_weight[c, R - 1, t]`` is the amount of the last
-    resource the allocation gives the type, and fails below ``env.need`` (:func:`mgrao_core.equations.need_amount`).
-    Under ``borrow`` it takes the shortfall from the first neighbour (:func:`mgrao_core.equations.neighbour`) that
-    keeps ``env.need`` for each of its own tasks of the type after lending (``lent``: the lender's loss, for every
-    task of that type it performs); under ``hand-over`` the first neighbour whose own amount meets the need performs
-    it. Writes ``status`` (:data:`OWN`, :data:`FAILED`, :data:`BORROWED`, :data:`HANDED_OVER`) and ``performer``
-    (the lender, or the neighbour it was handed to) of each task of a sending parent, and adds to ``counts``: tasks
-    allocated, failed, completed through a neighbour. ``weights`` and ``per_weight`` are ``(children, R, n_types)``.
+    resource the allocation gives the type and ``tasks`` starts as ``load`` (the tasks that share it: 1 each without
+    load sharing), and fails below ``env.need`` (:func:`mgrao_core.equations.need_amount`). Under ``borrow`` it takes
+    the shortfall from the first neighbour (:func:`mgrao_core.equations.neighbour`) that keeps ``env.need`` for each
+    of its own tasks of the type after lending (``lent``: the lender's loss, for every task of that type it
+    performs); under ``hand-over`` the first neighbour that meets the need for each of its tasks of the type with
+    this one among them performs it (under load sharing the task then shares the neighbour's amount, no longer its
+    child's: ``tasks`` moves). Writes ``status`` (:data:`OWN`, :data:`FAILED`, :data:`BORROWED`,
+    :data:`HANDED_OVER`) and ``performer`` (the lender, or the neighbour it was handed to) of each task of a sending
+    parent, and adds to ``counts``: tasks allocated, failed, completed through a neighbour. ``weights`` and
+    ``per_weight`` are ``(children, R, n_types)``.
     """
     n_children, last = weights.shape[0], weights.shape[1] - 1
     for c in range(n_children):
         for t in range(weights.shape[2]):
             available[c, t] = task_share[c] * weights[c, last, t] * per_weight[c, last, t]
             lent[c, t] = 0.0
+            tasks[c, t] = load[c, t]
     need = env.need
+    joins = 1.0 if env.load_sharing else 0.0  # a handed-over task shares its performer's amount under load sharing
     for p in range(sending.shape[0]):
         if not sending[p]:
             continue
@@ -296,17 +301,19 @@ def resolve_failures(sending, child_of, task_types, weights, task_share, per_wei
             counts[0] += 1
             status[p, k] = OWN
             performer[p, k] = c
-            own = (available[c, t] - lent[c, t]) / load[c, t]
+            own = (available[c, t] - lent[c, t]) / tasks[c, t]
             if own >= need:
                 continue
             status[p, k] = FAILED
             for i in range(n_neighbours(n_children, env.ring) if env.hierarchy != 0 else 0):
                 d = neighbour(c, i, n_children, env.ring)
                 room = available[d, t] - lent[d, t]
-                if env.hierarchy == BORROW and (room - (need - own)) / max(load[d, t], 1.0) >= need:
+                if env.hierarchy == BORROW and (room - (need - own)) / max(tasks[d, t], 1.0) >= need:
                     lent[d, t] += need - own
                     status[p, k] = BORROWED
-                elif env.hierarchy == HAND_OVER and room / max(load[d, t], 1.0) >= need:
+                elif env.hierarchy == HAND_OVER and room / max(tasks[d, t] + joins, 1.0) >= need:
+                    tasks[d, t] += joins
+                    tasks[c, t] -= joins
                     status[p, k] = HANDED_OVER
                 if status[p, k] != FAILED:
                     performer[p, k] = d
@@ -318,15 +325,16 @@ def resolve_failures(sending, child_of, task_types, weights, task_share, per_wei
 
 
 @njit(cache=True, inline="always")
-def perform_composite_task_failing(ctv, child_of, task_types, weights, task_share, per_weight, needs, load, env,
+def perform_composite_task_failing(ctv, child_of, task_types, weights, task_share, per_weight, needs, tasks, env,
                                    status, performer, lent, values, shares, w, a):
     """:func:`perform_composite_task_resources` where tasks can fail (after :func:`resolve_failures`): returns ``taq``.
 
     A failed task's quality is 0 and its returned value 0 (the failure is its answer). A task performed by its own
     child gets its allocation less what the child lent of the type; a borrowing one exactly the need of the last
     resource (its other resources its child's own); a handed-over one its neighbour's amount, less what the
-    neighbour lent, its quality times ``1 - handover_cost``. ``weights``, ``per_weight`` are ``(children, R,
-    n_types)``, ``needs (n_types, R)`` (read with several resources only); ``w``, ``a`` scratch of ``R``.
+    neighbour lent, its quality times ``1 - handover_cost``; each shares its performer's amount with ``tasks``
+    others (:func:`resolve_failures`'s). ``weights``, ``per_weight`` are ``(children, R, n_types)``, ``needs
+    (n_types, R)`` (read with several resources only); ``w``, ``a`` scratch of ``R``.
     """
     taq = 0.0
     n_resources = w.shape[0]
@@ -341,9 +349,9 @@ def perform_composite_task_failing(ctv, child_of, task_types, weights, task_shar
         for r in range(n_resources):
             w[r] = task_share[c] * weights[c, r, t]
             a[r] = per_weight[c, r, t]
-        tasks = max(load[c, t], 1.0)
+        sharing = max(tasks[c, t], 1.0)
         if status[k] == BORROWED:
-            w[last] = env.need * tasks / a[last]
+            w[last] = env.need * sharing / a[last]
         elif lent[c, t] > 0.0:
             w[last] -= lent[c, t] / a[last]
         if n_resources == 1:
@@ -351,7 +359,7 @@ def perform_composite_task_failing(ctv, child_of, task_types, weights, task_shar
             shares[k, 0] = 1.0
         else:
             w_eff, a_eff = combined_resources(w, a, needs[t], env.resource_combination, shares[k])
-        quality = atomic_task_quality(w_eff, a_eff, tasks, env)
+        quality = atomic_task_quality(w_eff, a_eff, sharing, env)
         if status[k] == HANDED_OVER:
             quality *= 1.0 - env.handover_cost
         taq += ctv[k] * quality

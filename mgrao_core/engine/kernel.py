@@ -222,13 +222,15 @@ def run_block(lanes, worlds, several, draws, env, utilities, outside, failing, m
             observed_sending = outside.sending[lane]
             observed_child_of = outside.child_of[lane]
             observed_values = outside.values[lane]
-        # where tasks can fail: what became of each atomic task, the amounts of the last resource and what each child
-        # lent, and one resource's allocation and amounts as those of several (R = 1); allocated whatever ``failing``
-        # is, since an array defined under a pruned branch of numba's parallel loop is freed wrongly (numba 0.68)
+        # where tasks can fail: what became of each atomic task, the amounts of the last resource, what each child
+        # lent and how many tasks share each amount, and one resource's allocation and amounts as those of several
+        # (R = 1); allocated whatever ``failing`` is, since an array defined under a pruned branch of numba's parallel
+        # loop is freed wrongly (numba 0.68)
         status = np.zeros((n_parents, types_per_composite), dtype=np.int64)
         performer = np.zeros((n_parents, types_per_composite), dtype=np.int64)
         available = np.zeros((n_children, lanes.weights.shape[2]))
         lent = np.zeros((n_children, lanes.weights.shape[2]))
+        sharing = np.ones((n_children, lanes.weights.shape[2]))
         one_weights = weights.reshape((n_children, 1, weights.shape[1]))
         one_resources = worlds.resources[s].reshape((n_children, 1, weights.shape[1]))
         one_needs = np.ones((weights.shape[1], 1))
@@ -279,21 +281,21 @@ def run_block(lanes, worlds, several, draws, env, utilities, outside, failing, m
             # 4. Children perform the atomic tasks; composite qualities make the system utility.
             if failing is not None and several is not None:
                 resolve_failures(sending, child_of, parent_types, resource_weights, task_share, several.per_resource[s],
-                                 load, env, available, lent, status, performer, failing.counts[lane])
+                                 load, env, available, lent, sharing, status, performer, failing.counts[lane])
             elif failing is not None:
                 resolve_failures(sending, child_of, parent_types, one_weights, task_share, one_resources, load, env,
-                                 available, lent, status, performer, failing.counts[lane])
+                                 available, lent, sharing, status, performer, failing.counts[lane])
             utility = 0.0
             for p in range(n_parents):
                 if failing is not None and sending[p]:
                     if several is not None:
                         taq[p] = perform_composite_task_failing(ctv[p], child_of[p], parent_types[p], resource_weights,
                                                                 task_share, several.per_resource[s], several.needs[s],
-                                                                load, env, status[p], performer[p], lent, values[p],
+                                                                sharing, env, status[p], performer[p], lent, values[p],
                                                                 shares[p], w_scratch, a_scratch)
                     else:
                         taq[p] = perform_composite_task_failing(ctv[p], child_of[p], parent_types[p], one_weights,
-                                                                task_share, one_resources, one_needs, load, env,
+                                                                task_share, one_resources, one_needs, sharing, env,
                                                                 status[p], performer[p], lent, values[p], shares[p],
                                                                 w_scratch, a_scratch)
                     utility += taq[p]

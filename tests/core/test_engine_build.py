@@ -102,7 +102,8 @@ def test_the_cache_is_the_users_and_editing_any_compiled_source_recompiles_the_k
 
 def test_no_index_is_out_of_bounds_in_any_system(tmp_path: Path) -> None:
     root = _copy_package(tmp_path)
-    _run(root, "single,multi,volatile,large,drift,bursty,multi-resource", NUMBA_BOUNDSCHECK="1")  # dynamics, resources
+    # dynamics, several resources, and tasks that fail with a hierarchy (cloud)
+    _run(root, "single,multi,volatile,large,drift,bursty,multi-resource,cloud", NUMBA_BOUNDSCHECK="1")
 
 
 LEAN = """
