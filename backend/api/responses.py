@@ -14,7 +14,7 @@ from typing import Any
 
 from pydantic import BaseModel, Field
 
-from backend.api.schemas import JobOut, Status
+from backend.api.schemas import JobOut, Number, Status, Summary
 
 
 class Problem(BaseModel):
@@ -95,27 +95,7 @@ def links(parameter: str, pointer: str, operations: dict[str, str]) -> dict[str,
             for name, operation in operations.items()}
 
 
-# ---- answers of the JSON routes --------------------------------------------------------------
-
-Number = float | None
-"""A number of the results: null where the stored value is not finite."""
-
-
-class Summary(BaseModel):
-    """A configuration's summary over its seeds (docs/statistics.md, "Pairing")."""
-
-    algorithm: str
-    n_runs: int = Field(description="Seeds of the configuration: the final mean and its interval.")
-    final_mean: Number
-    ci95: list[Number] | None
-    pct_from_uniform: Number
-    pct_ci95: list[Number] | None
-    pct_of_max: Number
-    n_paired: int | None = Field(None, description="Seeds it shares with uniform (positive utility): the % from "
-                                                   "uniform and its interval.")
-    n_paired_max: int | None = Field(None, description="Seeds it shares with uniform and mgrao-max: the % of max.")
-    partial: bool | None = Field(None, description="Only some of its seeds pair with uniform (0 < n_paired < "
-                                                   "n_runs).")
+# ---- answers of the JSON routes (Number and Summary, which jobs carry too, are in schemas) -------------
 
 
 class Band(BaseModel):

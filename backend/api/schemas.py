@@ -297,6 +297,35 @@ class JobPatch(BaseModel):
     notes: Notes | None = None
 
 
+Number = float | None
+"""A number of the results: null where the stored value is not finite."""
+Rate = Annotated[float, Field(ge=0, le=1)]
+"""A share in [0, 1], never null."""
+
+
+class Summary(BaseModel):
+    """A configuration's summary over its seeds (docs/statistics.md, "Pairing")."""
+
+    algorithm: str
+    n_runs: int = Field(description="Seeds of the configuration: the final mean and its interval.")
+    final_mean: Number
+    ci95: list[Number] | None
+    pct_from_uniform: Number
+    pct_ci95: list[Number] | None
+    pct_of_max: Number
+    n_paired: int | None = Field(None, description="Seeds it shares with uniform (positive utility): the % from "
+                                                   "uniform and its interval.")
+    n_paired_max: int | None = Field(None, description="Seeds it shares with uniform and mgrao-max: the % of max.")
+    partial: bool | None = Field(None, description="Only some of its seeds pair with uniform (0 < n_paired < "
+                                                   "n_runs).")
+    failure_rate: Rate = Field(description="Share of its atomic tasks that failed (task_need), pooled over its "
+                                           "seeds: failed / allocated; 0 where no task can fail or for runs logged "
+                                           "from outside.")
+    handover_rate: Rate = Field(description="Share of its atomic tasks a neighbouring child completed (hierarchy: "
+                                            "borrow or hand-over), pooled over its seeds: handed over / allocated; "
+                                            "0 where no task can fail or for runs logged from outside.")
+
+
 class JobOut(BaseModel):
     """A job as the API shows it."""
 
@@ -332,9 +361,9 @@ class JobOut(BaseModel):
     stopped: dict[str, Any] | None = None
     """With a rule: its last verdict (reason null while it runs; half_width, decided, max_seeds or cancelled), seeds,
     intervals, outcome, and blocks (every block's intervals); null without one."""
-    summaries: dict[str, dict[str, Any]] = {}
+    summaries: dict[str, Summary] = {}
     """Per configuration, once the job succeeded (``GET /api/jobs`` and ``GET /api/jobs/{id}``): n_runs,
-    final_mean, ci95, pct_from_uniform, pct_ci95, pct_of_max."""
+    final_mean, ci95, pct_from_uniform, pct_ci95, pct_of_max, failure_rate, handover_rate."""
 
 
 class JobPage(BaseModel):

@@ -26,10 +26,12 @@ from backend.services.cache import AnswerCache
 from backend.services.memory import trim
 from backend.store.crud import get_job, job_dict
 from backend.store.models import RUN_READ_BATCH, SUCCEEDED, Job, Run
+from backend.store.summaries import summary_dict
 from mgrao_core import (
     PRESETS,
     ConfigError,
     EpisodeStats,
+    TaskCounts,
     complete_params,
     final_utilities,
     paired_pct_from_uniform,
@@ -111,10 +113,14 @@ def _configurations(session: Session, job: Job, points: int | None, include_seed
     curves = len(algorithms) * BAND_ARRAYS + (sum(seeds_done.values()) if include_seeds else 0)
     used = choose_points("points" if not include_seeds else "include_seeds", points, episodes, curves)
     per_seed: dict[str, list[dict[str, Any]]] = {a: [] for a in algorithms}
-    for algorithm, seed, blob in _stream(session, [job.id], Run.algorithm, Run.seed, Run.utilities):
+    tasks = {a: TaskCounts() for a in algorithms}
+    for algorithm, seed, blob, allocated, failed, handed_over in _stream(
+            session, [job.id], Run.algorithm, Run.seed, Run.utilities, Run.tasks_allocated, Run.tasks_failed,
+            Run.tasks_handed_over):
         values = np.frombuffer(blob, dtype="<f8")
         stats[algorithm].add(values)
         finals[algorithm][seed] = float(final_utilities(values)[0])
+        tasks[algorithm] += TaskCounts(allocated, failed, handed_over)
         if include_seeds:
             one = EpisodeStats(episodes)
             one.add(values)
@@ -129,7 +135,7 @@ def _configurations(session: Session, job: Job, points: int | None, include_seed
             continue
         entry: dict[str, Any] = {
             "algorithm": algorithm, "config_hash": job.config_hash, "seeds_done": seeds_done[algorithm],
-            "summary": summaries[algorithm].as_dict(),
+            "summary": summary_dict(summaries[algorithm], tasks[algorithm]),
             "episodes": stats[algorithm].band_arrays(used),
             "weights": weights.mean_over_seeds(session, job.id, algorithm),
         }

@@ -42,7 +42,8 @@ from backend.services.analysis import BAND_ARRAYS, BUILDS, RESULTS_CACHE, choose
 from backend.services.memory import trim
 from backend.store.crud import get_job, job_dict
 from backend.store.models import EXTERNAL, RUN_READ_BATCH, SUCCEEDED, Job, Run
-from mgrao_core import EpisodeStats, complete_params, final_utilities, make_params, summarise
+from backend.store.summaries import summary_dict
+from mgrao_core import EpisodeStats, TaskCounts, complete_params, final_utilities, make_params, summarise
 from mgrao_core.algorithms import sort_key
 from mgrao_core.algorithms.oracle import bound_caveats
 from mgrao_core.comparison import World, sample_efficiency
@@ -57,11 +58,15 @@ _SUFFIX_PARAMS = 3
 
 @dataclass
 class _Runs:
-    """One (job, algorithm)'s stored runs: seeds, final utilities and digests of their bytes, in storage order."""
+    """One (job, algorithm)'s stored runs: seeds, final utilities and digests of their bytes, in storage order.
+
+    ``tasks`` holds each run's task counts (allocated, failed, handed over), ``(runs, 3)``.
+    """
 
     seeds: np.ndarray
     finals: np.ndarray
     digests: np.ndarray
+    tasks: np.ndarray
 
 
 @dataclass
@@ -78,6 +83,8 @@ class Configuration:
     mismatched: list[int] = field(default_factory=list)
     non_finite: list[int] = field(default_factory=list)
     """Seeds whose final utility is not finite: left out."""
+    tasks: dict[int, TaskCounts] = field(default_factory=dict)
+    """Seed -> the task counts of the run it takes."""
     label: str = ""
 
     def agrees(self, runs: _Runs) -> bool:
@@ -88,7 +95,8 @@ class Configuration:
     def add(self, job: Job, runs: _Runs) -> None:
         """Take the job's runs of seeds not taken yet; a seed taken with other bytes is mismatched."""
         self.jobs.append(job)
-        for seed, final, digest in zip(runs.seeds.tolist(), runs.finals.tolist(), runs.digests.tolist(), strict=True):
+        for seed, final, digest, tasks in zip(runs.seeds.tolist(), runs.finals.tolist(), runs.digests.tolist(),
+                                              runs.tasks.tolist(), strict=True):
             if not math.isfinite(final):
                 if seed not in self.non_finite:
                     self.non_finite.append(seed)
@@ -96,6 +104,7 @@ class Configuration:
             known = self.taken.get(seed)
             if known is None:
                 self.taken[seed] = (job.id, digest, final)
+                self.tasks[seed] = TaskCounts(*tasks)
             elif known[1] != digest and seed not in self.mismatched:
                 self.mismatched.append(seed)
 
@@ -103,6 +112,11 @@ class Configuration:
     def finals(self) -> dict[int, float]:
         """Seed -> final utility, in seed order."""
         return {seed: self.taken[seed][2] for seed in sorted(self.taken)}
+
+    @property
+    def task_counts(self) -> TaskCounts:
+        """The task counts of the runs it takes, summed over seeds (its rates pool every atomic task)."""
+        return sum(self.tasks.values(), TaskCounts())
 
 
 @dataclass
@@ -124,18 +138,21 @@ def _digest(blob: bytes) -> bytes:
 
 
 def _read_runs(session: Session, jobs: Sequence[Job]) -> dict[tuple[int, str], _Runs]:
-    """Every stored run of the jobs as its final utility and digest, by (job id, algorithm)."""
-    found: dict[tuple[int, str], list[tuple[int, float, bytes]]] = {}
+    """Every stored run of the jobs as its final utility, digest and task counts, by (job id, algorithm)."""
+    found: dict[tuple[int, str], list[tuple[int, float, bytes, tuple[int, int, int]]]] = {}
     ids = [job.id for job in jobs]
     if not ids:
         return {}
-    statement = (select(Run.job_id, Run.algorithm, Run.seed, Run.utilities).where(Run.job_id.in_(ids))
+    statement = (select(Run.job_id, Run.algorithm, Run.seed, Run.utilities, Run.tasks_allocated, Run.tasks_failed,
+                        Run.tasks_handed_over).where(Run.job_id.in_(ids))
                  .order_by(Run.job_id, Run.id).execution_options(yield_per=RUN_READ_BATCH))
-    for job_id, algorithm, seed, blob in session.execute(statement):
+    for job_id, algorithm, seed, blob, *tasks in session.execute(statement):
         values = np.frombuffer(blob, dtype="<f8")
-        found.setdefault((job_id, algorithm), []).append((seed, float(final_utilities(values)[0]), _digest(blob)))
+        found.setdefault((job_id, algorithm), []).append(
+            (seed, float(final_utilities(values)[0]), _digest(blob), tuple(tasks)))
     return {key: _Runs(np.array([r[0] for r in rows], dtype=np.int64), np.array([r[1] for r in rows]),
-                       np.array([r[2] for r in rows], dtype="S16")) for key, rows in found.items()}
+                       np.array([r[2] for r in rows], dtype="S16"), np.array([r[3] for r in rows], dtype=np.int64))
+            for key, rows in found.items()}
 
 
 def _show(value: Any) -> str:
@@ -316,7 +333,7 @@ def _groups(session: Session, gathered: Gathered, points: int | None) -> list[di
                 "params": c.own, "external": c.external, "episodes_per_run": episodes,
                 "job_ids": list(dict.fromkeys(job_id for job_id, _, _ in c.taken.values())),
                 "mismatched_seeds": sorted(c.mismatched), "non_finite_seeds": sorted(c.non_finite),
-                "summary": summary.as_dict(),
+                "summary": summary_dict(summary, c.task_counts),
                 "episodes": stats.band_arrays(choose_points("points", points, episodes, curves)),
             })
     return groups
@@ -342,6 +359,7 @@ def statistics(session: Session, *, job_ids: Sequence[int], repetitions: int, se
             try:
                 gathered = gather(session, jobs)
                 answer = compare_worlds(worlds_of(gathered), repetitions=repetitions, seed=seed)
+                _add_task_rates(answer["systems"], gathered)
                 answer["configurations"] = _described_configurations(gathered)
                 return dumps(answer)
             finally:
@@ -349,6 +367,14 @@ def statistics(session: Session, *, job_ids: Sequence[int], repetitions: int, se
 
     body = RESULTS_CACHE.get_or_build(("statistics", repetitions, seed, *_state(jobs)), build)
     return json.loads(body) | {"jobs": [job.id for job in jobs]}
+
+
+def _add_task_rates(systems: dict[str, dict[str, dict[str, Any]]], gathered: Gathered) -> None:
+    """Each configuration's summary in ``systems`` (world, then label) with its task rates, as in compare's groups."""
+    for c in gathered.configurations:
+        summary = systems.get(gathered.worlds[c.world], {}).get(c.label)
+        if summary is not None:
+            summary.update(c.task_counts.rates())
 
 
 def _described_configurations(gathered: Gathered) -> list[dict[str, Any]]:

@@ -140,6 +140,12 @@ class Run(Base):
     """Recorded parent-group memberships (int16) of an algorithm whose groups change; null otherwise."""
     membership_meta: Mapped[dict[str, Any] | None] = mapped_column(JSON, nullable=True, default=None)
     """``{"shape": [children, records, parents], "every": episodes between two records}``."""
+    tasks_allocated: Mapped[int] = mapped_column(BigInteger, default=0, server_default="0")
+    """Atomic tasks allocated where a task can fail (``mgrao_core.TaskCounts``; 0 where none can: migration 0015)."""
+    tasks_failed: Mapped[int] = mapped_column(BigInteger, default=0, server_default="0")
+    """Of those, the tasks that failed."""
+    tasks_handed_over: Mapped[int] = mapped_column(BigInteger, default=0, server_default="0")
+    """Of those, the tasks a neighbouring child completed (``hierarchy``)."""
 
 
 class ExternalRun(Base):
@@ -206,6 +212,12 @@ class JobSummary(Base):
     """Seeds its % from uniform stands on (``mgrao_core.ConfigSummary.n_paired``)."""
     n_paired_max: Mapped[int | None] = mapped_column(Integer, nullable=True)
     """Seeds its % of max stands on."""
+    tasks_allocated: Mapped[int] = mapped_column(BigInteger, default=0, server_default="0")
+    """Its runs' atomic tasks allocated where a task can fail, summed over seeds (migration 0015)."""
+    tasks_failed: Mapped[int] = mapped_column(BigInteger, default=0, server_default="0")
+    """Its runs' tasks that failed, summed over seeds: ``failure_rate`` is this over ``tasks_allocated``."""
+    tasks_handed_over: Mapped[int] = mapped_column(BigInteger, default=0, server_default="0")
+    """Its runs' tasks completed by a neighbour, summed over seeds: ``handover_rate``'s numerator."""
 
 
 STUDY_RUNNING, STUDY_FINISHED = "running", "finished"

@@ -203,13 +203,20 @@ def _membership(run: SimulatedRun) -> dict[str, Any]:
 def run_rows(job_id: int, runs: Iterable[SimulatedRun]) -> list[dict[str, Any]]:
     """The ``runs`` table rows of simulated runs (utilities and weights as little-endian float64).
 
-    A run whose groups change also keeps its recorded memberships (:func:`_membership`).
+    A run whose groups change also keeps its recorded memberships (:func:`_membership`); every run its
+    :class:`~mgrao_core.TaskCounts` (all 0 where no task can fail).
     """
     return [
         {"job_id": job_id, "algorithm": run.algorithm, "seed": run.seed, "episodes": len(run.utilities),
-         "utilities": _blob(run.utilities)} | _weights(run) | _membership(run)
+         "utilities": _blob(run.utilities)} | _weights(run) | _membership(run) | _tasks(run)
         for run in runs
     ]
+
+
+def _tasks(run: SimulatedRun) -> dict[str, int]:
+    """A run's task counts as its three columns."""
+    return {"tasks_allocated": int(run.tasks.allocated), "tasks_failed": int(run.tasks.failed),
+            "tasks_handed_over": int(run.tasks.handed_over)}
 
 
 def _weights(run: SimulatedRun) -> dict[str, Any]:
@@ -354,8 +361,9 @@ def finish_batch(db: Database, *, completed: Sequence[Completed]) -> dict[int, s
             session.execute(update(Job).where(Job.id.in_(ids), Job.lease == lease, Job.status == RUNNING)
                             .values(status=SUCCEEDED, progress=1.0, finished_at=finished_at, lease=None, error=None)
                             .execution_options(synchronize_session=False))
-        summaries.write(session, {item.claim.job_id: summarise(item.finals) for item in done
-                                  if item.finals is not None})
+        whole = [item for item in done if item.finals is not None]  # its rows are every run it has
+        summaries.write(session, {item.claim.job_id: summarise(item.finals) for item in whole},
+                        {item.claim.job_id: summaries.task_counts_of_rows(item.rows) for item in whole})
         for item in done:
             if item.finals is None:
                 summaries.store(session, item.claim.job_id)

@@ -3,7 +3,9 @@
 A job's summary per configuration (final mean with its 95% interval, % from uniform with its
 interval, % of max: :func:`mgrao_core.summarise`) is computed from its stored runs in the
 transaction that marks it succeeded, so that the runs table can show and sort result columns, and
-studies read their trials' objectives, without reading any run again.
+studies read their trials' objectives, without reading any run again. Beside it the configuration's
+:class:`mgrao_core.TaskCounts` summed over its seeds, from which every summary the API serves carries
+``failure_rate`` and ``handover_rate`` (:func:`summary_dict`; 0 where no task can fail).
 """
 
 from __future__ import annotations
@@ -14,11 +16,11 @@ from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
-from sqlalchemy import Row, delete, insert, select
+from sqlalchemy import Row, delete, func, insert, select
 from sqlalchemy.orm import Session
 
 from backend.store.models import JobSummary, Run
-from mgrao_core import ConfigSummary, final_utilities, summarise
+from mgrao_core import ConfigSummary, TaskCounts, final_utilities, summarise
 
 RESULT_FIELDS = ("final_mean", "pct_from_uniform", "pct_of_max")
 """The summary values a listing can sort by."""
@@ -51,37 +53,69 @@ def finals_of_rows(rows: Iterable[dict[str, Any]]) -> dict[str, dict[int, float]
     return dict(finals)
 
 
+def task_counts(session: Session, job_id: int) -> dict[str, TaskCounts]:
+    """Each algorithm's stored runs' :class:`~mgrao_core.TaskCounts`, summed over seeds (one aggregate query)."""
+    statement = (select(Run.algorithm, func.sum(Run.tasks_allocated), func.sum(Run.tasks_failed),
+                        func.sum(Run.tasks_handed_over)).where(Run.job_id == job_id).group_by(Run.algorithm))
+    return {algorithm: TaskCounts(int(allocated or 0), int(failed or 0), int(handed_over or 0))
+            for algorithm, allocated, failed, handed_over in session.execute(statement)}
+
+
+def task_counts_of_rows(rows: Iterable[dict[str, Any]]) -> dict[str, TaskCounts]:
+    """:func:`task_counts` from run rows (:func:`backend.store.queue.run_rows`) before they are stored."""
+    out: dict[str, TaskCounts] = defaultdict(TaskCounts)
+    for row in rows:
+        out[row["algorithm"]] += TaskCounts(row["tasks_allocated"], row["tasks_failed"], row["tasks_handed_over"])
+    return dict(out)
+
+
+def summary_dict(summary: ConfigSummary, tasks: TaskCounts | None) -> dict[str, Any]:
+    """A configuration's summary as the API serves it: the core's, with the rates of its atomic tasks.
+
+    ``ConfigSummary.as_dict`` and ``failure_rate``, ``handover_rate`` pooled over its seeds (0.0 without counts).
+    """
+    return summary.as_dict() | (tasks or TaskCounts()).rates()
+
+
 def _finite(value: float | None) -> float | None:
     return value if value is not None and math.isfinite(value) else None
 
 
-def _rows(job_id: int, summaries: dict[str, ConfigSummary]) -> list[dict[str, Any]]:
+def _rows(job_id: int, summaries: dict[str, ConfigSummary], tasks: dict[str, TaskCounts]) -> list[dict[str, Any]]:
     rows = []
     for algorithm, s in summaries.items():
         low, high = s.ci95
         pct_low, pct_high = s.pct_ci95 if s.pct_ci95 is not None else (None, None)
+        counts = tasks.get(algorithm, TaskCounts())
         rows.append({
             "job_id": job_id, "algorithm": algorithm, "n_runs": s.n_runs, "final_mean": _finite(s.final_mean),
             "final_low": _finite(low), "final_high": _finite(high), "pct_from_uniform": _finite(s.pct_from_uniform),
             "pct_low": _finite(pct_low), "pct_high": _finite(pct_high), "pct_of_max": _finite(s.pct_of_max),
-            "n_paired": s.n_paired, "n_paired_max": s.n_paired_max,
+            "n_paired": s.n_paired, "n_paired_max": s.n_paired_max, "tasks_allocated": counts.allocated,
+            "tasks_failed": counts.failed, "tasks_handed_over": counts.handed_over,
         })
     return rows
 
 
 def store(session: Session, job_id: int) -> dict[str, ConfigSummary]:
-    """Compute a job's summaries and write them (replacing any); call inside a write transaction."""
+    """Compute a job's summaries (and task counts) and write them (replacing any); call inside a write transaction."""
     summaries = compute(session, job_id)
-    write(session, {job_id: summaries})
+    write(session, {job_id: summaries}, {job_id: task_counts(session, job_id)})
     return summaries
 
 
-def write(session: Session, by_job: dict[int, dict[str, ConfigSummary]]) -> None:
-    """Write the given jobs' summaries (replacing any) in two statements; call inside a write transaction."""
+def write(session: Session, by_job: dict[int, dict[str, ConfigSummary]],
+          tasks: dict[int, dict[str, TaskCounts]] | None = None) -> None:
+    """Write the given jobs' summaries (replacing any) in two statements; call inside a write transaction.
+
+    ``tasks`` holds each job's task counts per configuration (:func:`task_counts`); a job or configuration it
+    lacks stores 0.
+    """
     if not by_job:
         return
     session.execute(delete(JobSummary).where(JobSummary.job_id.in_(list(by_job))))
-    rows = [row for job_id, summaries in by_job.items() for row in _rows(job_id, summaries)]
+    tasks = tasks or {}
+    rows = [row for job_id, summaries in by_job.items() for row in _rows(job_id, summaries, tasks.get(job_id, {}))]
     if rows:
         session.execute(insert(JobSummary), rows)
 
@@ -111,14 +145,15 @@ def config_summaries(session: Session, job_ids: Iterable[int]) -> dict[int, dict
 
 
 def as_dict(row: JobSummary | Row) -> dict[str, Any]:
-    """A stored summary, a model or a row of its columns, as the API shows it (``ConfigSummary.as_dict``)."""
+    """A stored summary, a model or a row of its columns, as the API shows it (:func:`summary_dict`)."""
     pct_ci = None if row.pct_low is None and row.pct_high is None else [row.pct_low, row.pct_high]
+    tasks = TaskCounts(row.tasks_allocated or 0, row.tasks_failed or 0, row.tasks_handed_over or 0)
     return {
         "algorithm": row.algorithm, "n_runs": row.n_runs, "final_mean": row.final_mean,
         "ci95": [row.final_low, row.final_high], "pct_from_uniform": row.pct_from_uniform, "pct_ci95": pct_ci,
         "pct_of_max": row.pct_of_max, "n_paired": row.n_paired, "n_paired_max": row.n_paired_max,
         "partial": None if row.n_paired is None else 0 < row.n_paired < row.n_runs,
-    }
+    } | tasks.rates()
 
 
 def of_jobs(session: Session, job_ids: Iterable[int]) -> dict[int, dict[str, dict[str, Any]]]:

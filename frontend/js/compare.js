@@ -7,7 +7,7 @@
 import { api } from './api.js';
 import { h, notice, nextId, kindBadge, debounce } from './ui.js';
 import { draw, drawWhenSeen, purge, loadPlotly, meanBandTraces, utilityLayout, pctBarTrace, bandsBelow, bandAlpha } from './charts.js';
-import { parseIds, badIds, DEFINITIONS, groupKey, pctErrorBars, fmtNumber, fmtPct, fmtCI, seedCount, smoothingNote, episodesPerPoint, bandCaution, SUMMARY_COLUMNS, summaryCells, pairedText } from './stats.js';
+import { parseIds, badIds, DEFINITIONS, groupKey, pctErrorBars, fmtNumber, fmtPct, fmtCI, seedCount, smoothingNote, episodesPerPoint, bandCaution, SUMMARY_COLUMNS, summaryCells, pairedText, showsTaskRates, fmtRate, TASK_RATE_DEFINITIONS } from './stats.js';
 import { compareLabels, ready, rememberAnswer } from './algorithms.js';
 import { configurations, groupLabels, diffTable, facets, facetOf, lineStyles, legendLayout, barsLayout } from './comparegroups.js';
 import { statisticsPanel } from './statspanel.js';
@@ -170,9 +170,15 @@ export async function mount(root, params, ctx) {
   const jobsLine = h('p', { class: 'help' }, 'Jobs: ', data.jobs.map((j, i) => [i ? ', ' : '',
     h('a', { href: `#/jobs/${j.id}` }, `#${j.id} ${j.name || ''}`), ` (${j.status})`]));
   const tableBody = h('tbody');
+  // what became of the atomic tasks: columns only where a job lets tasks fail or some configuration's did
+  const taskRates = showsTaskRates(groups.map((g) => g.summary), data.jobs.map((j) => j.params));
+  const columnTitles = { Paired: 'Seeds shared with uniform: the % from uniform stands on these',
+    Failed: 'Share of its atomic tasks that failed, pooled over its seeds',
+    'Handed over': 'Share of its atomic tasks a neighbouring child completed, pooled over its seeds' };
   const pooledTable = h('table', { class: 'summary', id: 'pooled-table' },
-    h('thead', {}, h('tr', {}, ['Configuration', 'Jobs', 'Runs', 'Paired', 'Final mean', '95% CI', '% from uniform', '95% CI', '% of max']
-      .map((c) => h('th', { scope: 'col', title: c === 'Paired' ? 'Seeds shared with uniform: the % from uniform stands on these' : null }, c)))),
+    h('thead', {}, h('tr', {}, ['Configuration', 'Jobs', 'Runs', 'Paired', 'Final mean', '95% CI', '% from uniform', '95% CI', '% of max',
+      ...(taskRates ? ['Failed', 'Handed over'] : [])]
+      .map((c) => h('th', { scope: 'col', title: columnTitles[c] || null }, c)))),
     tableBody);
   const partial = groups.filter((g) => g.summary && g.summary.partial);
   const mismatched = groups.filter((g) => (g.mismatched_seeds || []).length);
@@ -202,7 +208,8 @@ export async function mount(root, params, ctx) {
       h('section', { 'aria-labelledby': 'h-ct' }, h('h2', { id: 'h-ct' }, 'Pooled final utility ', tableCsvButton('compare-final-utility.csv', () => [
         ['system', 'configuration', 'job_ids', ...SUMMARY_COLUMNS],
         ...groups.map((g) => [facetOf(g), g.label ?? g.algorithm, (g.job_ids || []).join(' '), ...summaryCells(g.summary)])])),
-        pairingNotes, h('div', { class: 'table-wrap' }, pooledTable), h('p', { class: 'help definitions' }, DEFINITIONS))),
+        pairingNotes, h('div', { class: 'table-wrap' }, pooledTable), h('p', { class: 'help definitions' }, DEFINITIONS),
+        taskRates ? h('p', { class: 'help definitions', id: 'task-rate-definitions' }, TASK_RATE_DEFINITIONS) : null)),
     stats.element);
 
   function saveQuery() {
@@ -244,7 +251,9 @@ export async function mount(root, params, ctx) {
         h('td', { class: 'num ci' }, fmtCI(s.ci95)),
         h('td', { class: 'num' }, fmtPct(s.pct_from_uniform)),
         h('td', { class: 'num ci' }, fmtCI(s.pct_ci95, 1, true)),
-        h('td', { class: 'num' }, fmtPct(s.pct_of_max, 1, false)));
+        h('td', { class: 'num' }, fmtPct(s.pct_of_max, 1, false)),
+        ...(taskRates ? [h('td', { class: 'num', 'data-rate': 'failure_rate' }, fmtRate(s.failure_rate)),
+          h('td', { class: 'num', 'data-rate': 'handover_rate' }, fmtRate(s.handover_rate))] : []));
     }));
     const cautions = systems.map((system) => {
       const text = bandCaution(groups.filter((g, i) => facetOf(g) === system && shown.has(keys[i]))

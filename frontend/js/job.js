@@ -1,5 +1,6 @@
 // Job view: live progress while queued/running (polls every second), then results: utility chart
-// with bands, seeds on demand, smoothing, paper-style table, weight heatmap and bars, downloads.
+// with bands, seeds on demand, smoothing, paper-style table, failed and handed-over tasks (where tasks can
+// fail), weight heatmap and bars, downloads.
 
 import { api } from './api.js';
 import { h, statusCell, jobMeta, notice, editJobDialog, confirmDialog, cancelConsequence, keepLabel, nextId, downloadText, downloadWithToken } from './ui.js';
@@ -12,6 +13,7 @@ import { fmtParam } from './studydata.js';
 import { configRows, differenceSummary, summaryCsv, configJson, listLines } from './jobconfig.js';
 import { weightsSection } from './jobweights.js';
 import { ruleSection } from './jobrule.js';
+import { tasksSection } from './jobtasks.js';
 
 const POINTS = 600;
 const SMOOTH_CHOICES = [1, 5, 11, 25, 51, 101]; // episodes, centred
@@ -354,6 +356,7 @@ export async function mount(root, params, ctx) {
           h('label', { class: 'check', for: bandsId }, bandsCb, ' 95% bands'), chartStatus),
         seedsNote, axisUi.element, chart, smoothNote, caution),
       summaryTable(r),
+      ...[tasksSection({ job, results: r, plots })].filter(Boolean),
       weightsSection({ jobId: id, results: r, plots, state: weightsState }),
       h('section', { 'aria-labelledby': 'h-dl' }, h('h2', { id: 'h-dl' }, 'Download'),
         h('p', { class: 'downloads' },

@@ -123,6 +123,27 @@ export function seedPoints(wanted, episodes, configurations, runs, maxValues) {
   return points >= Math.min(MIN_SEED_POINTS, episodes) ? points : null;
 }
 
+/**
+ * Whether a view shows what became of the atomic tasks (a summary's `failure_rate` and `handover_rate`): some
+ * configuration has a nonzero rate, or some job lets tasks fail (its params' `task_need` > 0).
+ */
+export function showsTaskRates(summaries, paramsList = []) {
+  const rated = (summaries || []).some((s) => s && ((s.failure_rate || 0) > 0 || (s.handover_rate || 0) > 0));
+  return rated || (paramsList || []).some((p) => Number((p || {}).task_need) > 0);
+}
+
+/** A share in [0, 1] as a percentage, one decimal ('12.3%'); '<0.1%' for a share too small to show; '–' for none. */
+export function fmtRate(x) {
+  if (!isFiniteNumber(x)) return '–';
+  if (x > 0 && x < 0.0005) return '<0.1%';
+  return `${(100 * x).toFixed(1)}%`;
+}
+
+/** What the two rates are, in a line under a table or chart of them. */
+export const TASK_RATE_DEFINITIONS = 'Failed: share of the atomic tasks allocated to children that failed, their ' +
+  'value lost (short of task_need, and not completed through a neighbour). Handed over: share a neighbouring child ' +
+  'completed (hierarchy: a borrowed share of its resource, or the task handed over to it). Both pooled over the seeds.';
+
 /** "10 of 20 paired": the paired count of a summary whose seeds only partly pair with uniform, else the count. */
 export function pairedText(s) {
   if (!s || s.n_paired === undefined || s.n_paired === null) return '–';

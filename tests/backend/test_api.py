@@ -57,11 +57,12 @@ def test_submit_run_results_and_export_match_the_core(client: TestClient, worker
     assert results["paper"] is None  # 15 episodes: the paper's tables are after 100
     assert results["algorithms"] == [describe_label(a) for a in job["algorithms"]]  # the view asks no more
     summary = expected.summary()
+    tasks = expected.task_counts()  # no task can fail here: both rates 0.0
     bands = expected.episode_bands()
     for config in results["configurations"]:
         algorithm = config["algorithm"]
         assert config["config_hash"] == job["config_hash"]
-        assert config["summary"] == summary[algorithm].as_dict()
+        assert config["summary"] == summary[algorithm].as_dict() | tasks[algorithm].rates()
         assert config["episodes"] == bands[algorithm]
         assert "seeds" not in config
         combined = np.mean([r.combined_weights for r in expected.runs if r.algorithm == algorithm], axis=0)
@@ -177,7 +178,7 @@ def test_compare_pools_seeds_by_configuration(client: TestClient, worker: Worker
     assert groups[(c["config_hash"], "uniform")]["episodes_per_run"] == 20
     assert len(pooled["episodes"]["episode"]) == 5
     expected = run_experiment(make_spec("single", seeds=[0, 1, 2, 3], episodes=15)).summary()
-    assert pooled["summary"] == expected["mgrao-max"].as_dict()
+    assert pooled["summary"] == expected["mgrao-max"].as_dict() | {"failure_rate": 0.0, "handover_rate": 0.0}
     assert client.get(f"/api/compare?jobs={a['id']},999").status_code == 404
     queued = submit(client)
     mixed = client.get(f"/api/compare?jobs={queued['id']},{c['id']}").json()

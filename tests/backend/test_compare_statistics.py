@@ -50,6 +50,9 @@ def test_statistics_are_the_cores_on_the_stored_runs(client: TestClient, worker:
     worlds = [World("single", "single", 30, finals_of(db, single["id"])),
               World("large", "large", 20, finals_of(db, large["id"]))]
     expected = compare(worlds, repetitions=300, seed=4)
+    for summaries in expected["systems"].values():  # the service's summaries add the tasks' rates: none can fail
+        for summary in summaries.values():
+            summary.update({"failure_rate": 0.0, "handover_rate": 0.0})
     for key in ("systems", "scores", "aggregate", "probability_of_improvement", "performance_profiles",
                 "head_to_head", "normalisation"):
         assert json.dumps(body[key], sort_keys=True) == json.dumps(expected[key], sort_keys=True), key

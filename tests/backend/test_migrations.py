@@ -324,3 +324,45 @@ def test_summaries_stored_before_0013_get_the_seeds_their_paired_figures_stand_o
         rows = connection.execute(text("SELECT algorithm, n_runs, n_paired, n_paired_max FROM job_summaries "
                                        "WHERE job_id = :id ORDER BY algorithm"), {"id": job["id"]}).all()
     assert [tuple(r) for r in rows] == [("mgrao-1:1", 3, 2, 2), ("mgrao-max", 3, 2, 2), ("uniform", 3, 2, 2)]
+
+
+def test_runs_and_summaries_stored_before_0015_count_no_tasks_and_answer_rates_of_0(settings, db_url: str) -> None:
+    from fastapi.testclient import TestClient
+
+    from backend.api.app import create_app
+    from tests.backend.backend_helpers import BASE_URL
+
+    _alembic(db_url, command.upgrade, "0014")
+    config = make_spec("single", ["uniform"], seeds=1, episodes=1).as_dict()
+    blob = np.array([1.5]).tobytes()
+    engine = create_engine(db_url)
+    with engine.begin() as connection:  # a succeeded job, its run and its summary as 0014 stored them
+        _insert_job(connection, config, config_hash(config), "old", datetime(2026, 11, 26))
+        connection.execute(text("UPDATE jobs SET status = 'succeeded'"))
+        connection.execute(text(
+            "INSERT INTO runs (job_id, algorithm, seed, episodes, utilities, combined_weights, group_weights,"
+            " group_shape) VALUES (1, 'uniform', 0, 1, :u, :u, :u, '[1, 0, 20]')"), {"u": blob})
+        connection.execute(text("INSERT INTO job_summaries (job_id, algorithm, n_runs, final_mean, n_paired) "
+                                "VALUES (1, 'uniform', 1, 1.5, 1)"))
+    engine.dispose()
+    counts = "SELECT tasks_allocated, tasks_failed, tasks_handed_over FROM "
+    db = Database(db_url)
+    db.migrate()
+    try:
+        with db.session() as session:
+            assert [tuple(r) for r in session.execute(text(counts + "runs"))] == [(0, 0, 0)]
+            assert [tuple(r) for r in session.execute(text(counts + "job_summaries"))] == [(0, 0, 0)]
+        with TestClient(create_app(settings), base_url=BASE_URL) as client:
+            rates = {"failure_rate": 0.0, "handover_rate": 0.0}
+            assert client.get("/api/jobs/1").json()["summaries"]["uniform"].items() >= rates.items()
+            assert client.get("/api/jobs/1/results").json()["configurations"][0]["summary"].items() >= rates.items()
+            assert client.get("/api/compare?jobs=1").json()["groups"][0]["summary"].items() >= rates.items()
+        db.dispose()
+        _alembic(db_url, command.downgrade, "0014")  # the counts go; the run and its summary stay
+        engine = create_engine(db_url)
+        with engine.connect() as connection:
+            assert "tasks_failed" not in {c["name"] for c in sa.inspect(connection).get_columns("runs")}
+            assert connection.execute(text("SELECT count(*) FROM runs")).scalar() == 1
+        engine.dispose()
+    finally:
+        db.dispose()

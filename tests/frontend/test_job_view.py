@@ -221,3 +221,52 @@ def test_the_new_experiment_form_runs_seeds_until_decided(page, server, screensh
     page.locator("#until-on:checked").wait_for(timeout=10000)
     assert page.input_value("#until-half-width") == "3" and page.input_value("#until-first-seed") == "200"
     page.screenshot(path=str(screenshots / "new-experiment-until.png"), full_page=True)
+
+
+def test_a_job_whose_tasks_fail_shows_each_configurations_failed_and_handed_over_share(page, server, screenshots):
+    """Tasks that fail and a hierarchy that hands them over: the job view draws each configuration's failure and
+    hand-over rates (its summary's, pooled over its seeds) beside a table of them, and compare's pooled table lists
+    them; a job whose tasks cannot fail shows neither."""
+    body = {"system": "multi", "algorithms": ["uniform", "mgrao-1:1"], "seeds": 2, "episodes": 20,
+            "params": {"task_need": 1.5, "hierarchy": "hand-over"}, "name": "tasks that fail"}
+    job = post_job(server, body)
+    plain = post_job(server, body | {"params": {}, "name": "no task fails"})
+
+    def succeeded(job_id: int) -> dict | None:
+        current = get_job(server, job_id)
+        assert current["status"] not in ("failed", "cancelled"), current["error"]
+        return current if current["status"] == "succeeded" else None
+
+    # the first job of failing tasks compiles the engine's hierarchy once in the service's worker
+    summaries = wait_for(lambda: succeeded(job["id"]), 600, f"job {job['id']} to succeed", step=0.5)["summaries"]
+    rates = {a: [summaries[a]["failure_rate"], summaries[a]["handover_rate"]] for a in body["algorithms"]}
+    assert all(0 < rate < 1 for pair in rates.values() for rate in pair), rates
+
+    page.goto(f"/#/jobs/{job['id']}")
+    chart = page.locator("#task-rates-chart")
+    chart.locator(".main-svg").first.wait_for(timeout=60000)
+    assert "Atomic tasks that failed / were handed over" in page.locator("#h-tasks").inner_text()
+    drawn = chart.evaluate("gd => Object.fromEntries(gd.data.map(t => [t.meta.config, [t.x, t.y]]))")
+    for algorithm, (failure, handover) in rates.items():
+        assert drawn[algorithm][0] == ["Failed", "Handed over"]
+        assert drawn[algorithm][1] == pytest.approx([100 * failure, 100 * handover])
+        cells = page.locator(f"#task-rates-table tr[data-config='{algorithm}'] td")
+        shown = [float(text.rstrip("%")) for text in cells.all_inner_texts()]
+        assert shown == [pytest.approx(100 * failure, abs=0.051), pytest.approx(100 * handover, abs=0.051)]
+    page.locator("#task-rates").scroll_into_view_if_needed()
+    page.screenshot(path=str(screenshots / "job-view-failures.png"), full_page=True)
+    page.locator("#task-rates").screenshot(path=str(screenshots / "job-view-failures-section.png"))
+
+    wait_for(lambda: succeeded(plain["id"]), 120, f"job {plain['id']} (no task fails) to succeed", step=0.5)
+    page.goto(f"/#/jobs/{plain['id']}")
+    page.locator("#utility-chart .main-svg").first.wait_for(timeout=60000)
+    assert page.locator("#task-rates").count() == 0  # nothing can fail: nothing said
+
+    page.goto(f"/#/compare?jobs={job['id']}")
+    table = page.locator("#pooled-table")
+    table.wait_for()
+    assert table.locator("thead th").all_inner_texts()[-2:] == ["Failed", "Handed over"]
+    for algorithm, pair in rates.items():
+        row = table.locator("tbody tr").filter(has_text=algorithm).first
+        shown = [float(text.rstrip("%")) for text in row.locator("td[data-rate]").all_inner_texts()]
+        assert shown == [pytest.approx(100 * rate, abs=0.051) for rate in pair]

@@ -3,7 +3,7 @@ import assert from 'node:assert/strict';
 import {
   centredAverage, episodesPerPoint, smoothingNote, smoothSeries, bandPolygon, parseTags, parseIds,
   parseHash, buildHash, fieldErrors, fmtNumber, fmtPct, fmtCI, fmtDuration, fmtDate, pctProgress,
-  pctErrorBars, groupKey, seedCount, changedParams,
+  pctErrorBars, groupKey, seedCount, changedParams, showsTaskRates, fmtRate,
 } from '../../../frontend/js/stats.js';
 
 test('centredAverage: window 1 copies; a centred window in episodes, cut short at the ends', () => {
@@ -189,4 +189,13 @@ test('seedPoints: the points a results answer with every seed can hold, or null 
   assert.equal(seedPoints(600, 1000, 4, 60_000, 1_000_000), null); // 16 points a seed: too coarse
   assert.equal(seedPoints(600, 5, 1, 3, 1_000_000), 5); // a short run: every episode, even below the minimum
   assert.equal(MIN_SEED_POINTS, 20);
+});
+
+test('showsTaskRates: a nonzero rate, or a job whose tasks can fail; fmtRate: a share as a percentage', () => {
+  const zero = { failure_rate: 0, handover_rate: 0 };
+  assert.equal(showsTaskRates([zero, zero], [{ learning_rate: 0.1 }]), false);  // nothing can fail: nothing shown
+  assert.equal(showsTaskRates([zero, { failure_rate: 0, handover_rate: 0.2 }], []), true);
+  assert.equal(showsTaskRates([zero], [{ task_need: 1.5 }]), true);  // can fail, even where none did
+  assert.equal(showsTaskRates([{}, undefined], [undefined, { task_need: 0 }]), false);  // an older answer
+  assert.deepEqual([0, 0.1234, 1, 0.0001, null].map(fmtRate), ['0.0%', '12.3%', '100.0%', '<0.1%', '–']);
 });
