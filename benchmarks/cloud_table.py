@@ -65,9 +65,10 @@ def main() -> None:
         return run_experiment(spec), time.perf_counter() - started
 
     results = {kind: run({"hierarchy": kind}) for kind in HIERARCHIES}
-    print(f"cloud: seeds {seeds[0]}-{seeds[-1]}, {args.episodes} episodes, {json.dumps(settings) or 'preset'}\n")
+    described = json.dumps(settings) if settings else "the preset"
+    print(f"cloud: seeds {seeds[0]}-{seeds[-1]}, {args.episodes} episodes, {described}\n")
     print("| hierarchy | configuration | final utility [95% CI] | % from uniform [95% CI] | % failed | "
-          "% handed over | % from no hierarchy [95% CI] |")
+          "% through a neighbour | % from no hierarchy [95% CI] |")
     print("|---|---|---|---|---|---|---|")
     for kind in HIERARCHIES:
         for row in rows(results[kind][0], None if kind == "none" else results["none"][0]):

@@ -218,7 +218,7 @@ def run(ctx: click.Context, system: str | None, algorithms: str | None, seeds: i
         if spec.params.task_need > 0:  # tasks can fail: what became of them
             rows = [[*row, _fmt(100 * tasks[row[0]].failure_rate), _fmt(100 * tasks[row[0]].handover_rate)]
                     for row in rows]
-            headers += ["% failed", "% handed over"]
+            headers += ["% failed", "% by a neighbour"]
         title = (f"{system}: {len(spec.seeds)} seeds x {spec.episodes} episodes, "
                  f"mean of the last 10 episodes ({elapsed:.2f} s)")
         stopped = "" if done is None else f"\n{_stopped_line(done.stopped)}"

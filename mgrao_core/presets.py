@@ -99,7 +99,7 @@ PRESETS: dict[str, Preset] = {
         "40 services send composite requests of 4 atomic tasks to 8 servers with CPU and memory; a task fails "
         "without enough memory and borrows it from a neighbouring server (docs/model.md, \"A cloud\").",
         {"n_parents": 40, "n_children": 8, "n_types": 12, "types_per_composite": 4, "n_resources": 2,
-         "need_concentration": 1.0, "routing": "per-task", "load_sharing": True, "task_need": 0.3,
+         "need_concentration": 1.0, "routing": "per-task", "load_sharing": True, "task_need": 0.45,
          "hierarchy": "borrow"},
         ("uniform", "mgrao-1:1", "mgrao-5:1", "mgrao-max", "mgrao-balance", "oracle"),
     ),

@@ -262,32 +262,33 @@ class SeedEnvironment:
                 parents[p].observe(assigned[p], values[p], taqs[p], params)
         return Episode(utility, self._present, self._task_types, child_of, values, taqs, order, shares)
 
-
     def _tasks_that_fail(self, children: np.ndarray, types: np.ndarray,
                          allocation: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Each atomic task's quality where tasks can fail, task by task in the order of parents and their tasks.
 
         ``children`` and ``types`` are the present parents' (rows) atomic tasks', ``allocation (children, R,
         n_types)`` what each child gives each type of each resource (its tasks' share). A task gets
-        ``x = w[c, last, t] * a[c, last, t] / load`` of the last resource (less what its child lent of the type), and
-        fails below the need (``equations.need_amount``); under ``borrow`` the first neighbour (``equations.neighbour``)
-        that keeps the need for its own tasks of the type lends the shortfall, under ``hand-over`` the first one
-        that meets the need for its tasks of the type with this one among them performs it (under load sharing the
-        task moves to the tasks sharing its amount), at ``1 - handover_cost`` of its quality. Returns the qualities,
+        ``x = w[c, last, t] * a[c, last, t]`` of the last resource (less what its child lent of the type) over the
+        tasks that share it (under load sharing; else each gets it whole), and fails below the need
+        (``equations.need_amount``); under ``borrow`` the first neighbour (``equations.neighbour``) that keeps the need
+        for each of its own tasks of the type lends the shortfall, under ``hand-over`` the first one that meets the need
+        for its tasks of the type with this one among them performs it, at ``1 - handover_cost`` of its quality (under
+        load sharing the task moves to the tasks sharing its performer's amount, and a failed task shares none).
+        Returns the qualities,
         which tasks failed (quality 0) and, with several resources, each resource's share of each quality.
         """
         params = self.params
         need = eq.need_amount(params.task_need, params.resource_mean, params.n_types)
         per_weight = self.world.resource_per_type  # (children, R, n_types)
         last = per_weight.shape[1] - 1
-        load = np.ones((params.n_children, params.n_types))
-        if params.load_sharing:
-            load[:] = 0.0
-            np.add.at(load, (children, types), 1.0)
         available = allocation[:, last, :] * per_weight[:, last, :]
         lent = np.zeros_like(available)
-        sharing = load.copy()  # the tasks that share each child's amount of each type
-        joins = 1.0 if params.load_sharing else 0.0  # a handed-over task moves to its performer's share
+        sharing = np.zeros_like(available)  # the tasks that share each child's amount of each type
+        if params.load_sharing:
+            np.add.at(sharing, (children, types), 1.0)
+        else:  # each task gets the whole amount of its type
+            sharing[children, types] = 1.0
+        joins = 1.0 if params.load_sharing else 0.0  # what one task more or fewer adds to those sharing an amount
         neighbours = [eq.neighbour(c, i, params.n_children, params.neighbours == "ring")
                       for c in range(params.n_children)
                       for i in range(eq.n_neighbours(params.n_children, params.neighbours == "ring"))]
@@ -302,15 +303,17 @@ class SeedEnvironment:
             outcome[row, k] = "failed"
             for d in (neighbours[c * per_child:(c + 1) * per_child] if params.hierarchy != "none" else []):
                 room = available[d, t] - lent[d, t]
-                if params.hierarchy == "borrow" and (room - (need - own)) / max(sharing[d, t], 1.0) >= need:
+                if params.hierarchy == "borrow" and room - (need - own) >= need * sharing[d, t]:
                     lent[d, t] += need - own
                     outcome[row, k], performer[row, k] = "borrowed", d
                     break
-                if params.hierarchy == "hand-over" and room / max(sharing[d, t] + joins, 1.0) >= need:
+                if params.hierarchy == "hand-over" and room >= need * max(sharing[d, t] + joins, 1.0):
                     sharing[d, t] += joins
                     sharing[c, t] -= joins
                     outcome[row, k], performer[row, k] = "handed over", d
                     break
+            if outcome[row, k] == "failed":
+                sharing[c, t] -= joins  # a failed task holds no share of its child's amount
         quality = np.zeros(children.shape)
         shares = np.zeros((*children.shape, per_weight.shape[1]))
         for row, k in np.ndindex(children.shape):

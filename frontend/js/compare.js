@@ -174,10 +174,10 @@ export async function mount(root, params, ctx) {
   const taskRates = showsTaskRates(groups.map((g) => g.summary), data.jobs.map((j) => j.params));
   const columnTitles = { Paired: 'Seeds shared with uniform: the % from uniform stands on these',
     Failed: 'Share of its atomic tasks that failed, pooled over its seeds',
-    'Handed over': 'Share of its atomic tasks a neighbouring child completed, pooled over its seeds' };
+    'By a neighbour': 'Share of its atomic tasks a neighbouring child completed (borrowed resource or hand-over), pooled over its seeds' };
   const pooledTable = h('table', { class: 'summary', id: 'pooled-table' },
     h('thead', {}, h('tr', {}, ['Configuration', 'Jobs', 'Runs', 'Paired', 'Final mean', '95% CI', '% from uniform', '95% CI', '% of max',
-      ...(taskRates ? ['Failed', 'Handed over'] : [])]
+      ...(taskRates ? ['Failed', 'By a neighbour'] : [])]
       .map((c) => h('th', { scope: 'col', title: columnTitles[c] || null }, c)))),
     tableBody);
   const partial = groups.filter((g) => g.summary && g.summary.partial);

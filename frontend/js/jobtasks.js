@@ -9,7 +9,7 @@ import { algorithmStyles } from './colours.js';
 import { tableCsvButton } from './chartcontrols.js';
 import { fmtRate, showsTaskRates, TASK_RATE_DEFINITIONS } from './stats.js';
 
-const RATES = [['failure_rate', 'Failed'], ['handover_rate', 'Handed over']];
+const RATES = [['failure_rate', 'Failed'], ['handover_rate', 'By a neighbour']];
 
 /**
  * One bar trace per configuration over the two rates (in %), in the configuration's colour: the bars of the
@@ -37,11 +37,11 @@ export function tasksSection({ job, results, plots }) {
   if (!showsTaskRates(configurations.map((c) => c.summary), [job.params])) return null;
   const styles = algorithmStyles([...job.algorithms, ...configurations.map((c) => c.algorithm)]); // the utility chart's
   const chart = h('div', { class: 'chart bars task-rates', id: 'task-rates-chart', role: 'img',
-    'aria-label': 'Per configuration, the share of its atomic tasks that failed and the share handed over' });
+    'aria-label': 'Per configuration, the share of its atomic tasks that failed and the share a neighbour completed' });
   plots.push(chart);
   const none = configurations.every((c) => !(c.summary?.failure_rate > 0) && !(c.summary?.handover_rate > 0));
   const table = h('table', { class: 'summary', id: 'task-rates-table' },
-    h('thead', {}, h('tr', {}, ['Configuration', 'Failed', 'Handed over'].map((t) => h('th', { scope: 'col' }, t)))),
+    h('thead', {}, h('tr', {}, ['Configuration', 'Failed', 'By a neighbour'].map((t) => h('th', { scope: 'col' }, t)))),
     h('tbody', {}, configurations.map((c) => h('tr', { 'data-config': c.algorithm },
       h('th', { scope: 'row' }, c.algorithm),
       ...RATES.map(([key]) => h('td', { class: 'num', 'data-rate': key }, fmtRate((c.summary || {})[key])))))));
@@ -50,11 +50,11 @@ export function tasksSection({ job, results, plots }) {
     yaxis: { title: { text: '% of atomic tasks' }, rangemode: 'tozero', zeroline: true },
   }).then(() => { chart.dataset.rendered = String(Date.now()); });
   return h('section', { 'aria-labelledby': 'h-tasks', id: 'task-rates' },
-    h('h2', { id: 'h-tasks' }, 'Atomic tasks that failed / were handed over ', tableCsvButton(`job-${job.id}-task-rates.csv`,
+    h('h2', { id: 'h-tasks' }, 'Atomic tasks that failed / a neighbour completed ', tableCsvButton(`job-${job.id}-task-rates.csv`,
       () => [['configuration', 'failure_rate_share', 'handover_rate_share'],
         ...configurations.map((c) => [c.algorithm, ...RATES.map(([key]) => (c.summary || {})[key] ?? null)])])),
     none ? h('p', { class: 'help', id: 'task-rates-none', role: 'status' },
-      'No atomic task failed or was handed over in the runs stored.') : null,
+      'No atomic task failed or was completed by a neighbour in the runs stored.') : null,
     h('div', { class: 'grid2' }, chart, h('div', { class: 'table-wrap' }, table)),
     h('p', { class: 'help definitions' }, TASK_RATE_DEFINITIONS));
 }

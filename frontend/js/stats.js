@@ -141,7 +141,7 @@ export function fmtRate(x) {
 
 /** What the two rates are, in a line under a table or chart of them. */
 export const TASK_RATE_DEFINITIONS = 'Failed: share of the atomic tasks allocated to children that failed, their ' +
-  'value lost (short of task_need, and not completed through a neighbour). Handed over: share a neighbouring child ' +
+  'value lost (short of task_need, and not completed through a neighbour). By a neighbour: share a neighbouring child ' +
   'completed (hierarchy: a borrowed share of its resource, or the task handed over to it). Both pooled over the seeds.';
 
 /** "10 of 20 paired": the paired count of a summary whose seeds only partly pair with uniform, else the count. */

@@ -17,7 +17,7 @@ import numpy as np
 from numba import njit
 
 from mgrao_core import equations
-from mgrao_core.params import HIERARCHIES, SystemParams
+from mgrao_core.params import SystemParams
 from mgrao_core.quality import (
     RESOURCE_COMBINATION_CODES,
     compiled_atomic_quality,
@@ -35,7 +35,9 @@ n_neighbours = njit(inline="always")(equations.n_neighbours)
 
 OWN, FAILED, BORROWED, HANDED_OVER = 0, 1, 2, 3
 """What became of an atomic task when tasks can fail (:func:`resolve_failures`)."""
-BORROW, HAND_OVER = HIERARCHIES.index("borrow"), HIERARCHIES.index("hand-over")
+HIERARCHY_CODES = {"none": 0, "borrow": 1, "hand-over": 2}
+"""The kernel's code of each ``hierarchy`` (here, a compiled source: numba reads the codes as constants)."""
+NO_HIERARCHY, BORROW, HAND_OVER = HIERARCHY_CODES["none"], HIERARCHY_CODES["borrow"], HIERARCHY_CODES["hand-over"]
 
 
 class Environment(NamedTuple):
@@ -91,7 +93,7 @@ def environment_of(params: SystemParams) -> Environment:
         resource_combination=RESOURCE_COMBINATION_CODES[params.resource_combination],
         by_share=params.resource_credit == "by-share",
         need=equations.need_amount(params.task_need, params.resource_mean, params.n_types),
-        hierarchy=HIERARCHIES.index(params.hierarchy),
+        hierarchy=HIERARCHY_CODES[params.hierarchy],
         ring=params.neighbours == "ring",
         handover_cost=params.handover_cost,
     )
@@ -268,31 +270,37 @@ def perform_composite_task_resources(ctv, child_of, task_types, weights, task_sh
 
 
 @njit(cache=True)
-def resolve_failures(sending, child_of, task_types, weights, task_share, per_weight, load, env, available, lent,
-                     tasks, status, performer, counts):
+def resolve_failures(sending, child_of, task_types, weights, task_share, per_weight, env, available, lent, tasks,
+                     status, performer, counts):
     """Which atomic tasks fail and which the hierarchy completes, in the order of parents and of their tasks.
 
-    A task of type ``t`` at child ``c`` gets ``x = (available[c, t] - lent[c, t]) / tasks[c, t]``, where
     ``available[c, t] = task_share[c] * weights[c, R - 1, t] * per_weight[c, R - 1, t]`` is the amount of the last
-    resource the allocation gives the type and ``tasks`` starts as ``load`` (the tasks that share it: 1 each without
-    load sharing), and fails below ``env.need`` (:func:`mgrao_core.equations.need_amount`). Under ``borrow`` it takes
-    the shortfall from the first neighbour (:func:`mgrao_core.equations.neighbour`) that keeps ``env.need`` for each
-    of its own tasks of the type after lending (``lent``: the lender's loss, for every task of that type it
-    performs); under ``hand-over`` the first neighbour that meets the need for each of its tasks of the type with
-    this one among them performs it (under load sharing the task then shares the neighbour's amount, no longer its
-    child's: ``tasks`` moves). Writes ``status`` (:data:`OWN`, :data:`FAILED`, :data:`BORROWED`,
-    :data:`HANDED_OVER`) and ``performer`` (the lender, or the neighbour it was handed to) of each task of a sending
-    parent, and adds to ``counts``: tasks allocated, failed, completed through a neighbour. ``weights`` and
-    ``per_weight`` are ``(children, R, n_types)``.
+    resource child ``c``'s allocation gives type ``t``, and ``tasks[c, t]`` how many of the episode's tasks share it:
+    under load sharing its tasks of the type, else 1 where it has one (each gets the whole amount) and 0 where it has
+    none. A task gets ``x = (available[c, t] - lent[c, t]) / tasks[c, t]`` and fails below ``env.need``
+    (:func:`mgrao_core.equations.need_amount`). Under ``borrow`` it takes the shortfall from the first neighbour
+    (:func:`mgrao_core.equations.neighbour`) that keeps ``env.need`` for each of its own tasks of the type after
+    lending (``lent``: the lender's loss, for every task of that type it performs; one with no such task can lend
+    it all); under ``hand-over`` the first neighbour that meets the need for each of its tasks of the type with this
+    one among them performs it. Under load sharing a handed-over task then shares its performer's amount, not its
+    child's, and a failed one shares none (``tasks`` moves). Writes ``status`` (:data:`OWN`, :data:`FAILED`,
+    :data:`BORROWED`, :data:`HANDED_OVER`) and ``performer`` (the lender, or the neighbour it was handed to) of each
+    task of a sending parent, and adds to ``counts``: tasks allocated, failed, completed through a neighbour.
+    ``weights`` and ``per_weight`` are ``(children, R, n_types)``.
     """
     n_children, last = weights.shape[0], weights.shape[1] - 1
     for c in range(n_children):
         for t in range(weights.shape[2]):
             available[c, t] = task_share[c] * weights[c, last, t] * per_weight[c, last, t]
             lent[c, t] = 0.0
-            tasks[c, t] = load[c, t]
+            tasks[c, t] = 0.0
+    joins = 1.0 if env.load_sharing else 0.0  # what one more (or one fewer) task adds to the tasks sharing an amount
+    for p in range(sending.shape[0]):
+        if sending[p]:
+            for k in range(child_of.shape[1]):
+                c, t = child_of[p, k], task_types[p, k]
+                tasks[c, t] = tasks[c, t] + 1.0 if env.load_sharing else 1.0
     need = env.need
-    joins = 1.0 if env.load_sharing else 0.0  # a handed-over task shares its performer's amount under load sharing
     for p in range(sending.shape[0]):
         if not sending[p]:
             continue
@@ -305,13 +313,13 @@ def resolve_failures(sending, child_of, task_types, weights, task_share, per_wei
             if own >= need:
                 continue
             status[p, k] = FAILED
-            for i in range(n_neighbours(n_children, env.ring) if env.hierarchy != 0 else 0):
+            for i in range(n_neighbours(n_children, env.ring) if env.hierarchy != NO_HIERARCHY else 0):
                 d = neighbour(c, i, n_children, env.ring)
                 room = available[d, t] - lent[d, t]
-                if env.hierarchy == BORROW and (room - (need - own)) / max(tasks[d, t], 1.0) >= need:
+                if env.hierarchy == BORROW and room - (need - own) >= need * tasks[d, t]:
                     lent[d, t] += need - own
                     status[p, k] = BORROWED
-                elif env.hierarchy == HAND_OVER and room / max(tasks[d, t] + joins, 1.0) >= need:
+                elif env.hierarchy == HAND_OVER and room >= need * max(tasks[d, t] + joins, 1.0):
                     tasks[d, t] += joins
                     tasks[c, t] -= joins
                     status[p, k] = HANDED_OVER
@@ -319,6 +327,7 @@ def resolve_failures(sending, child_of, task_types, weights, task_share, per_wei
                     performer[p, k] = d
                     break
             if status[p, k] == FAILED:
+                tasks[c, t] -= joins  # a failed task holds no share of its child's amount
                 counts[1] += 1
             else:
                 counts[2] += 1

@@ -281,9 +281,9 @@ def run_block(lanes, worlds, several, draws, env, utilities, outside, failing, m
             # 4. Children perform the atomic tasks; composite qualities make the system utility.
             if failing is not None and several is not None:
                 resolve_failures(sending, child_of, parent_types, resource_weights, task_share, several.per_resource[s],
-                                 load, env, available, lent, sharing, status, performer, failing.counts[lane])
+                                 env, available, lent, sharing, status, performer, failing.counts[lane])
             elif failing is not None:
-                resolve_failures(sending, child_of, parent_types, one_weights, task_share, one_resources, load, env,
+                resolve_failures(sending, child_of, parent_types, one_weights, task_share, one_resources, env,
                                  available, lent, sharing, status, performer, failing.counts[lane])
             utility = 0.0
             for p in range(n_parents):

@@ -47,7 +47,7 @@ def test_run_json_and_table_give_what_became_of_tasks_that_can_fail(runner):
         assert data["summary"][label]["failure_rate"] == counts.failure_rate > 0
         assert data["summary"][label]["handover_rate"] == counts.handover_rate > 0
     table = _run(runner, *args).stdout
-    assert "% failed" in table and "% handed over" in table
+    assert "% failed" in table and "% by a neighbour" in table
     assert f"{100 * expected['uniform'].failure_rate:.1f}" in table
 
 

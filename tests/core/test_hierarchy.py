@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from mgrao_core import ConfigError, TaskCounts, make_params, make_spec, reference, run_experiment
+from mgrao_core.engine.environment import BORROWED, FAILED, HANDED_OVER, OWN, environment_of, resolve_failures
 from mgrao_core.equations import n_neighbours, need_amount, neighbour
 from tests.core._helpers import assert_matches_reference, assert_resources_match_reference
 
@@ -20,6 +21,7 @@ CASES = [
      "n_children": 5},
     {"task_need": 0.8, "hierarchy": "hand-over", "quality_model": "exponential", "leave_probability": 0.2,
      "join_probability": 0.5, "absent_tasks": "counted"},
+    {"task_need": 1.2, "hierarchy": "hand-over", "load_sharing": True, "routing": "per-task", "n_children": 4},
 ]
 RESOURCE_CASES = [
     {"n_resources": 2, "n_children": 4, "task_need": 1.0, "hierarchy": "hand-over"},
@@ -84,14 +86,62 @@ def test_neighbours():
     assert n_neighbours(2, True) == 1 and n_neighbours(1, True) == n_neighbours(1, False) == 0
 
 
-def test_defaults_and_a_hierarchy_without_a_need_are_todays_numbers_bit_for_bit():
-    # (the golden runs check the paper's systems; here: hierarchy and neighbours change nothing while no task fails)
-    today = run_experiment(make_spec("multi", ALGORITHMS, seeds=[1], episodes=15))
-    idle = run_experiment(make_spec("multi", ALGORITHMS, seeds=[1], episodes=15,
-                                    overrides={"hierarchy": "borrow", "neighbours": "ring", "handover_cost": 0.9}))
-    for a, b in zip(today.runs, idle.runs, strict=True):
-        assert np.array_equal(a.utilities, b.utilities) and np.array_equal(a.combined_weights, b.combined_weights)
-        assert a.tasks == b.tasks == TaskCounts()
+def test_where_nothing_fails_the_failing_path_gives_todays_numbers_bit_for_bit():
+    # (the golden runs check that the defaults do not take it: numba compiles it only where tasks can fail) a need
+    # no task falls short of, under every kind of hierarchy, gives the numbers of no need at all (learners whose
+    # weights are never 0: a weight of 0 gets no amount, which fails any need)
+    algorithms = ["uniform", "mgrao-1:1", "mgrao-max"]
+    for overrides in ({}, {"load_sharing": True, "routing": "per-task"}):
+        today = run_experiment(make_spec("multi", algorithms, seeds=[1], episodes=15, overrides=overrides))
+        for kind in ("none", "borrow", "hand-over"):
+            tiny = run_experiment(make_spec("multi", algorithms, seeds=[1], episodes=15,
+                                            overrides={**overrides, "task_need": 1e-9, "hierarchy": kind}))
+            for a, b in zip(today.runs, tiny.runs, strict=True):
+                assert np.array_equal(a.utilities, b.utilities) and np.array_equal(a.combined_weights,
+                                                                                   b.combined_weights)
+                assert b.tasks == TaskCounts(15 * 10 * 5, 0, 0) and a.tasks == TaskCounts()
+
+
+def _resolve(kind, weights, tasks_of, load_sharing=True):
+    """The engine's resolution of one composite task's atomic tasks (each ``(child, type)`` of ``tasks_of``) among
+    children whose allocation of one resource is ``weights`` (a per-weight resource of 1, a need of 0.3)."""
+    params = make_params({"n_children": len(weights), "n_types": len(weights[0]), "types_per_composite": 1,
+                          "task_need": 1.2, "resource_mean": 0.5, "hierarchy": kind, "load_sharing": load_sharing})
+    assert environment_of(params).need == pytest.approx(0.3)
+    weights = np.array(weights, dtype=float)[:, None, :]
+    children, types = np.array([[c for c, _ in tasks_of]]), np.array([[t for _, t in tasks_of]])
+    shape, per_child = children.shape, weights.shape[::2]
+    out = {"available": np.zeros(per_child), "lent": np.zeros(per_child), "tasks": np.zeros(per_child),
+           "status": np.zeros(shape, np.int64), "performer": np.zeros(shape, np.int64),
+           "counts": np.zeros(3, np.int64)}
+    resolve_failures(np.array([True]), children, types, weights, np.ones(len(weights)), np.ones_like(weights),
+                     environment_of(params), *out.values())
+    return out
+
+
+def test_a_lender_without_a_task_of_the_type_can_lend_it_all():
+    # child 0 has 0.1 of type 0 and needs 0.3; child 1 has 0.4 and no task of type 0: it lends the shortfall 0.2
+    # (keeping 0.2, below the need: it has no task to keep it for)
+    out = _resolve("borrow", [[0.1, 0.9], [0.4, 0.6]], [(0, 0)])
+    assert out["status"].tolist() == [[BORROWED]] and out["performer"].tolist() == [[1]]
+    assert out["lent"][1, 0] == pytest.approx(0.2) and out["counts"].tolist() == [1, 0, 1]
+    # with a task of its own of type 0, it keeps the need for it and cannot lend
+    out = _resolve("borrow", [[0.1, 0.9], [0.4, 0.6]], [(0, 0), (1, 0)])
+    assert out["status"].tolist() == [[FAILED, OWN]] and out["counts"].tolist() == [2, 1, 0]
+
+
+def test_under_load_sharing_a_task_handed_over_or_failed_leaves_its_childs_amount_to_the_others():
+    # child 0 gives type 0 an amount of 0.5 for two tasks: 0.25 each, short of 0.3; the first goes to child 1 (no task
+    # of type 0: it meets the need with 0.4), and the second then has 0.5 to itself
+    out = _resolve("hand-over", [[0.5, 0.5], [0.4, 0.6]], [(0, 0), (0, 0)])
+    assert out["status"].tolist() == [[HANDED_OVER, OWN]] and out["tasks"][:, 0].tolist() == [1.0, 1.0]
+    out = _resolve("none", [[0.5, 0.5], [0.4, 0.6]], [(0, 0), (0, 0)])  # a failure frees its share the same way
+    assert out["status"].tolist() == [[FAILED, OWN]] and out["counts"].tolist() == [2, 1, 0]
+    out = _resolve("none", [[0.5, 0.5], [0.4, 0.6]], [(0, 0), (0, 0)], load_sharing=False)  # each gets all of it
+    assert out["status"].tolist() == [[OWN, OWN]] and out["tasks"][:, 0].tolist() == [1.0, 0.0]
+    # a neighbour is handed a task only if each of its tasks of the type, this one among them, keeps the need
+    out = _resolve("hand-over", [[0.5, 0.5], [0.5, 0.5]], [(0, 0), (0, 0), (1, 0)])
+    assert out["status"].tolist() == [[FAILED, OWN, OWN]]
 
 
 def test_same_numbers_however_the_work_is_split():

@@ -127,7 +127,7 @@ def test_same_numbers_however_seeds_are_chunked_ordered_or_split(system):
     _assert_same(whole, _by_run(run_experiment(spec, memory_budget=1)))
     _assert_same(whole, _by_run(run_experiment(spec, episodes_per_block=3)))
     _assert_same(whole, _by_run(run_experiment(make_spec(system, LEARNER_LABELS, seeds=[9, 4, 1], episodes=20))))
-    for seed in (1, 9):  # one seed, the learners without uniform (a kernel of fixed lanes' signature)
+    for seed in (1, 9):  # one seed, both learners without uniform (the signature of their long reference run)
         alone = _by_run(run_experiment(make_spec(system, LEARNER_LABELS, seeds=[seed], episodes=20)))
         _assert_same(whole, alone)
         assert len(alone) == 2

@@ -245,10 +245,10 @@ def test_a_job_whose_tasks_fail_shows_each_configurations_failed_and_handed_over
     page.goto(f"/#/jobs/{job['id']}")
     chart = page.locator("#task-rates-chart")
     chart.locator(".main-svg").first.wait_for(timeout=60000)
-    assert "Atomic tasks that failed / were handed over" in page.locator("#h-tasks").inner_text()
+    assert "Atomic tasks that failed / a neighbour completed" in page.locator("#h-tasks").inner_text()
     drawn = chart.evaluate("gd => Object.fromEntries(gd.data.map(t => [t.meta.config, [t.x, t.y]]))")
     for algorithm, (failure, handover) in rates.items():
-        assert drawn[algorithm][0] == ["Failed", "Handed over"]
+        assert drawn[algorithm][0] == ["Failed", "By a neighbour"]
         assert drawn[algorithm][1] == pytest.approx([100 * failure, 100 * handover])
         cells = page.locator(f"#task-rates-table tr[data-config='{algorithm}'] td")
         shown = [float(text.rstrip("%")) for text in cells.all_inner_texts()]
@@ -265,7 +265,7 @@ def test_a_job_whose_tasks_fail_shows_each_configurations_failed_and_handed_over
     page.goto(f"/#/compare?jobs={job['id']}")
     table = page.locator("#pooled-table")
     table.wait_for()
-    assert table.locator("thead th").all_inner_texts()[-2:] == ["Failed", "Handed over"]
+    assert table.locator("thead th").all_inner_texts()[-2:] == ["Failed", "By a neighbour"]
     for algorithm, pair in rates.items():
         row = table.locator("tbody tr").filter(has_text=algorithm).first
         shown = [float(text.rstrip("%")) for text in row.locator("td[data-rate]").all_inner_texts()]
