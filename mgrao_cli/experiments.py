@@ -215,7 +215,7 @@ def run(ctx: click.Context, system: str | None, algorithms: str | None, seeds: i
             for s in summary.values()
         ]
         headers = ["algorithm", "final mean", "95% CI", "% from uniform", "95% CI", "% of max"]
-        if spec.params.task_need > 0:  # tasks can fail: what became of them
+        if spec.params.tasks_can_fail:  # what became of the tasks
             rows = [[*row, _fmt(100 * tasks[row[0]].failure_rate), _fmt(100 * tasks[row[0]].handover_rate)]
                     for row in rows]
             headers += ["% failed", "% by a neighbour"]

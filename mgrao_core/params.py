@@ -290,6 +290,11 @@ class _Derived:
         return self.temperature if self.temperature is not None else 1.0 / self.n_types
 
     @property
+    def tasks_can_fail(self) -> bool:
+        """Whether an atomic task can fail (``task_need > 0``): where the engine resolves and counts failures."""
+        return self.task_need > 0
+
+    @property
     def effective_absent_quality(self) -> float:
         """The quality an absent parent's task counts at under ``absent_tasks="counted"``.
 

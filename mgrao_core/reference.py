@@ -236,7 +236,7 @@ class SeedEnvironment:
             shares = np.zeros((params.n_parents, params.types_per_composite, params.n_resources))
             shares[present] = task_shares
         failed = np.zeros(quality.shape, dtype=bool)
-        if params.task_need > 0:  # tasks that fail, and the hierarchy that completes some of them
+        if params.tasks_can_fail:  # tasks that fail, and the hierarchy that completes some of them
             allocation = allocation if params.n_resources > 1 else allocation[:, None, :]
             quality, failed, task_shares = self._tasks_that_fail(children, types, allocation)
             if shares is not None:
@@ -274,8 +274,8 @@ class SeedEnvironment:
         for each of its own tasks of the type lends the shortfall, under ``hand-over`` the first one that meets the need
         for its tasks of the type with this one among them performs it, at ``1 - handover_cost`` of its quality (under
         load sharing the task moves to the tasks sharing its performer's amount, and a failed task shares none).
-        Returns the qualities,
-        which tasks failed (quality 0) and, with several resources, each resource's share of each quality.
+        Returns the qualities, which tasks failed (quality 0) and, with several resources, each resource's share of
+        each quality.
         """
         params = self.params
         need = eq.need_amount(params.task_need, params.resource_mean, params.n_types)
@@ -289,10 +289,9 @@ class SeedEnvironment:
         else:  # each task gets the whole amount of its type
             sharing[children, types] = 1.0
         joins = 1.0 if params.load_sharing else 0.0  # what one task more or fewer adds to those sharing an amount
-        neighbours = [eq.neighbour(c, i, params.n_children, params.neighbours == "ring")
-                      for c in range(params.n_children)
-                      for i in range(eq.n_neighbours(params.n_children, params.neighbours == "ring"))]
-        per_child = len(neighbours) // params.n_children
+        n, ring = params.n_children, params.neighbours == "ring"
+        asked = eq.n_neighbours(n, ring) if params.hierarchy != "none" else 0  # neighbours a failing task asks
+        neighbours = [[eq.neighbour(c, i, n, ring) for i in range(asked)] for c in range(n)]
         outcome = np.full(children.shape, "own", dtype=object)
         performer = children.copy()
         for row, k in np.ndindex(children.shape):
@@ -301,7 +300,7 @@ class SeedEnvironment:
             if own >= need:
                 continue
             outcome[row, k] = "failed"
-            for d in (neighbours[c * per_child:(c + 1) * per_child] if params.hierarchy != "none" else []):
+            for d in neighbours[c]:
                 room = available[d, t] - lent[d, t]
                 if params.hierarchy == "borrow" and room - (need - own) >= need * sharing[d, t]:
                     lent[d, t] += need - own

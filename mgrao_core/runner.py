@@ -61,6 +61,11 @@ def kernel_worlds(p, worlds: Sequence[World]) -> tuple[engine.Worlds, engine.Sev
     )
 
 
+def kernel_failing(p, arrays: dict[str, np.ndarray]) -> engine.Failing | None:
+    """The kernel's counts of tasks that fail (the lanes' ``task_counts``), or ``None`` where no task can fail."""
+    return engine.Failing(counts=arrays["task_counts"]) if p.tasks_can_fail else None
+
+
 def _stack(draws: list[EpisodeDraws], name: str) -> np.ndarray:
     return np.ascontiguousarray(np.stack([getattr(d, name) for d in draws]))
 
@@ -119,7 +124,7 @@ def run_chunk(
     environment = engine.environment_of(p)
     streams = [EpisodeStreams(p, seed, world) for seed, world in zip(seeds, worlds, strict=True)]
     utilities = np.zeros((len(lanes.kind), spec.episodes))
-    failing = engine.Failing(counts=arrays["task_counts"]) if p.task_need > 0 else None
+    failing = kernel_failing(p, arrays)
     block = episodes_per_block or block_episodes(spec, len(seeds))
     done = 0
     while done < spec.episodes:

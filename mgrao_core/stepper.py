@@ -22,7 +22,7 @@ from mgrao_core import engine
 from mgrao_core.algorithms import LEARNERS, parse_algorithm
 from mgrao_core.lanes import allocate_lanes
 from mgrao_core.params import SystemParams
-from mgrao_core.runner import block_draws, kernel_worlds
+from mgrao_core.runner import block_draws, kernel_failing, kernel_worlds
 from mgrao_core.world import EpisodeStreams, draw_world
 
 _NO_LEARNERS = (None,) * len(LEARNERS)
@@ -80,7 +80,7 @@ class SteppedWorlds:
                                        sending=np.zeros((n, p.n_parents), np.bool_),
                                        child_of=np.zeros(shape, np.int64), values=np.zeros(shape))
         self._utility = np.zeros((n, 1))
-        self._failing = engine.Failing(counts=self._arrays["task_counts"]) if p.task_need > 0 else None
+        self._failing = kernel_failing(p, self._arrays)
         self._draws: list[engine.Draws] | None = None
         self._kernel: Callable[..., None] | None = None
         self._observer: Callable[..., None] | None = None

@@ -44,7 +44,7 @@ def bound_caveats(params: System) -> list[str]:
     if params.frequency_profile != "constant" or any(event.change == "frequencies" for event in params.schedule):
         reasons.append("composite types arrive periodically: a learner that follows the arrivals can beat the best "
                        "fixed allocation")
-    if getattr(params, "task_need", 0.0) > 0:
+    if params.tasks_can_fail:
         reasons.append("tasks can fail (task_need): it maximises the expected quality as if none could, so a type it "
                        "gives too little fails, and a learner that keeps each type's need can beat it")
     return reasons

@@ -100,7 +100,7 @@ def sizes_of(params: System, lanes: int, groups: int, family_sizes: Mapping[str,
             "n_parents": params.n_parents, "choices": routing_choices(params),
             "types_per_composite": params.types_per_composite, "learners": params.n_children * resources,
             "resources": resources, "extra_resources": resources if resources > 1 else 0,
-            "task_outcomes": 3 if getattr(params, "task_need", 0.0) > 0 else 0} | {
+            "task_outcomes": 3 if params.tasks_can_fail else 0} | {
                 name: 0 for name in FAMILY_SIZES} | dict(family_sizes or {})
 
 
