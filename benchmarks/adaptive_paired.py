@@ -3,7 +3,7 @@
 Run: ``python benchmarks/adaptive_paired.py [--seeds 100-199] [--systems large,single] [--set name=value ...]``.
 
 For every system and x, each seed's final utility (the mean of the last episodes,
-:func:`mgrao_core.stats.final_utilities`) as % from uniform of the same seed, for ``mgrao-x:1``
+:func:`mgrao_core.statistics.summary.final_utilities`) as % from uniform of the same seed, for ``mgrao-x:1``
 (fixed, contiguous groups; where x does not divide n_parents, the fixed groups of
 ``mgrao-adaptive:x`` with ``regroup_every`` beyond the run, the same ``floor(p * x / n)`` groups)
 and for ``mgrao-adaptive:x`` under each grouping rule; then the paired difference adaptive - fixed
@@ -22,7 +22,8 @@ import numpy as np
 
 from mgrao_core import make_spec, run_experiment
 from mgrao_core.algorithms.adaptive.family import RULES
-from mgrao_core.stats import final_utilities, mean_ci95
+from mgrao_core.statistics.student import mean_ci95
+from mgrao_core.statistics.summary import final_utilities
 
 XS = {"single": (2, 5), "multi": (2, 5), "volatile": (2, 5), "large": (2, 5, 10)}
 

@@ -6,7 +6,7 @@ system) and ``--json FILE`` as for ``mgrao reproduce``.
 
 Per system and algorithm: % from uniform with its 95% interval, each seed paired with uniform's run
 of the same seed (common random numbers), exactly as ``mgrao reproduce`` and ``mgrao run`` compute
-it (:func:`mgrao_core.stats.summarise`); the share of the oracle's headroom reached (its % from
+it (:func:`mgrao_core.statistics.summary.summarise`); the share of the oracle's headroom reached (its % from
 uniform as a share of the oracle's); and one child's memory in bytes (the registry's
 ``memory_per_child``). Then the paired differences that answer "does MG-RAO beat the standard
 learners": per seed, a learner's % from uniform minus MG-RAO's, mean and 95% interval (negative:
@@ -23,7 +23,8 @@ import numpy as np
 
 from mgrao_core import PRESETS, make_spec, run_experiment
 from mgrao_core.algorithms import describe_label
-from mgrao_core.stats import final_utilities, mean_ci95, paired_pct_from_uniform
+from mgrao_core.statistics.student import mean_ci95
+from mgrao_core.statistics.summary import final_utilities, paired_pct_from_uniform
 
 SYSTEMS = ("single", "multi", "volatile", "large")
 LEARNERS = ("independent-q", "bandit")

@@ -21,7 +21,8 @@ from mgrao_core.params import HIERARCHIES
 from mgrao_core.presets import get_preset
 from mgrao_core.reproduction import PAPER_EPISODES
 from mgrao_core.results import ExperimentResult
-from mgrao_core.stats import final_utilities, mean_ci95
+from mgrao_core.statistics.student import mean_ci95
+from mgrao_core.statistics.summary import final_utilities
 
 
 def _interval(mean: float, low: float, high: float, digits: int = 1) -> str:

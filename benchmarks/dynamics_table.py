@@ -8,7 +8,7 @@ random numbers: every algorithm of a seed faces the same world and the same even
 
 1. **Every algorithm against uniform** on ``drift`` (uniform, mgrao-1:1, mgrao-5:1, mgrao-max, oracle) and
    ``bursty`` (its preset's configurations and the oracle): % from uniform after 100 episodes (mean of
-   the last 10), exactly as ``mgrao run`` computes it (:func:`mgrao_core.stats.summarise`), and % of max.
+   the last 10), exactly as ``mgrao run`` computes it (:func:`mgrao_core.statistics.summary.summarise`), and % of max.
 2. **Recovery after drift** (``drift``: at the start of episode 50, 30% of the parents draw new value
    profiles). Per seed and algorithm, the % from uniform of the mean utility over a window of episodes
    (both means over the same window): 40-49 (before), 50-54 and 55-59 (just after), 60-69, 90-99. Then
@@ -37,7 +37,7 @@ import time
 import numpy as np
 
 from mgrao_core import PRESETS, make_spec, run_experiment
-from mgrao_core.stats import mean_ci95
+from mgrao_core.statistics.student import mean_ci95
 
 DRIFT_ALGORITHMS = ("uniform", "mgrao-1:1", "mgrao-5:1", "mgrao-max", "oracle")
 DRIFT_EPISODE = 50

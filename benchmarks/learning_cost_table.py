@@ -22,7 +22,8 @@ from mgrao_core.algorithms import divisors, parse_algorithm, task_share
 from mgrao_core.presets import get_preset
 from mgrao_core.reproduction import PAPER_EPISODES
 from mgrao_core.results import ExperimentResult
-from mgrao_core.stats import final_utilities, mean_ci95
+from mgrao_core.statistics.student import mean_ci95
+from mgrao_core.statistics.summary import final_utilities
 
 BALANCE = "mgrao-balance"
 OTHERS = (BALANCE, "independent-q", "bandit")

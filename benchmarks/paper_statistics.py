@@ -2,7 +2,7 @@
 
 uniform, mgrao-1:1, mgrao-max, the oracle, independent-q and bandit on single, multi, volatile and large with
 their presets, the paper's 100 episodes and 100 held-out seeds (0-99), simulated in this process, then
-scored, aggregated and tested exactly as ``GET /api/compare/statistics`` does (``mgrao_core.comparison``) and
+scored, aggregated and tested exactly as ``GET /api/compare/statistics`` does (``mgrao_core.statistics.comparison``) and
 printed as ``mgrao compare`` prints it.
 
 Run:  python benchmarks/paper_statistics.py [--seeds 100] [--episodes 100] [--reps 10000]
@@ -21,8 +21,9 @@ sys.path.insert(0, str(ROOT))
 
 from mgrao_core import PAPER_SYSTEMS, final_utilities, make_spec, run_experiment  # noqa: E402
 from mgrao_core.algorithms.oracle import bound_caveats  # noqa: E402
-from mgrao_core.comparison import World, compare  # noqa: E402
-from mgrao_core.report import render  # noqa: E402
+from mgrao_core.statistics.comparison import compare  # noqa: E402
+from mgrao_core.statistics.report import render  # noqa: E402
+from mgrao_core.statistics.scores import World  # noqa: E402
 
 ALGORITHMS = ["uniform", "mgrao-1:1", "mgrao-max", "oracle", "independent-q", "bandit"]
 

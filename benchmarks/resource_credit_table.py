@@ -13,7 +13,8 @@ import argparse
 import numpy as np
 
 from mgrao_core import make_spec, run_experiment
-from mgrao_core.stats import final_utilities, mean_ci95
+from mgrao_core.statistics.student import mean_ci95
+from mgrao_core.statistics.summary import final_utilities
 
 ALGORITHMS = ("uniform", "mgrao-1:1", "mgrao-max")
 

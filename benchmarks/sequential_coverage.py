@@ -4,7 +4,7 @@
         [--truth-seeds 5000] [--decide-jobs 200]
 
 * **half_width rule**, per system (single, large) with its paper configurations and 100 episodes:
-  ``--jobs-*`` independent sequential jobs (``mgrao_core.sequential.run_until``, blocks of 10, at most 500
+  ``--jobs-*`` independent sequential jobs (``mgrao_core.statistics.sequential.run_until``, blocks of 10, at most 500
   seeds), job ``k`` on its own seed range ``1,000,000 + 500 k ...`` (disjoint). Each stopped interval of each
   configuration is checked against its mean % from uniform over ``--truth-seeds`` further seeds (from
   100,000,000). Printed: the coverage per configuration with its Wilson 95% interval (target: point at least
@@ -34,7 +34,7 @@ sys.path.insert(0, str(ROOT))
 import numpy as np  # noqa: E402
 
 from mgrao_core import final_utilities, make_spec, run_experiment  # noqa: E402
-from mgrao_core.sequential import judge, judged_values, make_until, run_until  # noqa: E402
+from mgrao_core.statistics.sequential import judge, judged_values, make_until, run_until  # noqa: E402
 
 TRUTH_FIRST, JOBS_FIRST, DECIDE_FIRST = 100_000_000, 1_000_000, 50_000_000
 SYSTEMS = {"single": ("uniform", "mgrao-1:1", "mgrao-max"),

@@ -14,8 +14,8 @@ import urllib.parse
 import click
 
 from mgrao_cli.studies import TOKEN_OPTION, URL_OPTION, Api
-from mgrao_core.bootstrap import MAX_REPETITIONS
-from mgrao_core.report import FORMATS
+from mgrao_core.statistics.bootstrap import MAX_REPETITIONS
+from mgrao_core.statistics.report import FORMATS
 
 TABLE_REPETITIONS = 10_000
 """Bootstrap repetitions of a printed comparison unless asked otherwise (the dashboard's answers take 2,000)."""

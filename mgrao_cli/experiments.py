@@ -19,11 +19,11 @@ import mgrao_core
 from mgrao_cli.engine_loading import load_engine
 from mgrao_core import ConfigError, MgraoError, make_spec
 from mgrao_core.presets import PAPER_SYSTEMS, PRESETS
-from mgrao_core.report import text_table
 from mgrao_core.reproduction import DEFAULT_SEEDS, READINGS, reproduction_table
 from mgrao_core.reproduction import reproduce as run_reproduction
-from mgrao_core.sequential import Verdict, parse_until, run_until, until_spec
 from mgrao_core.spec import MAX_SEED_VALUE
+from mgrao_core.statistics.report import text_table
+from mgrao_core.statistics.sequential import Verdict, parse_until, run_until, until_spec
 
 PROGRESS_BAR_WORK = 20_000_000
 """Atomic tasks above which a run draws a progress bar (about a second of simulation)."""

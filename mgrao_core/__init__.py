@@ -25,11 +25,10 @@ from mgrao_core.spec import (
     make_spec,
     spec_from_dict,
 )
-from mgrao_core.stats import (
+from mgrao_core.statistics.bands import EpisodeStats, episode_band
+from mgrao_core.statistics.summary import (
     FINAL_EPISODES,
     ConfigSummary,
-    EpisodeStats,
-    episode_band,
     final_utilities,
     paired_pct_from_uniform,
     summarise,

@@ -11,7 +11,7 @@ import numpy as np
 from mgrao_core.presets import PAPER_SYSTEMS, PRESETS
 from mgrao_core.results import ExperimentResult
 from mgrao_core.spec import make_spec
-from mgrao_core.stats import ConfigSummary
+from mgrao_core.statistics.summary import ConfigSummary
 
 PAPER_EPISODES = 100
 DEFAULT_SEEDS = 100

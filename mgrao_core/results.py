@@ -7,7 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from mgrao_core.spec import ExperimentSpec
-from mgrao_core.stats import ConfigSummary, episode_band, final_utilities, summarise
+from mgrao_core.statistics.bands import episode_band
+from mgrao_core.statistics.summary import ConfigSummary, final_utilities, summarise
 
 
 @dataclass(frozen=True)
@@ -89,7 +90,7 @@ class ExperimentResult:
         return np.stack([r.utilities for r in self.runs if r.algorithm == algorithm])
 
     def summary(self) -> dict[str, ConfigSummary]:
-        """Per algorithm: final mean, CI, % from uniform, % of max (see :mod:`mgrao_core.stats`)."""
+        """Per algorithm: final mean, CI, % from uniform, % of max (see :mod:`mgrao_core.statistics.summary`)."""
         finals = {
             a: dict(zip(self.spec.seeds, final_utilities(self.utilities(a)).tolist(), strict=True))
             for a in self.spec.algorithms

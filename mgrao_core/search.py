@@ -28,9 +28,9 @@ from mgrao_core.algorithms import divisors
 from mgrao_core.errors import ConfigError
 from mgrao_core.params import PARAMETERS_BY_NAME
 from mgrao_core.presets import PRESETS
-from mgrao_core.sequential import Until, make_until
 from mgrao_core.spec import MAX_EPISODES, MAX_SEED_VALUE, MAX_SEEDS, ExperimentSpec, make_spec
-from mgrao_core.stats import ConfigSummary
+from mgrao_core.statistics.sequential import Until, make_until
+from mgrao_core.statistics.summary import ConfigSummary
 
 METHODS = ("grid", "random", "tpe")
 METRICS = ("final_mean", "pct_from_uniform", "pct_of_max", "paper_deviation")

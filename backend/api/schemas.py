@@ -24,9 +24,10 @@ from pydantic_core import PydanticCustomError, core_schema
 from backend.services.saved_systems import NAME_PATTERN as SAVED_NAME_PATTERN
 from backend.store.external import MAX_BATCH_ENTRIES, MAX_PIECE_VALUES
 from backend.store.models import has_nul
-from mgrao_core import MAX_ALGORITHMS, MAX_EPISODES, MAX_SEEDS, PARAMETERS, PRESETS, search, sequential
+from mgrao_core import MAX_ALGORITHMS, MAX_EPISODES, MAX_SEEDS, PARAMETERS, PRESETS, search
 from mgrao_core.params import PARAMETERS_BY_NAME
 from mgrao_core.spec import MAX_SEED_VALUE
+from mgrao_core.statistics import sequential
 
 MAX_NAME = 200
 MAX_TAG = 50

@@ -1,7 +1,7 @@
 """What a ``POST /api/jobs`` body asks the core to run: its spec and, with ``until``, its stopping rule.
 
 One reading for every route that takes a job's body (a submission, a batch of them, ``POST /api/jobs/check``);
-the core validates both (:func:`mgrao_core.make_spec`, :func:`mgrao_core.sequential.until_spec`).
+the core validates both (:func:`mgrao_core.make_spec`, :func:`mgrao_core.statistics.sequential.until_spec`).
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from typing import Any
 
 from backend.api.schemas import JobCreate
 from mgrao_core import ConfigError, ExperimentSpec, make_spec
-from mgrao_core.sequential import Until, until_spec
+from mgrao_core.statistics.sequential import Until, until_spec
 
 
 def experiment(job: JobCreate, system: str, overrides: Mapping[str, Any],

@@ -23,7 +23,7 @@ from backend.store import queue, summaries
 from backend.store.db import Database
 from backend.store.retry import HealthClock, persist
 from mgrao_core import ExperimentSpec, MgraoError, plan_chunks, spec_from_dict
-from mgrao_core.sequential import Until, Verdict, judge_first, make_until, next_block, replay, stopped_dict
+from mgrao_core.statistics.sequential import Until, Verdict, judge_first, make_until, next_block, replay, stopped_dict
 
 log = logging.getLogger("mgrao.lifecycle")
 T = TypeVar("T")

@@ -39,7 +39,7 @@ from mgrao_core import (
 )
 from mgrao_core.algorithms import describe_label
 from mgrao_core.reproduction import PAPER_EPISODES
-from mgrao_core.stats import BASELINE
+from mgrao_core.statistics.summary import BASELINE
 
 MAX_RESPONSE_VALUES = 1_000_000
 """Numbers in the curves of one results or compare answer (about 20 MB of JSON)."""

@@ -1,7 +1,7 @@
 """Stored jobs compared: which runs pool and pair (docs/statistics.md, "Pairing"), and the answers built on them.
 
 The jobs' runs are read once for their final utilities and a digest of their bytes (:func:`gather`), and
-sorted into *configurations* (:mod:`mgrao_core.pairing`): a world, a label and the label's own parameters.
+sorted into *configurations* (:mod:`mgrao_core.statistics.pairing`): a world, a label and the label's own parameters.
 
 * Built-in runs of one configuration pool, whichever jobs they come from: determinism makes a seed's run
   the same bytes in every job, which is checked; a seed whose pooled runs differ is listed in
@@ -19,9 +19,9 @@ sorted into *configurations* (:mod:`mgrao_core.pairing`): a world, a label and t
 * Worlds are named by their system, and where two worlds share one, by what differs between them:
   ``single (episodes=200)``.
 
-Every figure that relates two configurations is the core's (:mod:`mgrao_core.stats`,
-:mod:`mgrao_core.comparison`), on the seeds they share. Memory grows with the runs compared (a final and a
-digest each, numpy arrays) and with one configuration's episodes at a time for the curves.
+Every figure that relates two configurations is the core's (:mod:`mgrao_core.statistics`), on the seeds they
+share. Memory grows with the runs compared (a final and a digest each, numpy arrays) and with one
+configuration's episodes at a time for the curves.
 """
 
 from __future__ import annotations
@@ -46,9 +46,10 @@ from backend.store.summaries import summary_dict
 from mgrao_core import EpisodeStats, TaskCounts, complete_params, final_utilities, make_params, summarise
 from mgrao_core.algorithms import sort_key
 from mgrao_core.algorithms.oracle import bound_caveats
-from mgrao_core.comparison import World, sample_efficiency
-from mgrao_core.comparison import compare as compare_worlds
-from mgrao_core.pairing import own_values, world, world_digest
+from mgrao_core.statistics.comparison import compare as compare_worlds
+from mgrao_core.statistics.comparison import sample_efficiency
+from mgrao_core.statistics.pairing import own_values, world, world_digest
+from mgrao_core.statistics.scores import World
 
 MAX_CURVE_POINTS = 50
 """Buckets of episodes of a sample-efficiency curve at most."""
@@ -351,7 +352,7 @@ def _taken_runs(session: Session, c: Configuration) -> Iterator[tuple[int, np.nd
 
 
 def statistics(session: Session, *, job_ids: Sequence[int], repetitions: int, seed: int) -> dict[str, Any]:
-    """``GET /api/compare/statistics`` as data: the core's :func:`mgrao_core.comparison.compare` of the jobs."""
+    """``GET /api/compare/statistics`` as data: :func:`mgrao_core.statistics.comparison.compare` of the jobs."""
     jobs = _jobs(session, job_ids)
 
     def build() -> bytes:

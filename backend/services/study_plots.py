@@ -26,7 +26,7 @@ from sqlalchemy.orm import Session
 
 from backend.services.studies import get_study, plan_of
 from backend.store.models import SUCCEEDED, Trial
-from mgrao_core.stats import t_quantile
+from mgrao_core.statistics.student import t_quantile
 
 MAX_POINTS = 1000
 BINS = 12

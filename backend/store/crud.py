@@ -17,7 +17,7 @@ from backend.errors import Conflict, NotFound
 from backend.store.job_order import parse_sort
 from backend.store.models import CANCELLED, QUEUED, RUNNING, SAVED_SYSTEM_TAG_PREFIX, SIMULATION, Job, JobTag, utcnow
 from mgrao_core import PRESETS, ExperimentSpec, complete_params
-from mgrao_core.sequential import Until, stopped_dict
+from mgrao_core.statistics.sequential import Until, stopped_dict
 
 
 def config_hash(config: dict[str, Any]) -> str:
@@ -90,8 +90,8 @@ def create_job(
 ) -> Job:
     """Add a queued job for a validated spec (the caller commits); a study's trial names its study and trial.
 
-    With ``until`` (a stopping rule, :func:`mgrao_core.sequential.make_until`), ``spec`` runs ``until.max_seeds``
-    seeds at most, in blocks, until the rule answers (docs/statistics.md "Seeds until decided").
+    With ``until`` (a stopping rule, :func:`mgrao_core.statistics.sequential.make_until`), ``spec`` runs
+    ``until.max_seeds`` seeds at most, in blocks, until the rule answers (docs/statistics.md "Seeds until decided").
     """
     config = job_config(spec, until)
     job = Job(

@@ -203,8 +203,8 @@ class Family:
 
         A learner's also include ``learning_cost``, which every learner reads and nothing else does (what its
         learning takes from its tasks; uniform and the oracle pay nothing, so their runs are the same at any cost).
-        A configuration is a world, a label and these parameters' values (:mod:`mgrao_core.pairing`): two jobs
-        that differ in them run the same world, so their uniform runs pair with both.
+        A configuration is a world, a label and these parameters' values (:mod:`mgrao_core.statistics.pairing`):
+        two jobs that differ in them run the same world, so their uniform runs pair with both.
         """
         names = (*(p.name for p in self.parameters), *self.reads, *(LEARNERS_OWN if self.learns else ()))
         return tuple(dict.fromkeys(names))

@@ -19,7 +19,8 @@ from backend.execution.worker import Worker
 from backend.store.db import Database
 from backend.store.models import Run
 from mgrao_core import final_utilities
-from mgrao_core.comparison import World, compare
+from mgrao_core.statistics.comparison import compare
+from mgrao_core.statistics.scores import World
 from tests.support.local_service import mgrao_command
 
 ALGORITHMS = ["uniform", "mgrao-1:1", "mgrao-max", "oracle"]

@@ -301,7 +301,7 @@ def test_cancelling_a_job_cancels_its_futures_and_keeps_its_chunks(topology: Top
 def test_a_job_with_a_stopping_rule_runs_block_by_block_and_its_successor_resumes(topology: Topology) -> None:
     """A rule's blocks on the cluster (each block several chunks), the dispatcher killed between them: the same
     verdicts and seeds as the rule run in one process, every run of the seeds judged stored once."""
-    from mgrao_core.sequential import run_until, stopped_dict, until_spec
+    from mgrao_core.statistics.sequential import run_until, stopped_dict, until_spec
 
     rule = {"half_width": 0.5, "block": 4, "max_seeds": 24}
     spec, until = until_spec("large", None, 7, 300, {}, rule)

@@ -378,7 +378,7 @@ def test_a_study_whose_trials_run_until_decided_says_which_stopped_at_max_seeds(
     """The base's until goes to every trial's job; a trial's objective stands on the seeds its rule ran; the
     trials whose rule reached max_seeds unanswered are named (issue "seeds until decided")."""
     from mgrao_core import run_experiment
-    from mgrao_core.sequential import run_until, until_spec
+    from mgrao_core.statistics.sequential import run_until, until_spec
 
     rules = {"loose": {"half_width": 50, "block": 10, "max_seeds": 30},
              "strict": {"half_width": 0.01, "max_seeds": 20}}

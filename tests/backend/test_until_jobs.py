@@ -1,7 +1,8 @@
 """Jobs run until their question is answered (``until``): each rule, bad input, cancel, resume after SIGKILL.
 
 Every test runs on a SQLite file and on a real PostgreSQL server (the ``db_url`` fixture). The numbers of a job
-are checked against :func:`mgrao_core.sequential.run_until` in this process: the same seeds, the same verdicts.
+are checked against :func:`mgrao_core.statistics.sequential.run_until` in this process: the same seeds, the same
+verdicts.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from sqlalchemy import func, select
 
 from backend.store.models import Run
 from mgrao_core import run_experiment
-from mgrao_core.sequential import run_until, stopped_dict, until_spec
+from mgrao_core.statistics.sequential import run_until, stopped_dict, until_spec
 from tests.support.waiting import wait_until
 
 LABELS = ["uniform", "mgrao-1:1", "mgrao-max"]

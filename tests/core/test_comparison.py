@@ -1,4 +1,4 @@
-"""Statistics across systems (mgrao_core.comparison, metrics, bootstrap), judged by rliable, scipy and statsmodels.
+"""Statistics across systems (mgrao_core.statistics), judged by rliable, scipy and statsmodels.
 
 rliable (Agarwal et al. 2021) is the outside judge: the point estimates equal its metrics to 1e-12 on the same
 score matrices, and the interval ends agree with its stratified bootstrap within Monte-Carlo error. Tolerance:
@@ -15,23 +15,14 @@ import math
 import numpy as np
 import pytest
 
-from mgrao_core import metrics
-from mgrao_core.bootstrap import generator, stratified_bootstrap
-from mgrao_core.comparison import (
-    TAUS,
-    World,
-    _improvement_codes,
-    _improvement_of_codes,
-    compare,
-    head_to_head,
-    holm,
-    normalisation,
-    paired_difference,
-    sample_efficiency,
-    score_matrices,
-)
 from mgrao_core.errors import ConfigError
-from mgrao_core.report import csv_text, latex, table
+from mgrao_core.statistics import metrics
+from mgrao_core.statistics.bootstrap import generator, stratified_bootstrap
+from mgrao_core.statistics.comparison import TAUS, compare, sample_efficiency
+from mgrao_core.statistics.improvement import improvement_codes, improvement_of_codes
+from mgrao_core.statistics.paired_tests import head_to_head, holm, paired_difference
+from mgrao_core.statistics.report import csv_text, latex, table
+from mgrao_core.statistics.scores import World, normalisation, score_matrices
 
 rliable_metrics = pytest.importorskip("rliable.metrics", reason="rliable is in the test extra")
 
@@ -64,8 +55,8 @@ def test_point_estimates_equal_rliables(seed: int) -> None:
     assert metrics.probability_of_improvement(x, y) == pytest.approx(
         rliable_metrics.probability_of_improvement(x, y), abs=1e-12, rel=0)
     assert metrics.probability_of_improvement(x, x) == 0.5
-    codes_x, codes_y, width = _improvement_codes(x, y)
-    assert _improvement_of_codes(codes_x, codes_y, width) == pytest.approx(
+    codes_x, codes_y, width = improvement_codes(x, y)
+    assert improvement_of_codes(codes_x, codes_y, width) == pytest.approx(
         metrics.probability_of_improvement(x, y), abs=1e-12, rel=0)
 
 
@@ -97,8 +88,8 @@ def test_intervals_agree_with_rliables_stratified_bootstrap() -> None:
         assert abs(ours.high[k] - high) < tolerance, (name, ours.high[k], high, tolerance)
     _, theirs = rliable_library.get_interval_estimates(
         {"x,y": [x, y]}, lambda a, b: np.array([rliable_metrics.probability_of_improvement(a, b)]), reps=REPS)
-    codes_x, codes_y, width = _improvement_codes(x, y)
-    ours = stratified_bootstrap(lambda a, b: _improvement_of_codes(a, b, width), codes_x, codes_y,
+    codes_x, codes_y, width = improvement_codes(x, y)
+    ours = stratified_bootstrap(lambda a, b: improvement_of_codes(a, b, width), codes_x, codes_y,
                                 repetitions=REPS, rng=generator(0, "x", "y"))
     low, high = theirs["x,y"][0][0], theirs["x,y"][1][0]
     assert abs(float(ours.low) - low) < _tolerance(low, high)
@@ -282,7 +273,7 @@ def test_reports_carry_numbers_and_the_protocol() -> None:
 
 
 def test_the_iqm_of_counts_is_scipys_trimmed_mean_of_the_resamples() -> None:
-    from mgrao_core.bootstrap import counts_of, draws
+    from mgrao_core.statistics.bootstrap import counts_of, draws
 
     rng = np.random.default_rng(9)
     for _ in range(20):

@@ -12,7 +12,7 @@ from mgrao_core import equations as eq
 from mgrao_core.algorithms import FAMILIES_BY_NAME, parse_algorithm, task_share
 from mgrao_core.algorithms.base import Family
 from mgrao_core.env import parallel_env, vector_env
-from mgrao_core.pairing import own_values, world_digest
+from mgrao_core.statistics.pairing import own_values, world_digest
 
 from ._helpers import assert_matches_reference, assert_resources_match_reference
 

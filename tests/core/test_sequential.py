@@ -1,4 +1,4 @@
-"""Seeds until decided (mgrao_core.sequential): the rule's fields, its verdicts, runs in blocks, the command line."""
+"""Seeds until decided (mgrao_core.statistics.sequential): the rule's fields, its verdicts, runs in blocks, the CLI."""
 
 from __future__ import annotations
 
@@ -12,8 +12,8 @@ import pytest
 
 from mgrao_core import ConfigError, final_utilities, make_spec, run_experiment
 from mgrao_core.errors import ConfigErrors
-from mgrao_core.sequential import MIN_SEEDS, Until, cs_half_width, judge, make_until, parse_until, run_until
-from mgrao_core.stats import mean_ci95, t_quantile
+from mgrao_core.statistics.sequential import MIN_SEEDS, Until, cs_half_width, judge, make_until, parse_until, run_until
+from mgrao_core.statistics.student import mean_ci95, t_quantile
 
 LABELS = ("uniform", "mgrao-1:1", "mgrao-max")
 

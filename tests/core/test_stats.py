@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from mgrao_core import ConfigError, episode_band, final_utilities, make_spec, run_experiment, summarise
-from mgrao_core.stats import mean_ci95, t_quantile
+from mgrao_core.statistics.student import mean_ci95, t_quantile
 
 
 def test_t_quantiles_are_students():
@@ -27,7 +27,7 @@ def test_t_quantiles_equal_scipys():
     # whole degrees of freedom come from the distribution function's series (no scipy import), others from scipy
     from scipy.special import stdtrit
 
-    from mgrao_core.stats import SERIES_DOF
+    from mgrao_core.statistics.student import SERIES_DOF
 
     dofs = np.array([*range(1, 120), 199, 500, 999, SERIES_DOF, SERIES_DOF + 1, 10**5, 2.5, 7.25])
     for confidence in (0.5, 0.9, 0.95, 0.99, 0.999):
@@ -41,7 +41,7 @@ def test_t_quantiles_equal_scipys():
 
 def test_t_quantile_newton_stops_early(monkeypatch):
     # each Newton step is a whole series: the iteration must stop once rounding ends the rise, not run its cap
-    from mgrao_core import stats
+    from mgrao_core.statistics import student as stats
 
     calls = []
     within = stats._t_within
@@ -58,7 +58,7 @@ def test_a_summary_imports_no_scipy():
     import subprocess
     import sys
 
-    code = ("import sys; from mgrao_core.stats import mean_ci95; import numpy as np; "
+    code = ("import sys; from mgrao_core.statistics.student import mean_ci95; import numpy as np; "
             "mean_ci95(np.arange(100.0)); print('scipy' in sys.modules)")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
     assert done.stdout.strip() == "False"

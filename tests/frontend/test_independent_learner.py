@@ -11,7 +11,7 @@ import urllib.request
 
 from playwright.sync_api import expect
 
-from mgrao_core.stats import final_utilities, paired_pct_from_uniform
+from mgrao_core.statistics.summary import final_utilities, paired_pct_from_uniform
 from tests.frontend.conftest import ROOT, page_at
 from tests.frontend.test_compare_view import wait_succeeded
 from tests.frontend.test_job_view import post_job

@@ -17,8 +17,8 @@ from backend.services import comparison
 from backend.services.analysis import dumps
 from backend.store.models import MAX_JOB_ID
 from mgrao_core import MAX_EPISODES, ConfigError
-from mgrao_core.bootstrap import DEFAULT_REPETITIONS, MAX_REPETITIONS
-from mgrao_core.report import render
+from mgrao_core.statistics.bootstrap import DEFAULT_REPETITIONS, MAX_REPETITIONS
+from mgrao_core.statistics.report import render
 
 router = APIRouter(prefix=API_PREFIX, tags=["compare"], route_class=StrictQueryRoute)
 JOBS_HELP = "Comma-separated job ids."

@@ -27,13 +27,13 @@ from mgrao_core import (
     WORK_FACTORS,
     make_spec,
     search,
-    sequential,
 )
 from mgrao_core.algorithms import ORACLE, registry, sort_key
 from mgrao_core.params import GROUP_TITLES
 from mgrao_core.presets import PAPER_SYSTEMS
 from mgrao_core.reproduction import PAPER_EPISODES
-from mgrao_core.stats import BASELINE, REFERENCE
+from mgrao_core.statistics import sequential
+from mgrao_core.statistics.summary import BASELINE, REFERENCE
 
 
 @cache

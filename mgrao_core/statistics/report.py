@@ -1,4 +1,4 @@
-"""A comparison's statistics (:func:`mgrao_core.comparison.compare`) as a text table, a numeric CSV or LaTeX.
+"""A comparison's statistics (:func:`mgrao_core.statistics.comparison.compare`) as a text table, a numeric CSV or LaTeX.
 
 One home for what ``mgrao compare`` prints and what the dashboard offers to download: per system and
 configuration ``n_paired``, the final mean and % from uniform with their 95% intervals, then the aggregates over
@@ -15,7 +15,7 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from mgrao_core.metrics import AGGREGATES
+from mgrao_core.statistics.metrics import AGGREGATES
 
 FORMATS = ("table", "csv", "latex", "json")
 """What a comparison's statistics can be rendered as (``json`` is the answer itself)."""

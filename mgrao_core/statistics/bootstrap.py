@@ -21,7 +21,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from mgrao_core.stats import CONFIDENCE
+from mgrao_core.statistics.student import CONFIDENCE
 
 DEFAULT_REPETITIONS = 2000
 """Repetitions of a comparison's bootstrap unless asked otherwise (the CLI's tables take 10,000)."""

@@ -15,7 +15,7 @@ two-dimensional matrix each equals its namesake in ``rliable.metrics`` (the test
 * :func:`score_distribution`: the share of every run of every task whose score exceeds each ``tau`` (the
   performance profile).
 
-How intervals are made is :mod:`mgrao_core.bootstrap`'s; the metrics do not know they are bootstrapped.
+How intervals are made is :mod:`mgrao_core.statistics.bootstrap`'s; the metrics do not know they are bootstrapped.
 """
 
 from __future__ import annotations

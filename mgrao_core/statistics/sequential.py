@@ -6,7 +6,7 @@ and :func:`judge` asks after each block whether the question is answered. Two ru
 
 * **half_width** (``{"half_width": h}``): stop once every configuration's 95% interval of ``of`` is at most
   ``h`` on each side. The interval is the summary's Student-t interval over the seeds run
-  (:func:`mgrao_core.stats.mean_ci95`): a fixed-width sequential interval in the manner of Chow and
+  (:func:`mgrao_core.statistics.summary.mean_ci95`): a fixed-width sequential interval in the manner of Chow and
   Robbins (1965), with Student's quantile and a minimum of :data:`MIN_SEEDS` seeds as its small-sample
   correction, looked at once per block. Its coverage at a data-dependent stop is not guaranteed in
   theory; it is measured (benchmarks/sequential_coverage.py, docs/statistics.md).
@@ -34,7 +34,8 @@ import numpy as np
 from mgrao_core.errors import ConfigError, raise_all
 from mgrao_core.results import ExperimentResult
 from mgrao_core.spec import MAX_SEED_VALUE, MAX_SEEDS, ExperimentSpec, make_spec
-from mgrao_core.stats import BASELINE, CONFIDENCE, final_utilities, mean_ci95, paired_pct_from_uniform
+from mgrao_core.statistics.student import CONFIDENCE, mean_ci95
+from mgrao_core.statistics.summary import BASELINE, final_utilities, paired_pct_from_uniform
 
 OF = ("pct_from_uniform", "final_utility")
 """What a rule judges: each seed's % from uniform, or its final utility."""
