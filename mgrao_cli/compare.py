@@ -37,11 +37,15 @@ def job_ids(_ctx: click.Context, _param: click.Parameter, value: str) -> str:
               help="Bootstrap repetitions of the aggregates' and P(X > Y)'s intervals.")
 @click.option("--seed", type=click.IntRange(0, 2**32 - 1), default=0, show_default=True,
               help="The bootstrap's seed.")
+@click.option("--aggregate", metavar="JOB_IDS", callback=lambda ctx, param, value: value and job_ids(ctx, param, value),
+              help="Where a system has several worlds among the jobs (other episodes or parameters): the jobs whose "
+                   "worlds stand for their systems in the aggregates, e.g. 4.")
 @URL_OPTION
 @TOKEN_OPTION
-def compare(jobs: str, fmt: str, reps: int, seed: int, url: str, token: str | None) -> None:
+def compare(jobs: str, fmt: str, reps: int, seed: int, aggregate: str | None, url: str, token: str | None) -> None:
     """Compare stored jobs (JOB_IDS: 3,4,9): per-system tables, aggregates across systems, the protocol."""
-    query = urllib.parse.urlencode({"jobs": jobs, "reps": reps, "seed": seed, "format": fmt})
+    query = urllib.parse.urlencode({"jobs": jobs, "reps": reps, "seed": seed, "format": fmt}
+                                   | ({"aggregate": aggregate} if aggregate else {}))
     answer = Api(url, token).read("GET", f"/api/compare/statistics?{query}", timeout=600)
     sys.stdout.write(answer.decode())
     if not answer.endswith(b"\n"):

@@ -284,18 +284,34 @@ class HeadToHead(BaseModel):
     p_holm: Number
 
 
+class Aggregated(BaseModel):
+    """What the aggregates stand on (docs/statistics.md, "Scores")."""
+
+    systems: list[str] = Field(description="The systems aggregated: one world per system.")
+    seeds: dict[str, list[int]] = Field(description="Per aggregated system, its anchor seeds (uniform and oracle "
+                                                    "both ran): every score of the system stands on them.")
+    n_seeds: dict[str, int] = Field(description="Per aggregated system, how many anchor seeds.")
+    runs: dict[str, dict[str, int]] = Field(description="Per aggregated configuration and system, its scored runs.")
+    left_out: dict[str, dict[str, dict[str, Any]]] = Field(
+        description="Per aggregated system and configuration, the seeds not scored (seeds, reason).")
+    worlds_of_system: dict[str, list[str]] = Field(
+        description="Systems with several worlds among the jobs: the worlds; one stands for each (aggregate=).")
+    weighting: str = Field(description="How systems with different numbers of seeds are weighed.")
+    excluded: dict[str, str] = Field(description="Configurations not aggregated, and why.")
+    reason: str | None = Field(description="Why nothing is aggregated (null when something is).")
+
+
 class ComparisonStatistics(BaseModel):
     """``GET /api/compare/statistics`` (docs/statistics.md, "The answer")."""
 
     jobs: list[int]
     systems: dict[str, dict[str, Summary]] = Field(description="Per system (world) and configuration label.")
     normalisation: dict[str, Anchors]
-    scores: dict[str, dict[str, list[float]]] = Field(description="Per aggregated configuration and system, the "
-                                                                 "scores of the aggregated seeds in seed order.")
+    scores: dict[str, dict[str, list[float]]] = Field(description="Per aggregated configuration and system, its "
+                                                                 "scores on the system's anchor seeds, in seed order.")
     aggregate: dict[str, dict[str, Estimate]] = Field(description="Per configuration: mean, median, iqm, "
                                                                   "optimality_gap.")
-    aggregated: dict[str, Any] = Field(description="systems, seeds (per system), n_seeds, excluded (label: reason), "
-                                                   "reason (why nothing is aggregated).")
+    aggregated: Aggregated
     performance_profiles: dict[str, Any] = Field(description="tau, and per configuration share, low, high.")
     probability_of_improvement: dict[str, Estimate] = Field(description="'X>Y': P(X > Y), both orders of every pair.")
     head_to_head: dict[str, Any] = Field(description="pairs (HeadToHead per system) and tests (Holm's family).")
@@ -308,7 +324,8 @@ class SampleEfficiency(BaseModel):
     """``GET /api/compare/sample-efficiency``: IQM of the scores per bucket of episodes."""
 
     systems: list[str]
-    seeds: dict[str, list[int]]
+    seeds: dict[str, list[int]] = Field(description="Per system, its anchor seeds.")
+    runs: dict[str, dict[str, int]] = Field(description="Per configuration and system, its scored runs.")
     points: int
     episodes: dict[str, list[int]] = Field(description="Per system, each bucket's first episode.")
     curves: dict[str, dict[str, list[Number]]] = Field(description="Per configuration: iqm, low, high.")

@@ -43,7 +43,7 @@ from backend.services.memory import trim
 from backend.store.crud import get_job, job_dict
 from backend.store.models import EXTERNAL, RUN_READ_BATCH, SUCCEEDED, Job, Run
 from backend.store.summaries import summary_dict
-from mgrao_core import EpisodeStats, TaskCounts, complete_params, final_utilities, make_params, summarise
+from mgrao_core import ConfigError, EpisodeStats, TaskCounts, complete_params, final_utilities, make_params, summarise
 from mgrao_core.algorithms import sort_key
 from mgrao_core.algorithms.oracle import bound_caveats
 from mgrao_core.statistics.comparison import compare as compare_worlds
@@ -351,22 +351,41 @@ def _taken_runs(session: Session, c: Configuration) -> Iterator[tuple[int, np.nd
             yield seed, np.frombuffer(blob, dtype="<f8")
 
 
-def statistics(session: Session, *, job_ids: Sequence[int], repetitions: int, seed: int) -> dict[str, Any]:
-    """``GET /api/compare/statistics`` as data: :func:`mgrao_core.statistics.comparison.compare` of the jobs."""
+def standing_for(gathered: Gathered, job_ids: Sequence[int]) -> list[str]:
+    """The worlds of ``job_ids`` (among the compared jobs), which stand for their systems in the aggregates.
+
+    Raises:
+        ConfigError: (field ``aggregate``) an id that is not one of the compared, succeeded jobs.
+    """
+    by_id = {job.id: job for job in gathered.jobs if job.status == SUCCEEDED}
+    unknown = [job_id for job_id in job_ids if job_id not in by_id]
+    if unknown:
+        raise ConfigError("aggregate", f"job(s) {', '.join(map(str, unknown))}: not among the compared jobs that "
+                                       f"succeeded (jobs: {', '.join(map(str, by_id))})")
+    return list(dict.fromkeys(gathered.worlds[world_digest(by_id[job_id].config)] for job_id in job_ids))
+
+
+def statistics(session: Session, *, job_ids: Sequence[int], repetitions: int, seed: int,
+               aggregate: Sequence[int] = ()) -> dict[str, Any]:
+    """``GET /api/compare/statistics`` as data: :func:`mgrao_core.statistics.comparison.compare` of the jobs.
+
+    ``aggregate``: jobs whose worlds stand for their systems in the aggregates (:func:`standing_for`).
+    """
     jobs = _jobs(session, job_ids)
 
     def build() -> bytes:
         with BUILDS:
             try:
                 gathered = gather(session, jobs)
-                answer = compare_worlds(worlds_of(gathered), repetitions=repetitions, seed=seed)
+                answer = compare_worlds(worlds_of(gathered), repetitions=repetitions, seed=seed,
+                                        aggregate=standing_for(gathered, aggregate))
                 _add_task_rates(answer["systems"], gathered)
                 answer["configurations"] = _described_configurations(gathered)
                 return dumps(answer)
             finally:
                 trim()
 
-    body = RESULTS_CACHE.get_or_build(("statistics", repetitions, seed, *_state(jobs)), build)
+    body = RESULTS_CACHE.get_or_build(("statistics", repetitions, seed, tuple(aggregate), *_state(jobs)), build)
     return json.loads(body) | {"jobs": [job.id for job in jobs]}
 
 
@@ -387,7 +406,7 @@ def _described_configurations(gathered: Gathered) -> list[dict[str, Any]]:
 
 
 def sample_efficiency_answer(session: Session, *, job_ids: Sequence[int], points: int, repetitions: int,
-                             seed: int) -> dict[str, Any]:
+                             seed: int, aggregate: Sequence[int] = ()) -> dict[str, Any]:
     """``GET /api/compare/sample-efficiency`` as data: IQM of the scores per bucket of episodes, with bands.
 
     Each world's episodes are cut into ``points`` equal buckets (fewer when it has fewer episodes: then every
@@ -409,7 +428,8 @@ def sample_efficiency_answer(session: Session, *, job_ids: Sequence[int], points
                     for seed_, values in _taken_runs(session, c):
                         by_seed[seed_] = np.add.reduceat(values, edges[:-1]) / np.diff(edges)
                     curves[_key(c)] = by_seed
-                answer = sample_efficiency(worlds_of(gathered, curves), repetitions=repetitions, seed=seed)
+                answer = sample_efficiency(worlds_of(gathered, curves), repetitions=repetitions, seed=seed,
+                                           aggregate=standing_for(gathered, aggregate))
                 answer["points"] = count
                 answer["episodes"] = {gathered.worlds[d]: np.linspace(0, e, count + 1).round().astype(int)[:-1].tolist()
                                       for d, e in episodes.items()}
@@ -417,5 +437,6 @@ def sample_efficiency_answer(session: Session, *, job_ids: Sequence[int], points
             finally:
                 trim()
 
-    body = RESULTS_CACHE.get_or_build(("sample-efficiency", points, repetitions, seed, *_state(jobs)), build)
+    body = RESULTS_CACHE.get_or_build(("sample-efficiency", points, repetitions, seed, tuple(aggregate),
+                                       *_state(jobs)), build)
     return json.loads(body)

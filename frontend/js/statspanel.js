@@ -37,10 +37,21 @@ export function statisticsPanel(jobs, colourOf, { open = true, onToggle = () => 
     h('a', { href: '/project-docs/statistics.html' }, 'How each figure is made')), links, body);
   let started = null;
   let armed = false; // the view asked for the statistics (its charts are drawn): opening the panel asks too
+  let aggregate = []; // jobs whose worlds stand for their systems, where a system has several worlds
+
+  function aggregateQuery() {
+    return aggregate.length ? aggregate.join(',') : undefined;
+  }
 
   function download(text, format, filename, reps = TABLE_REPETITIONS) {
     return h('a', { href: url('/compare/statistics', { jobs: ids, reps, format }), download: filename,
       class: `stats-download stats-${format}`, 'data-format': format, onclick: downloadWithToken }, text);
+  }
+
+  function choose(chosen) {
+    aggregate = chosen;
+    started = null;
+    load();
   }
 
   function load() {
@@ -48,7 +59,7 @@ export function statisticsPanel(jobs, colourOf, { open = true, onToggle = () => 
     if (!details.open) return Promise.resolve(null);
     if (!started) {
       body.replaceChildren(h('p', { class: 'loading' }, 'Computing the statistics…'));
-      started = api.compareStatistics(jobs, {}, { signal }).then(render).catch((e) => {
+      started = api.compareStatistics(jobs, { aggregate }, { signal }).then(render).catch((e) => {
         if (e.name === 'AbortError') return;
         started = null;
         body.replaceChildren(notice('error', `Cannot compute the statistics: ${e.message}`));
@@ -61,19 +72,19 @@ export function statisticsPanel(jobs, colourOf, { open = true, onToggle = () => 
   function render(answer) {
     const reps = tableRepetitions(answer, TABLE_REPETITIONS);
     for (const link of downloads) {
-      link.href = url('/compare/statistics', { jobs: ids, reps, format: link.dataset.format });
+      link.href = url('/compare/statistics', { jobs: ids, reps, format: link.dataset.format, aggregate: aggregateQuery() });
     }
     linksNote.textContent = `Paper-ready tables (${reps.toLocaleString('en')} bootstrap repetitions${reps < TABLE_REPETITIONS
       ? ': the most this comparison allows' : ''}): `;
     const labels = aggregatedLabels(answer);
     const colours = Object.fromEntries(Object.values(answer.systems).flatMap((c) => Object.keys(c))
       .map((label) => [label, colourOf(label)]));
-    const parts = [anchorsSection(answer)];
+    const parts = [anchorsSection(answer), worldChooser(answer, aggregate, choose)];
     if (!labels.length) {
       parts.push(notice('empty', `No aggregates: ${answer.aggregated.reason || 'nothing to aggregate'}.`));
     } else {
       parts.push(aggregatesSection(answer, colours), profilesSection(answer, labels, colours),
-        efficiencySection(jobs, labels, colours, signal));
+        efficiencySection(jobs, labels, colours, signal, aggregate));
     }
     parts.push(headToHeadSection(answer, labels));
     body.replaceChildren(...parts);
@@ -86,6 +97,8 @@ function anchorsSection(answer) {
   const rows = anchorRows(answer);
   const aggregated = answer.aggregated;
   const excluded = Object.entries(aggregated.excluded || {});
+  const leftOut = Object.entries(aggregated.left_out || {}).flatMap(([system, labels]) =>
+    Object.entries(labels).map(([label, out]) => [system, label, out]));
   return h('section', { id: 'stats-anchors' },
     h('h3', {}, 'Score anchors'),
     h('div', { class: 'table-wrap' }, h('table', { class: 'summary', id: 'anchors-table' },
@@ -101,11 +114,39 @@ function anchorsSection(answer) {
           ? h('span', { title: r.caveats.join('; ') }, '⚠ oracle no upper bound: ', r.caveats.join('; '))
           : 'yes') : `none: ${r.reason}`)))))),
     aggregated.systems.length ? h('p', { class: 'help', id: 'aggregated-note' },
-      `Aggregates over ${aggregated.systems.length} system${aggregated.systems.length > 1 ? 's' : ''} × ` +
-      `${aggregated.n_seeds} seeds each (the first seeds every aggregated configuration shares: ` +
-      `${aggregated.systems.map((s) => `${s} ${seedRange(aggregated.seeds[s])}`).join('; ')}).`) : null,
+      `Aggregates over ${aggregated.systems.length} system${aggregated.systems.length > 1 ? 's' : ''}, each on its ` +
+      `anchor seeds, those with both a uniform and an oracle run (` +
+      `${aggregated.systems.map((s) => `${s}: ${aggregated.n_seeds[s]} seeds, ${seedRange(aggregated.seeds[s])}`).join('; ')}). ` +
+      `Each system weighs the same, whatever its seeds.`) : null,
+    leftOut.length ? h('ul', { class: 'help', id: 'left-out-list' }, leftOut.map(([system, label, out]) =>
+      h('li', {}, `${system}, ${label}: seeds ${seedRange(out.seeds)} not scored (${out.reason}).`))) : null,
     excluded.length ? h('ul', { class: 'help', id: 'excluded-list' }, excluded.map(([label, reason]) =>
       h('li', {}, `${label}: not aggregated (${reason}).`))) : null);
+}
+
+/**
+ * Where a system has several worlds among the jobs (other episodes or parameters), a choice of the one that stands
+ * for it in the aggregates: `choose(jobIds)` asks again with them.
+ */
+function worldChooser(answer, chosen, choose) {
+  const systems = Object.entries(answer.aggregated.worlds_of_system || {});
+  if (!systems.length) return null;
+  const jobOf = {};
+  for (const c of answer.configurations || []) {
+    if (!(c.system in jobOf) && c.job_ids.length) jobOf[c.system] = c.job_ids[0];
+  }
+  const selects = systems.map(([system, worlds]) => {
+    const picked = worlds.find((w) => chosen.includes(jobOf[w]));
+    return [system, h('select', { id: `aggregate-${system}`, 'data-system': system },
+      h('option', { value: '', selected: !picked }, 'choose a world…'),
+      worlds.map((w) => h('option', { value: String(jobOf[w]), selected: w === picked }, w)))];
+  });
+  const apply = () => choose(selects.map(([, s]) => Number(s.value)).filter((v) => v));
+  for (const [, s] of selects) s.addEventListener('change', apply);
+  return h('section', { id: 'stats-worlds' },
+    h('p', { class: 'help' }, 'Several worlds of one system share their seeds’ draws: they are not separate tasks, so ' +
+      'each system is aggregated once. Choose the world that stands for it:'),
+    selects.map(([system, s]) => h('label', { class: 'world-choice' }, `${system}: `, s)));
 }
 
 /** A matrix chart's height for `n` rows: 44 px a row, room for the slanted labels below. */
@@ -157,7 +198,7 @@ function profilesSection(answer, labels, colours) {
       'above another everywhere dominates it. Bands: 95% stratified bootstrap.'));
 }
 
-function efficiencySection(jobs, labels, colours, signal) {
+function efficiencySection(jobs, labels, colours, signal, aggregate) {
   const chart = h('div', { class: 'chart', id: 'stats-efficiency', role: 'img', hidden: true,
     'aria-label': 'IQM of the scores per bucket of episodes, with 95% bands' });
   chart.style.height = '360px';
@@ -166,7 +207,7 @@ function efficiencySection(jobs, labels, colours, signal) {
     button.disabled = true;
     status.textContent = 'Computing IQM per bucket of episodes (50 buckets, 1,000 repetitions)…';
     try {
-      const curves = await api.compareSampleEfficiency(jobs, {}, { signal });
+      const curves = await api.compareSampleEfficiency(jobs, { aggregate }, { signal });
       const traces = [];
       let byShare = false;
       for (const label of labels.filter((l) => curves.curves[l])) {

@@ -49,6 +49,27 @@ def draws(rng: np.random.Generator, repetitions: int, runs: int, tasks: int) -> 
     return rng.integers(0, runs, size=(repetitions, runs, tasks))
 
 
+def ragged_draws(rng: np.random.Generator, repetitions: int, counts: np.ndarray, runs: int) -> np.ndarray:
+    """:func:`draws` of a ragged matrix: task ``m``'s first ``counts[m]`` cells each one of its ``counts[m]`` runs.
+
+    The cells a task lacks point at its first absent run (NaN), so that they stay absent in every resample.
+    """
+    out = np.empty((repetitions, runs, len(counts)), dtype=np.int64)
+    for task, count in enumerate(counts.tolist()):
+        out[:, :count, task] = rng.integers(0, count, size=(repetitions, count))
+        out[:, count:, task] = min(count, runs - 1)
+    return out
+
+
+def _draws_of(rng: np.random.Generator, repetitions: int, matrix: np.ndarray) -> np.ndarray:
+    """The draws of one matrix: rectangular as :func:`draws` (rliable's), ragged as :func:`ragged_draws`."""
+    absent = np.isnan(matrix)
+    if not absent.any():
+        return draws(rng, repetitions, matrix.shape[-2], matrix.shape[-1])
+    present = ~absent.reshape(-1, *matrix.shape[-2:])[0]
+    return ragged_draws(rng, repetitions, present.sum(axis=0), matrix.shape[-2])
+
+
 def counts_of(indices: np.ndarray) -> np.ndarray:
     """How often each run of each task is drawn: ``(repetitions, runs, tasks)`` from :func:`draws`' indices."""
     repetitions, runs, tasks = indices.shape
@@ -66,7 +87,9 @@ def stratified_bootstrap(statistic: Callable[..., np.ndarray], *matrices: np.nda
         statistic: a function of matrices ``(..., runs, tasks)`` returning an array ``(..., *shape)``; it makes
             the estimate, and unless ``of_counts`` is given, each repetition's value from the matrices resampled
             (``(batch, ..., runs, tasks)``, giving ``(batch, ..., *shape)``).
-        matrices: score matrices; each is resampled on its own.
+        matrices: score matrices; each is resampled on its own. A ragged one (NaN below a task's runs, as
+            :mod:`mgrao_core.statistics.metrics` lays it out) resamples each task among its own runs, the
+            absent cells staying absent (the NaN pattern of a matrix is the same along its leading axes).
         repetitions: bootstrap repetitions.
         rng: the draws' generator (:func:`generator`).
         confidence: the interval's level (two-sided).
@@ -83,9 +106,11 @@ def stratified_bootstrap(statistic: Callable[..., np.ndarray], *matrices: np.nda
     values = []
     for start in range(0, repetitions, batch):
         size = min(batch, repetitions - start)
-        chosen = [draws(rng, size, m.shape[-2], m.shape[-1]) for m in matrices]
+        chosen = [_draws_of(rng, size, m) for m in matrices]
         if of_counts is not None:
-            values.append(np.asarray(of_counts(*matrices, [counts_of(c) for c in chosen]), dtype=float))
+            counts = [np.where(np.isnan(m.reshape(-1, *m.shape[-2:])[0]), 0, counts_of(c))
+                      for m, c in zip(matrices, chosen, strict=True)]
+            values.append(np.asarray(of_counts(*matrices, counts), dtype=float))
             continue
         resampled = []
         for m, indices in zip(matrices, chosen, strict=True):

@@ -71,9 +71,13 @@ def protocol_lines(answer: Mapping[str, Any]) -> list[str]:
              for name in p["episodes"]]
     aggregated = answer["aggregated"]
     if aggregated["systems"]:
-        lines.append(f"Aggregates over {len(aggregated['systems'])} system(s) x {aggregated['n_seeds']} seeds each ("
-                     + "; ".join(f"{s}: seeds {_seed_ranges(aggregated['seeds'][s])}" for s in aggregated["systems"])
-                     + ")")
+        lines.append(f"Aggregates over {len(aggregated['systems'])} system(s), each on its anchor seeds ("
+                     + "; ".join(f"{s}: {aggregated['n_seeds'][s]} seeds, {_seed_ranges(aggregated['seeds'][s])}"
+                                 for s in aggregated["systems"])
+                     + f"); {aggregated['weighting']}.")
+        for system, labels in (aggregated.get("left_out") or {}).items():
+            for label, out in labels.items():
+                lines.append(f"{system}, {label}: seeds {_seed_ranges(out['seeds'])} not scored ({out['reason']}).")
     elif aggregated.get("reason"):
         lines.append(f"No aggregates: {aggregated['reason']}")
     for name, anchors in answer["normalisation"].items():

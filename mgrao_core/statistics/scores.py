@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from mgrao_core.errors import ConfigError
 from mgrao_core.statistics._json import pair
 from mgrao_core.statistics.student import mean_ci95
 from mgrao_core.statistics.summary import BASELINE
@@ -110,23 +111,59 @@ def normalised_scores(world: World, anchors: Normalisation) -> dict[str, dict[in
 
 @dataclass(frozen=True)
 class ScoreMatrices:
-    """The rectangular score matrices of the aggregated configurations."""
+    """The score matrices of the aggregated configurations: each system on its own anchor seeds (ragged).
+
+    Attributes:
+        worlds: the aggregated worlds (one per system), the matrices' columns.
+        anchor_seeds: world -> the seeds its anchors stand on (every aggregated score stands on them).
+        seeds: label -> world -> the seeds of its scores, in seed order (its matrix's rows of that world).
+        matrices: label -> ``(runs, worlds)``: on each world its scores in seed order, NaN below their count
+            (:mod:`mgrao_core.statistics.metrics`, "Ragged matrices"); rectangular where every world has as many.
+        left_out: world -> label -> ``{"seeds", "reason"}``: the runs of the world that are not scored.
+        excluded: label -> why the configuration is not aggregated.
+        reason: why nothing is aggregated (None when something is).
+    """
 
     worlds: tuple[str, ...]
-    seeds: dict[str, list[int]]
+    anchor_seeds: dict[str, list[int]]
+    seeds: dict[str, dict[str, list[int]]]
     matrices: dict[str, np.ndarray]
-    """Label -> ``(seeds, worlds)``."""
+    left_out: dict[str, dict[str, dict[str, Any]]]
     excluded: dict[str, str]
     reason: str | None = None
-    """Why nothing is aggregated (None when something is)."""
 
 
-def score_matrices(worlds: Sequence[World], anchors: Mapping[str, Normalisation]) -> ScoreMatrices:
-    """The configurations that have scores on every world with anchors, on the same count of shared seeds."""
-    scored = [w for w in worlds if anchors[w.name].reason is None]
-    labels = list(dict.fromkeys(label for w in worlds for label in w.finals))
+def _left_out(world: World, anchors: Normalisation) -> dict[str, dict[str, Any]]:
+    """The world's runs on seeds that do not anchor it, by label, with why."""
+    uniform, oracle = set(world.finals.get(BASELINE, {})), set(world.finals.get(BEST_FIXED, {}))
+    anchored = set(anchors.seeds)
+    out = {}
+    for label, finals in world.finals.items():
+        seeds = sorted(set(finals) - anchored)
+        if not seeds:
+            continue
+        lacking = [name for name, ran in ((BASELINE, uniform), (BEST_FIXED, oracle))
+                   if any(s not in ran for s in seeds)]
+        why = (f"no {' or '.join(lacking)} run of these seeds among the compared jobs: the anchors stand on the "
+               f"seeds with both") if lacking else "not scored"
+        out[label] = {"seeds": seeds, "reason": why}
+    return out
+
+
+def score_matrices(worlds: Sequence[World], anchors: Mapping[str, Normalisation],
+                   aggregated: Sequence[str] | None = None) -> ScoreMatrices:
+    """The configurations that have scores on every aggregated world, each on all its scored seeds.
+
+    Args:
+        worlds: the worlds of the comparison.
+        anchors: each world's :func:`normalisation`, by name.
+        aggregated: the worlds that stand for their systems (:func:`representatives`); by default every world.
+    """
+    chosen = set(w.name for w in worlds) if aggregated is None else set(aggregated)
+    scored = [w for w in worlds if w.name in chosen and anchors[w.name].reason is None]
+    labels = list(dict.fromkeys(label for w in worlds if w.name in chosen for label in w.finals))
     if not scored:
-        return ScoreMatrices((), {}, {}, {label: "no system of the comparison has scores" for label in labels},
+        return ScoreMatrices((), {}, {}, {}, {}, {label: "no system of the comparison has scores" for label in labels},
                              "no system has scores: each needs uniform and oracle runs on the same seeds, the "
                              "oracle's gain above 0")
     scores = {w.name: normalised_scores(w, anchors[w.name]) for w in scored}
@@ -140,28 +177,58 @@ def score_matrices(worlds: Sequence[World], anchors: Mapping[str, Normalisation]
         elif thin:
             excluded[label] = f"fewer than {MIN_SEEDS} scored seeds on {', '.join(thin)}"
     kept = [label for label in labels if label not in excluded]
+    seeds = {label: {name: sorted(scores[name][label]) for name in names} for label in kept}
+    matrices = {}
+    for label in kept:
+        rows = max(len(s) for s in seeds[label].values())
+        matrix = np.full((rows, len(names)), np.nan)
+        for j, name in enumerate(names):
+            matrix[: len(seeds[label][name]), j] = [scores[name][label][s] for s in seeds[label][name]]
+        matrices[label] = matrix
+    left_out = {w.name: _left_out(w, anchors[w.name]) for w in scored}
+    return ScoreMatrices(names, {name: list(anchors[name].seeds) for name in names}, seeds, matrices,
+                         {name: out for name, out in left_out.items() if out}, excluded,
+                         None if kept else "no configuration has scores on every scored system")
 
-    def shared_seeds(among: list[str]) -> dict[str, list[int]]:
-        return {name: sorted(set.intersection(*(set(scores[name][label]) for label in among))) for name in names}
 
-    # one configuration on seeds the others lack would leave none shared: the one with the fewest scored seeds
-    # goes first, until the rest share enough (uniform and the oracle always have every anchor seed)
-    while kept and min(len(s) for s in shared_seeds(kept).values()) < MIN_SEEDS and len(kept) > 1:
-        fewest = min(kept, key=lambda label: (sum(len(scores[name][label]) for name in names), -kept.index(label)))
-        excluded[fewest] = (f"shares fewer than {MIN_SEEDS} scored seeds with the other configurations on some "
-                            "system")
-        kept.remove(fewest)
-    if not kept:
-        return ScoreMatrices(names, {}, {}, excluded, "no configuration has scores on every scored system")
-    shared = shared_seeds(kept)
-    count = min(len(seeds) for seeds in shared.values())
-    if count < MIN_SEEDS:
-        return ScoreMatrices(names, {}, {}, excluded, f"the configurations share {count} scored seed(s): aggregates "
-                                                      f"need at least {MIN_SEEDS}")
-    seeds = {name: shared[name][:count] for name in names}
-    matrices = {label: np.array([[scores[name][label][seeds[name][i]] for name in names] for i in range(count)])
-                for label in kept}
-    return ScoreMatrices(names, seeds, matrices, excluded)
+def representatives(worlds: Sequence[World], chosen: Sequence[str] = ()) -> tuple[list[str] | None, str | None]:
+    """The worlds that stand for their systems in the aggregates, or why there are none.
+
+    A system's worlds (:attr:`World.system`: the same system at other episodes or parameters) share their seeds'
+    draws, so two of them are not two tasks: each system is aggregated once. A system with one world is
+    represented by it; one with several, by the world named in ``chosen``, or, if none is named, nothing is
+    aggregated (the reason says which worlds to choose between).
+
+    Raises:
+        ConfigError: (field ``aggregate``) a name in ``chosen`` that is no world of the comparison, or two
+            worlds chosen for one system.
+    """
+    by_system: dict[str, list[str]] = {}
+    for w in worlds:
+        by_system.setdefault(w.system, []).append(w.name)
+    known = {w.name: w.system for w in worlds}
+    unknown = [name for name in chosen if name not in known]
+    if unknown:
+        raise ConfigError("aggregate", f"{', '.join(map(repr, unknown))}: not a system of this comparison "
+                                       f"(systems: {', '.join(map(repr, known))})")
+    picked: dict[str, str] = {}
+    for name in chosen:
+        if picked.get(known[name], name) != name:
+            raise ConfigError("aggregate", f"{picked[known[name]]!r} and {name!r} are both worlds of "
+                                           f"{known[name]}: choose one to stand for it")
+        picked[known[name]] = name
+    out, undecided = [], []
+    for system, names in by_system.items():
+        if len(names) == 1:
+            out.append(names[0])
+        elif system in picked:
+            out.append(picked[system])
+        else:
+            undecided.append(f"{system} ({'; '.join(names)})")
+    if undecided:
+        return None, (f"{', '.join(undecided)}: several worlds of one system share their seeds' draws, so they are "
+                      "not separate tasks; choose the world that stands for each system (aggregate=) to aggregate")
+    return [w.name for w in worlds if w.name in out], None
 
 
 def finite(worlds: Sequence[World]) -> tuple[list[World], dict[str, dict[str, list[int]]]]:

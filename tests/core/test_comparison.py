@@ -155,21 +155,27 @@ def test_a_world_without_a_positive_oracle_gain_gives_no_scores_and_says_why() -
     assert fine.reason is None and fine.gain == pytest.approx(0.5) and fine.score(u.mean() + 0.25) == pytest.approx(0.5)
 
 
-def test_score_matrices_are_rectangular_on_the_first_shared_seeds_and_name_what_is_left_out() -> None:
+def test_score_matrices_keep_every_scored_seed_of_each_system_and_name_what_is_left_out() -> None:
     rng = np.random.default_rng(1)
     u1, u2 = rng.normal(1.0, 0.1, 30), rng.normal(2.0, 0.1, 30)
     one = _world("one", {"uniform": _seeds(u1), "oracle": _seeds(u1 + 1), "a": _seeds(u1[5:] + 0.5, 5),
                          "b": _seeds(u1 + 0.2)})
-    two = _world("two", {"uniform": _seeds(u2), "oracle": _seeds(u2 + 2), "a": _seeds(u2[:20] + 1.0),
+    two = _world("two", {"uniform": _seeds(u2[:24]), "oracle": _seeds(u2 + 2), "a": _seeds(u2[:20] + 1.0),
                          "c": _seeds(u2)})
     anchors = {w.name: normalisation(w) for w in (one, two)}
     matrices = score_matrices([one, two], anchors)
     assert list(matrices.matrices) == ["uniform", "oracle", "a"]
     assert set(matrices.excluded) == {"b", "c"} and "two" in matrices.excluded["b"]
-    # a has seeds 5-29 on one and 0-19 on two: 25 and 20 shared, so 20 each, the first in seed order
-    assert matrices.seeds == {"one": list(range(5, 25)), "two": list(range(20))}
-    assert matrices.matrices["a"].shape == (20, 2)
-    np.testing.assert_allclose(matrices.matrices["a"][:, 1], (u2[:20] + 1.0 - u2.mean()) / 2.0)
+    # each system on its own anchor seeds (30 on one, the 24 with uniform on two); a keeps every seed it has there
+    assert matrices.anchor_seeds == {"one": list(range(30)), "two": list(range(24))}
+    assert matrices.seeds["a"] == {"one": list(range(5, 30)), "two": list(range(20))}
+    assert matrices.seeds["uniform"] == matrices.seeds["oracle"] == matrices.anchor_seeds
+    assert matrices.matrices["a"].shape == (25, 2) and np.isnan(matrices.matrices["a"][20:, 1]).all()
+    np.testing.assert_allclose(matrices.matrices["a"][:20, 1], (u2[:20] + 1.0 - u2[:24].mean()) / 2.0)
+    # the oracle's seeds 24-29 on two have no uniform run: not scored, and the answer says so
+    assert matrices.left_out == {"two": {label: {"seeds": list(range(24, 30)), "reason": matrices.left_out["two"][
+        label]["reason"]} for label in ("oracle", "c")}}
+    assert "no uniform run of these seeds" in matrices.left_out["two"]["oracle"]["reason"]
 
 
 def _paper_like(seed: int = 0, runs: int = 30) -> list[World]:
@@ -188,7 +194,8 @@ def test_compare_gives_the_answer_of_docs_statistics() -> None:
     worlds = _paper_like()
     answer = compare(worlds, repetitions=300, seed=3)
     labels = ["uniform", "mgrao-1:1", "mgrao-max", "oracle"]
-    assert list(answer["aggregate"]) == labels and answer["aggregated"]["n_seeds"] == 30
+    assert list(answer["aggregate"]) == labels
+    assert answer["aggregated"]["n_seeds"] == {"single": 30, "large": 30, "multi": 30}
     for label in labels:
         matrix = np.array([answer["scores"][label][w] for w in ("single", "large", "multi")]).T
         assert answer["aggregate"][label]["iqm"]["estimate"] == pytest.approx(rliable_metrics.aggregate_iqm(matrix),
@@ -295,12 +302,13 @@ def test_a_configuration_on_too_few_or_other_seeds_is_left_out_not_everyone() ->
                          "early": {s: f for s, f in w.finals["mgrao-max"].items() if s < 10}}) for w in worlds]
     answer = compare(disjoint, repetitions=100)
     assert "fewer than 2 scored seeds on single" in answer["aggregated"]["excluded"]["once"]
-    # early (seeds 0-9) and late (10-19) share no seed: one goes (the later of two with as many seeds), not all
-    assert "shares fewer than 2" in answer["aggregated"]["excluded"]["early"]
-    assert "late" in answer["aggregate"] and answer["aggregated"]["n_seeds"] == 10
-    assert {"uniform", "mgrao-1:1", "mgrao-max", "oracle"} <= set(answer["aggregate"])
+    # early (seeds 0-9) and late (10-19) share no seed, and need not: each stands on its own anchored seeds
+    assert {"uniform", "mgrao-1:1", "mgrao-max", "oracle", "early", "late"} <= set(answer["aggregate"])
+    assert answer["aggregated"]["n_seeds"] == {"single": 20, "large": 20, "multi": 20}
+    assert answer["aggregated"]["runs"]["early"] == {"single": 10, "large": 10, "multi": 10}
     apart = compare([World(w.name, w.system, 100, elsewhere[w.name]) for w in worlds], repetitions=100)
-    assert "no scored runs" in apart["aggregated"]["excluded"]["elsewhere"] and apart["aggregated"]["n_seeds"] == 20
+    assert "no scored runs" in apart["aggregated"]["excluded"]["elsewhere"]
+    assert apart["aggregated"]["left_out"]["single"]["elsewhere"]["seeds"] == list(range(100, 120))
 
 
 def test_runs_whose_final_is_not_finite_take_no_part_and_are_named() -> None:

@@ -45,7 +45,10 @@ def test_the_statistics_panel_shows_every_statistic_and_its_seeds(browser, serve
         aggregates = page.locator("#aggregates-table tbody tr")
         assert aggregates.count() == 4  # my-learner has no large runs: left out of the aggregates, saying why
         assert "my-learner: not aggregated" in page.inner_text("#excluded-list")
-        assert "Aggregates over 2 systems × 10 seeds each" in page.inner_text("#aggregated-note")
+        note = page.inner_text("#aggregated-note")
+        assert "Aggregates over 2 systems, each on its anchor seeds" in note and "single: 10 seeds, 0–9" in note
+        assert "single, my-learner: seeds 10–14 not scored (no uniform or oracle run" in page.inner_text(
+            "#left-out-list")
         oracle = page.locator("#aggregates-table tbody tr", has_text="oracle").inner_text()
         assert "1.000 [" in oracle  # the oracle's mean score is 1 by definition
         for chart in ("#stats-intervals", "#stats-profiles", "#stats-poi", "#stats-differences"):
@@ -80,3 +83,24 @@ def test_the_statistics_panel_shows_every_statistic_and_its_seeds(browser, serve
         page.locator("#stats-panel > summary").click()
         page.wait_for_function("() => location.hash.includes('stats=0')")
         page.screenshot(path=str(screenshots / "compare-statistics.png"), full_page=True)
+
+
+def test_a_system_in_two_worlds_is_aggregated_in_the_world_chosen(browser, server):
+    specs = [("single", 20), ("single", 30), ("large", 20)]
+    jobs = [post_job(server, {"system": system, "algorithms": ["uniform", "mgrao-1:1", "oracle"], "seeds": 4,
+                              "episodes": episodes}) for system, episodes in specs]
+    wait_succeeded(server, jobs)
+    ids = ",".join(str(j["id"]) for j in jobs)
+    with page_at(browser, server, height=1000) as page:
+        page.goto(f"/#/compare?jobs={ids}")
+        page.locator("#stats-body[data-loaded]").wait_for()
+        assert "several worlds of one system" in page.inner_text("#stats-body")
+        assert page.locator("#aggregates-table").count() == 0
+        loaded = page.get_attribute("#stats-body", "data-loaded")
+        page.select_option("#aggregate-single", label="single (episodes=30)")
+        page.wait_for_function("before => document.querySelector('#stats-body').dataset.loaded !== before", arg=loaded)
+        page.locator("#aggregates-table").wait_for()
+        assert "Aggregates over 2 systems" in page.inner_text("#aggregated-note")
+        assert "single (episodes=30): 4 seeds" in page.inner_text("#aggregated-note")
+        assert page.eval_on_selector("#aggregate-single", "el => el.selectedOptions[0].text") == "single (episodes=30)"
+        assert f"aggregate={jobs[1]['id']}" in page.get_attribute("a.stats-latex", "href")

@@ -40,6 +40,10 @@ skipped, at least one id. (How many, and in which range, the pattern does not sa
 Jobs = Annotated[Text, Query(max_length=1000, description=JOBS_HELP, json_schema_extra={"pattern": JOBS_PATTERN})]
 Repetitions = Annotated[int, Query(ge=1, le=MAX_REPETITIONS, description="Bootstrap repetitions of every interval.")]
 BootstrapSeed = Annotated[int, Query(ge=0, le=MAX_BOOTSTRAP_SEED, description="The bootstrap's seed.")]
+Aggregate = Annotated[Text | None, Query(
+    max_length=1000, description="Comma-separated ids of compared jobs whose worlds stand for their systems in the "
+                                 "aggregates, where a system has several worlds among the jobs (docs/statistics.md).",
+    json_schema_extra={"pattern": JOBS_PATTERN})]
 
 
 def parse_ids(text: str) -> list[int]:
@@ -56,6 +60,16 @@ def parse_ids(text: str) -> list[int]:
         if not 1 <= job_id <= MAX_JOB_ID:
             raise BadQuery("jobs", f"job ids must be in [1, {MAX_JOB_ID}] (got {job_id})")
     return ids
+
+
+def _aggregate(text: str | None) -> list[int]:
+    """``aggregate=`` as job ids (none when absent), refused as :func:`parse_ids` refuses, naming ``aggregate``."""
+    if text is None:
+        return []
+    try:
+        return parse_ids(text)
+    except BadQuery as error:
+        raise BadQuery("aggregate", error.message.replace("jobs=", "aggregate=")) from None
 
 
 @router.get("/compare", response_model=Comparison, responses=answers(found=True))
@@ -77,10 +91,12 @@ def statistics(
     reps: Repetitions = DEFAULT_REPETITIONS,
     seed: BootstrapSeed = 0,
     format: Literal["json", "csv", "latex", "table"] = "json",
+    aggregate: Aggregate = None,
 ) -> Response:
     """Scores, aggregates across systems, performance profiles, P(X > Y) and paired tests of the configurations."""
     try:
-        answer = comparison.statistics(session, job_ids=parse_ids(jobs), repetitions=reps, seed=seed)
+        answer = comparison.statistics(session, job_ids=parse_ids(jobs), repetitions=reps, seed=seed,
+                                       aggregate=_aggregate(aggregate))
     except ConfigError as error:
         raise BadQuery(error.field, error.message) from None
     if format == "json":
@@ -98,11 +114,12 @@ def sample_efficiency(
                                  description="Buckets of episodes per curve.")] = comparison.MAX_CURVE_POINTS,
     reps: Repetitions = CURVE_REPETITIONS,
     seed: BootstrapSeed = 0,
+    aggregate: Aggregate = None,
 ) -> Response:
     """IQM of the scores per bucket of episodes, with 95% stratified bootstrap bands (sample-efficiency curves)."""
     try:
         answer = comparison.sample_efficiency_answer(session, job_ids=parse_ids(jobs), points=points,
-                                                     repetitions=reps, seed=seed)
+                                                     repetitions=reps, seed=seed, aggregate=_aggregate(aggregate))
     except ConfigError as error:
         raise BadQuery(error.field, error.message) from None
     return Response(dumps(answer), media_type="application/json")
