@@ -148,9 +148,10 @@ def _seed_range(count: int, first: int) -> int | list[int]:
 @click.option("--format", "fmt", default="table", show_default=True, type=click.Choice(["table", "json", "csv"]))
 @click.option("--until", "until_text", metavar="KEY=VALUE,...",
               help="Run seeds in blocks from --first-seed until a question is answered (instead of --seeds): "
-              "half_width=H (every configuration's 95%% interval within +-H), decide=A+B (the paired difference "
-              "decided; half_width then the margin of no practical difference), of=pct_from_uniform|"
-              "final_utility, max_seeds=500, block=10 (docs/statistics.md).")
+              "half_width=H (the 95% interval of every configuration judged within +-H), judge=A+B (which; "
+              "default: every one but uniform and the oracle), joint=true (all judged intervals at once: each at "
+              "1 - 0.05/k), decide=A+B (the paired difference decided; half_width then the margin of no practical "
+              "difference), of=pct_from_uniform|final_utility, max_seeds=500, block=10 (docs/statistics.md).")
 @click.option("--out", type=click.Path(dir_okay=False, writable=True), callback=_check_out,
               help="Write to FILE instead of stdout.")
 @click.pass_context
@@ -227,7 +228,9 @@ def run(ctx: click.Context, system: str | None, algorithms: str | None, seeds: i
 
 def _stopped_line(verdict: Verdict) -> str:
     """Why a rule stopped, and the interval of a decided pair."""
-    line = f"stopped: {verdict.reason} after {verdict.seeds} seeds"
+    judged = ", ".join(k for k in verdict.intervals if " - " not in k)
+    line = f"stopped: {verdict.reason} after {verdict.seeds} seeds" + (
+        f" (judged: {judged}; each interval at {100 * verdict.level:g}%)" if judged else "")
     if verdict.outcome is not None or len(verdict.intervals) == 1 and " - " in next(iter(verdict.intervals)):
         (key, (mean, low, high)), = verdict.intervals.items()
         line += f"; {key}: {_fmt(mean, 2)} {_interval((low, high), 2)}" + (

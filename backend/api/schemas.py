@@ -256,6 +256,11 @@ class UntilBody(BaseModel):
     block: whole(1, MAX_SEEDS) = Field(sequential.DEFAULT_BLOCK, description="Seeds run between two checks.")
     decide: Annotated[list[Label], Field(min_length=2, max_length=2)] | None = Field(
         None, description="Two of the job's algorithms: stop when their paired difference is decided.")
+    judge: Annotated[list[Label], Field(max_length=MAX_ALGORITHMS)] | None = Field(
+        None, description="The half_width rule's configurations: whose intervals must be narrow (default: every "
+                          "algorithm but uniform and the oracle).")
+    joint: StrictBool = Field(False, description="The half_width rule's intervals hold jointly: each at level "
+                                                 "1 - 0.05/k for k judged (Bonferroni), not 95% each.")
 
 
 class JobCreate(BaseModel):

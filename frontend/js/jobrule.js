@@ -7,7 +7,7 @@ import { algorithmStyles } from './colours.js';
 import { fmtNumber } from './stats.js';
 
 const REASONS = {
-  half_width: (u, s) => `Stopped after ${s.seeds} seeds: every interval is within ±${u.half_width} (the rule's half width).`,
+  half_width: (u, s) => `Stopped after ${s.seeds} seeds: every judged interval is within ±${u.half_width} (the rule's half width).`,
   decided: (u, s) => s.outcome === 'equivalent'
     ? `Stopped after ${s.seeds} seeds: ${u.decide[0]} and ${u.decide[1]} are equivalent (their difference is within ±${u.half_width}).`
     : `Stopped after ${s.seeds} seeds: ${s.outcome} is better (the interval of ${u.decide[0]} − ${u.decide[1]} excludes 0).`,
@@ -15,13 +15,26 @@ const REASONS = {
   cancelled: (u, s) => `Cancelled after ${s.seeds} seeds judged, before the rule answered.`,
 };
 
-/** What the rule asks, in words. */
+/** The level of each judged interval, in words: 95% each, or Bonferroni's level when they hold jointly. */
+export function levelText(until) {
+  const judged = (until.judge || []).length;
+  if (!until.joint || judged < 2) return '95%';
+  return `${+(100 * (1 - 0.05 / judged)).toFixed(2)}%`;
+}
+
+/** What the rule asks, in words: which configurations it judges, and whether their intervals hold one by one or jointly. */
 export function ruleText(until) {
   const of = until.of === 'pct_from_uniform' ? '% from uniform' : 'final utility';
-  const question = until.decide
-    ? `decide ${until.decide[0]} against ${until.decide[1]} (paired ${of}${until.half_width != null ? `, no practical difference within ±${until.half_width}` : ''})`
-    : `every configuration's 95% interval of ${of} within ±${until.half_width}`;
-  return `Seeds run in blocks of ${until.block} until ${question}; at most ${until.max_seeds} seeds.`;
+  if (until.decide) {
+    const question = `decide ${until.decide[0]} against ${until.decide[1]} (paired ${of}${until.half_width != null ? `, no practical difference within ±${until.half_width}` : ''})`;
+    return `Seeds run in blocks of ${until.block} until ${question}; at most ${until.max_seeds} seeds.`;
+  }
+  const judged = until.judge && until.judge.length ? until.judge.join(', ') : 'every configuration';
+  const coverage = until.joint && until.judge.length > 1
+    ? `jointly: each at ${levelText(until)}, so that all ${until.judge.length} hold at once 95% of the time`
+    : `each covering its own value 95% of the time, not all at once`;
+  return `Seeds run in blocks of ${until.block} until the ${levelText(until)} interval of ${of} is within ±${until.half_width} ` +
+    `for ${judged} (${coverage}); at most ${until.max_seeds} seeds.`;
 }
 
 /** The sentence of a job's verdict so far. */

@@ -21,14 +21,22 @@ export function untilFields(limits, fieldBlock, seedsIn) {
   const blockIn = h('input', { type: 'number', name: 'until-block', min: 1, value: limits.block, id: 'until-block' });
   const firstIn = h('input', { type: 'number', name: 'first-seed', min: 0, value: 0, id: 'until-first-seed' });
   const decideIn = h('input', { type: 'text', name: 'until-decide', id: 'until-decide', placeholder: 'e.g. mgrao-5:1, mgrao-max' });
+  const judgeIn = h('input', { type: 'text', name: 'until-judge', id: 'until-judge',
+    placeholder: `every algorithm but ${limits.not_judged.join(' and ')}` });
+  const jointIn = h('input', { type: 'checkbox', name: 'until-joint', id: 'until-joint' });
   const inner = h('div', { class: 'until-fields', hidden: true },
     h('div', { class: 'row' },
       fieldBlock('until.half_width', 'Half width', halfIn,
         'The 95% interval to reach, ± this; with two configurations to decide, the margin of no practical difference'),
       fieldBlock('until.of', 'Of', ofSel, null)),
     h('div', { class: 'row' },
+      fieldBlock('until.judge', 'Judge (optional)', judgeIn,
+        `Whose intervals must be narrow, comma separated; by default every algorithm but ${limits.not_judged.join(' (the reference) and ')} (a bound)`),
+      fieldBlock('until.joint', 'Coverage', h('label', { class: 'check' }, jointIn, ' joint'),
+        'Each judged interval covers its own value 95% of the time; joint: all of them at once (each at 1 − 0.05/k)')),
+    h('div', { class: 'row' },
       fieldBlock('until.decide', 'Decide between (optional)', decideIn,
-        'Two of the algorithms, comma separated: stop once their paired difference is decided'),
+        'Two of the algorithms, comma separated: stop once their paired difference is decided (instead of judging)'),
       fieldBlock('first_seed', 'First seed', firstIn, null)),
     h('div', { class: 'row' },
       fieldBlock('until.max_seeds', 'At most seeds', maxIn, `${limits.min_seeds} or more; no rule stops before ${limits.min_seeds}`),
@@ -60,6 +68,9 @@ export function untilFields(limits, fieldBlock, seedsIn) {
       if (halfIn.value !== '') until.half_width = number(halfIn);
       const decide = decideIn.value.split(',').map((s) => s.trim()).filter(Boolean);
       if (decide.length) until.decide = decide;
+      const judge = judgeIn.value.split(',').map((s) => s.trim()).filter(Boolean);
+      if (judge.length) until.judge = judge;
+      if (jointIn.checked) until.joint = true;
       return { until, first_seed: number(firstIn) };
     },
     load(job) { // a cloned job's rule
@@ -70,6 +81,8 @@ export function untilFields(limits, fieldBlock, seedsIn) {
       maxIn.value = job.until.max_seeds;
       blockIn.value = job.until.block;
       decideIn.value = (job.until.decide || []).join(', ');
+      judgeIn.value = (job.until.judge || []).join(', ');
+      jointIn.checked = Boolean(job.until.joint);
       firstIn.value = job.seeds.length ? job.seeds[0] : 0;
       toggle();
     },

@@ -4,19 +4,22 @@ A rule (:class:`Until`) states a question; :func:`run_until` runs the experiment
 its first seed, in order (common random numbers: every configuration of a block faces the same worlds),
 and :func:`judge` asks after each block whether the question is answered. Two rules:
 
-* **half_width** (``{"half_width": h}``): stop once every configuration's 95% interval of ``of`` is at most
-  ``h`` on each side. The interval is the summary's Student-t interval over the seeds run
+* **half_width** (``{"half_width": h}``): stop once the 95% interval of ``of`` of every configuration judged
+  is at most ``h`` on each side. The configurations judged are ``judge`` (by default every one but uniform,
+  the reference, and the oracle, a bound: :func:`default_judged`). Each interval covers its own truth 95% of
+  the time; with ``joint`` every interval is at level ``1 - 0.05 / k`` for ``k`` judged (Bonferroni), so that
+  all of them hold at once at least 95% of the time. The interval is the summary's Student-t interval over the seeds run
   (:func:`mgrao_core.statistics.summary.mean_ci95`): a fixed-width sequential interval in the manner of Chow and
   Robbins (1965), with Student's quantile and a minimum of :data:`MIN_SEEDS` seeds as its small-sample
   correction, looked at once per block. Its coverage at a data-dependent stop is not guaranteed in
   theory; it is measured (benchmarks/sequential_coverage.py, docs/statistics.md).
 * **decide** (``{"decide": [A, B]}``, optionally ``half_width`` as the margin of "no practical
   difference"): stop once the paired difference ``A - B`` of ``of`` is decided: its interval excludes 0
-  (``A`` or ``B`` is better), or lies within ``(-h, h)`` (equivalent). The interval is an asymptotic
-  confidence sequence (Waudby-Smith, Arbour, Sinha, Kennedy and Ramdas 2021, "Time-uniform central
-  limit theory and asymptotic confidence sequences", the conjugate-mixture boundary): valid however
-  often it is looked at, so a decision taken at the first look that allows it keeps its 5% error; a
-  t-interval looked at after every block would not (its false decisions grow with the looks).
+  (``A`` or ``B`` is better), or lies within ``(-h, h)`` (equivalent). The interval is a confidence
+  sequence (:mod:`mgrao_core.statistics.confidence_sequence`: Lai's sequential t, exact for normal data
+  of unknown variance, asymptotically valid for others): valid however often it is looked at, so a
+  decision taken at the first look that allows it keeps its 5% error; a t-interval looked at after every
+  block would not (its false decisions grow with the looks).
 
 Either rule stops at ``max_seeds`` seeds unanswered. ``of`` is ``pct_from_uniform`` (each seed's % from
 uniform's run of the same seed; uniform must run, and is not judged itself) or ``final_utility``.
@@ -31,10 +34,13 @@ from typing import Any
 
 import numpy as np
 
+from mgrao_core.algorithms import parse_algorithm
 from mgrao_core.errors import ConfigError, raise_all
 from mgrao_core.results import ExperimentResult
 from mgrao_core.spec import MAX_SEED_VALUE, MAX_SEEDS, ExperimentSpec, make_spec
-from mgrao_core.statistics.student import CONFIDENCE, mean_ci95
+from mgrao_core.statistics.confidence_sequence import cs_half_width
+from mgrao_core.statistics.scores import BEST_FIXED
+from mgrao_core.statistics.student import CONFIDENCE, mean_interval
 from mgrao_core.statistics.summary import BASELINE, final_utilities, paired_pct_from_uniform
 
 OF = ("pct_from_uniform", "final_utility")
@@ -44,9 +50,9 @@ MIN_SEEDS = 10
 DEFAULT_BLOCK = 10
 DEFAULT_MAX_SEEDS = 500
 MAX_HALF_WIDTH = 1e6
-CS_TUNED_FOR = 100
-"""Seeds at which the confidence sequence of the decide rule is narrowest (its ``rho``; any choice is valid)."""
-FIELDS = ("half_width", "of", "max_seeds", "block", "decide")
+FIELDS = ("half_width", "of", "max_seeds", "block", "decide", "judge", "joint")
+NOT_JUDGED = (BASELINE, BEST_FIXED)
+"""The configurations a half_width rule leaves out unless told: the reference and the bound."""
 REASONS = ("half_width", "decided", "max_seeds", "cancelled")
 
 
@@ -59,11 +65,23 @@ class Until:
     max_seeds: int = DEFAULT_MAX_SEEDS
     block: int = DEFAULT_BLOCK
     decide: tuple[str, str] | None = None
+    judge: tuple[str, ...] = ()
+    """The configurations the half_width rule judges (resolved: never empty for it; empty with ``decide``)."""
+    joint: bool = False
+    """Whether the half_width rule's intervals hold jointly (each at ``1 - 0.05 / k``) rather than one by one."""
+
+    @property
+    def level(self) -> float:
+        """The level of each interval the rule judges: 95%, or Bonferroni's ``1 - 0.05 / k`` when joint."""
+        if self.joint and len(self.judge) > 1:
+            return 1.0 - (1.0 - CONFIDENCE) / len(self.judge)
+        return CONFIDENCE
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready, every field."""
         return {"half_width": self.half_width, "of": self.of, "max_seeds": self.max_seeds, "block": self.block,
-                "decide": None if self.decide is None else list(self.decide)}
+                "decide": None if self.decide is None else list(self.decide), "judge": list(self.judge),
+                "joint": self.joint}
 
 
 def _whole(field: str, value: Any, low: int, high: int) -> int:
@@ -102,6 +120,13 @@ def make_until(data: Mapping[str, Any], algorithms: Sequence[str]) -> Until:
                       DEFAULT_MAX_SEEDS)
     block = field("block", lambda: _whole("until.block", data["block"], 1, MAX_SEEDS), DEFAULT_BLOCK)
     decide = field("decide", lambda: _pair(data["decide"], algorithms))
+    asked = data.get("judge")
+    judge = None if asked == [] and data.get("decide") is not None else field(  # a decide rule's own as_dict
+        "judge", lambda: _judged(asked, algorithms, of))
+    joint = field("joint", lambda: _flag("until.joint", data["joint"]), False)
+    if data.get("decide") is not None and (judge or joint):
+        errors.append(ConfigError("until.judge" if judge else "until.joint",
+                                  "goes with the half_width rule: decide judges its own pair"))
     if block > max_seeds:
         errors.append(ConfigError("until.block", f"must be at most max_seeds, {max_seeds} (got {block})"))
     if decide is None and half_width is None and not any(e.field in ("until.half_width", "until.decide")
@@ -115,7 +140,21 @@ def make_until(data: Mapping[str, Any], algorithms: Sequence[str]) -> Until:
         errors.append(ConfigError("until", f"has nothing to judge: {BASELINE} is the baseline of % from uniform; "
                                            f"run another algorithm beside it"))
     raise_all(errors)
-    return Until(half_width, of, max_seeds, block, decide)
+    if decide is None and not judge:
+        judge = default_judged(algorithms, of)
+    return Until(half_width, of, max_seeds, block, decide, tuple(judge or ()) if decide is None else (), joint)
+
+
+def default_judged(algorithms: Sequence[str], of: str) -> tuple[str, ...]:
+    """The configurations a half_width rule judges unless told: every one but uniform and the oracle.
+
+    Uniform is the reference (its % from uniform is 0) and the oracle a bound, not a configuration one asks
+    about; where nothing else runs, every configuration the rule can judge (not uniform's % from uniform).
+    """
+    asked = tuple(a for a in algorithms if a not in NOT_JUDGED)
+    if asked:
+        return asked
+    return tuple(a for a in algorithms if not (of == "pct_from_uniform" and a == BASELINE))
 
 
 def until_spec(system: str, algorithms: Sequence[str] | None, first_seed: int, episodes: int,
@@ -152,16 +191,52 @@ def _of(value: Any) -> str:
     return value
 
 
+def _canonical(field: str, value: Any, algorithms: Sequence[str]) -> list[str]:
+    """Labels of the algorithms run, in their canonical spelling (``mgrao-01:1`` is ``mgrao-1:1``)."""
+    if isinstance(value, str) or not isinstance(value, Sequence):
+        raise ConfigError(field, f"must be a list of the algorithms run (got {value!r})")
+    labels, missing = [], []
+    for label in value:
+        try:
+            canonical = parse_algorithm(label, None, field).label
+        except ConfigError:
+            canonical = label
+        if canonical in algorithms:
+            labels.append(canonical)
+        else:
+            missing.append(label)
+    if missing:
+        raise ConfigError(field, f"{', '.join(map(str, missing))}: not run by this experiment (algorithms: "
+                                 f"{', '.join(algorithms)})")
+    return labels
+
+
 def _pair(value: Any, algorithms: Sequence[str]) -> tuple[str, str]:
     if isinstance(value, str) or not isinstance(value, Sequence) or len(value) != 2:
         raise ConfigError("until.decide", f"must be two of the algorithms run (got {value!r})")
-    missing = [str(label) for label in value if label not in algorithms]
-    if missing:
-        raise ConfigError("until.decide", f"{', '.join(missing)}: not run by this experiment (algorithms: "
-                                          f"{', '.join(algorithms)})")
-    if value[0] == value[1]:
-        raise ConfigError("until.decide", f"must be two different algorithms (got {value[0]} twice)")
-    return str(value[0]), str(value[1])
+    a, b = _canonical("until.decide", value, algorithms)
+    if a == b:
+        raise ConfigError("until.decide", f"must be two different algorithms (got {a} twice)")
+    return a, b
+
+
+def _judged(value: Any, algorithms: Sequence[str], of: str) -> tuple[str, ...]:
+    labels = _canonical("until.judge", value, algorithms)
+    if not labels:
+        raise ConfigError("until.judge", "must name at least one of the algorithms run (omit it to judge every one "
+                                         "but uniform and the oracle)")
+    if len(set(labels)) < len(labels):
+        raise ConfigError("until.judge", f"names an algorithm twice (got {', '.join(labels)})")
+    if of == "pct_from_uniform" and BASELINE in labels:
+        raise ConfigError("until.judge", f"{BASELINE} is the baseline of % from uniform (0 on every seed): judge "
+                                         "other configurations, or of final_utility")
+    return tuple(labels)
+
+
+def _flag(field: str, value: Any) -> bool:
+    if not isinstance(value, bool):
+        raise ConfigError(field, f"must be true or false (got {value!r})")
+    return value
 
 
 def parse_until(text: str) -> dict[str, Any]:
@@ -181,10 +256,14 @@ def parse_until(text: str) -> dict[str, Any]:
         if not sep or not key:
             raise ConfigError("until", f"must be KEY=VALUE items between commas, e.g. half_width=2 or "
                                        f"decide=mgrao-5:1+mgrao-max (got {item!r})")
-        if key == "decide":
+        if key in ("decide", "judge"):
             data[key] = [label.strip() for label in value.split("+")]
         elif key == "of":
             data[key] = value
+        elif key == "joint":
+            if value not in ("true", "false"):
+                raise ConfigError("until.joint", f"must be true or false (got {value!r})")
+            data[key] = value == "true"
         else:
             try:
                 number = float(value)
@@ -211,6 +290,8 @@ class Verdict:
     seeds: int
     intervals: dict[str, tuple[float, float, float]]
     outcome: str | None = None
+    level: float = CONFIDENCE
+    """The level of each interval (Bonferroni's under a joint half_width rule: ``Until.level``, not stored)."""
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready (non-finite numbers as None)."""
@@ -220,25 +301,18 @@ class Verdict:
                 "intervals": {k: [clean(v) for v in value] for k, value in self.intervals.items()}}
 
 
-def cs_half_width(sd: float, n: int, confidence: float = CONFIDENCE, tuned_for: int = CS_TUNED_FOR) -> float:
-    """The half width of the two-sided asymptotic confidence sequence of a mean at ``n`` observations.
-
-    ``sd * sqrt(2 (n r + 1) / (n^2 r) * log(sqrt(n r + 1) / alpha))``, ``alpha = 1 - confidence``, ``r = rho^2``
-    chosen so that it is narrowest at ``tuned_for`` observations (Waudby-Smith et al. 2021, the
-    conjugate-mixture boundary: its mixture over a symmetric normal is a function of the sum's size, so one
-    ``alpha`` bounds both sides at once).
-    """
-    alpha = 1.0 - confidence
-    r = (-2.0 * math.log(alpha) + math.log(-2.0 * math.log(alpha) + 1.0)) / tuned_for
-    return sd * math.sqrt(2.0 * (n * r + 1.0) / (n * n * r) * math.log(math.sqrt(n * r + 1.0) / alpha))
-
-
 def judged_values(until: Until, finals: Mapping[str, Mapping[int, float]]) -> dict[str, dict[int, float]]:
-    """Per configuration, each seed's value of ``until.of`` (% from uniform: the seeds it pairs with)."""
+    """Per configuration judged, each seed's value of ``until.of`` (% from uniform: the seeds it pairs with).
+
+    The half_width rule's configurations (``until.judge``), or with ``decide`` every one but uniform's % from
+    uniform (the pair is taken from them).
+    """
+    wanted = set(until.judge) if until.decide is None else set(finals)
     if until.of == "final_utility":
-        return {label: dict(by_seed) for label, by_seed in finals.items()}
+        return {label: dict(by_seed) for label, by_seed in finals.items() if label in wanted}
     base = finals.get(BASELINE)
-    return {label: paired_pct_from_uniform(by_seed, base) for label, by_seed in finals.items() if label != BASELINE}
+    return {label: paired_pct_from_uniform(by_seed, base) for label, by_seed in finals.items()
+            if label != BASELINE and label in wanted}
 
 
 def judge(until: Until, finals: Mapping[str, Mapping[int, float]], seeds_run: int) -> Verdict:
@@ -246,13 +320,13 @@ def judge(until: Until, finals: Mapping[str, Mapping[int, float]], seeds_run: in
     values = judged_values(until, finals)
     done = seeds_run >= until.max_seeds
     if until.decide is None:
-        intervals = {label: mean_ci95(np.array(list(v.values()))) if v else (math.nan,) * 3
-                     for label, v in values.items()}
-        judged = min((len(v) for v in values.values()), default=0)  # % from uniform drops seeds it cannot pair
+        intervals = {label: mean_interval(np.array(list(values[label].values())), until.level)
+                     if values.get(label) else (math.nan,) * 3 for label in until.judge}
+        judged = min((len(values.get(label, ())) for label in until.judge), default=0)  # % drops unpaired seeds
         narrow = judged >= MIN_SEEDS and all(high - low <= 2 * until.half_width
                                              for _, low, high in intervals.values())
         reason = "half_width" if narrow else "max_seeds" if done else None
-        return Verdict(reason, seeds_run, intervals)
+        return Verdict(reason, seeds_run, intervals, level=until.level)
     a, b = until.decide
     if until.of == "pct_from_uniform" and BASELINE in until.decide:  # uniform's % is 0 on every seed it pairs with
         values[BASELINE] = {seed: 0.0 for seed in values[b if a == BASELINE else a]}
@@ -341,7 +415,7 @@ def run_until(spec: ExperimentSpec, until: Until, run_block: Callable[[Experimen
     verdict = Verdict(None, 0, {})
     while verdict.reason is None:
         if should_stop is not None and should_stop():
-            verdict = Verdict("cancelled", verdict.seeds, verdict.intervals, verdict.outcome)
+            verdict = Verdict("cancelled", verdict.seeds, verdict.intervals, verdict.outcome, verdict.level)
             break
         seeds = next_block(spec, until, verdict.seeds)
         result = run_block(replace(spec, seeds=tuple(seeds)))

@@ -82,11 +82,16 @@ def t_quantile(dof: int | np.ndarray, confidence: float = CONFIDENCE) -> float |
     return float(value[0]) if dofs.ndim == 0 else value.reshape(dofs.shape)
 
 
-def mean_ci95(samples: np.ndarray) -> tuple[float, float, float]:
-    """Mean and 95% t-interval ``(mean, low, high)``; the interval is NaN for one sample."""
+def mean_interval(samples: np.ndarray, confidence: float = CONFIDENCE) -> tuple[float, float, float]:
+    """Mean and its ``confidence`` t-interval ``(mean, low, high)``; the interval is NaN for one sample."""
     samples = np.asarray(samples, dtype=float)
     mean = float(samples.mean())
     if samples.size < 2:
         return mean, math.nan, math.nan
-    half = t_quantile(samples.size - 1) * float(samples.std(ddof=1)) / math.sqrt(samples.size)
+    half = t_quantile(samples.size - 1, confidence) * float(samples.std(ddof=1)) / math.sqrt(samples.size)
     return mean, mean - half, mean + half
+
+
+def mean_ci95(samples: np.ndarray) -> tuple[float, float, float]:
+    """Mean and 95% t-interval ``(mean, low, high)``; the interval is NaN for one sample."""
+    return mean_interval(samples, CONFIDENCE)

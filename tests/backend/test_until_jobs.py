@@ -77,6 +77,10 @@ def test_a_job_runs_blocks_until_its_rule_answers_as_in_process(client, single_w
     ({"until": {"half_width": 1}, "algorithms": ["mgrao-max"]}, "until.of", "pct_from_uniform needs uniform"),
     ({"until": {"half_width": 1, "bogus": 2}}, "until.bogus", ""),
     ({"until": {"half_width": 1}, "first_seed": 2**32 - 5}, "until.max_seeds", "the last seed"),
+    ({"until": {"half_width": 1, "judge": ["oracle"]}}, "until.judge", "oracle: not run by this experiment"),
+    ({"until": {"half_width": 1, "judge": ["uniform"]}}, "until.judge", "baseline of % from uniform"),
+    ({"until": {"decide": ["mgrao-max", "mgrao-1:1"], "joint": True}}, "until.joint", "goes with the half_width"),
+    ({"until": {"half_width": 1, "joint": "yes"}}, "until.joint", ""),
 ])
 def test_a_bad_rule_is_refused_naming_the_field_and_stores_nothing(client, body, field, words):
     answer = client.post("/api/jobs", json={"system": "single", "episodes": 10} | body)
@@ -138,3 +142,24 @@ def test_a_worker_killed_between_blocks_resumes_to_the_same_decision(tmp_path, d
         assert done["seeds"] == list(range(40, 40 + n)) and _stored_runs(db_url, job["id"]) == 3 * n
     finally:
         service.stop()
+
+
+def test_the_rule_judges_the_learners_not_the_oracle_by_default(client, single_worker):
+    # issue 47 item 4: the oracle's wide interval held cloud's rule to its max_seeds; now it is not judged unless
+    # asked, and a joint rule widens each judged interval to 1 - 0.05/k
+    body = {"system": "single", "episodes": 20, "algorithms": ["uniform", "mgrao-1:1", "mgrao-max", "oracle"]}
+    plain = client.post("/api/jobs", json=body | {"until": {"half_width": 1000, "max_seeds": 20}}).json()
+    asked = client.post("/api/jobs", json=body | {"until": {"half_width": 1000, "max_seeds": 20, "joint": True,
+                                                            "judge": ["MGRAO-MAX", "oracle"]}}).json()
+    decide = client.post("/api/jobs", json=body | {"until": {"decide": ["mgrao-01:1", "mgrao-max"],
+                                                             "max_seeds": 20}}).json()
+    assert plain["until"]["judge"] == ["mgrao-1:1", "mgrao-max"] and plain["until"]["joint"] is False
+    assert asked["until"]["judge"] == ["mgrao-max", "oracle"] and asked["until"]["joint"] is True
+    assert decide["until"]["decide"] == ["mgrao-1:1", "mgrao-max"] and decide["until"]["judge"] == []
+    drain(single_worker)
+    plain, asked = (client.get(f"/api/jobs/{job['id']}").json() for job in (plain, asked))
+    assert set(plain["stopped"]["intervals"]) == {"mgrao-1:1", "mgrao-max"}
+    assert set(asked["stopped"]["intervals"]) == {"mgrao-max", "oracle"}
+    _, low, high = asked["stopped"]["intervals"]["mgrao-max"]
+    _, low95, high95 = plain["stopped"]["intervals"]["mgrao-max"]
+    assert high - low > high95 - low95  # the same seeds, each interval at 97.5%

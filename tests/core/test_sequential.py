@@ -12,8 +12,17 @@ import pytest
 
 from mgrao_core import ConfigError, final_utilities, make_spec, run_experiment
 from mgrao_core.errors import ConfigErrors
-from mgrao_core.statistics.sequential import MIN_SEEDS, Until, cs_half_width, judge, make_until, parse_until, run_until
-from mgrao_core.statistics.student import mean_ci95, t_quantile
+from mgrao_core.statistics.confidence_sequence import cs_half_width, mixture_variance
+from mgrao_core.statistics.sequential import (
+    MIN_SEEDS,
+    Until,
+    judge,
+    judged_values,
+    make_until,
+    parse_until,
+    run_until,
+)
+from mgrao_core.statistics.student import mean_ci95, mean_interval, t_quantile
 
 LABELS = ("uniform", "mgrao-1:1", "mgrao-max")
 
@@ -62,7 +71,7 @@ def test_a_rule_with_nothing_to_judge_is_refused():
 
 def test_defaults_and_the_command_lines_form():
     assert make_until({"half_width": 2}, LABELS) == Until(half_width=2.0, of="pct_from_uniform", max_seeds=500,
-                                                          block=10, decide=None)
+                                                          block=10, decide=None, judge=("mgrao-1:1", "mgrao-max"))
     assert parse_until("half_width=1.5, max_seeds=200,block=20,decide=mgrao-max+mgrao-1:1,of=final_utility") == {
         "half_width": 1.5, "max_seeds": 200, "block": 20, "decide": ["mgrao-max", "mgrao-1:1"], "of": "final_utility"}
     with pytest.raises(ConfigError, match="KEY=VALUE"):
@@ -111,8 +120,8 @@ def test_the_half_width_rule_waits_for_the_minimum_and_stops_when_every_interval
 
 def test_the_decide_rule_takes_a_confidence_sequence_and_names_the_outcome():
     assert cs_half_width(1.0, 100) > t_quantile(99) / 10  # wider than a t-interval at the same count
-    assert cs_half_width(1.0, 100) == pytest.approx(0.30352, abs=1e-5)  # alpha 0.05 for both sides, tuned at 100
-    assert cs_half_width(1.0, 1000) < cs_half_width(1.0, 100) < cs_half_width(1.0, 10)
+    assert cs_half_width(1.0, 1000) < cs_half_width(1.0, 100) < cs_half_width(1.0, 20) < cs_half_width(1.0, 11)
+    assert math.isinf(cs_half_width(1.0, 10))  # at 95%, tuned at 100, nothing is excluded before 11 seeds
     rng = np.random.default_rng(4)
     uniform = np.ones(30)
     base = 1.2 + 0.05 * rng.standard_normal(30)
@@ -207,3 +216,99 @@ def test_the_table_says_why_it_stopped():
     last = done.stdout.strip().splitlines()[-1]
     assert last.startswith("stopped: decided after ") and "mgrao-max - uniform:" in last and "(mgrao-max)" in last
     assert not math.isnan(float(last.split(":")[-1].split()[0]))
+
+
+def test_the_rule_judges_what_is_asked_not_the_oracle_nor_uniform():
+    # issue 47 item 4: by default every configuration but uniform (the reference) and the oracle (a bound)
+    labels = ("uniform", "mgrao-1:1", "mgrao-max", "oracle")
+    assert make_until({"half_width": 2}, labels).judge == ("mgrao-1:1", "mgrao-max")
+    assert make_until({"half_width": 2, "of": "final_utility"}, labels).judge == ("mgrao-1:1", "mgrao-max")
+    assert make_until({"half_width": 2}, ("uniform", "oracle")).judge == ("oracle",)  # nothing else to ask about
+    assert make_until({"half_width": 2, "judge": ["mgrao-max", "oracle"]}, labels).judge == ("mgrao-max", "oracle")
+    assert make_until({"half_width": 2, "judge": ["MGRAO-MAX "]}, labels).judge == ("mgrao-max",)
+    # a wide oracle does not hold the rule: only the judged intervals count
+    rng = np.random.default_rng(0)
+    base = {s: 1.0 + rng.normal(0, 0.05) for s in range(20)}
+    finals = {"uniform": base, "mgrao-1:1": {s: 1.1 * f for s, f in base.items()},
+              "mgrao-max": {s: 1.2 * f for s, f in base.items()},
+              "oracle": {s: f * (1.5 + rng.normal(0, 0.5)) for s, f in base.items()}}
+    verdict = judge(make_until({"half_width": 2}, labels), finals, 20)
+    assert verdict.reason == "half_width" and set(verdict.intervals) == {"mgrao-1:1", "mgrao-max"}
+    everyone = judge(make_until({"half_width": 2, "judge": ["mgrao-1:1", "mgrao-max", "oracle"]}, labels), finals, 20)
+    assert everyone.reason is None and set(everyone.intervals) == {"mgrao-1:1", "mgrao-max", "oracle"}
+    for rule, field, words in (({"judge": ["bandit"]}, "until.judge", "not run"),
+                               ({"judge": ["uniform"]}, "until.judge", "baseline"),
+                               ({"judge": []}, "until.judge", "at least one"),
+                               ({"judge": ["mgrao-max", "MGRAO-MAX"]}, "until.judge", "twice"),
+                               ({"decide": ["mgrao-1:1", "mgrao-max"], "judge": ["mgrao-max"]}, "until.judge",
+                                "goes with the half_width rule"),
+                               ({"joint": "yes"}, "until.joint", "true or false")):
+        with pytest.raises(ConfigError) as error:
+            make_until({"half_width": 2} | rule, labels)
+        assert error.value.field == field and words in error.value.message, error.value
+
+
+def test_a_joint_rule_widens_each_interval_to_bonferronis_level():
+    labels = ("uniform", "mgrao-1:1", "mgrao-max")
+    rule = make_until({"half_width": 2, "joint": True}, labels)
+    assert rule.level == pytest.approx(1 - 0.05 / 2) and make_until({"half_width": 2}, labels).level == 0.95
+    rng = np.random.default_rng(1)
+    finals = {label: {s: 1.0 + k * 0.1 + rng.normal(0, 0.05) for s in range(30)} for k, label in enumerate(labels)}
+    one, both = judge(make_until({"half_width": 2}, labels), finals, 30), judge(rule, finals, 30)
+    values = judged_values(rule, finals)["mgrao-max"]
+    assert both.intervals["mgrao-max"] == pytest.approx(mean_interval(np.array(list(values.values())), 0.975))
+    assert both.intervals["mgrao-max"][2] - both.intervals["mgrao-max"][1] > \
+        one.intervals["mgrao-max"][2] - one.intervals["mgrao-max"][1]
+    assert both.level == pytest.approx(0.975)
+    assert parse_until("half_width=2,joint=true,judge=mgrao-max+mgrao-1:1") == {
+        "half_width": 2.0, "joint": True, "judge": ["mgrao-max", "mgrao-1:1"]}
+
+
+def test_a_rule_is_read_back_from_its_own_dict():
+    labels = ("uniform", "mgrao-1:1", "mgrao-max", "oracle")
+    for data in ({"half_width": 2}, {"half_width": 1, "joint": True, "judge": ["oracle"]},
+                 {"decide": ["mgrao-max", "mgrao-1:1"], "half_width": 2}, {"decide": ["mgrao-1:1", "oracle"]}):
+        rule = make_until(data, labels)
+        assert make_until(rule.as_dict(), labels) == rule
+
+
+def test_decide_reads_labels_in_any_spelling():
+    # issue 47 item 10: mgrao-01:1 is mgrao-1:1
+    rule = make_until({"decide": ["mgrao-01:1", " MGRAO-MAX"]}, ("uniform", "mgrao-1:1", "mgrao-max"))
+    assert rule.decide == ("mgrao-1:1", "mgrao-max")
+    with pytest.raises(ConfigError, match="twice"):
+        make_until({"decide": ["mgrao-1:1", "mgrao-01:1"]}, ("uniform", "mgrao-1:1", "mgrao-max"))
+
+
+def _bayes_factor(t: float, n: int, r: float) -> float:
+    """Rouder et al. (2009)'s one-sample Bayes factor for an effect size of prior N(0, r), written out."""
+    v, c = n - 1, 1 + n * r
+    return c ** -0.5 * ((1 + t * t / v) / (1 + t * t / (v * c))) ** ((v + 1) / 2)
+
+
+def test_the_confidence_sequence_is_where_the_sequential_t_reaches_one_over_alpha():
+    # issue 47 item 6: Lai's sequential t (normal data of unknown variance, any look) in place of the asymptotic
+    # normal mixture; it converges to that mixture as seeds grow
+    r = mixture_variance()
+    for n in (11, 12, 20, 50, 100, 1000, 10**5):
+        t = cs_half_width(1.0, n) * math.sqrt(n)
+        assert _bayes_factor(t, n, r) == pytest.approx(1 / 0.05, rel=1e-9)
+        assert _bayes_factor(0.99 * t, n, r) < 20 < _bayes_factor(1.01 * t, n, r)
+    normal_mixture = math.sqrt(2 * (100 * r + 1) / (100**2 * r) * math.log(math.sqrt(100 * r + 1) / 0.05))
+    assert normal_mixture == pytest.approx(0.30352, abs=1e-5)
+    assert cs_half_width(1.0, 100) / normal_mixture == pytest.approx(1.021, abs=0.001)
+    assert cs_half_width(1.0, 10**6) / math.sqrt(2 * (1e6 * r + 1) / (1e12 * r) * math.log(
+        math.sqrt(1e6 * r + 1) / 0.05)) == pytest.approx(1.0, abs=1e-4)
+
+
+def test_the_sequence_keeps_its_level_on_normal_data_looked_at_every_block():
+    # 2,000 sequences of 500 normal differences with mean 0, judged after every 10: at most 5% ever exclude 0
+    rng = np.random.default_rng(11)
+    x = rng.standard_normal((2000, 500))
+    sums, squares = np.cumsum(x, axis=1), np.cumsum(x * x, axis=1)
+    wrong = np.zeros(len(x), dtype=bool)
+    for n in range(20, 501, 10):
+        mean = sums[:, n - 1] / n
+        sd = np.sqrt((squares[:, n - 1] - n * mean**2) / (n - 1))
+        wrong |= np.abs(mean) > np.array([cs_half_width(s, n) for s in sd])
+    assert wrong.mean() <= 0.05

@@ -170,10 +170,11 @@ def test_a_job_run_until_decided_shows_why_it_stopped_and_its_intervals_narrowin
     page.goto(f"/#/jobs/{job['id']}")
     reason = page.locator("#rule-reason")
     reason.wait_for()
-    words = {"half_width": f"Stopped after {stopped['seeds']} seeds: every interval is within ±2.5",
+    words = {"half_width": f"Stopped after {stopped['seeds']} seeds: every judged interval is within ±2.5",
              "max_seeds": f"Stopped at max_seeds, {stopped['seeds']} seeds"}[stopped["reason"]]
     assert words in reason.inner_text()
-    assert "blocks of 10" in page.locator("#stopping-rule").inner_text()
+    rule = page.locator("#stopping-rule").inner_text()
+    assert "blocks of 10" in rule and "for mgrao-1:1, mgrao-max (each covering its own value 95% of the time" in rule
     rows = page.locator("#rule-intervals tbody tr")
     assert rows.count() == 2  # mgrao-1:1 and mgrao-max; uniform is the baseline, not judged
     page.locator("#rule-chart .main-svg").first.wait_for(timeout=60000)
@@ -206,20 +207,31 @@ def test_the_new_experiment_form_runs_seeds_until_decided(page, server, screensh
     page.fill("#until-half-width", "3")
     page.fill("#until-max-seeds", "40")
     page.fill("#until-first-seed", "200")
+    assert "every algorithm but uniform and oracle" in page.get_attribute("#until-judge", "placeholder")
+    page.fill("#until-judge", "oracle")  # not run by this job: refused beside its field
+    page.get_by_role("button", name="Run experiment").click()
+    judge_error = page.locator('.field[data-for="until.judge"] .field-error')
+    judge_error.wait_for(timeout=10000)
+    page.wait_for_function("(el) => el.textContent.includes('oracle: not run')", arg=judge_error.element_handle())
+    page.fill("#until-judge", "mgrao-max, mgrao-01:1")
+    page.locator("#until-joint").check()
     page.get_by_role("button", name="Run experiment").click()
     page.wait_for_url(re.compile(r"#/jobs/\d+$"))
     job_id = int(page.url.rsplit("/", 1)[1])
     done = wait_for(lambda: (lambda j: j if j["status"] == "succeeded" else None)(get_job(server, job_id)), 120,
                     "the job to stop")
-    assert done["until"] == {"half_width": 3.0, "of": "pct_from_uniform", "max_seeds": 40, "block": 10, "decide": None}
+    assert done["until"] == {"half_width": 3.0, "of": "pct_from_uniform", "max_seeds": 40, "block": 10, "decide": None,
+                             "judge": ["mgrao-max", "mgrao-1:1"], "joint": True}
     assert done["seeds"][0] == 200 and done["stopped"]["reason"] in ("half_width", "max_seeds")
     page.wait_for_function(  # the view polls the running job, and says why once it stopped (a new element)
         "n => { const el = document.getElementById('rule-reason'); "
         "return !!el && el.textContent.startsWith('Stopped') && el.textContent.includes(`${n} seeds`); }",
         arg=done["stopped"]["seeds"], timeout=30000)
+    assert "jointly: each at 97.5%, so that all 2 hold at once" in page.locator("#stopping-rule").inner_text()
     page.locator("#clone-job").click()  # a clone keeps the rule
     page.locator("#until-on:checked").wait_for(timeout=10000)
     assert page.input_value("#until-half-width") == "3" and page.input_value("#until-first-seed") == "200"
+    assert page.input_value("#until-judge") == "mgrao-max, mgrao-1:1" and page.is_checked("#until-joint")
     page.screenshot(path=str(screenshots / "new-experiment-until.png"), full_page=True)
 
 

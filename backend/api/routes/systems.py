@@ -92,6 +92,7 @@ def systems(settings: SettingsDep, db: DatabaseDep) -> dict:
                    "max_work": MAX_WORK, "work_factors": list(WORK_FACTORS),
                    "max_body_bytes": settings.max_body_bytes, "max_response_values": MAX_RESPONSE_VALUES,
                    "until": {"of": list(sequential.OF), "min_seeds": sequential.MIN_SEEDS,
+                             "not_judged": list(sequential.NOT_JUDGED),
                              "max_seeds": sequential.DEFAULT_MAX_SEEDS, "block": sequential.DEFAULT_BLOCK,
                              "max_half_width": sequential.MAX_HALF_WIDTH}},
         "studies": {"methods": list(search.METHODS), "metrics": list(search.METRICS),
