@@ -314,8 +314,11 @@ def _jobs(session: Session, job_ids: Sequence[int]) -> list[Job]:
 
 
 def _state(jobs: Sequence[Job]) -> tuple:
-    """What an answer about these jobs is made of: each job's id, state, end and configuration, in order."""
-    return tuple((job.id, job.status, job.finished_at, job.config_hash) for job in jobs)
+    """What an answer about these jobs is made of: each job's id, state, end, configuration and saved system.
+
+    (The saved system is a tag, which names its world's system: :func:`_system_names`.) In the order asked.
+    """
+    return tuple((job.id, job.status, job.finished_at, job.config_hash, saved_system_of(job.tags)) for job in jobs)
 
 
 def _head(jobs: Sequence[Job]) -> bytes:

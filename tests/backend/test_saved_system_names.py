@@ -93,6 +93,9 @@ def test_the_rule_for_a_world_of_several_names_or_of_a_saved_system_and_its_pres
     assert _names(client, b6, a6) == _names(client, a6, b6) == {("a12 = b12", "a12 = b12")}
     assert _names(client, a5, b6) == {("a12 = b12", "a12 = b12 (episodes=5)"), ("a12 = b12", "a12 = b12 (episodes=6)")}
     assert _names(client, a5, plain5, a6) == {("a12", "a12 (episodes=5)"), ("a12", "a12 (episodes=6)")}
+    # the name stands on the jobs' tags, so an answer kept for these jobs is not one named before a tag changed
+    assert client.patch(f"/api/jobs/{a5}", json={"tags": ["renamed"]}).status_code == 200
+    assert _names(client, a5, plain5) == {("single", "single")}
 
 
 def test_one_name_redefined_names_its_worlds_by_what_differs(client: TestClient, worker: Worker) -> None:
