@@ -19,8 +19,8 @@ in the same world") describes them.
   The environment sum-normalises them (only proportions matter, so values above 1 are read as
   they are; weights already summing to 1 within 1e-12 are taken unchanged; weights whose sum
   overflows are divided by their largest first); all zeros means uniform. A negative, non-finite,
-  misshapen or non-numeric action, or one for an agent that is not one, is refused naming the
-  child, before anything is stepped.
+  misshapen or non-numeric action (text, complex numbers, booleans), or one for an agent that is not one,
+  is refused naming the child, before anything is stepped.
 * **Observation**: what the paper lets a child see, what came back to it last episode, as a
   ``Dict`` of fixed-size ``(n_parents, types_per_composite)`` arrays, one entry per parent and per
   atomic task of the parent's composite task:
@@ -51,6 +51,10 @@ in the same world") describes them.
   (common random numbers); ``reset()`` without a seed draws a fresh world from the environment's
   generator, seeded by the last ``reset(seed=...)`` (Gymnasium's convention); the first ``reset()``
   without any gives the constructor's ``seed``.
+* **Reset options**: none. The vector environment refuses any option naming it (Gymnasium's autoreset sends
+  ``reset_mask`` to reset some worlds only, and a reset here starts every world); the one-world environments
+  refuse ``reset_mask`` too and ignore other keys, as PettingZoo's API test requires (it resets with
+  ``options={"options": 1}``). Nothing is reset by a refused call.
 * **Many worlds** (:func:`vector_env`): the same, world ``i`` being the engine's seed ``seeds[i]``, with
   a leading axis of length ``n_worlds`` on every action ``(n_worlds, n_types)``, observation entry,
   reward, termination, truncation and info entry, and on the spaces. ``reset(seed=s)`` with a whole
@@ -153,13 +157,22 @@ def allocations(action: Any, agent: str, n_types: int) -> np.ndarray:
     divided by its largest weight first.
 
     Raises:
-        ValueError: not finite numbers at least 0 of that shape (the message names the agent).
+        ValueError: not finite real numbers at least 0 of that shape (the message names the agent): complex
+            numbers and booleans (even one among numbers, which numpy would read as 1.0) are refused as the
+            weights they are not, as text is.
     """
     try:
-        weights = np.asarray(action, dtype=np.float64)
+        given = np.asarray(action)
+        odd = _not_real(given, action)
+        weights = given.astype(np.float64, copy=False) if odd is None and given.dtype.kind in "iufO" else None
     except (TypeError, ValueError):
+        odd, weights = None, None
+    if odd is not None:
+        raise ValueError(f"{agent}: an action is {n_types} real numbers, one weight per atomic type (got {odd}: "
+                         f"{str(action)[:60]})")
+    if weights is None:
         raise ValueError(f"{agent}: an action is {n_types} numbers, one weight per atomic type "
-                         f"(got {str(action)[:60]!r})") from None
+                         f"(got {str(action)[:60]!r})")
     if weights.ndim == 0 or weights.shape[-1] == 0:
         raise ValueError(f"{agent}: an action is {n_types} numbers, one weight per atomic type (got "
                          f"{str(action)[:60] if weights.ndim == 0 else 'none'})")
@@ -186,6 +199,63 @@ def allocations(action: Any, agent: str, n_types: int) -> np.ndarray:
         weights = weights / np.where(np.isfinite(total), 1.0, largest)
         total = weights.sum(axis=-1, keepdims=True)
     return np.where(np.abs(total - 1.0) <= NORMALISED, weights, eq.sumnorm(weights))
+
+
+def _not_real(given: np.ndarray, action: Any) -> str | None:
+    """What an action holds that a weight is not (``"complex numbers"``, ``"booleans"``), or None.
+
+    ``given`` is ``np.asarray(action)``; a list mixing booleans with numbers is read by numpy as numbers, so a
+    list's items are looked at too.
+    """
+    kind = given.dtype.kind
+    if kind == "c":
+        return "complex numbers"
+    if kind == "b":
+        return "booleans"
+    if kind == "O":
+        items = given.ravel().tolist()
+        if any(isinstance(x, complex | np.complexfloating) for x in items):
+            return "complex numbers"
+        return "booleans" if any(isinstance(x, bool | np.bool_) for x in items) else None
+    if kind in "iuf" and isinstance(action, list | tuple) and _holds_a_boolean(action):
+        return "booleans"
+    return None
+
+
+_PLAIN = frozenset({float, int, np.float64})
+"""The types of a list's items that are numbers and no booleans, for a quick look before a closer one."""
+
+
+def _holds_a_boolean(items: list | tuple) -> bool:
+    if _PLAIN.issuperset(map(type, items)):
+        return False
+    for item in items:
+        if isinstance(item, bool | np.bool_) or (isinstance(item, np.ndarray) and item.dtype.kind == "b"):
+            return True
+        if isinstance(item, list | tuple) and _holds_a_boolean(item):
+            return True
+    return False
+
+
+PARTIAL_RESET = "reset_mask"
+"""Gymnasium's vector option to reset some worlds only; no environment here can (a reset starts every world)."""
+
+
+def _options(options: Any, *, vector: bool) -> None:
+    """Refuse reset options the environment would not honour, naming them (module docstring: "Reset options").
+
+    The vector environment takes none: every option is refused (Gymnasium's autoreset sends ``reset_mask`` to
+    reset some worlds only). The one-world environments refuse ``reset_mask`` and ignore other keys, as
+    PettingZoo's API test requires of them (it resets with ``options={"options": 1}``).
+    """
+    if options is None:
+        return
+    if not isinstance(options, dict):
+        raise ConfigError("options", f"must be a dict of options or None (got {type(options).__name__})")
+    refused = sorted(map(str, options)) if vector else [PARTIAL_RESET] if PARTIAL_RESET in options else []
+    if refused:
+        raise ConfigError("options", f"unknown option{'s' if len(refused) > 1 else ''} {', '.join(refused)}: "
+                                     f"this environment takes none (a reset starts every world)")
 
 
 def _reward(value: Any) -> str:
@@ -371,7 +441,12 @@ class MgraoVectorEnv(ParallelEnv):
 
         Returns:
             Each child's observation (nothing received yet: every entry 0) and an empty info.
+
+        Raises:
+            ConfigError: bad seeds, or ``options`` other than None or ``{}`` (the environment takes none: a reset
+                starts every world, so Gymnasium's ``reset_mask`` is refused, naming it); nothing is reset.
         """
+        _options(options, vector=True)
         seeds = self.seeds if seed is None else _seeds(seed, self.n_worlds, "seed")
         block = min(self.episodes, DRAW_BLOCK, max(1, DRAWN_WORLD_EPISODES // self.n_worlds))
         self._worlds = SteppedWorlds(self.params, seeds, block=block)
@@ -557,7 +632,12 @@ class MgraoParallelEnv(ParallelEnv):
         Returns:
             Each child's observation (nothing received yet: every entry of what came back is 0) and an
             empty info.
+
+        Raises:
+            ConfigError: a bad seed, or ``options`` that are no dict or ask for ``reset_mask`` (a partial reset,
+                which one world cannot have), naming it; nothing is reset. Other keys are ignored (module docstring).
         """
+        _options(options, vector=False)
         if seed is not None:
             world_seed = _seed(seed)
             self._generator = np.random.default_rng(world_seed)
@@ -566,7 +646,7 @@ class MgraoParallelEnv(ParallelEnv):
             self._generator = np.random.default_rng(world_seed)
         else:
             world_seed = int(self._generator.integers(0, MAX_SEED_VALUE, endpoint=True))
-        observations, infos = self._vector.reset(seed=[world_seed], options=options)
+        observations, infos = self._vector.reset(seed=[world_seed])
         self.agents = list(self._vector.agents)
         return {agent: _first(observation) for agent, observation in observations.items()}, infos
 
@@ -656,7 +736,12 @@ class MgraoSingleChildEnv(gymnasium.Env):
         self.render_mode = None
 
     def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict]:
-        """Start the world of the engine's seed ``seed`` (without one, as :meth:`MgraoParallelEnv.reset`)."""
+        """Start the world of the engine's seed ``seed`` (without one, as :meth:`MgraoParallelEnv.reset`).
+
+        Raises:
+            ConfigError: as :meth:`MgraoParallelEnv.reset` (``options`` naming ``reset_mask``); nothing is reset.
+        """
+        _options(options, vector=False)
         super().reset(seed=seed)
         observations, infos = self.parallel.reset(seed=seed, options=options)
         return observations[self.agent], infos[self.agent]

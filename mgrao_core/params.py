@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import re
 from collections.abc import Mapping
 from typing import Any
 
@@ -371,6 +372,37 @@ parameters are fields without an edit here), and the derived values of :class:`_
 SystemParams = system_params_class(PARAMETERS)
 
 
+NUMBER_TEXT = r"^[ \t\n\r]*[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?[ \t\n\r]*$"
+"""A number written as text (the command line's ``--set``, or a string in JSON): plain decimal or exponent notation
+in ASCII digits (``12``, ``-0.25``, ``.5``, ``1e-3``), blanks around it ignored; a JSON Schema pattern as well."""
+_NUMBER_TEXT = re.compile(NUMBER_TEXT)
+_NOT_FINITE = ("inf", "infinity", "nan")
+
+
+def number_from_text(field: str, text: str) -> float:
+    """The number ``text`` writes, by the one rule for numbers given as text (:data:`NUMBER_TEXT`).
+
+    Python's ``float()`` reads more: ``"1_0"`` as 10, an Arabic-Indic or full-width ``"\u0663"`` as 3, ``"inf"``;
+    none of them is a number a person or a JSON client means to send, so each is refused.
+
+    Args:
+        field: what the text is the value of, named by the error.
+        text: the text.
+
+    Returns:
+        The number, as a float (possibly not finite: ``"1e400"``; the caller checks its own limits).
+
+    Raises:
+        ConfigError: the text is not plain decimal or exponent notation.
+    """
+    if _NUMBER_TEXT.match(text):
+        return float(text)
+    if text.strip(" \t\n\r").lower().lstrip("+-") in _NOT_FINITE:
+        raise ConfigError(field, f"must be a finite number (got {text!r})")
+    raise ConfigError(field, f"must be a number in plain decimal or exponent notation, such as 12, 0.25 or 1e-3 "
+                             f"(got {text[:60]!r})")
+
+
 _TRUE = ("true", "on", "yes", "1")
 _FALSE = ("false", "off", "no", "0")
 
@@ -451,10 +483,7 @@ def _coerce(param: Parameter, value: Any) -> Any:
         return value
     if isinstance(value, bool) or not isinstance(value, int | float):
         if isinstance(value, str):
-            try:
-                value = float(value)
-            except ValueError:
-                raise ConfigError(param.name, f"must be a number (got {value!r})") from None
+            value = number_from_text(param.name, value)
         else:
             raise ConfigError(param.name, f"must be a number (got {type(value).__name__})")
     if param.kind == "int":

@@ -229,7 +229,10 @@ class CompareGroup(BaseModel):
     algorithm: str
     label: str = Field(description="The algorithm, and where two configurations of one world share it, what tells "
                                    "them apart: 'mgrao-1:1 (learning_rate=0.2)', 'hedge (job 12)'.")
-    system: str
+    system: str = Field(description="The world's system: the saved system its jobs ran (GET /api/systems/saved), "
+                                    "else their preset (docs/statistics.md, \"Names\").")
+    base: str = Field(description="The preset the system is based on (the jobs' own system); the system itself for "
+                                  "a preset's jobs.")
     world: str = Field(description="The world's name: its system's, and where worlds share one, what differs.")
     params: dict[str, Any] = Field(description="The algorithm's own parameters (every learner parameter for a run "
                                                "logged from outside).")
@@ -316,8 +319,9 @@ class ComparisonStatistics(BaseModel):
     probability_of_improvement: dict[str, Estimate] = Field(description="'X>Y': P(X > Y), both orders of every pair.")
     head_to_head: dict[str, Any] = Field(description="pairs (HeadToHead per system) and tests (Holm's family).")
     protocol: dict[str, Any]
-    configurations: list[dict[str, Any]] = Field(description="Each configuration's system, label, algorithm, "
-                                                             "params, job_ids, mismatched_seeds.")
+    configurations: list[dict[str, Any]] = Field(description="Each configuration's system (its world's name), "
+                                                             "base (the preset), label, algorithm, params, job_ids, "
+                                                             "mismatched_seeds.")
 
 
 class SampleEfficiency(BaseModel):

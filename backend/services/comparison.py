@@ -17,7 +17,8 @@ sorted into *configurations* (:mod:`mgrao_core.statistics.pairing`): a world, a 
 * A run whose final utility is not finite (a corrupted or legacy store) takes no part: its seed is listed in
   ``non_finite_seeds``.
 * Worlds are named by their system, and where two worlds share one, by what differs between them:
-  ``single (episodes=200)``.
+  ``single (episodes=200)``. A world's system is the saved system its jobs ran where they ran one
+  (:func:`_system_names`): ``large30``, not its base ``large``.
 
 Every figure that relates two configurations is the core's (:mod:`mgrao_core.statistics`), on the seeds they
 share. Memory grows with the runs compared (a final and a digest each, numpy arrays) and with one
@@ -41,7 +42,7 @@ from sqlalchemy.orm import Session
 from backend.services.analysis import BAND_ARRAYS, BUILDS, RESULTS_CACHE, choose_points, described, dumps
 from backend.services.memory import trim
 from backend.store.crud import get_job, job_dict
-from backend.store.models import EXTERNAL, RUN_READ_BATCH, SUCCEEDED, Job, Run
+from backend.store.models import EXTERNAL, RUN_READ_BATCH, SUCCEEDED, Job, Run, saved_system_of
 from backend.store.summaries import summary_dict
 from mgrao_core import ConfigError, EpisodeStats, TaskCounts, complete_params, final_utilities, make_params, summarise
 from mgrao_core.algorithms import sort_key
@@ -128,6 +129,10 @@ class Gathered:
     worlds: dict[str, str]
     """World digest -> its name, in the order first met."""
     configurations: list[Configuration]
+    systems: dict[str, str] = field(default_factory=dict)
+    """World digest -> its system's name (:func:`_system_names`): a saved system's where its jobs ran one."""
+    bases: dict[str, str] = field(default_factory=dict)
+    """World digest -> the preset its system is based on (its jobs' ``system``)."""
 
     def of_world(self, digest: str) -> list[Configuration]:
         """The world's configurations in the order views show them."""
@@ -172,14 +177,43 @@ def _suffix(values: dict[str, Any], names: list[str]) -> str:
     return shown + (", ..." if len(names) > _SUFFIX_PARAMS else "")
 
 
-def _world_names(jobs: Sequence[Job]) -> dict[str, str]:
-    """Each world's name: its system's, and where several worlds share a system, what differs between them."""
+def _system_names(jobs: Sequence[Job]) -> tuple[dict[str, str], dict[str, str]]:
+    """Each world's system name and base preset, by world digest (docs/statistics.md, "Names").
+
+    A world's system is the saved system its jobs ran (their tag ``system:<name>``), even beside jobs of the
+    base preset with the same overrides: those are the same system, and the preset's name would present it
+    as the preset's (a 30-parent ``large30`` as the paper's ``large``). One definition saved under several
+    names, and run under each, is named by all of them in alphabetical order: ``large30 = thirty``. A world
+    none of whose jobs ran a saved system is named by its preset. The name is the system's, whatever the
+    world's episodes: every world of one system (one base, one set of parameters) in a comparison has the
+    same name, wherever its jobs come in the order asked.
+    """
+    saved: dict[str, set[str]] = {}
+    keys: dict[str, str] = {}
+    bases: dict[str, str] = {}
+    for job in jobs:
+        described = world(job.config)
+        key = json.dumps({"base": described["system"], "params": described["params"]}, sort_keys=True)
+        digest = world_digest(job.config)
+        keys[digest], bases[digest] = key, described["system"]
+        named = saved.setdefault(key, set())
+        if (name := saved_system_of(job.tags)) is not None:
+            named.add(name)
+    return {digest: " = ".join(sorted(saved[key])) or bases[digest] for digest, key in keys.items()}, bases
+
+
+def _world_names(jobs: Sequence[Job], systems: dict[str, str]) -> dict[str, str]:
+    """Each world's name: its system's (``systems``, by digest), and where worlds share one, what differs.
+
+    What differs between them may be their base preset too (one saved name, redefined on another base).
+    """
     worlds: dict[str, dict[str, Any]] = {}
     for job in jobs:
         digest = world_digest(job.config)
         if digest not in worlds:
             described = world(job.config)
-            worlds[digest] = {"system": job.system, "episodes": described["episodes"]} | described["params"]
+            worlds[digest] = {"system": systems[digest], "base": described["system"],
+                              "episodes": described["episodes"]} | described["params"]
     names = {}
     for digest, values in worlds.items():
         peers = {d: v for d, v in worlds.items() if v["system"] == values["system"]}
@@ -247,10 +281,11 @@ def gather(session: Session, jobs: Sequence[Job]) -> Gathered:
                 configurations.append(target)
             target.add(job, stored)
     _label(configurations)
-    names = _world_names(succeeded)
+    systems, bases = _system_names(succeeded)
+    names = _world_names(succeeded, systems)
     order = {d: i for i, d in enumerate(names)}
     configurations.sort(key=lambda c: (order[c.world], sort_key(c.algorithm), c.label))
-    return Gathered(list(jobs), names, configurations)
+    return Gathered(list(jobs), names, configurations, systems, bases)
 
 
 def _caveats(job: Job) -> list[str]:
@@ -263,7 +298,7 @@ def worlds_of(gathered: Gathered, curves: dict[str, dict[int, np.ndarray]] | Non
     for digest, name in gathered.worlds.items():
         configurations = gathered.of_world(digest)
         first = configurations[0].jobs[0]
-        out.append(World(name=name, system=first.system, episodes=first.config["episodes"],
+        out.append(World(name=name, system=gathered.systems[digest], episodes=first.config["episodes"],
                          finals={c.label: c.finals for c in configurations}, caveats=_caveats(first),
                          curves=None if curves is None else {c.label: curves[_key(c)] for c in configurations
                                                              if _key(c) in curves}))
@@ -279,8 +314,11 @@ def _jobs(session: Session, job_ids: Sequence[int]) -> list[Job]:
 
 
 def _state(jobs: Sequence[Job]) -> tuple:
-    """What an answer about these jobs is made of: each job's id, state, end and configuration, in order."""
-    return tuple((job.id, job.status, job.finished_at, job.config_hash) for job in jobs)
+    """What an answer about these jobs is made of: each job's id, state, end, configuration and saved system.
+
+    (The saved system is a tag, which names its world's system: :func:`_system_names`.) In the order asked.
+    """
+    return tuple((job.id, job.status, job.finished_at, job.config_hash, saved_system_of(job.tags)) for job in jobs)
 
 
 def _head(jobs: Sequence[Job]) -> bytes:
@@ -330,7 +368,8 @@ def _groups(session: Session, gathered: Gathered, points: int | None) -> list[di
             groups.append({
                 "config_hash": c.jobs[0].config_hash,
                 "config_hashes": list(dict.fromkeys(j.config_hash for j in c.jobs)),
-                "algorithm": c.algorithm, "label": c.label, "system": c.jobs[0].system, "world": name,
+                "algorithm": c.algorithm, "label": c.label, "system": gathered.systems[digest],
+                "base": gathered.bases[digest], "world": name,
                 "params": c.own, "external": c.external, "episodes_per_run": episodes,
                 "job_ids": list(dict.fromkeys(job_id for job_id, _, _ in c.taken.values())),
                 "mismatched_seeds": sorted(c.mismatched), "non_finite_seeds": sorted(c.non_finite),
@@ -399,7 +438,8 @@ def _add_task_rates(systems: dict[str, dict[str, dict[str, Any]]], gathered: Gat
 
 def _described_configurations(gathered: Gathered) -> list[dict[str, Any]]:
     """What each configuration of an answer is: its world, algorithm, own parameters, jobs and mismatched seeds."""
-    return [{"system": gathered.worlds[c.world], "label": c.label, "algorithm": c.algorithm, "params": c.own,
+    return [{"system": gathered.worlds[c.world], "base": gathered.bases[c.world], "label": c.label,
+             "algorithm": c.algorithm, "params": c.own,
              "external": c.external, "job_ids": list(dict.fromkeys(job_id for job_id, _, _ in c.taken.values())),
              "mismatched_seeds": sorted(c.mismatched), "non_finite_seeds": sorted(c.non_finite)}
             for c in gathered.configurations]

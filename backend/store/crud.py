@@ -15,7 +15,17 @@ from sqlalchemy.orm import Session
 import mgrao_core
 from backend.errors import Conflict, NotFound
 from backend.store.job_order import parse_sort
-from backend.store.models import CANCELLED, QUEUED, RUNNING, SAVED_SYSTEM_TAG_PREFIX, SIMULATION, Job, JobTag, utcnow
+from backend.store.models import (
+    CANCELLED,
+    QUEUED,
+    RUNNING,
+    SAVED_SYSTEM_TAG_PREFIX,
+    SIMULATION,
+    Job,
+    JobTag,
+    saved_system_of,
+    utcnow,
+)
 from mgrao_core import PRESETS, ExperimentSpec, complete_params
 from mgrao_core.statistics.sequential import Until, stopped_dict
 
@@ -52,8 +62,7 @@ def job_dict(job: Job | Row, config: dict[str, Any] | None = None) -> dict[str, 
         "created_at": iso(job.created_at), "started_at": iso(job.started_at),
         "finished_at": iso(job.finished_at), "duration_s": duration, "version": job.version,
         "study_id": job.study_id, "trial_id": job.trial_id, "kind": job.kind,
-        "saved_system": next((t.removeprefix(SAVED_SYSTEM_TAG_PREFIX) for t in job.tags
-                              if t.startswith(SAVED_SYSTEM_TAG_PREFIX)), None),
+        "saved_system": saved_system_of(job.tags),
         "until": config.get("until"), "stopped": stopped_of(job.status, config, job.stopped),
     }
 

@@ -117,6 +117,12 @@ SAVED_SYSTEM_TAG_PREFIX = "system:"
 """The tag a job of a saved system carries, before its name (``system:rush-hour``): the job's ``system`` is the base."""
 
 
+def saved_system_of(tags: Any) -> str | None:
+    """The saved system a job of these tags ran (its first tag ``system:<name>``), or None for a preset's job."""
+    return next((t.removeprefix(SAVED_SYSTEM_TAG_PREFIX) for t in tags or () if t.startswith(SAVED_SYSTEM_TAG_PREFIX)),
+                None)
+
+
 class Run(Base):
     """One (algorithm, seed) run of a job: every episode utility and the final weights.
 

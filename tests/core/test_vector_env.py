@@ -228,6 +228,8 @@ def test_bad_actions_are_refused_naming_the_child_and_nothing_is_stepped(make):
     env.reset()
     good = {agent: np.ones(env.action_space(agent).shape) for agent in env.agents}
     env.step(good)
+    mixed = good["child_2"].tolist()  # one True among numbers: numpy would read it as 1.0
+    (mixed[0] if isinstance(mixed[0], list) else mixed)[0] = True
     for actions, match in [
         (good | {"child_9": good["child_0"]}, "child_9: not an agent"),
         (good | {"parent_0": good["child_0"]}, "parent_0: not an agent"),
@@ -237,12 +239,45 @@ def test_bad_actions_are_refused_naming_the_child_and_nothing_is_stepped(make):
         (good | {"child_1": -good["child_1"]}, "child_1: weights must be finite and at least 0"),
         (good | {"child_0": np.ones(7)}, "child_0: an action is 20 weights"),
         ({"child_0": good["child_0"]}, "no action for child_1, child_2"),
+        # complex and boolean actions were stepped (the imaginary part dropped with a warning, booleans read as
+        # 0/1): refused as numbers they are not (issue 47, item 12)
+        (good | {"child_1": good["child_1"] + 0.5j}, "child_1: .*real numbers.* \\(got complex"),
+        (good | {"child_1": good["child_1"] + 0j}, "child_1: .*real numbers.* \\(got complex"),
+        (good | {"child_2": good["child_2"] > 0}, "child_2: .*real numbers.* \\(got booleans"),
+        (good | {"child_2": good["child_2"].astype(bool).tolist()}, "child_2: .*real numbers.* \\(got booleans"),
+        (good | {"child_2": mixed}, "child_2: .*real numbers.* \\(got booleans"),
     ]:
         with pytest.raises(ValueError, match=match):
             env.step(actions)
         assert env.episode == 1
     env.step(good)
     assert env.episode == 2
+
+
+@pytest.mark.parametrize("vector", [False, True], ids=["parallel", "vector"])
+def test_reset_refuses_options_it_would_not_honour_and_resets_nothing(vector):
+    # reset(options={"reset_mask": ...}) (Gymnasium's vector autoreset: reset these worlds only) was accepted and
+    # reset every world (issue 47, item 12). The vector environment takes no option; the one-world environment
+    # refuses reset_mask and ignores other keys, as PettingZoo's API test needs (options={"options": 1}).
+    env = vector_env("single", seeds=[0, 1], episodes=3) if vector else parallel_env("single", episodes=3)
+    env.reset()
+    env.step({agent: np.ones(env.action_space(agent).shape) for agent in env.agents})
+    seeds = env.world_seeds if vector else env.world_seed
+    refused = [({"reset_mask": np.array([True, False])}, "options: unknown option reset_mask: this environment "
+                                                         "takes none"),
+               ({"reset_mask": None, "b": 1}, "options: unknown option reset_mask: " if not vector else
+                "options: unknown options b, reset_mask: this environment takes none"),
+               (["reset_mask"], "options: must be a dict of options or None \\(got list\\)")]
+    if vector:
+        refused.append(({"options": 1}, "options: unknown option options: this environment takes none"))
+    for options, match in refused:
+        with pytest.raises(ConfigError, match=match):
+            env.reset(options=options)
+        assert env.episode == 1 and (env.world_seeds if vector else env.world_seed) == seeds  # nothing reset
+    env.reset(options={})  # no option at all, as None
+    if not vector:
+        env.reset(seed=1, options={"options": 1})  # PettingZoo's API test's probe
+    assert env.episode == 0
 
 
 # ---- what MARL libraries expect: state, team reward, a flat observation ------------------------------
