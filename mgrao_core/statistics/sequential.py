@@ -36,6 +36,7 @@ import numpy as np
 
 from mgrao_core.algorithms import parse_algorithm
 from mgrao_core.errors import ConfigError, raise_all
+from mgrao_core.params import number_from_text
 from mgrao_core.results import ExperimentResult
 from mgrao_core.spec import MAX_SEED_VALUE, MAX_SEEDS, ExperimentSpec, make_spec
 from mgrao_core.statistics.confidence_sequence import cs_half_width
@@ -265,10 +266,7 @@ def parse_until(text: str) -> dict[str, Any]:
                 raise ConfigError("until.joint", f"must be true or false (got {value!r})")
             data[key] = value == "true"
         else:
-            try:
-                number = float(value)
-            except ValueError:
-                raise ConfigError(f"until.{key}", f"must be a number (got {value!r})") from None
+            number = number_from_text(f"until.{key}", value)
             data[key] = int(number) if number.is_integer() and key != "half_width" else number
     return data
 

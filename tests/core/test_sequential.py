@@ -76,6 +76,9 @@ def test_defaults_and_the_command_lines_form():
         "half_width": 1.5, "max_seeds": 200, "block": 20, "decide": ["mgrao-max", "mgrao-1:1"], "of": "final_utility"}
     with pytest.raises(ConfigError, match="KEY=VALUE"):
         parse_until("half_width")
+    for text in ("half_width=1_0", "max_seeds=\u0663\u0660", "block=0x3"):  # plain decimal only (issue 47 item 9)
+        with pytest.raises(ConfigError, match="plain decimal or exponent notation"):
+            parse_until(text)
     assert parse_until("half_width=2,") == {"half_width": 2.0}  # a trailing comma is nothing
     with pytest.raises(ConfigError, match="is given twice") as twice:
         parse_until("of=final_utility,of=pct_from_uniform")
