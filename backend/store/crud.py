@@ -27,7 +27,7 @@ from backend.store.models import (
     utcnow,
 )
 from mgrao_core import PRESETS, ExperimentSpec, complete_params
-from mgrao_core.statistics.sequential import Until, stopped_dict
+from mgrao_core.statistics.sequential import Until, coverage_of, stopped_dict
 
 
 def config_hash(config: dict[str, Any]) -> str:
@@ -67,7 +67,6 @@ def job_dict(job: Job | Row, config: dict[str, Any] | None = None) -> dict[str, 
     }
 
 
-NOT_JUDGED = stopped_dict(())
 """What a job with a stopping rule says before its first block is judged."""
 
 
@@ -75,7 +74,7 @@ def stopped_of(status: str, config: dict[str, Any], stopped: dict[str, Any] | No
     """A job's ``stopped`` as the API shows it: None without a rule; a cancelled job's reason is ``cancelled``."""
     if not config.get("until"):
         return None
-    stopped = stopped or NOT_JUDGED
+    stopped = (stopped or stopped_dict((), config["until"])) | coverage_of(config["until"])  # stored before: added
     if status == CANCELLED and stopped["reason"] is None:
         return stopped | {"reason": "cancelled"}
     return stopped

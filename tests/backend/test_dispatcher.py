@@ -315,6 +315,6 @@ def test_a_job_with_a_stopping_rule_runs_block_by_block_and_its_successor_resume
     topology.start_dispatcher(MGRAO_JOB_MEMORY_MIB="16")
     job = topology.wait(job_id)
     expected = run_until(spec, until, run_experiment)
-    assert job.attempts == 2 and job.stopped == stopped_dict(expected.blocks)
+    assert job.attempts == 2 and job.stopped == stopped_dict(expected.blocks, until.as_dict())
     assert job.config["seeds"] == list(expected.result.spec.seeds)
     topology.assert_stored_exactly_once(job_id, expected.result.spec)
