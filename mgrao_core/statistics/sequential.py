@@ -399,8 +399,10 @@ def judge_first(spec: ExperimentSpec, until: Until, finals: Mapping[str, Mapping
 
 
 def stopped_dict(verdicts: Sequence[Verdict], rule: Mapping[str, Any]) -> dict[str, Any]:
-    """What a job says of its rule: the last verdict (none judged yet: reason null, 0 seeds) with ``blocks``, and
-    what its intervals cover (:func:`coverage_of` of the rule's dict)."""
+    """What a job says of its rule: the last verdict (none judged yet: reason null, 0 seeds) with ``blocks``.
+
+    With what its intervals cover (:func:`coverage_of` of the rule's dict).
+    """
     last = verdicts[-1] if verdicts else Verdict(None, 0, {})
     return last.as_dict() | coverage_of(rule) | {"blocks": [{"seeds": v.seeds, "intervals": v.as_dict()["intervals"]}
                                                             for v in verdicts]}
