@@ -31,7 +31,7 @@ import hashlib
 import json
 import math
 from collections import Counter
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -404,28 +404,65 @@ def standing_for(gathered: Gathered, job_ids: Sequence[int]) -> list[str]:
     return list(dict.fromkeys(gathered.worlds[world_digest(by_id[job_id].config)] for job_id in job_ids))
 
 
-def statistics(session: Session, *, job_ids: Sequence[int], repetitions: int, seed: int,
-               aggregate: Sequence[int] = ()) -> dict[str, Any]:
-    """``GET /api/compare/statistics`` as data: :func:`mgrao_core.statistics.comparison.compare` of the jobs.
+@dataclass(frozen=True)
+class Pending:
+    """An answer of the comparison statistics, to compute (docs/service.md, "Statistics under load").
+
+    ``key`` is what the answer is in :data:`RESULTS_CACHE` (the kind, its query and the jobs' state), ``build``
+    computes its bytes from a session of the caller's (a thread of the statistics' pool opens its own), and
+    :meth:`answer` gives the route's data from those bytes.
+    """
+
+    key: tuple
+    what: str
+    """How a log line names it."""
+    build: Callable[[Session], bytes]
+    extra: dict[str, Any] = field(default_factory=dict)
+    """Added to the cached answer's data (what is read afresh, not kept)."""
+
+    def cached(self) -> bytes | None:
+        """The kept answer, if any (nothing is computed)."""
+        return RESULTS_CACHE.get(self.key)
+
+    def compute(self, session: Session) -> bytes:
+        """The answer's bytes: kept, or built on ``session`` and kept."""
+        return RESULTS_CACHE.get_or_build(self.key, lambda: self.build(session))
+
+    def answer(self, body: bytes) -> dict[str, Any]:
+        """The route's data from the answer's bytes."""
+        return json.loads(body) | self.extra
+
+
+def pending_statistics(session: Session, *, job_ids: Sequence[int], repetitions: int, seed: int,
+                       aggregate: Sequence[int] = ()) -> Pending:
+    """``GET /api/compare/statistics``, to compute: :func:`mgrao_core.statistics.comparison.compare` of the jobs.
 
     ``aggregate``: jobs whose worlds stand for their systems in the aggregates (:func:`standing_for`).
     """
     jobs = _jobs(session, job_ids)
 
-    def build() -> bytes:
-        with BUILDS:
-            try:
-                gathered = gather(session, jobs)
-                answer = compare_worlds(worlds_of(gathered), repetitions=repetitions, seed=seed,
-                                        aggregate=standing_for(gathered, aggregate))
-                _add_task_rates(answer["systems"], gathered)
-                answer["configurations"] = _described_configurations(gathered)
-                return dumps(answer)
-            finally:
-                trim()
+    def build(s: Session) -> bytes:
+        try:
+            gathered = gather(s, jobs)
+            answer = compare_worlds(worlds_of(gathered), repetitions=repetitions, seed=seed,
+                                    aggregate=standing_for(gathered, aggregate))
+            _add_task_rates(answer["systems"], gathered)
+            answer["configurations"] = _described_configurations(gathered)
+            return dumps(answer)
+        finally:
+            trim()
 
-    body = RESULTS_CACHE.get_or_build(("statistics", repetitions, seed, tuple(aggregate), *_state(jobs)), build)
-    return json.loads(body) | {"jobs": [job.id for job in jobs]}
+    return Pending(("statistics", repetitions, seed, tuple(aggregate), *_state(jobs)),
+                   f"statistics of jobs {[job.id for job in jobs]} (reps={repetitions}, seed={seed}, "
+                   f"aggregate={list(aggregate)})", build,
+                   {"jobs": [job.id for job in jobs]})
+
+
+def statistics(session: Session, *, job_ids: Sequence[int], repetitions: int, seed: int,
+               aggregate: Sequence[int] = ()) -> dict[str, Any]:
+    """``GET /api/compare/statistics`` as data, computed here (:func:`pending_statistics`)."""
+    pending = pending_statistics(session, job_ids=job_ids, repetitions=repetitions, seed=seed, aggregate=aggregate)
+    return pending.answer(pending.compute(session))
 
 
 def _add_task_rates(systems: dict[str, dict[str, dict[str, Any]]], gathered: Gathered) -> None:
@@ -445,38 +482,44 @@ def _described_configurations(gathered: Gathered) -> list[dict[str, Any]]:
             for c in gathered.configurations]
 
 
-def sample_efficiency_answer(session: Session, *, job_ids: Sequence[int], points: int, repetitions: int,
-                             seed: int, aggregate: Sequence[int] = ()) -> dict[str, Any]:
-    """``GET /api/compare/sample-efficiency`` as data: IQM of the scores per bucket of episodes, with bands.
+def pending_sample_efficiency(session: Session, *, job_ids: Sequence[int], points: int, repetitions: int,
+                              seed: int, aggregate: Sequence[int] = ()) -> Pending:
+    """``GET /api/compare/sample-efficiency``, to compute: IQM of the scores per bucket of episodes, with bands.
 
     Each world's episodes are cut into ``points`` equal buckets (fewer when it has fewer episodes: then every
     world takes the smallest count), and a run's bucket is the mean of its utilities over it.
     """
     jobs = _jobs(session, job_ids)
 
-    def build() -> bytes:
-        with BUILDS:
-            try:
-                gathered = gather(session, jobs)
-                episodes = {digest: gathered.of_world(digest)[0].jobs[0].config["episodes"]
-                            for digest in gathered.worlds}
-                count = min([points, *episodes.values()]) if episodes else points
-                curves = {}
-                for c in gathered.configurations:
-                    edges = np.linspace(0, episodes[c.world], count + 1).round().astype(int)
-                    by_seed = {}
-                    for seed_, values in _taken_runs(session, c):
-                        by_seed[seed_] = np.add.reduceat(values, edges[:-1]) / np.diff(edges)
-                    curves[_key(c)] = by_seed
-                answer = sample_efficiency(worlds_of(gathered, curves), repetitions=repetitions, seed=seed,
-                                           aggregate=standing_for(gathered, aggregate))
-                answer["points"] = count
-                answer["episodes"] = {gathered.worlds[d]: np.linspace(0, e, count + 1).round().astype(int)[:-1].tolist()
-                                      for d, e in episodes.items()}
-                return dumps(answer)
-            finally:
-                trim()
+    def build(s: Session) -> bytes:
+        try:
+            gathered = gather(s, jobs)
+            episodes = {digest: gathered.of_world(digest)[0].jobs[0].config["episodes"] for digest in gathered.worlds}
+            count = min([points, *episodes.values()]) if episodes else points
+            curves = {}
+            for c in gathered.configurations:
+                edges = np.linspace(0, episodes[c.world], count + 1).round().astype(int)
+                by_seed = {}
+                for seed_, values in _taken_runs(s, c):
+                    by_seed[seed_] = np.add.reduceat(values, edges[:-1]) / np.diff(edges)
+                curves[_key(c)] = by_seed
+            answer = sample_efficiency(worlds_of(gathered, curves), repetitions=repetitions, seed=seed,
+                                       aggregate=standing_for(gathered, aggregate))
+            answer["points"] = count
+            answer["episodes"] = {gathered.worlds[d]: np.linspace(0, e, count + 1).round().astype(int)[:-1].tolist()
+                                  for d, e in episodes.items()}
+            return dumps(answer)
+        finally:
+            trim()
 
-    body = RESULTS_CACHE.get_or_build(("sample-efficiency", points, repetitions, seed, tuple(aggregate),
-                                       *_state(jobs)), build)
-    return json.loads(body)
+    return Pending(("sample-efficiency", points, repetitions, seed, tuple(aggregate), *_state(jobs)),
+                   f"sample efficiency of jobs {[job.id for job in jobs]} (points={points}, reps={repetitions}, "
+                   f"seed={seed})", build)
+
+
+def sample_efficiency_answer(session: Session, *, job_ids: Sequence[int], points: int, repetitions: int,
+                             seed: int, aggregate: Sequence[int] = ()) -> dict[str, Any]:
+    """``GET /api/compare/sample-efficiency`` as data, computed here (:func:`pending_sample_efficiency`)."""
+    pending = pending_sample_efficiency(session, job_ids=job_ids, points=points, repetitions=repetitions, seed=seed,
+                                        aggregate=aggregate)
+    return pending.answer(pending.compute(session))

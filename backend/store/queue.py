@@ -362,7 +362,9 @@ def finish_batch(db: Database, *, completed: Sequence[Completed]) -> dict[int, s
                             .values(status=SUCCEEDED, progress=1.0, finished_at=finished_at, lease=None, error=None)
                             .execution_options(synchronize_session=False))
         whole = [item for item in done if item.finals is not None]  # its rows are every run it has
-        summaries.write(session, {item.claim.job_id: summarise(item.finals) for item in whole},
+        summaries.write(session, {item.claim.job_id: summarise(summaries.in_seed_order(item.finals,
+                                                                                    item.claim.config["seeds"]))
+                                  for item in whole},
                         {item.claim.job_id: summaries.task_counts_of_rows(item.rows) for item in whole})
         for item in done:
             if item.finals is None:
