@@ -101,6 +101,8 @@ def chunk_cost(spec: Experiment, n_seeds: int) -> ChunkCost:
     per_seed_world = _F * (p.n_composite_types * types + 2 * parents * per_composite + children
                            + 2 * children * types)  # capability, resource per type
     worlds = n_seeds * (per_seed_world + _F * children * types)  # the stacked resources per type
+    if p.sparse:  # each seed's links, and their stacked copy
+        worlds += n_seeds * 2 * _F * parents * p.children_per_parent
     resources = p.n_resources
     if resources > 1:  # several resources: amounts, needs, each resource per type (and its stacked copy),
         # the one-split resource per type (the oracle's); the kernel's per-lane shares of each task's quality
@@ -114,7 +116,7 @@ def chunk_cost(spec: Experiment, n_seeds: int) -> ChunkCost:
         + 4  # the order's uniforms, their argsort, its stacked copy and int64 copy
         + 2  # volatility, and its stacked copy
         + (3 * per_composite if volatile and p.rejoin_profile == "new" else 0)  # rejoin profiles (+ gamma draws)
-        + (2 * 3 * choices if children > 1 else 0)  # routing uniforms, and their stacked copy
+        + (2 * 3 * choices if p.children_offered > 1 else 0)  # routing uniforms, and their stacked copy
         + (4 * per_composite + 1 if is_dynamic(p) else 0)  # event profiles and types, changes, arrivals (+ copies)
     )
     draws = _F * n_seeds * block * per_episode

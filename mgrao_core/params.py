@@ -32,6 +32,12 @@ MAX_RESOURCES = 8
 RESOURCE_COMBINATIONS = ("scarcest", "weighted")
 RESOURCE_CREDITS = ("shared", "by-share")
 HIERARCHIES = ("none", "borrow", "hand-over")
+TOPOLOGIES = ("complete", "ring", "random")
+"""Which children each parent offers its tasks to (docs/model.md, "Sparse worlds")."""
+MAX_AGENTS = 1_000_000
+"""The most parents, and the most children, a system may declare; what a job may hold is bounded by its bytes
+(:mod:`mgrao_core.budget`), checked before it runs."""
+MAX_CHILDREN_PER_PARENT = 10_000
 NEIGHBOURHOODS = ("all", "ring")
 
 
@@ -43,8 +49,10 @@ _ENVIRONMENT: tuple[Parameter, ...] = (
         "types_per_composite", "int", 5,
         "Distinct atomic types in each composite type (at most n_types).", "system", 1, 200, identity="always",
     ),
-    Parameter("n_parents", "int", 10, "Number of parent agents.", "system", 1, 3000, identity="always"),
-    Parameter("n_children", "int", 1, "Number of child agents.", "system", 1, 100, identity="always"),
+    Parameter("n_parents", "int", 10, "Number of parent agents (what a job may hold is bounded by its memory).",
+              "system", 1, MAX_AGENTS, identity="always"),
+    Parameter("n_children", "int", 1, "Number of child agents (what a job may hold is bounded by its memory).",
+              "system", 1, MAX_AGENTS, identity="always"),
     Parameter(
         "resource_mean", "float", 0.5,
         "Mean of each child's resource amount, Normal(mean, sd) clipped into (0, 1].",
@@ -98,6 +106,19 @@ _ALLOCATION: tuple[Parameter, ...] = (
         "composite quality it got back (per-composite), or chooses a child for each atomic task by the "
         "value it got back for that type (per-task).",
         "allocation", choices=ROUTINGS, identity="always",
+    ),
+    Parameter(
+        "topology", "choice", "complete",
+        "Which children each parent offers its tasks to: every child (complete, the paper's), the "
+        "children_per_parent nearest to it when parents and children are spread evenly on one ring (ring), or "
+        "children_per_parent drawn at random with the seed (random). A sparse world's cost and memory grow with "
+        "its links, not with children x parents.",
+        "allocation", choices=TOPOLOGIES, identity="when-set",
+    ),
+    Parameter(
+        "children_per_parent", "int", 8,
+        "Under topology ring or random: how many children each parent offers its tasks to (at most n_children).",
+        "allocation", 1, MAX_CHILDREN_PER_PARENT, identity="when-set",
     ),
     Parameter(
         "epsilon", "float", 0.1,
@@ -289,6 +310,16 @@ class _Derived:
     def effective_temperature(self) -> float:
         """The softmax temperature in use: ``temperature`` or, when unset, ``1 / n_types``."""
         return self.temperature if self.temperature is not None else 1.0 / self.n_types
+
+    @property
+    def sparse(self) -> bool:
+        """Whether each parent offers its tasks to some children only (``topology`` other than complete)."""
+        return self.topology != "complete"
+
+    @property
+    def children_offered(self) -> int:
+        """How many children each parent chooses among: ``children_per_parent`` in a sparse world, else all."""
+        return self.children_per_parent if self.sparse else self.n_children
 
     @property
     def tasks_can_fail(self) -> bool:
@@ -500,8 +531,13 @@ def _coerce(param: Parameter, value: Any) -> Any:
     low_ok = value > param.minimum if param.exclusive_minimum else value >= param.minimum
     if not low_ok or value > param.maximum:
         low = "(" if param.exclusive_minimum else "["
-        shown = f"{value:g}" if abs(value) < 1e15 else "a number too large"
-        raise ConfigError(param.name, f"must be in {low}{param.minimum:g}, {param.maximum:g}] (got {shown})")
+
+        def number(x: float) -> str:  # a whole number's every digit (1000000, not 1e+06)
+            return str(int(x)) if param.kind == "int" and abs(x) < 1e15 else f"{x:g}"
+
+        shown = number(value) if abs(value) < 1e15 else "a number too large"
+        limits = f"{low}{number(param.minimum)}, {number(param.maximum)}]"
+        raise ConfigError(param.name, f"must be in {limits} (got {shown})")
     return value
 
 
@@ -540,6 +576,12 @@ def make_params(overrides: Mapping[str, Any] | None = None, base: SystemParams |
         raise ConfigError(
             "types_per_composite",
             f"must be at most n_types = {values['n_types']} (got {values['types_per_composite']})",
+        )
+    if values["topology"] != "complete" and values["children_per_parent"] > values["n_children"]:
+        raise ConfigError(
+            "children_per_parent",
+            f"must be at most n_children = {values['n_children']} under topology={values['topology']} "
+            f"(got {values['children_per_parent']})",
         )
     if values["frequency_profile"] == "explicit" and len(values["composite_periods"]) != values["n_composite_types"]:
         raise ConfigError(

@@ -22,7 +22,7 @@ from mgrao_core import engine
 from mgrao_core.algorithms import LEARNERS, parse_algorithm
 from mgrao_core.lanes import allocate_lanes
 from mgrao_core.params import SystemParams
-from mgrao_core.runner import block_draws, kernel_failing, kernel_worlds
+from mgrao_core.runner import block_draws, kernel_failing, kernel_links, kernel_worlds
 from mgrao_core.world import EpisodeStreams, draw_world
 
 _NO_LEARNERS = (None,) * len(LEARNERS)
@@ -72,6 +72,7 @@ class SteppedWorlds:
         self._arrays["parent_types"][:] = np.stack([world.parent_types for world in worlds])
         self._lanes = engine.Lanes(**{name: self._arrays[name] for name in engine.Lanes._fields})
         self._worlds, self._several = kernel_worlds(p, worlds)
+        self._links = kernel_links(p, self.seeds)
         self._environment = engine.environment_of(p)
         self._streams = [EpisodeStreams(p, seed, world) for seed, world in zip(self.seeds, worlds, strict=True)]
         n, shape = len(worlds), (len(worlds), p.n_parents, p.types_per_composite)
@@ -117,8 +118,8 @@ class SteppedWorlds:
         else:  # each resource's allocation; the lanes' weights are the first resource's, as in a run
             self._arrays["fixed_weights"][:] = weights[:, :, 0]
             self._outside.resource_weights[:] = weights
-        arguments = (self._lanes, self._worlds, self._several, draws, self._environment, self._utility, self._outside,
-                     self._failing, *_NO_LEARNERS)
+        arguments = (self._lanes, self._worlds, self._several, self._links, draws, self._environment, self._utility,
+                     self._outside, self._failing, *_NO_LEARNERS)
         set_threads, get_threads = _thread_functions()
         threads = get_threads()
         set_threads(1)  # one episode is too short for numba's threads to pay for their start

@@ -1,4 +1,4 @@
-"""Sparse worlds (issue 42): each parent offers its tasks to a neighbourhood of children (docs/model.md, "Sparse worlds").
+"""Sparse worlds (issue 42): each parent offers its tasks to some children (docs/model.md, "Sparse worlds").
 
 The engine equals the dense per-agent reference under every topology on small worlds; the complete topology is
 today's world, bit for bit; a world's links are the ring's nearest children or a seed's random draw; the memory a

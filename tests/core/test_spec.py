@@ -119,7 +119,7 @@ def test_preset_algorithms_checked_against_overridden_parents():
 
 
 @pytest.mark.parametrize(("name", "value", "limit"), [
-    ("n_parents", 0, "[1, 3000]"), ("trace_decay", 1.0, "0.999"), ("learning_rate", -0.1, "[0, 1]"),
+    ("n_parents", 0, "[1, 1000000]"), ("trace_decay", 1.0, "0.999"), ("learning_rate", -0.1, "[0, 1]"),
     ("n_types", "abc", "must be a number"), ("bogus", 1, "unknown parameter"),
 ])
 def test_bad_parameters(name, value, limit):
