@@ -64,11 +64,11 @@ def target(episodes: int, topology: str) -> None:
           f"run_experiment {inside['seconds']:.1f} s; final utility {inside['final']:.1f}")
 
 
-def kernel_seconds(parents: int, children: int, topology: str, episodes: int) -> float:
-    """The median kernel time per episode (after the first) of ``mgrao-100:1`` at this size."""
+def kernel_seconds(parents: int, children: int, topology: str, episodes: int, label: str = LABEL) -> float:
+    """The median kernel time per episode (after the first) of ``label`` (``mgrao-100:1``) at this size."""
     from mgrao_core import engine, make_spec, runner
 
-    spec = make_spec("multi", [LABEL], [0], episodes, _overrides(topology, parents, children))
+    spec = make_spec("multi", [label], [0], episodes, _overrides(topology, parents, children))
     timed = []
     original = engine.run_block
 

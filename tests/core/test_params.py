@@ -124,7 +124,7 @@ def test_overrides_apply_on_the_base():
 
 def test_presets_match_the_paper():
     assert PAPER_SYSTEMS == ("single", "multi", "volatile", "large")
-    assert set(PRESETS) == {*PAPER_SYSTEMS, "drift", "bursty", "multi-resource", "cloud"}
+    assert set(PRESETS) == {*PAPER_SYSTEMS, "drift", "bursty", "multi-resource", "cloud", "edge"}
     assert all(PRESETS[name].paper_pct_from_uniform for name in PAPER_SYSTEMS)
     assert (PRESETS["single"].params.n_parents, PRESETS["single"].params.n_children) == (10, 1)
     assert PRESETS["multi"].params.n_children == 3

@@ -71,3 +71,29 @@ def test_ring_links_to_every_child_are_the_complete_world():
                                     {"topology": "ring", "children_per_parent": 3}))
     for a, b in zip(complete.runs, ring.runs, strict=True):
         np.testing.assert_array_equal(a.utilities, b.utilities)
+
+
+BIG = {"n_children": 10_000, "n_parents": 100_000, "topology": "ring", "children_per_parent": 8}
+
+
+def test_what_would_not_fit_is_refused_naming_the_bytes_and_what_fits_is_not():
+    # the paper's point measured: groups fit where a row per parent does not
+    from mgrao_core.budget import chunk_cost
+    from mgrao_core.errors import WorkLimitError
+
+    fits = make_spec("multi", ["uniform", "mgrao-100:1"], [0], 100, BIG)
+    assert chunk_cost(fits, 1).total < 2 * 1024**3
+    with pytest.raises(WorkLimitError) as error:
+        make_spec("multi", ["uniform", "mgrao-max"], [0], 100, BIG)
+    assert error.value.field == "memory"
+    assert "MiB, over the memory budget of 2,048 MiB per chunk" in error.value.message
+    needed = float(error.value.message.split("would need ")[1].split(" MiB")[0].replace(",", ""))
+    assert needed > 300 * 1024  # more than 300 GiB: a row of PW and trace for each of 100,000 parents, per child
+    with pytest.raises(WorkLimitError) as error:  # a complete world of that size: its estimates alone
+        make_spec("multi", ["uniform"], [0], 100, {"n_children": 10_000, "n_parents": 100_000})
+    assert error.value.field == "memory"
+    with pytest.raises(WorkLimitError):  # adaptive keeps statistics of every parent for every child, and visits them
+        make_spec("multi", ["mgrao-adaptive:100"], [0], 100, BIG)
+    # what grows with the children rather than the tasks counts towards the work limit
+    small = make_spec("multi", ["mgrao-adaptive:2"], [0, 1], 10, {"n_children": 50, "n_parents": 40})
+    assert small.group_updates == 2 * (10 * 40 * 5 * 2 + 10 * 40 * 50)
