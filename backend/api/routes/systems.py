@@ -103,7 +103,8 @@ def systems(settings: SettingsDep, db: DatabaseDep) -> dict:
         "studies": {"methods": list(search.METHODS), "metrics": list(search.METRICS),
                     "max_trials": search.MAX_TRIALS, "max_in_flight": search.MAX_IN_FLIGHT,
                     "max_dimensions": search.MAX_DIMENSIONS, "max_steps": search.MAX_STEPS,
-                    "max_values": search.MAX_VALUES, "group_label": search.GROUP_LABEL},
+                    "max_values": search.MAX_VALUES, "group_label": search.GROUP_LABEL,
+                    "team_label": search.TEAM_LABEL},
     }
 
 
