@@ -6,6 +6,8 @@ alike and show one PW; what a child learns and keeps is the team's divided by y;
 golden runs, tests/core/test_golden.py, hold it bit for bit).
 """
 
+import json
+
 import numpy as np
 import pytest
 
@@ -109,3 +111,23 @@ def test_a_shared_model_differs_from_its_members_own():
     assert not np.array_equal(own.group_weights, shared.group_weights)
     assert not np.array_equal(own.group_weights[0], own.group_weights[1])  # each child its own
 
+
+
+def test_the_command_line_names_the_valid_y_and_runs_a_shared_configuration():
+    from click.testing import CliRunner
+
+    from mgrao_cli.main import cli
+
+    runner = CliRunner()
+    listed = runner.invoke(cli, ["algorithms", "--system", "cloud"], catch_exceptions=False)
+    assert "mgrao-{x}:{y}: x parent groups per child, one model shared by each team of y children " \
+           "(x in 1, 2, 4, 5, 8, 10, 20, 40; y in 2, 4, 8)" in listed.output
+    described = runner.invoke(cli, ["algorithms", "--system", "cloud", "--label", "mgrao-5:2"], catch_exceptions=False)
+    assert "children sharing one model: 2" in described.output
+    refused = runner.invoke(cli, ["run", "--system", "multi", "--algorithms", "uniform,mgrao-5:2"])
+    assert refused.exit_code != 0
+    assert "algorithms[1]" in refused.output and "y must be a divisor of n_children = 3 (valid: 1, 3)" in refused.output
+    ran = runner.invoke(cli, ["run", "--system", "multi", "--algorithms", "uniform,mgrao-5:3", "--seeds", "2",
+                              "--episodes", "5", "--format", "json"], catch_exceptions=False)
+    assert ran.exit_code == 0, ran.output
+    assert set(json.loads(ran.stdout)["summary"]) == {"uniform", "mgrao-5:3"}
