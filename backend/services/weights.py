@@ -98,6 +98,24 @@ class Layout:
                     f"{self.children:,} children (at most {MAX_STORED_GROUP_VALUES:,} values){mean}")
         return None
 
+    @property
+    def mean_groups_shown(self) -> bool:
+        """Whether the answers show the PW's mean over children: stored, and within :data:`MAX_WEIGHT_VALUES`."""
+        return self.group_mean and self.resources * self.groups * self.types <= MAX_WEIGHT_VALUES
+
+    def means_column(self) -> Any:
+        """SQL expression of what an answer reads of the run's means over children: the PW's only where shown."""
+        return _substr(Run.child_means, 0, self.resources * self.types * (1 + self.groups * self.mean_groups_shown)
+                       * _F)
+
+    def mean_omitted(self) -> str:
+        """Why an answer's mean over children has no PW (the algorithm learns them)."""
+        values = self.resources * self.groups * self.types
+        if not self.group_mean:
+            return (f"one child's {values:,} parent-group weights exceed the {MAX_STORED_GROUP_VALUES:,} a run "
+                    "stores: their mean over children was not stored")
+        return f"{values:,} parent-group weights exceed the {MAX_WEIGHT_VALUES:,} shown"
+
     def stored_note(self) -> dict[str, Any]:
         """What each run of this layout keeps, as the ``children`` of an answer states it."""
         return {"total": self.children, "combined_stored": self.combined_children,
@@ -144,13 +162,16 @@ def _answer(combined: np.ndarray, groups: np.ndarray | None, n_groups: int, omit
 
 
 def _means(blob: bytes | None, layout: Layout) -> tuple[np.ndarray, np.ndarray | None] | None:
-    """A run's stored mean over every child: combined ``(resources, 1, types)`` and PW ``(resources, 1, m, types)``."""
+    """A run's mean over every child as read (:meth:`Layout.means_column`).
+
+    Combined ``(resources, 1, types)``, and PW ``(resources, 1, m, types)`` where shown.
+    """
     if not layout.means or not blob:
         return None
     values = np.frombuffer(blob, dtype="<f8")
     split = layout.resources * layout.types
     combined = values[:split].reshape(layout.resources, 1, layout.types)
-    if not layout.group_mean:
+    if not layout.mean_groups_shown:
         return combined, None
     return combined, values[split:].reshape(layout.resources, 1, layout.groups, layout.types)
 
@@ -188,12 +209,12 @@ def mean_over_seeds(session: Session, job_id: int, algorithm: str) -> dict[str, 
     omitted = layout.groups_shown(0, count) if layout.groups else None
     read_groups = layout.groups > 0 and omitted is None
     columns = [*layout.combined_page(0, count), *(layout.group_page(0, count) if read_groups else ()),
-               Run.child_means]
+               layout.means_column()]
     combined_sum = groups_sum = None
     means_sum: list[np.ndarray | None] | None = None
     runs = 0
     for row in session.execute(select(*columns).where(*of_config).execution_options(yield_per=RUN_READ_BATCH)):
-        combined = b"".join(row[: layout.resources])
+        combined = b"".join(part or b"" for part in row[: layout.resources])
         if not combined:  # a run logged from outside without its final weights
             continue
         values = np.frombuffer(combined, dtype="<f8")
@@ -208,20 +229,15 @@ def mean_over_seeds(session: Session, job_id: int, algorithm: str) -> dict[str, 
         runs += 1
     if combined_sum is None:  # deleted meanwhile
         return {"combined": [], "groups": []}
-    shape = (layout.resources, count, layout.types)
-    groups = None if groups_sum is None else (groups_sum / runs).reshape(*shape[:2], layout.groups, layout.types)
-    out = _answer((combined_sum / runs).reshape(shape), groups, layout.groups, omitted)
+    groups = None if groups_sum is None else (groups_sum / runs).reshape(layout.resources, count, layout.groups,
+                                                                         layout.types)
+    out = _answer((combined_sum / runs).reshape(layout.resources, count, -1), groups, layout.groups, omitted)
     if _paged(layout, False):
         out["children"] = _page(layout, 0, count)
     if means_sum is not None:
         out["mean_over_children"] = _answer(means_sum[0] / runs, None if means_sum[1] is None else means_sum[1] / runs,
-                                            layout.groups, _mean_omitted(layout))
+                                            layout.groups, layout.mean_omitted())
     return out
-
-
-def _mean_omitted(layout: Layout) -> str:
-    return (f"one child's {layout.resources * layout.groups * layout.types:,} parent-group weights exceed the "
-            f"{MAX_STORED_GROUP_VALUES:,} a run stores: their mean over children was not stored")
 
 
 def _membership(blob: bytes, meta: dict[str, Any], offset: int, count: int) -> dict[str, Any]:
@@ -289,9 +305,10 @@ def of_seed(session: Session, *, job_id: int, seed: int | None = None, child_off
         layout = layouts[run_id]
         omitted = layout.groups_shown(offset, count) if layout.groups else None
         reads = [*layout.combined_page(offset, count),
-                 *(layout.group_page(offset, count) if layout.groups and omitted is None else ()), Run.child_means]
+                 *(layout.group_page(offset, count) if layout.groups and omitted is None else ()),
+                 layout.means_column()]
         blobs = session.execute(select(*reads).where(Run.id == run_id)).one()
-        combined = np.frombuffer(b"".join(blobs[: layout.resources]), dtype="<f8").reshape(
+        combined = np.frombuffer(b"".join(part or b"" for part in blobs[: layout.resources]), dtype="<f8").reshape(
             layout.resources, count, -1)  # (resources, count, 0) for a run logged without its final weights
         groups = None
         if layout.groups and omitted is None:  # a PW too large to show, or not stored, is never read
@@ -302,7 +319,7 @@ def of_seed(session: Session, *, job_id: int, seed: int | None = None, child_off
             answer["children"] = _page(layout, offset, count)
         means = _means(blobs[-1], layout)
         if means is not None:
-            answer["mean_over_children"] = _answer(means[0], means[1], layout.groups, _mean_omitted(layout))
+            answer["mean_over_children"] = _answer(means[0], means[1], layout.groups, layout.mean_omitted())
         answer["membership"] = None if not membership_meta else _membership(
             session.scalar(select(Run.membership).where(Run.id == run_id)), membership_meta, offset, count)
         configurations.append(answer)
