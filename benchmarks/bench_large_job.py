@@ -12,7 +12,8 @@
 
 Run:  python benchmarks/bench_large_job.py [--children 10000] [--parents 100000] [--per-parent 8]
       [--algorithms uniform,mgrao-10:1,mgrao-100:1] [--seeds 2] [--episodes 100] [--repeat 5]
-      [--database-url postgresql+psycopg://...] [--no-browser]
+      [--postgres | --database-url postgresql+psycopg://...] [--no-browser]
+      (``--postgres``: a throwaway PostgreSQL server, as the tests start one: tests/support/postgres.py)
 """
 
 from __future__ import annotations
@@ -93,8 +94,8 @@ def stored_bytes(url: str, job_id: int) -> list[dict]:
     from backend.store.db import Database
     from backend.store.models import Run
 
-    columns = [c for c in ("utilities", "combined_weights", "group_weights", "membership", "combined_mean",
-                           "group_mean") if hasattr(Run, c)]
+    columns = [c for c in ("utilities", "combined_weights", "group_weights", "child_means", "membership")
+               if hasattr(Run, c)]  # child_means since migration 0017
     db = Database(url)
     try:
         with db.session() as session:
@@ -107,7 +108,8 @@ def stored_bytes(url: str, job_id: int) -> list[dict]:
 
 
 def timed_reads(base: str, job_id: int, children: int, repeat: int) -> None:
-    """The API reads a job page and compare make, and the weights' pages, each answer's median time and size."""
+    """The API reads a job page and compare make, and the weights' pages: each answer's first and median time (the
+    first builds what a succeeded job's results cache), and its size."""
     paths = {
         "GET /api/jobs/{id}": f"/jobs/{job_id}",
         "GET /api/jobs/{id}/results?points=600": f"/jobs/{job_id}/results?points=600",
@@ -127,7 +129,7 @@ def timed_reads(base: str, job_id: int, children: int, repeat: int) -> None:
         except urllib.error.HTTPError as error:
             print(f"  {label}: {error.code} {error.read()[:200]!r}")
             continue
-        print(f"  {label}: median {median_ms(times)}, {size / 1e6:.2f} MB")
+        print(f"  {label}: first {times[0] * 1000:.0f} ms, median {median_ms(times)}, {size / 1e6:.2f} MB")
 
 
 def browser_loads(base: str, job_id: int, repeat: int) -> None:
@@ -172,11 +174,28 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=100)
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--database-url", default=None)
+    parser.add_argument("--postgres", action="store_true", help="a throwaway PostgreSQL server for the run")
     parser.add_argument("--no-browser", action="store_true")
     args = parser.parse_args()
 
+    postgres = None
+    if args.postgres:
+        from tests.support.postgres import PostgresServer
+
+        postgres = PostgresServer().start()
+        args.database_url = postgres.create_database()
+    try:
+        run(args)
+    finally:
+        if postgres is not None:
+            postgres.stop()
+
+
+def run(args: argparse.Namespace) -> None:
+    """One service, one job, its figures."""
     tmp = Path(tempfile.mkdtemp(prefix="mgrao-bench-large-"))
     url = args.database_url or f"sqlite:///{tmp / 'bench.db'}"
+    print(f"database: {url.split('://', 1)[0]}; load average {os.getloadavg()[0]:.1f}")
     port = free_port()
     base = f"http://127.0.0.1:{port}"
     env = {k: v for k, v in os.environ.items() if not k.startswith("MGRAO_")}
@@ -220,14 +239,16 @@ def main() -> None:
               f"{sampler.workers_peak / MIB:.0f} MiB")
         print("stored per run (bytes):")
         for row in stored_bytes(url, job["id"]):
-            print("  " + ", ".join(f"{k} {v:,}" if isinstance(v, int) and k != "seed" else f"{k} {v}"
-                                   for k, v in row.items()))
+            sizes = {k: v for k, v in row.items() if k not in ("algorithm", "seed")}
+            print(f"  {row['algorithm']} seed {row['seed']}: " + ", ".join(f"{k} {v:,}" for k, v in sizes.items())
+                  + f"; {sum(sizes.values()) / 1e6:.1f} MB")
         sampler.api_peak = 0
         print(f"API reads (median of {args.repeat}):")
         timed_reads(base, job["id"], args.children, args.repeat)
         if not args.no_browser:
             browser_loads(base, job["id"], args.repeat)
-        print(f"API process peak while reading: {sampler.api_peak / MIB:.0f} MiB")
+        print(f"API process peak while reading: {sampler.api_peak / MIB:.0f} MiB; load average "
+              f"{os.getloadavg()[0]:.1f}")
     finally:
         if sampler is not None:
             sampler.done.set()

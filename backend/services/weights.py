@@ -212,7 +212,7 @@ def mean_over_seeds(session: Session, job_id: int, algorithm: str) -> dict[str, 
                layout.means_column()]
     combined_sum = groups_sum = None
     means_sum: list[np.ndarray | None] | None = None
-    runs = 0
+    runs = mean_runs = 0
     for row in session.execute(select(*columns).where(*of_config).execution_options(yield_per=RUN_READ_BATCH)):
         combined = b"".join(part or b"" for part in row[: layout.resources])
         if not combined:  # a run logged from outside without its final weights
@@ -226,6 +226,7 @@ def mean_over_seeds(session: Session, job_id: int, algorithm: str) -> dict[str, 
         if means is not None:
             means_sum = list(means) if means_sum is None else [
                 a + b if a is not None and b is not None else None for a, b in zip(means_sum, means, strict=True)]
+            mean_runs += 1
         runs += 1
     if combined_sum is None:  # deleted meanwhile
         return {"combined": [], "groups": []}
@@ -235,8 +236,8 @@ def mean_over_seeds(session: Session, job_id: int, algorithm: str) -> dict[str, 
     if _paged(layout, False):
         out["children"] = _page(layout, 0, count)
     if means_sum is not None:
-        out["mean_over_children"] = _answer(means_sum[0] / runs, None if means_sum[1] is None else means_sum[1] / runs,
-                                            layout.groups, layout.mean_omitted())
+        combined_mean, groups_mean = (None if mean is None else mean / mean_runs for mean in means_sum)
+        out["mean_over_children"] = _answer(combined_mean, groups_mean, layout.groups, layout.mean_omitted())
     return out
 
 

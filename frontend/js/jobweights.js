@@ -105,9 +105,9 @@ export function weightsSection({ jobId, results, plots, state }) {
   };
 
   const offsetOf = (x) => (x.children ? x.children.offset : 0);
-  // the page of one seed's answer that holds the chosen child: the first page, or that child alone
-  const pageFor = () => (paging && !state.whole && (state.child || 0) >= paging.count
-    ? { child_offset: state.child, children: 1 } : undefined);
+  // a large system's view shows one child (or the mean over every child, in every answer): it asks for that child
+  // alone, a few kB, not the default page of 100 children's weights
+  const pageFor = () => (paging ? { child_offset: state.child || 0, children: 1 } : undefined);
   const covers = (a) => !paging || a.seed === MEAN || state.whole || a.configurations.every((x) =>
     (state.child || 0) >= offsetOf(x) && (state.child || 0) < offsetOf(x) + x.combined.length);
 
