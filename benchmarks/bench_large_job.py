@@ -116,6 +116,8 @@ def timed_reads(base: str, job_id: int, children: int, repeat: int) -> None:
         "GET /api/jobs/{id}/weights": f"/jobs/{job_id}/weights",
         f"GET /api/jobs/{{id}}/weights?child_offset={children - 100}": f"/jobs/{job_id}/weights?child_offset="
                                                                      f"{children - 100}",
+        "GET /api/jobs/{id}/weights?child_offset=5000&children=1 (the job page's)":
+            f"/jobs/{job_id}/weights?child_offset=5000&children=1",
         "GET /api/compare?jobs={id}&points=500": f"/compare?jobs={job_id}&points=500",
         "GET /api/jobs?limit=50": "/jobs?limit=50",
     }
