@@ -1092,10 +1092,25 @@ def parallel_env(system: str = "single", seed: int = 0, episodes: int = 100, *, 
                             learned_numbers=learned_numbers, **params)
 
 
+GYMNASIUM_INFO = {"episode": "episode_index", "_episode": "_episode_index"}
+"""Info keys renamed where the environment is seen as a Gymnasium one (:class:`MgraoSingleChildEnv`, an agent's
+view of the vector environment in :mod:`mgrao_core.per_agent`): Gymnasium's ``RecordEpisodeStatistics`` writes its
+statistics under ``"episode"`` and refuses an info that has one."""
+
+
+def gymnasium_info(info: dict[str, Any]) -> dict[str, Any]:
+    """An info as a Gymnasium environment gives it (:data:`GYMNASIUM_INFO`; a ``final_info`` in it too), a new dict."""
+    renamed = {GYMNASIUM_INFO.get(key, key): value for key, value in info.items()}
+    if isinstance(renamed.get("final_info"), dict):
+        renamed["final_info"] = gymnasium_info(renamed["final_info"])
+    return renamed
+
+
 class MgraoSingleChildEnv(gymnasium.Env):
     """A one-child system as a Gymnasium ``Env``: the :class:`MgraoParallelEnv` of its only child.
 
-    The spaces, reward and info are that child's; ``reset(seed=s)`` also gives the world of the
+    The spaces, reward and info are that child's (its episode's index as ``"episode_index"``: :data:`GYMNASIUM_INFO`);
+    ``reset(seed=s)`` also gives the world of the
     engine's seed ``s`` (and seeds ``np_random``, which the environment itself never draws from).
     Build it with :func:`single_agent_env`.
     """
@@ -1128,7 +1143,7 @@ class MgraoSingleChildEnv(gymnasium.Env):
         """One episode with the child's allocation ``action`` (see :meth:`MgraoParallelEnv.allocation`)."""
         observations, rewards, terminations, truncations, infos = self.parallel.step({self.agent: action})
         a = self.agent
-        return observations[a], rewards[a], terminations[a], truncations[a], infos[a]
+        return observations[a], rewards[a], terminations[a], truncations[a], gymnasium_info(infos[a])
 
 
 def single_agent_env(system: str = "single", seed: int = 0, episodes: int = 100, *, dtype: Any = np.float64,

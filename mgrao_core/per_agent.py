@@ -13,8 +13,9 @@ So the wrappers run unchanged, per agent: each agent's ``RecordEpisodeStatistics
 each ``NormalizeObservation`` keeps that agent's running mean. Wrappers of observations, rewards and infos run
 this way; one that changes the action on its way down cannot (the agents act together, and the step is taken with
 the actions given to :meth:`PerAgent.step`): the view refuses it, naming the agent. In a view's infos the
-environment's ``"episode"`` (the episode's index) is ``"episode_index"``: Gymnasium's ``RecordEpisodeStatistics``
-writes its statistics under ``"episode"``. docs/platform.md ("Learners from other libraries") shows it.
+environment's ``"episode"`` (the episode's index) is ``"episode_index"`` (:func:`mgrao_core.env.gymnasium_info`):
+Gymnasium's ``RecordEpisodeStatistics`` writes its statistics under ``"episode"``. docs/platform.md ("Learners
+from other libraries") shows it.
 """
 
 from __future__ import annotations
@@ -25,19 +26,9 @@ from typing import Any
 import gymnasium
 from gymnasium import spaces
 
+from mgrao_core.env import gymnasium_info
+
 __all__ = ["AgentVectorEnv", "PerAgent", "per_agent"]
-
-RENAMED = {"episode": "episode_index", "_episode": "_episode_index"}
-"""Info keys a view renames: Gymnasium's ``RecordEpisodeStatistics`` keeps ``"episode"`` for its statistics."""
-
-
-def _info(info: dict[str, Any]) -> dict[str, Any]:
-    """One agent's infos as its view gives them (:data:`RENAMED`; ``final_info`` too), a new dict."""
-    renamed = {RENAMED.get(key, key): value for key, value in info.items()}
-    if isinstance(renamed.get("final_info"), dict):
-        renamed["final_info"] = _info(renamed["final_info"])
-    return renamed
-
 
 class AgentVectorEnv(gymnasium.vector.VectorEnv):
     """One agent's view of a vector environment, a ``gymnasium.vector.VectorEnv`` (built by :func:`per_agent`).
@@ -68,7 +59,7 @@ class AgentVectorEnv(gymnasium.vector.VectorEnv):
     def reset(self, *, seed: Any = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
         """The agent's part of the environment's reset (the seed and options given to :meth:`PerAgent.reset`)."""
         observations, infos = self._joint._answer("reset", self.agent, None)
-        return observations[self.agent], _info(infos[self.agent])
+        return observations[self.agent], gymnasium_info(infos[self.agent])
 
     def step(self, actions: Any) -> tuple[Any, Any, Any, Any, dict[str, Any]]:
         """The agent's part of the environment's step (taken with every agent's action given to :meth:`PerAgent.step`).
@@ -78,7 +69,7 @@ class AgentVectorEnv(gymnasium.vector.VectorEnv):
         """
         observations, rewards, terminations, truncations, infos = self._joint._answer("step", self.agent, actions)
         a = self.agent
-        return observations[a], rewards[a], terminations[a], truncations[a], _info(infos[a])
+        return observations[a], rewards[a], terminations[a], truncations[a], gymnasium_info(infos[a])
 
     def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
         """Each world's answer to ``name`` (the environment's ``call``)."""

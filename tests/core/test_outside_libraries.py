@@ -149,3 +149,26 @@ def test_supersuit_starts_each_copy_afresh_as_parallel_envs_reset_does():
         single.reset()
         expected.append(single.world_seed)
     assert [copy.par_env.world_seed for copy in vector.vec_envs] == expected
+
+
+def test_gymnasiums_own_vectoriser_and_statistics_run_on_the_single_agent_env():
+    # Gymnasium's RecordEpisodeStatistics refused its info at an episode's end: the info's "episode" (the index)
+    # is the key it writes its statistics under (the index is now "episode_index" there)
+    import gymnasium
+    from gymnasium.wrappers import RecordEpisodeStatistics as RecordOne
+
+    from mgrao_core.env import single_agent_env
+
+    one = RecordOne(single_agent_env("single", episodes=3))
+    one.reset(seed=4)
+    for _ in range(2):
+        one.step(np.ones(20))
+    *_, truncated, info = one.step(np.ones(20))
+    assert truncated and info["episode_index"] == 2 and info["episode"]["l"] == 3
+    envs = RecordEpisodeStatistics(gymnasium.vector.SyncVectorEnv(
+        [lambda: single_agent_env("single", episodes=3) for _ in range(2)]))
+    envs.reset(seed=4)
+    for _ in range(3):
+        *_, infos = envs.step(np.ones((2, 20)))
+    assert infos["_episode"].all() and infos["episode"]["r"][0] == pytest.approx(one.return_queue[0], abs=1e-12)
+    assert infos["episode_index"].tolist() == [2, 2]
