@@ -48,7 +48,8 @@ in the same world") describes them.
 * **State** (``state()``, ``state_space``), for centralised training: every child's flat observation in
   agent order, then each parent's presence (1 or 0) in the last episode.
 * **Infos**: ``{"utility": system utility of the episode, "episode": its index from 0}``, the same
-  for every child (empty at reset).
+  for every child (empty at reset); :class:`MgraoSingleChildEnv`, a Gymnasium ``Env``, gives the index as
+  ``"episode_index"`` (:data:`GYMNASIUM_INFO`).
 * **Seeds**: ``reset(seed=s)`` gives the world of the engine's seed ``s``, with the same draws
   (common random numbers); ``reset()`` without a seed draws a fresh world from the environment's
   generator, seeded by the last ``reset(seed=...)`` (Gymnasium's convention); the first ``reset()``
