@@ -1,7 +1,8 @@
 """Children that share their model, ``mgrao-x:y`` (issue 45): docs/algorithms.md, "Children that share their model".
 
 The label grammar and its errors; the engine against the dense reference (1e-12) with teams of several children,
-under several resources, volatility, load sharing, tasks that fail and a sparse ring; a team's members allocate
+under several resources, volatility, load sharing, tasks that fail, a learning cost and sparse worlds (a ring and
+random links, each parent linked to fewer children than there are); a team's members allocate
 alike and show one PW; what a child learns and keeps is the team's divided by y; ``mgrao-x:1`` is today's (the
 golden runs, tests/core/test_golden.py, hold it bit for bit).
 """
@@ -75,6 +76,7 @@ CASES = [
     {**SIX, "routing": "per-task", "load_sharing": True, "quality_model": "exponential"},
     {**SIX, "routing": "per-task", "load_sharing": True, "task_need": 1.2, "hierarchy": "borrow"},
     {**SIX, "topology": "ring", "children_per_parent": 2, "routing": "per-task", "load_sharing": True},
+    {**SIX, "topology": "random", "children_per_parent": 3, "leave_probability": 0.2, "join_probability": 0.3},
     {**SIX, "learning_cost": 0.2, "group_blend": "dkl-only", "unpredictable_fraction": 0.2},
 ]
 
@@ -95,6 +97,9 @@ def test_engine_equals_reference(overrides):
     {**SIX, "n_resources": 2, "resource_credit": "by-share"},
     {**SIX, "n_resources": 3, "resource_combination": "weighted", "leave_probability": 0.2, "join_probability": 0.4},
     {**SIX, "n_resources": 2, "routing": "per-task", "load_sharing": True, "task_need": 1.0, "hierarchy": "hand-over"},
+    {**SIX, "n_resources": 2, "topology": "ring", "children_per_parent": 2, "learning_cost": 0.2},
+    {**SIX, "n_resources": 2, "topology": "random", "children_per_parent": 4, "routing": "per-task",
+     "load_sharing": True},
 ])
 def test_engine_equals_reference_with_several_resources(overrides):
     result = run_experiment(make_spec("multi", SHARED, seeds=[1, 4], episodes=20, overrides=overrides))
@@ -110,7 +115,6 @@ def test_a_shared_model_differs_from_its_members_own():
     own, shared = result.runs
     assert not np.array_equal(own.group_weights, shared.group_weights)
     assert not np.array_equal(own.group_weights[0], own.group_weights[1])  # each child its own
-
 
 
 def test_the_command_line_names_the_valid_y_and_runs_a_shared_configuration():
