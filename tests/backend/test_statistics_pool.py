@@ -31,6 +31,11 @@ LIGHT_DEADLINE_S = 10.0
 HEAVY_DEADLINE_S = 120.0
 
 
+def _computing(seed: int, what: str = "computing") -> str:
+    """The log line's words when the statistics asked with ``seed`` (no aggregate chosen) start computing."""
+    return f"seed={seed}, aggregate=[]): {what}"
+
+
 def _start(service: Service, **settings: object) -> list[int]:
     """The service with the stored jobs of :data:`JOBS`, run by a worker process that is then stopped."""
     service.env.update({f"MGRAO_{name.upper()}": str(value) for name, value in settings.items()})
@@ -118,17 +123,17 @@ def test_a_request_whose_client_left_before_its_turn_is_not_computed(service: Se
 
     running = threading.Thread(target=ask, args=(first,), daemon=True)
     running.start()
-    service.wait_for(lambda: "seed=101): computing" in service.logs(), timeout=60, what="the first to be computed")
+    service.wait_for(lambda: _computing(101) in service.logs(), timeout=60, what="the first to be computed")
     _send_and_close(service, gone)  # queued behind the first, then its client is gone
-    service.wait_for(lambda: "seed=102): not computed" in service.logs(), timeout=60,
+    service.wait_for(lambda: _computing(102, "not computed") in service.logs(), timeout=60,
                      what="the request whose client left to leave the queue")
     queued = threading.Thread(target=ask, args=(later,), daemon=True)  # takes the place it left
     queued.start()
     join_all([running, queued], HEAVY_DEADLINE_S + 30, "the first request and the one queued after it")
     assert answers == {first: 200, later: 200}
     logs = service.logs()
-    assert "seed=103): computing" in logs
-    assert "seed=102): computing" not in logs  # never run: it would have run before the later one
+    assert _computing(103) in logs
+    assert _computing(102) not in logs  # never run: it would have run before the later one
 
 
 def test_the_same_statistics_asked_again_share_one_computation_and_a_full_pool_refuses_others(
@@ -142,7 +147,7 @@ def test_the_same_statistics_asked_again_share_one_computation_and_a_full_pool_r
 
     threads = [threading.Thread(target=ask, daemon=True)]
     threads[0].start()
-    service.wait_for(lambda: "seed=201): computing" in service.logs(), timeout=60, what="the answer to be computed")
+    service.wait_for(lambda: _computing(201) in service.logs(), timeout=60, what="the answer to be computed")
     threads += [threading.Thread(target=ask, daemon=True) for _ in range(3)]  # join the computation running
     for thread in threads[1:]:
         thread.start()
@@ -153,4 +158,4 @@ def test_the_same_statistics_asked_again_share_one_computation_and_a_full_pool_r
     assert [a.status_code for a in answers] == [200] * 4
     assert len({a.content for a in answers}) == 1
     assert httpx.get(service.base + path, timeout=HEAVY_DEADLINE_S).content == answers[0].content  # kept
-    assert service.logs().count("seed=201): computing") == 1
+    assert service.logs().count(_computing(201)) == 1
