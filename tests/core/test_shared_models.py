@@ -56,6 +56,18 @@ def test_the_registry_gives_the_valid_y_and_the_memory_of_a_child():
         < sort_key("mgrao-5:3") < sort_key("mgrao-max")
 
 
+def test_y_at_the_largest_system():
+    # n_children up to 1,000,000 (the scale issue's bound): its 48 valid y above 1, listed whole in the error
+    params = make_params({"n_children": 1_000_000, "n_parents": 1_000_000})
+    shared = next(f for f in registry(params) if f["name"] == "mgrao")["forms"][1]
+    assert len(shared["second_valid"]) == 48 and shared["second_valid"][-3:] == [250000, 500000, 1000000]
+    assert parse_algorithm("mgrao-1000:1000", 1_000_000, n_children=1_000_000).team_size == 1000
+    with pytest.raises(ConfigError) as error:
+        parse_algorithm("mgrao-10:3", 1_000_000, n_children=1_000_000)
+    assert "y must be a divisor of n_children = 1000000 (valid: 1, 2, 4, 5, 8, 10, 16, " in error.value.message
+    assert error.value.message.endswith("500000, 1000000)")
+
+
 def test_what_a_child_learns_is_the_teams_over_y():
     params = make_params({"n_parents": 10, "n_children": 6, "n_resources": 2, "learning_cost": 0.3})
     one, three = parse_algorithm("mgrao-5:1", 10), parse_algorithm("mgrao-5:3", 10)
