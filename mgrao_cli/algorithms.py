@@ -23,9 +23,9 @@ def _describe_family(entry: dict[str, Any]) -> list[str]:
     if entry["parameters"]:
         lines.append(f"  parameters: {', '.join(entry['parameters'])}")
     for form in entry["forms"]:
-        valid = form.get("valid")
-        shown = f" (x in {', '.join(str(v) for v in valid)})" if valid else ""
-        lines.append(f"  {form['template']}: {form['description']}{shown}")
+        shown = "; ".join(f"{name} in {', '.join(str(v) for v in values)}" for name, values in (
+            (form["argument"], form.get("valid")), (form.get("second_argument"), form.get("second_valid"))) if values)
+        lines.append(f"  {form['template']}: {form['description']}{f' ({shown})' if shown else ''}")
     memory = entry["memory_per_child"] or {}
     lines.append("  examples: " + ", ".join(
         f"{label} ({_memory(memory[label])} per child)" if label in memory else label for label in entry["examples"]))
@@ -52,6 +52,8 @@ def algorithms(system: str | None, label: str | None, as_json: bool) -> None:
             click.echo(f"  {described['description']}")
             if described["groups"] is not None:
                 click.echo(f"  parent groups per child: {described['groups']}")
+            if (described.get("team_size") or 1) > 1:
+                click.echo(f"  children sharing one model: {described['team_size']}")
             click.echo(f"  memory per child: {_memory(described['memory_per_child'])}")
         return
     entries = registry(params)

@@ -60,8 +60,9 @@ in the same world") describes them.
   any other option naming it. Nothing is reset by a refused call.
 * **Learning cost**: under a ``learning_cost`` (docs/model.md, "The cost of learning") the caller declares what
   its learner keeps, ``learned_numbers``: the numbers one child keeps (as :meth:`Family.learned_numbers
-  <mgrao_core.algorithms.base.Family.learned_numbers>` for a built-in family), one for every child, one per
-  child, or in the vector environment one per world and child; settable between steps. Each child's tasks then
+  <mgrao_core.algorithms.base.Family.learned_numbers>` for a built-in family; a fraction where children share
+  one model, ``mgrao-x:y``'s being its team's over y), one for every child, one per child, or in the vector
+  environment one per world and child; settable between steps. Each child's tasks then
   get the share :func:`task_shares` of its allocation, as the engine gives a family's children (the action and
   the ``allocation`` observed are the weights themselves). A cost without a declaration is refused.
 * **Many worlds** (:func:`vector_env`): the same, world ``i`` being the engine's seed ``seeds[i]``, with
@@ -89,6 +90,7 @@ in the same world") describes them.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -175,18 +177,24 @@ def system_params(system: str, params: dict[str, Any]) -> SystemParams:
 
 
 def _learned(value: Any, n_worlds: int, n_children: int, *, per_world: bool) -> np.ndarray | None:
-    """``learned_numbers`` as ``(n_worlds, n_children)`` whole numbers, or None (module docstring: "Learning cost")."""
+    """``learned_numbers``: ``(n_worlds, n_children)`` numbers at least 0, or None (module docstring: "Learning cost").
+
+    A whole number, or a fraction where children share one model (``mgrao-x:y``: the team's numbers over y,
+    :meth:`~mgrao_core.algorithms.base.Family.learned_numbers`); a bool, a string, NaN or infinity is refused.
+    """
     if value is None:
         return None
     given = np.asarray(value, dtype=object if isinstance(value, list | tuple) else None)
     shapes = [(), (n_children,)] + ([(n_worlds, n_children)] if per_world else [])
     listed = given.ravel().tolist()
-    whole = all(isinstance(x, int | np.integer) and not isinstance(x, bool | np.bool_) and x >= 0 for x in listed)
-    if given.shape not in shapes or not whole:
-        forms = "a whole number for every child, one per child" + (", or one per world and child" if per_world else "")
+    numbers = all(isinstance(x, int | float | np.integer | np.floating) and not isinstance(x, bool | np.bool_)
+                  and math.isfinite(x) and x >= 0 for x in listed)
+    if given.shape not in shapes or not numbers:
+        forms = "a number for every child, one per child" + (", or one per world and child" if per_world else "")
         raise ConfigError("learned_numbers", f"must be {forms}: the numbers at least 0 that one child of your learner "
-                                             f"keeps, shape {' or '.join(map(str, shapes))} (got {str(value)[:80]})")
-    return np.broadcast_to(np.array(listed, dtype=np.int64).reshape(given.shape), (n_worlds, n_children)).copy()
+                                             f"keeps (a whole number, or a shared model's over the children sharing "
+                                             f"it), shape {' or '.join(map(str, shapes))} (got {str(value)[:80]})")
+    return np.broadcast_to(np.array(listed, dtype=np.float64).reshape(given.shape), (n_worlds, n_children)).copy()
 
 
 def task_shares(params: SystemParams, learned: np.ndarray | None) -> np.ndarray:
@@ -195,7 +203,7 @@ def task_shares(params: SystemParams, learned: np.ndarray | None) -> np.ndarray:
     As the engine prices a built-in family's children (:func:`mgrao_core.algorithms.task_share`): each number
     through :func:`mgrao_core.equations.task_share` against what ``mgrao-max`` keeps, so that a learner declaring
     a family's :meth:`~mgrao_core.algorithms.base.Family.learned_numbers` gets that family's share, bit for bit.
-    1 everywhere without a cost or a declaration. ``learned`` is an integer array of any shape; so is the answer.
+    1 everywhere without a cost or a declaration. ``learned`` is an array of numbers of any shape; so is the answer.
     """
     if learned is None or not params.learning_cost:
         return np.ones(() if learned is None else learned.shape)
@@ -524,11 +532,12 @@ class MgraoVectorEnv(ParallelEnv):
     def learned_numbers(self) -> np.ndarray | None:
         """The numbers each child of the caller's learner keeps, ``(n_worlds, n_children)`` (None: undeclared).
 
-        Setting it (a whole number, one per child, or one per world and child) prices the learning from the next
-        episode on (:func:`task_shares`), as the engine prices a built-in family's children.
+        Setting it (a number, one per child, or one per world and child; a fraction where children share one
+        model) prices the learning from the next episode on (:func:`task_shares`), as the engine prices a built-in
+        family's children.
 
         Raises:
-            ConfigError: naming ``learned_numbers``: not whole numbers at least 0 of one of those shapes, or None
+            ConfigError: naming ``learned_numbers``: not finite numbers at least 0 of one of those shapes, or None
                 under a ``learning_cost`` (the environment cannot price a learner that does not say what it keeps).
         """
         return None if self._learned is None else self._learned.copy()
@@ -979,7 +988,7 @@ class MgraoParallelEnv(ParallelEnv):
     def learned_numbers(self) -> np.ndarray | None:
         """What each child of the caller's learner keeps, ``(n_children,)`` (:attr:`MgraoVectorEnv.learned_numbers`).
 
-        Setting it (a whole number, or one per child) prices the learning from the next episode on.
+        Setting it (a number, or one per child) prices the learning from the next episode on.
         """
         learned = self._vector.learned_numbers
         return None if learned is None else learned[0]
@@ -1081,7 +1090,7 @@ def parallel_env(system: str = "single", seed: int = 0, episodes: int = 100, *, 
         reward: ``"child"`` (what came back to the child) or ``"team"`` (the system utility, for every child).
         flatten: observations as one array of :func:`flat_length` numbers instead of a ``Dict``.
         dtype: the observations' floating-point numbers: float64 (the default) or float32, the spaces to match.
-        learned_numbers: what one child of your learner keeps, a whole number or one per child, under a
+        learned_numbers: what one child of your learner keeps, a number or one per child, under a
             ``learning_cost`` (module docstring: "Learning cost").
         **params: parameter overrides, as ``--set name=value`` (docs/model.md).
 

@@ -24,6 +24,8 @@ ENVIRONMENT: tuple[StateArray, ...] = (
     StateArray("seed_index", ("lanes",), "int64", help="the lane's seed, an index into the chunk's seeds"),
     StateArray("kind", ("lanes",), "int64", help="the code of the lane's family (mgrao_core.algorithms.KINDS)"),
     StateArray("groups", ("lanes",), "int64", help="parent groups per child of the lane's algorithm (0: none)"),
+    StateArray("team_size", ("lanes",), "int64", fill=1,
+               help="children per team sharing one learner's state (MG-RAO's y of mgrao-x:y; 1: each child its own)"),
     StateArray("task_share", ("lanes", "children"), fill=1.0,
                help="the share of each child's resources its tasks get, what learning leaves (learning_cost)"),
     StateArray("weights", ("lanes", "children", "n_types"), fill="uniform",
@@ -90,6 +92,7 @@ def allocate_lanes(params: SystemParams, algorithms: Sequence[Algorithm], n_seed
     arrays["seed_index"][:] = np.repeat(np.arange(n_seeds), len(algorithms))
     arrays["kind"][:] = np.tile([KINDS[a.kind] for a in algorithms], n_seeds)
     arrays["groups"][:] = np.tile([a.n_groups for a in algorithms], n_seeds)
+    arrays["team_size"][:] = np.tile([a.team_size for a in algorithms], n_seeds)
     arrays["task_share"][:] = np.tile([task_share(a, params) for a in algorithms], n_seeds)[:, None]
     arrays["estimates"][:] = params.initial_estimate
     for code, family in enumerate(FAMILIES):

@@ -370,7 +370,7 @@ def simulate_run(params: SystemParams, algorithm: str, seed: int,
     the share the child gives for the episode (:meth:`ReferenceChild.task_share`, after its allocation).
     """
     environment = SeedEnvironment(params, seed, block=episodes)
-    alg = parse_algorithm(algorithm, params.n_parents)
+    alg = parse_algorithm(algorithm, params.n_parents, n_children=params.n_children)
     children = family_of(alg).reference_children(params, alg, environment.world, seed)
     share = task_share(alg, params)  # what learning leaves each child's tasks (equations.task_share)
     utilities = np.zeros(episodes)

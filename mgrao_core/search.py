@@ -7,8 +7,9 @@ ask/tell on an in-memory Optuna study rebuilt from the finished trials, so that 
 tables of its own). It holds no state and does no I/O; the service stores the trials and runs
 each as ordinary jobs (:mod:`backend.services.studies`).
 
-Dimensions: any numeric, boolean or choice parameter of :data:`mgrao_core.params.PARAMETERS`, and
-``groups``, the x of an extra configuration ``mgrao-x:1``. A dimension is ``{"values": [...]}``, or a
+Dimensions: any numeric, boolean or choice parameter of :data:`mgrao_core.params.PARAMETERS`,
+``groups``, the x of an extra configuration ``mgrao-x:1``, and ``team_size``, its y (``mgrao-x:y``: children
+sharing one model; x is 1 without a ``groups`` dimension). A dimension is ``{"values": [...]}``, or a
 range ``{"low", "high"}`` with ``"steps"`` (grid) and optionally ``"log": true`` (geometric steps, or
 log-uniform draws for random and TPE).
 """
@@ -36,8 +37,13 @@ METHODS = ("grid", "random", "tpe")
 METRICS = ("final_mean", "pct_from_uniform", "pct_of_max", "paper_deviation")
 DIRECTIONS = ("maximize", "minimize")
 GROUPS = "groups"
+TEAM = "team_size"
 GROUP_LABEL = "mgrao-x:1"
 """The objective's name for the configuration a ``groups`` dimension adds."""
+TEAM_LABEL = "mgrao-x:y"
+"""The objective's name for the configuration ``groups`` and ``team_size`` dimensions add (either may be absent)."""
+LABEL_DIMENSIONS = (GROUPS, TEAM)
+"""The dimensions that are no parameter: the arguments of the configuration they add."""
 MAX_TRIALS = 10_000
 MAX_IN_FLIGHT = 100
 MAX_DIMENSIONS = 8
@@ -52,7 +58,7 @@ class Dimension:
     """One dimension of a search space.
 
     Attributes:
-        name: a parameter name, or ``"groups"``.
+        name: a parameter name, ``"groups"`` or ``"team_size"``.
         kind: ``"int"``, ``"float"``, ``"bool"`` or ``"choice"``.
         values: explicit values (a grid's points, or the choices drawn from), or empty.
         low: a range's lower end.
@@ -98,7 +104,7 @@ class Objective:
         metric: one of :data:`METRICS`.
         direction: ``"maximize"`` or ``"minimize"``.
         configuration: the algorithm label the metric is read from (``mgrao-x:1`` for the swept
-            group count); unused by ``paper_deviation``.
+            group count, ``mgrao-x:y`` for the swept group count and team size); unused by ``paper_deviation``.
         system: which system's configuration, when the base has several.
     """
 
@@ -181,19 +187,18 @@ class StudyPlan:
 
     def _spec(self, system: str, params: Mapping[str, Any], field_prefix: str = "") -> ExperimentSpec:
         preset, own = self.variants.get(system, (system, {}))
-        overrides = dict(own) | dict(self.params) | {k: v for k, v in params.items() if k != GROUPS}
+        overrides = dict(own) | dict(self.params) | {k: v for k, v in params.items() if k not in LABEL_DIMENSIONS}
         system = preset
         algorithms = list(self.algorithms or PRESETS[system].algorithms)
-        if GROUPS in params:
-            label = f"mgrao-{int(params[GROUPS])}:1"
-            if label not in algorithms:
-                algorithms.append(label)
+        label = added_label(params)
+        if label is not None and label not in algorithms:
+            algorithms.append(label)
         return make_spec(system, algorithms, list(self.seeds), self.episodes, overrides)
 
     def configuration_label(self, params: Mapping[str, Any]) -> str | None:
         """The algorithm label the objective reads for a trial with these parameters."""
-        if self.objective.configuration == GROUP_LABEL:
-            return f"mgrao-{int(params[GROUPS])}:1"
+        if self.objective.configuration in (GROUP_LABEL, TEAM_LABEL):
+            return added_label(params)
         return self.objective.configuration
 
     def as_dict(self) -> dict[str, Any]:
@@ -217,6 +222,13 @@ class StudyPlan:
         return {"name": self.name, "method": self.method, "base": base,
                 "space": {d.name: d.as_dict() for d in self.dimensions}, "objective": objective,
                 "max_trials": self.max_trials, "max_in_flight": self.max_in_flight, "seed": self.seed}
+
+
+def added_label(params: Mapping[str, Any]) -> str | None:
+    """The configuration ``mgrao-x:y`` a trial's ``groups`` (x, else 1) and ``team_size`` (y, else 1) add, or None."""
+    if GROUPS not in params and TEAM not in params:
+        return None
+    return f"mgrao-{int(params.get(GROUPS, 1))}:{int(params.get(TEAM, 1))}"
 
 
 def _strides(lengths: list[int]) -> list[int]:
@@ -331,20 +343,20 @@ def _count(field: str, value: Any, low: int, high: int) -> int:
     return value
 
 
-def _dimension(name: str, spec: Any, method: str, n_parents: Sequence[int]) -> Dimension:
+def _dimension(name: str, spec: Any, method: str, n_parents: Sequence[int], n_children: Sequence[int]) -> Dimension:
     field = f"space.{name}"
     if not isinstance(spec, Mapping):
         raise ConfigError(field, 'must be {"values": [...]} or {"low": ..., "high": ...}')
     unknown = set(spec) - {"values", "low", "high", "steps", "log"}
     if unknown:
         raise ConfigError(field, f"unknown key {sorted(unknown)[0]!r} (use values, or low, high, steps, log)")
-    if name == GROUPS:
+    if name in LABEL_DIMENSIONS:
         kind = "int"
         param = None
     else:
         param = PARAMETERS_BY_NAME.get(name)
         if param is None:
-            raise ConfigError(field, "unknown parameter (any parameter of the schema, or groups)")
+            raise ConfigError(field, "unknown parameter (any parameter of the schema, groups or team_size)")
         kind = param.kind
         if kind not in ("int", "float", "bool", "choice"):
             raise ConfigError(field, f"{name} is a {kind} parameter: a study varies numeric, boolean or choice "
@@ -355,7 +367,7 @@ def _dimension(name: str, spec: Any, method: str, n_parents: Sequence[int]) -> D
         values = spec["values"]
         if not isinstance(values, list) or not 1 <= len(values) <= MAX_VALUES:
             raise ConfigError(f"{field}.values", f"must list between 1 and {MAX_VALUES} values")
-        checked = tuple(dict.fromkeys(_value(name, kind, param, v, n_parents, f"{field}.values[{i}]")
+        checked = tuple(dict.fromkeys(_value(name, kind, param, v, n_parents, n_children, f"{field}.values[{i}]")
                                       for i, v in enumerate(values)))
         return Dimension(name, kind, values=checked)
     if kind in ("choice", "bool"):
@@ -367,8 +379,11 @@ def _dimension(name: str, spec: Any, method: str, n_parents: Sequence[int]) -> D
     high = _number(f"{field}.high", spec["high"], integer=integer)
     if not low < high:
         raise ConfigError(field, f"low must be below high (got {low:g} and {high:g})")
-    _value(name, kind, param, low, n_parents, f"{field}.low")
-    _value(name, kind, param, high, n_parents, f"{field}.high")
+    if name in LABEL_DIMENSIONS:
+        counted = "n_parents" if name == GROUPS else "n_children"
+        raise ConfigError(field, f"{name} takes values (divisors of {counted}), not a range")
+    _value(name, kind, param, low, n_parents, n_children, f"{field}.low")
+    _value(name, kind, param, high, n_parents, n_children, f"{field}.high")
     log = spec.get("log", False)
     if not isinstance(log, bool):
         raise ConfigError(f"{field}.log", "must be true or false")
@@ -381,23 +396,23 @@ def _dimension(name: str, spec: Any, method: str, n_parents: Sequence[int]) -> D
         steps = _count(f"{field}.steps", steps, 2, MAX_STEPS)
     elif steps is not None:
         raise ConfigError(f"{field}.steps", f"{method} draws from the range: steps are for a grid")
-    if name == GROUPS:
-        raise ConfigError(field, "groups takes values (divisors of n_parents), not a range")
     dimension = Dimension(name, kind, low=low if not integer else int(low), high=high if not integer else int(high),
                           steps=steps, log=log)
     if method == "grid":
         for i, v in enumerate(dimension.grid()):
-            _value(name, kind, param, v, n_parents, f"{field}[{i}]")
+            _value(name, kind, param, v, n_parents, n_children, f"{field}[{i}]")
     return dimension
 
 
-def _value(name: str, kind: str, param: Any, value: Any, n_parents: Sequence[int], field: str) -> Any:
-    if name == GROUPS:
+def _value(name: str, kind: str, param: Any, value: Any, n_parents: Sequence[int], n_children: Sequence[int],
+           field: str) -> Any:
+    if name in LABEL_DIMENSIONS:
         x = _count(field, value, 1, 1_000_000)
-        for parents in n_parents:
-            if parents % x:
-                raise ConfigError(field, f"{x} does not divide n_parents = {parents} "
-                                         f"(valid: {', '.join(map(str, divisors(parents)))})")
+        counted, counts = ("n_parents", n_parents) if name == GROUPS else ("n_children", n_children)
+        for count in counts:
+            if count % x:
+                raise ConfigError(field, f"{x} does not divide {counted} = {count} "
+                                         f"(valid: {', '.join(map(str, divisors(count)))})")
         return x
     from mgrao_core.params import _coerce  # the schema's own checks and limits, naming the field
 
@@ -476,12 +491,13 @@ def make_plan(data: Mapping[str, Any]) -> StudyPlan:
     if len(seed_list) > MAX_SEEDS:
         raise ConfigError("base.seeds", f"at most {MAX_SEEDS}")
     n_parents = [spec_of(s, 1, 1).params.n_parents for s in systems]
+    n_children = [spec_of(s, 1, 1).params.n_children for s in systems]
     space = data.get("space")
     if not isinstance(space, Mapping) or not space:
         raise ConfigError("space", "must name at least one parameter to vary")
     if len(space) > MAX_DIMENSIONS:
         raise ConfigError("space", f"at most {MAX_DIMENSIONS} dimensions (got {len(space)})")
-    dimensions = tuple(_dimension(k, v, method, n_parents) for k, v in space.items())
+    dimensions = tuple(_dimension(k, v, method, n_parents, n_children) for k, v in space.items())
     objective = _objective(data.get("objective"), systems, dimensions, algorithms, variants)
     max_trials = _count("max_trials", data.get("max_trials", 100), 1, MAX_TRIALS)
     max_in_flight = _count("max_in_flight", data.get("max_in_flight", 4), 1, MAX_IN_FLIGHT)
@@ -567,9 +583,17 @@ def _objective(data: Any, systems: tuple[str, ...], dimensions: tuple[Dimension,
         raise ConfigError("objective.system", f"must be one of the base's systems ({', '.join(systems)})")
     target = system or systems[0]
     labels = list(algorithms or PRESETS[(variants or {}).get(target, (target,))[0]].algorithms)
+    swept = {d.name for d in dimensions}
     if configuration == GROUP_LABEL:
-        if not any(d.name == GROUPS for d in dimensions):
+        if GROUPS not in swept:
             raise ConfigError("objective.configuration", f"{GROUP_LABEL} needs a groups dimension in the space")
+        if TEAM in swept:
+            raise ConfigError("objective.configuration", f"with a team_size dimension the configuration the space "
+                                                         f"adds is {TEAM_LABEL}")
+    elif configuration == TEAM_LABEL:
+        if not swept & set(LABEL_DIMENSIONS):
+            raise ConfigError("objective.configuration", f"{TEAM_LABEL} needs a groups or team_size dimension in "
+                                                         "the space")
     elif configuration not in labels:
         raise ConfigError("objective.configuration",
                           f"{configuration!r} is not among the study's configurations ({', '.join(labels)})")

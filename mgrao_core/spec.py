@@ -46,8 +46,8 @@ class ExperimentSpec:
 
     @property
     def parsed_algorithms(self) -> tuple[Algorithm, ...]:
-        """The algorithms, parsed for this system's number of parents."""
-        return parse_algorithms(self.algorithms, self.params.n_parents)
+        """The algorithms, parsed for this system's numbers of parents and children."""
+        return parse_algorithms(self.algorithms, self.params.n_parents, self.params.n_children)
 
     @property
     def work(self) -> int:
@@ -153,14 +153,15 @@ def make_spec(
     params = checked(lambda: make_params(overrides, base=preset.params))
     refused = {e.field for error in errors for e in getattr(error, "errors", (error,))}
     given = tuple(preset.algorithms if algorithms is None else algorithms)
-    # an x of mgrao-x:1 is checked against the parents given, or the preset's where other parameters are refused;
-    # against the grammar alone where the count of parents is
+    # an x of mgrao-x:y is checked against the parents given, or the preset's where other parameters are refused;
+    # against the grammar alone where the count of parents is; a y likewise against the children
     parents = None if "n_parents" in refused else (params or preset.params).n_parents
+    children = None if "n_children" in refused else (params or preset.params).n_children
     parsed = None
     if len(given) > MAX_ALGORITHMS:
         errors.append(ConfigError("algorithms", f"at most {MAX_ALGORITHMS} algorithms (got {len(given)})"))
     else:
-        parsed = checked(lambda: parse_algorithms(given, parents))
+        parsed = checked(lambda: parse_algorithms(given, parents, children))
     labels = None if parsed is None else tuple(a.label for a in parsed)
     checked_seeds = checked(lambda: _seeds(seeds))
     checked_episodes = checked(lambda: _count("episodes", episodes, MAX_EPISODES))

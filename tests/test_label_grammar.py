@@ -25,8 +25,9 @@ from mgrao_core.algorithms import registry
 ROOT = Path(__file__).resolve().parents[1]
 FORMS = [form for family in registry(None) for form in family["forms"]]
 PATTERNS = [re.compile(form["pattern"]) for form in FORMS]
-# a form with its argument named or marked (mgrao-x:1, mgrao-<x>:1, mgrao-{x}:1) is a label form too
+# a form with its arguments named or marked (mgrao-x:1, mgrao-<x>:1, mgrao-{x}:1, mgrao-x:y) is a label form too
 SPELLINGS = {form["template"].replace(f"{{{form['argument']}}}", mark.format(form["argument"]))
+             .replace(f"{{{form.get('second_argument')}}}", mark.format(form.get("second_argument")))
              for form in FORMS if form["argument"] for mark in ("{}", "<{}>", "{{{}}}")}
 # the fixed text around an argument (mgrao-), what a parser of those labels has to match
 FRAGMENTS = sorted({part for form in FORMS if form["argument"]

@@ -56,8 +56,9 @@ TOKEN = _error("Missing or wrong bearer token (only when the service has MGRAO_A
 FOREIGN = _error("Cross-origin write refused: the Origin header is not this server's own origin.")
 NOT_JSON = _error("A write without an Origin header needs Content-Type: application/json, even without a body.")
 INVALID = _error("A field is refused: its name, where it is and the limit; or a query parameter the operation "
-                 "does not take. Some rules are not in this document's schemas (the work limit, an x of mgrao-x:1 "
-                 "that must divide n_parents, types_per_composite at most n_types, a parameter's own limits, "
+                 "does not take. Some rules are not in this document's schemas (the work limit, an x of mgrao-x:y "
+                 "that must divide n_parents and its y n_children, "
+                 "types_per_composite at most n_types, a parameter's own limits, "
                  "GET /api/systems): schema-valid data can still be refused here.", Invalid)
 NOT_FOUND = _error("No such job or study (a well-formed id that does not exist).")
 CONFLICT = _error("The job's or study's state does not allow this (e.g. nothing stored yet, or still running).")
@@ -184,6 +185,8 @@ class AlgorithmLabel(BaseModel):
     family: str
     title: str
     groups: int | None = Field(description="Parent groups per child of a learner with groups, else null.")
+    team_size: int | None = Field(None, description="Children sharing one model (the y of mgrao-x:y; 1: each child "
+                                                    "its own) of a learner with groups, else null.")
     description: str
     colour_key: int = Field(ge=0, le=7, description="The palette slot (0-7) the configuration prefers in every view.")
     sort_key: list[int] = Field(description="Views order configurations by this (family rank, then order), then "
@@ -392,16 +395,22 @@ class Systems(BaseModel):
 
 
 class AlgorithmForm(BaseModel):
-    """One way of writing a family's labels: a literal label, or a ``template`` with an argument ``{x}``."""
+    """One way of writing a family's labels: a literal label, or a ``template`` with an argument ``{x}`` (or two)."""
 
-    template: str = Field(description="The label itself, or with {x} where the argument goes (mgrao-{x}:1).")
+    template: str = Field(description="The label itself, or with {x} where the argument goes (mgrao-{x}:1), and "
+                                      "{y} where a second one goes (mgrao-{x}:{y}).")
     pattern: str = Field(description="A regular expression matching the lower-cased label, the argument its "
-                                     "first group.")
+                                     "first group (and the second argument its second).")
     description: str
     argument: str | None = Field(description="The argument's name, null for a literal label.")
     argument_help: str
     valid: list[int] | None = Field(None, description="An argument form's values valid for the system (null "
                                                       "without one); absent for a literal label.")
+    second_argument: str | None = Field(None, description="A second argument's name (y of mgrao-{x}:{y}: values "
+                                                          "are typed x:y); absent for a form of one argument.")
+    second_help: str | None = Field(None, description="What the second argument is.")
+    second_valid: list[int] | None = Field(None, description="The second argument's values valid for the system "
+                                                             "(null without one).")
 
 
 class AlgorithmFamily(BaseModel):

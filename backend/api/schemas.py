@@ -426,10 +426,10 @@ SpaceName = Annotated[str, StringConstraints(max_length=64), NoNul()]
 
 
 def _space_names(schema: JsonSchemaValue) -> None:
-    """A study's space: keyed by a parameter of the schema or ``groups`` (the core names an unknown one)."""
+    """A study's space: keyed by a parameter of the schema, ``groups`` or ``team_size`` (the core names others)."""
     text_keys(schema)
     swept = [p.name for p in PARAMETERS if p.kind not in ("list", "events")]  # a list is held fixed in base
-    schema["propertyNames"] = {"enum": [*swept, search.GROUPS]}
+    schema["propertyNames"] = {"enum": [*swept, *search.LABEL_DIMENSIONS]}
 
 
 class StudyBase(BaseModel):

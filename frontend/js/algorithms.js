@@ -2,7 +2,8 @@
 // learns how labels are written, what they mean, their order and their colour slot. Nothing here
 // knows a label or a family: labels are described by the server (canonical spelling, sort key,
 // colour key), and the new-experiment form's pickers are built from the families' label forms
-// (a literal label, or a template with an argument, its valid values and its help).
+// (a literal label, or a template with an argument, its valid values and its help; a form with a
+// second argument, MG-RAO's mgrao-{x}:{y}, takes its values as pairs x:y).
 //
 // Views that order or colour configurations first `await ready(labels)`; after that `describe`,
 // `compareLabels`, `sortLabels` and `roleLabel` answer at once (colours.js, comparegroups.js and the
@@ -12,6 +13,7 @@ import { api, request } from './api.js';
 
 const described = new Map(); // label as shown -> its description (GET /api/algorithms?label=)
 const registries = new Map(); // "system|n_parents" -> Promise of the families
+const memories = new Map(); // "system|overrides|label" -> Promise of its bytes per child (memoryOf)
 let roles = {}; // GET /api/systems' algorithms: baseline, reference, best_fixed (labels the metrics read)
 let rolesAsked = null;
 
@@ -43,6 +45,7 @@ export function outsideRegistry(labels = []) {
 export function forget() {
   described.clear();
   registries.clear();
+  memories.clear();
   roles = {};
   rolesAsked = null;
 }
@@ -144,20 +147,34 @@ export function argumentForms(fams) {
   return (fams || []).flatMap((f) => f.forms.filter((form) => form.argument).map((form) => ({ family: f.name, form })));
 }
 
-/** The label of `form` with `value` as its argument. */
-export function labelFor(form, value) {
-  return form.template.replace(`{${form.argument}}`, String(value));
+/** A value of a form of two arguments, `x:y`, as its two numbers (null if it is not one). */
+function pairOf(value) {
+  const m = /^(\d+):(\d+)$/.exec(String(value));
+  if (!m) return null;
+  const pair = [Number(m[1]), Number(m[2])];
+  return pair.every((v) => Number.isSafeInteger(v) && v >= 1) ? pair : null;
 }
 
-/** The argument of `label` if `form` writes it (its pattern, lower-cased as the server reads labels), else null. */
+/** The label of `form` with `value` as its argument (`x:y` for a form of two arguments). */
+export function labelFor(form, value) {
+  if (!form.second_argument) return form.template.replace(`{${form.argument}}`, String(value));
+  const [x, y] = String(value).split(':');
+  return form.template.replace(`{${form.argument}}`, x).replace(`{${form.second_argument}}`, y);
+}
+
+/**
+ * The argument of `label` if `form` writes it (its pattern, lower-cased as the server reads labels), else null:
+ * a number, or `x:y` for a form of two arguments.
+ */
 export function argumentOf(form, label) {
   const m = new RegExp(form.pattern).exec(String(label).trim().toLowerCase());
+  if (form.second_argument) return m && m[2] !== undefined ? `${Number(m[1])}:${Number(m[2])}` : null;
   return m && m[1] !== undefined ? Number(m[1]) : null;
 }
 
 /**
- * Values of `form`'s argument typed in a field ("2, 5 10", or whole labels of the form): the values
- * in the order typed, repeats dropped, and the tokens that are neither.
+ * Values of `form`'s argument typed in a field ("2, 5 10", or whole labels of the form; pairs "5:2, 10:3" for a
+ * form of two arguments): the values in the order typed, repeats dropped, and the tokens that are neither.
  */
 export function readArguments(text, form) {
   const values = [];
@@ -165,8 +182,15 @@ export function readArguments(text, form) {
   for (const raw of String(text || '').split(/[\s,;]+/)) {
     const token = raw.trim();
     if (!token) continue;
-    const value = /^\d+$/.test(token) ? Number(token) : argumentOf(form, token);
-    if (value !== null && Number.isSafeInteger(value) && value >= 1) {
+    let value;
+    if (form.second_argument) {
+      const pair = pairOf(token) || pairOf(argumentOf(form, token));
+      value = pair ? `${pair[0]}:${pair[1]}` : null;
+    } else {
+      value = /^\d+$/.test(token) ? Number(token) : argumentOf(form, token);
+      if (!(value !== null && Number.isSafeInteger(value) && value >= 1)) value = null;
+    }
+    if (value !== null) {
       if (!values.includes(value)) values.push(value);
     } else {
       invalid.push(token);
@@ -175,11 +199,54 @@ export function readArguments(text, form) {
   return { values, invalid };
 }
 
+/** Argument values in increasing order (numbers, or pairs by x then y). */
+export function compareArguments(a, b) {
+  const pa = pairOf(a) || [Number(a), 0];
+  const pb = pairOf(b) || [Number(b), 0];
+  return pa[0] - pb[0] || pa[1] - pb[1];
+}
+
 /** Why `value` is not valid for `form` here (the form's own help and valid values), or null if it is. */
 export function argumentProblem(form, value) {
+  if (form.second_argument) {
+    const [x, y] = pairOf(value) || [];
+    const problems = [[form.argument, x, form.valid, form.argument_help],
+      [form.second_argument, y, form.second_valid, form.second_help]]
+      .filter(([, v, valid]) => Array.isArray(valid) && !valid.includes(v))
+      .map(([name, , valid, help]) => `${name} is the ${help} (valid: ${valid.length ? valid.join(', ') : 'none'})`);
+    return problems.length ? `${labelFor(form, value)} is not valid here: ${problems.join('; ')}.` : null;
+  }
   if (!Array.isArray(form.valid) || form.valid.includes(value)) return null;
   return `${labelFor(form, value)} is not valid here: ${form.argument} is the ${form.argument_help} ` +
     `(valid: ${form.valid.join(', ')}).`;
+}
+
+/** The values `form` takes here, for people: "Valid x here: 1, 2, 5." (and y's, for a form of two). */
+export function validText(form) {
+  return [[form.argument, form.valid], [form.second_argument, form.second_valid]]
+    .filter(([name, valid]) => name && Array.isArray(valid))
+    .map(([name, valid]) => `Valid ${name} here: ${valid.length ? valid.join(', ') : 'none'}.`).join(' ');
+}
+
+/**
+ * Bytes of learning state per child of `labels` in a system (`system`, with a form's `overrides`): each label
+ * described for it (GET /api/algorithms?system=...&label=...), asked once per system, overrides and label.
+ * Resolves to `{label: bytes}` of those the server described (a label it refuses is left out).
+ */
+export async function memoryOf(labels, system, overrides = null) {
+  const changed = overrides && Object.keys(overrides).length ? JSON.stringify(overrides) : '';
+  const key = (label) => `${system}|${changed}|${label}`;
+  const missing = [...new Set(labels)].filter((label) => !memories.has(key(label)));
+  if (missing.length) {
+    const query = new URLSearchParams({ system });
+    if (changed) query.set('params', changed);
+    for (const label of missing) query.append('label', label);
+    const asked = request('GET', `/algorithms?${query}`).then((answer) => answer.data.map((d) => d.memory_per_child))
+      .catch(() => { missing.forEach((label) => memories.delete(key(label))); return null; }); // asked again later
+    missing.forEach((label, i) => memories.set(key(label), asked.then((bytes) => (bytes ? bytes[i] : null))));
+  }
+  const bytes = await Promise.all(labels.map((label) => memories.get(key(label))));
+  return Object.fromEntries(labels.map((label, i) => [label, bytes[i]]).filter(([, b]) => Number.isFinite(b)));
 }
 
 /**

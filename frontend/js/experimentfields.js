@@ -6,7 +6,7 @@ import { h, nextId, debounce } from './ui.js';
 import { fieldErrors, changedParams, workBudget, workText } from './stats.js';
 import { fmtParam } from './studydata.js';
 import { groupTitle } from './jobconfig.js';
-import { argumentForms, argumentOf, argumentProblem, families, fmtBytes, labelFor, literalLabels, memoryPerChild, readArguments, ready, sortLabels } from './algorithms.js';
+import { argumentForms, argumentOf, argumentProblem, compareArguments, families, fmtBytes, labelFor, literalLabels, memoryOf, memoryPerChild, readArguments, ready, sortLabels, validText } from './algorithms.js';
 
 /** sessionStorage key of the experiment the new-experiment form hands to the new-study form. */
 export const STUDY_DRAFT = 'mgrao-study-draft';
@@ -24,9 +24,15 @@ export function rangeText(p) {
   return `range ${p.exclusive_minimum ? '(' : '['}${lo}, ${hi}]`;
 }
 
-/** A form's template as people read it: `mgrao-<x>:1`. */
+/** A form's template as people read it: `mgrao-<x>:1`, `mgrao-<x>:<y>`. */
 export function templateText(form) {
-  return form.template.replace(`{${form.argument}}`, `<${form.argument}>`);
+  const text = form.template.replace(`{${form.argument}}`, `<${form.argument}>`);
+  return form.second_argument ? text.replace(`{${form.second_argument}}`, `<${form.second_argument}>`) : text;
+}
+
+/** The name of a form's values as typed: `x`, or `x:y` for a form of two arguments. */
+export function argumentName(form) {
+  return form.second_argument ? `${form.argument}:${form.second_argument}` : form.argument;
 }
 
 /** A scalar input for one parameter (or one field of an event): a select, a checkbox or a number box. */
@@ -168,12 +174,12 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
   const algoBoxes = literals.map((a) => h('input', { type: 'checkbox', name: 'algorithms', value: a, id: nextId('algo') }));
   const algoErr = h('span', { class: 'field-error', id: nextId('algoerr'), 'aria-live': 'polite' });
   const argumentFields = argumentForms(fams).map(({ family, form }) => {
-    const input = h('input', { type: 'text', name: `${family}-${form.argument}`, class: 'argument-values',
-      placeholder: 'e.g. 2, 5', id: nextId('arg'), dataset: { template: form.template } });
+    const input = h('input', { type: 'text', name: `${family}-${argumentName(form)}`, class: 'argument-values',
+      placeholder: form.second_argument ? 'e.g. 5:2, 10:4' : 'e.g. 2, 5', id: nextId('arg'), dataset: { template: form.template } });
     const check = h('small', { class: 'help argument-check', id: nextId('argcheck'), 'aria-live': 'polite' });
     input.setAttribute('aria-describedby', `${input.id}-help ${check.id} ${algoErr.id}`);
     const block = h('div', { class: 'field' },
-      h('label', { for: input.id }, `Values of ${form.argument} in ${templateText(form)}`), input,
+      h('label', { for: input.id }, `Values of ${argumentName(form)} in ${templateText(form)}`), input,
       h('small', { class: 'help', id: `${input.id}-help` },
         `Comma separated; each adds a configuration ${templateText(form)}: ${form.description}.`),
       check);
@@ -234,6 +240,7 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
   let described = Promise.resolve(); // the typed labels' descriptions, on their way
   const validListeners = [];
   let systemFams = fams; // the registry for the chosen system and parent count (the grammar's until it comes)
+  let typedMemory = {}; // the memory per child of typed labels the registry's examples leave out, for that system
   let asked = 0;
   /** The form's values of the parameters that differ from the chosen system's, each within its own limits. */
   function validOverrides() {
@@ -252,8 +259,9 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
     return argumentForms(systemFams).map((f) => f.form).find((form) => form.template === template)
       || argumentForms(fams).map((f) => f.form).find((form) => form.template === template) || null;
   }
+  let memoryAsked = 0;
   function refreshArgumentChecks() {
-    const memory = memoryPerChild(systemFams); // when the registry gives it (with a system)
+    const memory = { ...memoryPerChild(systemFams), ...typedMemory }; // when the registry gives it (with a system)
     const perChild = (label) => (Number.isFinite(memory[label]) ? `${fmtBytes(memory[label])} per child` : '');
     for (const el of algoFieldset.querySelectorAll('small.memory')) {
       el.textContent = perChild(el.dataset.label) ? ` (${perChild(el.dataset.label)})` : '';
@@ -265,11 +273,20 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
       const problems = values.map((v) => argumentProblem(form, v)).filter(Boolean);
       labels.push(...values.filter((v) => !argumentProblem(form, v)).map((v) => labelFor(form, v)));
       const sizes = values.map((v) => labelFor(form, v)).filter(perChild).map((l) => `${l} ${perChild(l)}`);
-      f.check.textContent = (Array.isArray(form.valid) ? `Valid ${form.argument} here: ${form.valid.join(', ')}.` : '') +
+      f.check.textContent = validText(form) +
         (sizes.length ? ` Memory: ${sizes.join(', ')}.` : '') + (problems.length ? ` ${problems.join(' ')}` : '');
       f.check.classList.toggle('warn', problems.length > 0);
     }
     described = ready(labels); // their order among the configurations
+    const unknown = labels.filter((l) => !Number.isFinite(memory[l]));
+    if (unknown.length && systemFams !== fams) { // typed labels the registry's examples leave out (mgrao-5:2)
+      const mine = ++memoryAsked;
+      memoryOf(unknown, preset().name, validOverrides()).then((bytes) => {
+        if (mine !== memoryAsked || !Object.keys(bytes).length) return;
+        typedMemory = { ...typedMemory, ...bytes };
+        refreshArgumentChecks();
+      });
+    }
   }
   async function refreshValid() {
     const mine = ++asked;
@@ -277,6 +294,7 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
       const got = await families(preset().name, validOverrides()); // a saved system's, with the form's changes
       if (mine !== asked) return;
       systemFams = got;
+      typedMemory = {};
     } catch { /* unreachable: the server checks the values on submit */ }
     refreshArgumentChecks();
     for (const listener of validListeners) listener();
@@ -398,7 +416,7 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
     for (const f of argumentFields) {
       const typed = readArguments(f.input.value, f.form);
       invalid.push(...typed.invalid);
-      labels.push(...typed.values.sort((a, b) => a - b).map((v) => labelFor(f.form, v)));
+      labels.push(...typed.values.sort(compareArguments).map((v) => labelFor(f.form, v)));
     }
     if (invalid.length) return { invalidArguments: invalid };
     return {

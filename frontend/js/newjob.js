@@ -102,7 +102,7 @@ export async function mount(root, params, ctx) {
     await fields.described(); // the typed configurations' order
     const experiment = fields.read();
     if (experiment.invalidArguments) {
-      showErrors({ detail: [{ field: 'algorithms', msg: `not a value: ${experiment.invalidArguments.join(', ')} (type whole numbers like 2, 5)` }] });
+      showErrors({ detail: [{ field: 'algorithms', msg: `not a value: ${experiment.invalidArguments.join(', ')} (type whole numbers like 2, 5; pairs like 5:2 for x:y)` }] });
       return;
     }
     fields.updateBudget();

@@ -1,6 +1,7 @@
 // New study form: the new-experiment form's fields (js/experimentfields.js), where any parameter
 // can be ticked to sweep (a range prefilled from the schema, or a list of values), plus the group
-// count (the argument of the label form GET /api/systems names as studies.group_label), the
+// count (the argument of the label form GET /api/systems names as studies.group_label) and the
+// children sharing one model (the second argument of the form it names as studies.team_label), the
 // method, the budget and the objective. The server validates; its 422
 // messages appear beside the fields they name (space.<name>, base.*, objective.*).
 
@@ -38,6 +39,9 @@ export async function mount(root, params, ctx) {
   const METRICS = metricNames(schema.algorithms.reference);
   // the label form whose argument a study's `groups` dimension sweeps (its label with the argument's name)
   const groupForm = argumentForms(fams).map((f) => f.form).find((form) => labelFor(form, form.argument) === limits.group_label);
+  // the label form whose second argument a study's `team_size` dimension sweeps
+  const teamForm = argumentForms(fams).map((f) => f.form).find((form) => form.second_argument
+    && labelFor(form, `${form.argument}:${form.second_argument}`) === limits.team_label);
   const sweeps = new Map(); // parameter name -> {p, box, read(), points()}
   const errorTargets = []; // the sweep editors' error places, registered once the fields exist
   const summary = h('div', { class: 'error-summary', id: nextId('summary'), 'aria-live': 'assertive' });
@@ -151,6 +155,30 @@ export async function mount(root, params, ctx) {
   });
   groupsIn.addEventListener('input', updateSize);
 
+  // the children sharing one model: y of mgrao-x:y (x from the group count's sweep, else 1)
+  const teamTick = h('input', { type: 'checkbox', id: nextId('team') });
+  const teamIn = h('input', { type: 'text', id: nextId('tvals'), placeholder: 'e.g. 2, 4' });
+  const teamErr = h('span', { class: 'field-error', 'aria-live': 'polite' });
+  const teamHelp = h('small', { class: 'help' });
+  fields.errorEls.set('space.team_size', { input: teamIn, error: teamErr });
+  const teamBox = h('fieldset', { class: 'team-sweep', hidden: !teamForm }, h('legend', {}, 'Children sharing one model'),
+    h('label', { class: 'check', for: teamTick.id }, teamTick,
+      teamForm ? ` sweep ${teamForm.second_argument} of ${templateText(teamForm)} (with the group count’s ${teamForm.argument}, else 1; adds that configuration to each trial)` : ''),
+    h('div', { class: 'field', hidden: true }, h('label', { for: teamIn.id }, `Values of ${teamForm ? teamForm.second_argument : ''}`), teamIn, teamHelp, teamErr));
+  const teamField = teamBox.querySelector('.field');
+  const validTeams = () => [1, ...((teamForm && fields.currentForm(teamForm.template)?.second_valid) || [])];
+  const refreshTeamHelp = () => {
+    teamHelp.textContent = teamForm ? `Valid ${teamForm.second_argument} here: ${validTeams().join(', ')} (1: each child its own).` : '';
+  };
+  teamTick.addEventListener('change', () => {
+    teamField.hidden = !teamTick.checked;
+    if (teamTick.checked && !teamIn.value) teamIn.value = validTeams().slice(0, 2).join(', ');
+    refreshTeamHelp();
+    updateObjective();
+    updateSize();
+  });
+  teamIn.addEventListener('input', updateSize);
+
   // every preset, then every saved system (the server inlines a saved one into the study when it is made)
   const alsoChoices = [...schema.systems.map((s) => [s.name, s.name]),
     ...(schema.saved || []).map((s) => [s.name, `${s.name} (saved, ${s.base})`])];
@@ -167,8 +195,8 @@ export async function mount(root, params, ctx) {
       if (cb.value === fields.systemSel.value) { cb.checked = true; cb.disabled = true; } else cb.disabled = false;
     }
   };
-  fields.onPreset(() => { syncSystems(); refreshGroupsHelp(); updateObjective(); });
-  fields.onValid(refreshGroupsHelp); // the system's valid values have come
+  fields.onPreset(() => { syncSystems(); refreshGroupsHelp(); refreshTeamHelp(); updateObjective(); });
+  fields.onValid(() => { refreshGroupsHelp(); refreshTeamHelp(); }); // the system's valid values have come
 
   const methodSel = h('select', { name: 'method' }, limits.methods.map((m) => h('option', { value: m, selected: m === (params.method || 'grid') }, m)));
   const methodHelp = h('small', { class: 'help' });
@@ -191,7 +219,8 @@ export async function mount(root, params, ctx) {
   function updateObjective() {
     const base = fields.read();
     const labels = base.algorithms ? base.algorithms.slice() : [];
-    if (groupsTick.checked) labels.push(limits.group_label);
+    if (teamTick.checked) labels.push(limits.team_label);
+    else if (groupsTick.checked) labels.push(limits.group_label);
     const reference = schema.algorithms.reference; // the default objective: % of max's own configuration
     const keep = configSel.value || (labels.includes(reference) ? reference : labels[labels.length - 1]);
     configSel.replaceChildren(...labels.map((l) => h('option', { value: l, selected: l === keep }, l)));
@@ -202,7 +231,8 @@ export async function mount(root, params, ctx) {
     methodHelp.textContent = METHOD_HELP[methodSel.value] || '';
     const dims = [...sweeps.values()].map((e) => e.points());
     if (groupsTick.checked) dims.push(parseValues(groupsIn.value, 'int').values.length);
-    if (!dims.length) { sizeNote.textContent = 'Tick “sweep” beside the parameters to vary (below), or sweep the group count.'; return; }
+    if (teamTick.checked) dims.push(parseValues(teamIn.value, 'int').values.length);
+    if (!dims.length) { sizeNote.textContent = 'Tick “sweep” beside the parameters to vary (below), or sweep the group count or the children sharing a model.'; return; }
     if (methodSel.value === 'grid') {
       const cells = dims.reduce((a, b) => a * b, 1);
       sizeNote.textContent = `Grid: ${dims.join(' × ')} = ${cells} trials${cells > limits.max_trials ? ` (over the limit of ${limits.max_trials})` : ''}.`;
@@ -242,6 +272,7 @@ export async function mount(root, params, ctx) {
           block('objective.configuration', 'Of configuration', configSel, null),
           block('objective.direction', 'Direction', directionSel, null)),
         groupsBox,
+        teamBox,
         sizeNote)),
     fields.advanced,
     h('div', { class: 'actions' }, submitBtn));
@@ -255,13 +286,17 @@ export async function mount(root, params, ctx) {
     await fields.described(); // the typed configurations' order
     const base = fields.read();
     if (base.invalidArguments) {
-      showErrors({ detail: [{ field: 'algorithms', msg: `not a value: ${base.invalidArguments.join(', ')} (type whole numbers like 2, 5)` }] });
+      showErrors({ detail: [{ field: 'algorithms', msg: `not a value: ${base.invalidArguments.join(', ')} (type whole numbers like 2, 5; pairs like 5:2 for x:y)` }] });
       return;
     }
     const rows = [...sweeps.values()].map((e) => e.read());
     if (groupsTick.checked) {
       const parsed = parseValues(groupsIn.value, 'int');
       rows.push({ name: 'groups', mode: 'values', values: parsed.values, invalid: parsed.invalid });
+    }
+    if (teamTick.checked) {
+      const parsed = parseValues(teamIn.value, 'int');
+      rows.push({ name: 'team_size', mode: 'values', values: parsed.values, invalid: parsed.invalid });
     }
     const bad = rows.filter((r) => r.invalid && r.invalid.length);
     if (bad.length) {

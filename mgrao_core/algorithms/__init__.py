@@ -4,8 +4,8 @@ The families, in the order an unknown label's error lists them:
 
 * :mod:`~mgrao_core.algorithms.uniform`: the uniform allocation (the baseline);
 * :mod:`~mgrao_core.algorithms.oracle`: the best fixed allocation (an upper bound);
-* :mod:`~mgrao_core.algorithms.mgrao`: MG-RAO, ``mgrao-x:1`` and ``mgrao-max`` (paper table
-  "Summary of algorithm labels");
+* :mod:`~mgrao_core.algorithms.mgrao`: MG-RAO, ``mgrao-x:y`` and ``mgrao-max`` (paper table
+  "Summary of algorithm labels"; y > 1: children that share their model);
 * :mod:`~mgrao_core.algorithms.adaptive`: MG-RAO with adaptive parent groups, ``mgrao-adaptive:x``
   (the paper's future work);
 * :mod:`~mgrao_core.algorithms.independent_q`: ``independent-q``, a standard independent learner;
@@ -48,12 +48,14 @@ def family_of(algorithm: Algorithm) -> Family:
     return FAMILIES_BY_NAME[algorithm.kind]
 
 
-def parse_algorithm(label: Any, n_parents: int | None, field: str = "algorithm") -> Algorithm:
-    """Turn a label into an :class:`Algorithm` for a system with ``n_parents`` parents.
+def parse_algorithm(label: Any, n_parents: int | None, field: str = "algorithm",
+                    n_children: int | None = None) -> Algorithm:
+    """Turn a label into an :class:`Algorithm` for a system with ``n_parents`` parents and ``n_children`` children.
 
     Labels are read without case or surrounding spaces (and ratios without leading zeros): the
     returned ``label`` is the canonical spelling (``" MGRAO-05:1"`` is ``"mgrao-5:1"``). With
-    ``n_parents`` None only the grammar is checked (a caller without a system, such as a sort key).
+    ``n_parents`` None only the grammar is checked (a caller without a system, such as a sort key); with
+    ``n_children`` None nothing is checked against the children (MG-RAO's y of ``mgrao-x:y``).
 
     Raises:
         ConfigError: naming ``field``: an unknown label (the message says how labels are written),
@@ -64,6 +66,8 @@ def parse_algorithm(label: Any, n_parents: int | None, field: str = "algorithm")
         for family in FAMILIES:
             algorithm = family.parse(text, n_parents, field)
             if algorithm is not None:
+                if n_children is not None:
+                    family.check_children(algorithm, n_children, field)
                 return algorithm
     raise ConfigError(field, f"unknown algorithm {label!r}: use {', '.join(f.hint(n_parents) for f in FAMILIES)}")
 
@@ -92,17 +96,19 @@ def task_share(algorithm: Algorithm, params: System) -> float:
     return equations.task_share(cost, learned, learned_by_max(params))
 
 
-def parse_algorithms(labels: list[str] | tuple[str, ...], n_parents: int) -> tuple[Algorithm, ...]:
+def parse_algorithms(labels: list[str] | tuple[str, ...], n_parents: int | None,
+                     n_children: int | None = None) -> tuple[Algorithm, ...]:
     """Parse a non-empty list of distinct labels (field names ``algorithms[i]`` in errors).
 
-    Two spellings of one algorithm (``mgrao-1:1`` and ``mgrao-01:1``) are a repeat.
+    Two spellings of one algorithm (``mgrao-1:1`` and ``mgrao-01:1``) are a repeat. ``n_parents`` and
+    ``n_children`` as :func:`parse_algorithm`'s.
     """
     if not labels:
         raise ConfigError("algorithms", "must name at least one algorithm")
     parsed = []
     seen: dict[str, int] = {}
     for i, label in enumerate(labels):
-        algorithm = parse_algorithm(label, n_parents, f"algorithms[{i}]")
+        algorithm = parse_algorithm(label, n_parents, f"algorithms[{i}]", n_children)
         parsed.append(algorithm)
         if algorithm.label in seen:
             raise ConfigError(
@@ -133,10 +139,11 @@ def describe_label(label: Any, params: System | None = None, field: str = "label
     Raises:
         ConfigError: as :func:`parse_algorithm`.
     """
-    algorithm = parse_algorithm(label, None if params is None else params.n_parents, field)
+    algorithm = parse_algorithm(label, None if params is None else params.n_parents, field,
+                                None if params is None else params.n_children)
     family = family_of(algorithm)
     return {"label": algorithm.label, "family": family.name, "title": family.title,
-            "groups": algorithm.n_groups or None,
+            "groups": algorithm.n_groups or None, "team_size": algorithm.team_size if algorithm.n_groups else None,
             "description": family.description, "colour_key": family.colour_key(algorithm),
             "sort_key": list(family.sort_key(algorithm)),
             "memory_per_child": None if params is None else family.memory_per_child(algorithm, params)}
@@ -157,7 +164,7 @@ def registry(params: System | None = None) -> list[dict[str, Any]]:
                 for label in family.examples(n_parents)}
 
     return [{"name": f.name, "title": f.title, "description": f.description, "rank": f.rank,
-             "parameters": [p.name for p in f.parameters], "forms": f.forms(n_parents),
+             "parameters": [p.name for p in f.parameters], "forms": f.system_forms(params),
              "examples": f.examples(n_parents), "memory_per_child": memory(f)} for f in FAMILIES]
 
 

@@ -19,6 +19,7 @@ learner to copy.
 from __future__ import annotations
 
 import importlib
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -65,11 +66,13 @@ class Algorithm:
         label: the canonical spelling, e.g. ``"mgrao-5:1"``.
         kind: the family's name: ``"uniform"``, ``"oracle"`` or ``"mgrao"``.
         n_groups: parent groups per child (MG-RAO only; 0 otherwise).
+        team_size: children that share one learner's state (MG-RAO's y of ``mgrao-x:y``; 1: each child its own).
     """
 
     label: str
     kind: str
     n_groups: int = 0
+    team_size: int = 1
 
 
 @dataclass(frozen=True)
@@ -78,7 +81,9 @@ class LabelForm:
 
     A literal form (``argument`` None) is the label ``template`` itself; a form with an argument
     is ``template`` with ``{argument}`` (``{x}``, ``{M}``) replaced by a whole number (``pattern`` matches the
-    canonical and the accepted spellings, with the number as its first group).
+    canonical and the accepted spellings, with the number as its first group). A form may take a second
+    argument (``second``: MG-RAO's ``{y}`` of ``mgrao-{x}:{y}``), the pattern's second group; its values are
+    then typed as pairs, ``x:y``.
     """
 
     template: str
@@ -86,13 +91,18 @@ class LabelForm:
     description: str
     argument: str | None = None
     argument_help: str = ""
+    second: str | None = None
+    second_help: str = ""
 
-    def as_dict(self, n_parents: int | None = None, valid: list[int] | None = None) -> dict[str, Any]:
-        """JSON-ready; ``valid`` lists the argument's allowed values for a system when known."""
+    def as_dict(self, n_parents: int | None = None, valid: list[int] | None = None,
+                second_valid: list[int] | None = None) -> dict[str, Any]:
+        """JSON-ready; ``valid`` (and ``second_valid``) list the arguments' allowed values for a system when known."""
         out: dict[str, Any] = {"template": self.template, "pattern": self.pattern, "description": self.description,
                                "argument": self.argument, "argument_help": self.argument_help}
         if self.argument is not None:
             out["valid"] = valid
+        if self.second is not None:
+            out |= {"second_argument": self.second, "second_help": self.second_help, "second_valid": second_valid}
         return out
 
 
@@ -219,9 +229,14 @@ class Family:
         return {}
 
     def memory_per_child(self, algorithm: Algorithm, params: System) -> int:
-        """Bytes of one child's state (:attr:`state`) for ``algorithm`` in a system."""
+        """Bytes of one child's state (:attr:`state`) for ``algorithm`` in a system.
+
+        Children that share their state in teams (:attr:`Algorithm.team_size` ``y``) each carry ``1 / y`` of a
+        team's, rounded up to a whole byte.
+        """
         sizes = sizes_of(params, 1, algorithm.n_groups, self.sizes(algorithm, params))
-        return nbytes(self.state, sizes | {"children": 1, "learners": sizes["resources"]})
+        return math.ceil(nbytes(self.state, sizes | {"children": 1, "learners": sizes["resources"]})
+                         / algorithm.team_size)
 
     def preparation_bytes(self, params: System, n_seeds: int) -> int:
         """Bytes the family allocates, beyond its lane state, to prepare a chunk of ``n_seeds`` seeds."""
@@ -282,9 +297,23 @@ class Family:
         """
         raise NotImplementedError
 
+    def check_children(self, algorithm: Algorithm, n_children: int, field: str) -> None:
+        """Refuse ``algorithm`` (parsed by :meth:`parse`) where it does not fit a system of ``n_children`` children.
+
+        Nothing to check by default; MG-RAO's ``mgrao-x:y`` needs y to divide ``n_children``. Raises
+        :class:`ConfigError` naming ``field``.
+        """
+
     def forms(self, n_parents: int | None) -> list[dict[str, Any]]:
         """The family's :class:`LabelForm` s as JSON, with the arguments valid for ``n_parents``."""
         raise NotImplementedError
+
+    def system_forms(self, params: System | None) -> list[dict[str, Any]]:
+        """:meth:`forms` for a system (``params``; None: the grammar alone): by default those of its parent count.
+
+        A family whose label arguments depend on more than the parents (MG-RAO's y, on the children) says so here.
+        """
+        return self.forms(None if params is None else params.n_parents)
 
     def examples(self, n_parents: int | None) -> list[str]:
         """Labels of this family valid for a system of ``n_parents`` parents (a few, for forms)."""

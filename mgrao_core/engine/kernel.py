@@ -76,6 +76,8 @@ class Lanes(NamedTuple):
         seed_index: index of the lane's seed in the block's per-seed arrays.
         kind: the code of the lane's family (:data:`mgrao_core.algorithms.KINDS`).
         groups: parent groups ``m`` per child of the lane's algorithm.
+        team_size: children per team sharing one learner's state (MG-RAO's y of ``mgrao-x:y``): child ``c`` allocates
+            by, and learns into, learner ``floor(c / y)`` (times ``R`` plus the resource, with several); 1: its own.
         task_share: ``(lanes, children)`` the share of each child's resources its tasks get, what learning leaves
             (:func:`mgrao_core.algorithms.task_share`, or a family's own each episode; 1 without ``learning_cost``).
         fixed_weights: ``(lanes, children, n_types)`` the allocation of a fixed family's lanes.
@@ -93,6 +95,7 @@ class Lanes(NamedTuple):
     seed_index: np.ndarray
     kind: np.ndarray
     groups: np.ndarray
+    team_size: np.ndarray
     task_share: np.ndarray
     fixed_weights: np.ndarray
     weights: np.ndarray
@@ -199,6 +202,7 @@ def run_block(lanes, worlds, several, links, draws, env, utilities, outside, fai
         parent_types = lanes.parent_types[lane]
         weights = lanes.weights[lane]
         m = lanes.groups[lane]
+        y = lanes.team_size[lane]  # MG-RAO's children per team: child c allocates by, and learns into, team c // y
         task_share = lanes.task_share[lane]
         if mgrao_lanes is not None:  # the views once per lane, unpacked for the learning (its docstring says why)
             mgrao_views = mgrao.lane_of(mgrao_lanes, lane)
@@ -219,7 +223,8 @@ def run_block(lanes, worlds, several, links, draws, env, utilities, outside, fai
         w_scratch = np.zeros(n_resources)
         a_scratch = np.zeros(n_resources)
         learner_of = np.zeros((n_parents, types_per_composite), dtype=np.int64)
-        # MG-RAO's returned values sorted child by child, each child's in the order they came back (step 5)
+        # MG-RAO's returned values sorted team by team (child by child when y = 1), each team's in the order they came
+        # back (step 5)
         bucket = np.zeros(n_parents * types_per_composite, dtype=np.int64)
         bucket_start = np.zeros(n_children + 1, dtype=np.int64)
         bucket_fill = np.zeros(n_children, dtype=np.int64)
@@ -250,12 +255,19 @@ def run_block(lanes, worlds, several, links, draws, env, utilities, outside, fai
             composite_tasks_arrive(active, draws.arrives[s, e], env, sending)
             for c in range(n_children):
                 if several is not None and mgrao_lanes is not None and kind == MGRAO:  # a PW, allocation per resource
-                    for r in range(n_resources):
-                        mgrao.allocate(mgrao_lanes, mgrao_views, m, c * n_resources + r, resource_weights[c, r])
+                    for r in range(n_resources):  # a team's first member fixes it, the others copy it
+                        if c % y == 0:
+                            mgrao.allocate(mgrao_lanes, mgrao_views, m, (c // y) * n_resources + r,
+                                           resource_weights[c, r])
+                        else:
+                            resource_weights[c, r, :] = resource_weights[c - c % y, r, :]
                     weights[c, :] = resource_weights[c, 0, :]
                     continue
                 if mgrao_lanes is not None and kind == MGRAO:
-                    mgrao.allocate(mgrao_lanes, mgrao_views, m, c, weights[c])
+                    if c % y == 0:  # the team's first member fixes the team's allocation (y = 1: every child its own)
+                        mgrao.allocate(mgrao_lanes, mgrao_views, m, c // y, weights[c])
+                    else:
+                        weights[c, :] = weights[c - c % y, :]
                 elif adaptive_lanes is not None and kind == ADAPTIVE:
                     adaptive.allocate(adaptive_lanes, adaptive_views, m, c, weights[c])
                 elif independent_q_lanes is not None and kind == INDEPENDENT_Q:
@@ -344,8 +356,8 @@ def run_block(lanes, worlds, several, links, draws, env, utilities, outside, fai
                 elif links is None and n_children > 1:
                     update_estimates(lanes.estimates[lane, p], lanes.tries[lane, p], child_of[p], values[p], taq[p],
                                      env.per_composite)
-            # the learners that take the values parent by parent (MG-RAO on one resource learns below, child by child;
-            # a fixed family learns nothing)
+            # the learners that take the values parent by parent (MG-RAO on one resource learns below, team by team:
+            # child by child when y = 1; a fixed family learns nothing)
             in_order = (kind == MGRAO and several is not None) or kind == ADAPTIVE or kind == INDEPENDENT_Q \
                 or kind == BANDIT or kind == BALANCE
             for i in range(n_parents if in_order else 0):
@@ -355,7 +367,7 @@ def run_block(lanes, worlds, several, links, draws, env, utilities, outside, fai
                 if several is not None and mgrao_lanes is not None and kind == MGRAO:  # each resource's PW: its share
                     for r in range(n_resources):
                         for k in range(types_per_composite):
-                            learner_of[p, k] = child_of[p, k] * n_resources + r
+                            learner_of[p, k] = (child_of[p, k] // y) * n_resources + r
                             credit[p, k] = values[p, k] * shares[p, k, r] if env.by_share else values[p, k]
                         mgrao.learn(mgrao_lanes, Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts,
                                     rebase_due, row_kl, m, p, n_parents, learner_of, parent_types, credit)
@@ -371,44 +383,46 @@ def run_block(lanes, worlds, several, links, draws, env, utilities, outside, fai
                 elif balance_lanes is not None and kind == BALANCE:
                     balance.learn(balance_lanes, balance_views, p, n_parents, child_of[p], parent_types[p], values[p])
             if mgrao_lanes is not None and kind == MGRAO and several is None:
-                # Each child learns from its values in the order they came back; children never share a value, so
-                # taking them child by child is the same arithmetic in another order of children, and each child's
-                # state is visited once instead of at every value (many children: the cache keeps it)
-                sort_by_child(sending, child_of, draws.order[s, e], bucket, bucket_start, bucket_fill)
+                # Each team (each child when y = 1) learns from its members' values in the order they came back;
+                # teams never share a value, so taking them team by team is the same arithmetic in another order of
+                # teams, and each team's state is visited once instead of at every value (many children: the cache
+                # keeps it)
+                sort_by_child(sending, child_of, draws.order[s, e], bucket, bucket_start, bucket_fill, y)
                 bounded = m > mgrao_lanes.min_bounded_groups
-                for c in range(n_children):
-                    for b in range(bucket_start[c], bucket_start[c + 1]):
+                for t in range(n_children // y):
+                    for b in range(bucket_start[t], bucket_start[t + 1]):
                         p = bucket[b] // types_per_composite
                         k = bucket[b] - p * types_per_composite
                         mgrao.learn_value(Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due,
-                                          row_kl, c, bounded, (p * m) // n_parents, parent_types[p, k], values[p, k],
+                                          row_kl, t, bounded, (p * m) // n_parents, parent_types[p, k], values[p, k],
                                           mgrao_lanes)
 
 
 @njit(cache=True)
-def sort_by_child(sending, child_of, order, bucket, start, fill):
-    """The atomic tasks of the parents that sent one, child by child, each child's in the order values come back.
+def sort_by_child(sending, child_of, order, bucket, start, fill, team_size):
+    """The atomic tasks of the parents that sent one, team by team, each team's in the order values come back.
 
-    Composite by composite in ``order``, atomic task by atomic task: ``bucket[start[c]:start[c + 1]]`` are child
-    ``c``'s, each as ``p * types_per_composite + k``.
+    A team is ``team_size`` consecutive children (child ``c`` is in team ``c // team_size``; 1: each child alone).
+    Composite by composite in ``order``, atomic task by atomic task: ``bucket[start[t]:start[t + 1]]`` are team
+    ``t``'s, each as ``p * types_per_composite + k``.
     """
-    n_children = fill.shape[0]
+    n_teams = fill.shape[0] // team_size
     per_composite = child_of.shape[1]
     start[:] = 0
     for p in range(child_of.shape[0]):
         if sending[p]:
             for k in range(per_composite):
-                start[child_of[p, k] + 1] += 1
-    for c in range(n_children):
-        start[c + 1] += start[c]
-        fill[c] = start[c]
+                start[child_of[p, k] // team_size + 1] += 1
+    for t in range(n_teams):
+        start[t + 1] += start[t]
+        fill[t] = start[t]
     for i in range(order.shape[0]):
         p = order[i]
         if sending[p]:
             for k in range(per_composite):
-                c = child_of[p, k]
-                bucket[fill[c]] = p * per_composite + k
-                fill[c] += 1
+                t = child_of[p, k] // team_size
+                bucket[fill[t]] = p * per_composite + k
+                fill[t] += 1
 
 
 @njit(cache=True)
@@ -421,10 +435,11 @@ def finish(lanes, several, mgrao_lanes, adaptive_lanes, independent_q_lanes, ban
     for lane in range(lanes.kind.shape[0]):
         kind = lanes.kind[lane]
         if several is not None and mgrao_lanes is not None and kind == MGRAO:
-            mgrao.finish_resources(mgrao_lanes, lane, lanes.groups[lane], lanes.resource_weights[lane])
+            mgrao.finish_resources(mgrao_lanes, lane, lanes.groups[lane], lanes.resource_weights[lane],
+                                   lanes.team_size[lane])
             lanes.weights[lane, :, :] = lanes.resource_weights[lane, :, 0, :]
         elif mgrao_lanes is not None and kind == MGRAO:
-            mgrao.finish(mgrao_lanes, lane, lanes.groups[lane], lanes.weights[lane])
+            mgrao.finish(mgrao_lanes, lane, lanes.groups[lane], lanes.weights[lane], lanes.team_size[lane])
         elif adaptive_lanes is not None and kind == ADAPTIVE:
             adaptive.finish(adaptive_lanes, lane, lanes.groups[lane], lanes.weights[lane])
         elif independent_q_lanes is not None and kind == INDEPENDENT_Q:

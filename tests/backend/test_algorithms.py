@@ -72,7 +72,7 @@ def test_systems_algorithms_come_from_the_registry(client: TestClient) -> None:
     # spelling and values of before, with the examples of families added since (issue 21's) in view order
     assert algorithms["fixed"] == ["uniform", "mgrao-1:1", "mgrao-max", "mgrao-adaptive:2", "mgrao-adaptive:5",
                                    "mgrao-balance", "independent-q", "bandit", "oracle"]
-    assert algorithms["pattern"] == "mgrao-<x>:1, mgrao-adaptive:<x>, mgrao-balance:<M>"
+    assert algorithms["pattern"] == "mgrao-<x>:1, mgrao-<x>:<y>, mgrao-adaptive:<x>, mgrao-balance:<M>"
     assert (algorithms["baseline"], algorithms["reference"], algorithms["best_fixed"]) == (
         "uniform", "mgrao-max", "oracle")
 
@@ -92,8 +92,8 @@ def test_the_registry_answers_for_saved_systems_and_a_systems_overrides(client) 
         return next(f for f in answer.json()["data"] if f["name"] == "mgrao")
 
     family = mgrao("system=walk-p30")
-    [form] = [f for f in family["forms"] if f["argument"]]
-    assert form["valid"] == [1, 2, 3, 5, 6, 10, 15, 30]
+    form, shared = [f for f in family["forms"] if f["argument"]]
+    assert form["valid"] == shared["valid"] == [1, 2, 3, 5, 6, 10, 15, 30]
     assert family == mgrao("system=large&params=" + json.dumps({"n_parents": 30}))
     two = mgrao("system=two-resources")["memory_per_child"]
     one = mgrao("system=single")["memory_per_child"]
@@ -106,3 +106,29 @@ def test_the_registry_answers_for_saved_systems_and_a_systems_overrides(client) 
                          ("system=walk-p30&label=mgrao-4:1", "label")):
         answer = client.get(f"/api/algorithms?{query}")
         assert answer.status_code == 422 and answer.json()["detail"][0]["field"] == field, (query, answer.text)
+
+
+def test_the_registry_gives_the_valid_y_of_shared_models_for_a_system(client) -> None:
+    """Issue 45: mgrao-x:y, y children sharing one model; y must divide n_children."""
+    import json
+
+    assert client.post("/api/systems/saved", json={"name": "six-children", "base": "multi",
+                                                  "params": {"n_children": 6}}).status_code == 201
+    for query in ("system=six-children", "system=multi&params=" + json.dumps({"n_children": 6})):
+        family = next(f for f in client.get(f"/api/algorithms?{query}").json()["data"] if f["name"] == "mgrao")
+        shared = next(form for form in family["forms"] if form.get("second_argument") == "y")
+        assert shared["template"] == "mgrao-{x}:{y}" and shared["second_valid"] == [2, 3, 6]
+        assert shared["valid"] == [1, 2, 5, 10]
+    described = client.get("/api/algorithms", params=[("system", "six-children"), ("label", "mgrao-05:03"),
+                                                      ("label", "mgrao-5:1")]).json()["data"]
+    assert [(d["label"], d["team_size"]) for d in described] == [("mgrao-5:3", 3), ("mgrao-5:1", 1)]
+    assert described[0]["memory_per_child"] == -(-described[1]["memory_per_child"] // 3)
+    answer = client.get("/api/algorithms", params={"system": "multi", "label": "mgrao-5:2"})
+    assert answer.status_code == 422
+    [detail] = answer.json()["detail"]
+    assert detail["field"] == "label"
+    assert "y must be a divisor of n_children = 3 (valid: 1, 3)" in detail["msg"]
+    answer = client.post("/api/jobs", json={"system": "multi", "algorithms": ["uniform", "mgrao-5:2"], "seeds": 1,
+                                            "episodes": 2})
+    assert answer.status_code == 422
+    assert any(d["field"] == "algorithms[1]" and "(valid: 1, 3)" in d["msg"] for d in answer.json()["detail"])

@@ -83,7 +83,7 @@ def test_sorted_by_any_parameter_across_pages(client, finished_jobs, descending)
 @pytest.mark.parametrize(("sort", "says"), [
     ("param.nope", "'nope' is not a parameter"),
     ("final_mean", "needs a configuration"),
-    ("final_mean:mgrao-3:2", "only x:1"),
+    ("final_mean:mgrao-3:0", "y must be a whole number of at least 1"),  # mgrao-3:2 is a configuration now
     ("pct_of_max:bogus", "unknown algorithm"),
     ("size", "is not an order"),
 ])

@@ -194,6 +194,22 @@ def test_a_tpe_study_with_a_group_count_dimension(client: TestClient, worker: Wo
         assert job["algorithms"][-1] == f"mgrao-{trial['params']['groups']}:1"
 
 
+def test_a_grid_study_sweeps_the_children_sharing_a_model_beside_the_group_count(client: TestClient,
+                                                                                  worker: Worker) -> None:
+    # issue 45: y of mgrao-x:y is a dimension beside x (the systems' answer names the configuration they add)
+    assert client.get("/api/systems").json()["studies"]["team_label"] == "mgrao-x:y"
+    study = grid(base={"system": "multi", "algorithms": ["uniform", "mgrao-max"], "seeds": 2, "episodes": 10},
+                 space={"groups": {"values": [1, 5]}, "team_size": {"values": [1, 3]}},
+                 objective={"configuration": "mgrao-x:y", "metric": "pct_from_uniform"})
+    done = run_study(client, worker, submit(client, study))
+    assert done["study"]["trials"] == {"succeeded": 4}
+    for trial in done["trials"]:
+        job = client.get(f"/api/jobs/{trial['job_ids'][0]}").json()
+        label = f"mgrao-{trial['params']['groups']}:{trial['params']['team_size']}"
+        assert job["algorithms"][-1] == label
+        assert trial["value"] == job["summaries"][label]["pct_from_uniform"]
+
+
 def test_a_study_over_several_systems_runs_a_job_per_system(client: TestClient, worker: Worker) -> None:
     study = grid(base={"system": ["single", "multi"], "seeds": 2, "episodes": 10},
                  space={"half_saturation": {"values": [0.15, 0.25]}},
@@ -213,6 +229,7 @@ def test_a_study_over_several_systems_runs_a_job_per_system(client: TestClient, 
                 "trace_decay": {"low": 0.1, "high": 0.9, "steps": 60}}}, ["body", "space"]),
     ({"objective": {"configuration": "mgrao-5:1", "metric": "final_mean"}}, ["body", "objective", "configuration"]),
     ({"space": {"groups": {"values": [2, 3]}}}, ["body", "space", "groups", "values", 1]),
+    ({"space": {"team_size": {"values": [1, 2]}}}, ["body", "space", "team_size", "values", 1]),
     ({"base": {"system": "single", "params": {"n_parents": 0}}}, ["body", "base", "params", "n_parents"]),
 ])
 def test_bad_studies_answer_422_naming_the_field(client: TestClient, change: dict, loc: list) -> None:

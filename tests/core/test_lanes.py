@@ -67,10 +67,12 @@ def test_the_budget_grows_only_by_the_kernel_temporaries_it_now_counts(system, a
     # (issue 42) algorithm 2's blending vector became each learner's row dkls, kept while a row is inactive
     learners = spec.params.n_children * spec.params.n_resources if any(
         a.kind in ("mgrao", "mgrao-adaptive", "mgrao-balance") for a in spec.parsed_algorithms) else 1
+    # (issue 45) each lane's team size, the children sharing one model (mgrao-x:y's y)
     assert chunk_cost(spec, seeds).state == (_before(spec, seeds) + lanes * (spec.params.n_children
                                                                               + 8 * groups * learners
                                                                               + parent_types
-                                                                              + 8 * spec.params.n_children) + added)
+                                                                              + 8 * spec.params.n_children
+                                                                              + 8) + added)
 
 
 @pytest.mark.parametrize(("system", "algorithms", "seeds", "overrides"), RESOURCE_CASES)

@@ -121,10 +121,12 @@ def test_the_environments_price_a_cost_with_the_numbers_the_learner_declares():
         with pytest.raises(ConfigError) as info:
             make("single", learning_cost=0.2)
         assert info.value.field == "learned_numbers" and "must be declared under a learning_cost" in info.value.message
-        for bad in (-1, 1.5, True, [1, 2], "10", [[1, 2]], [None]):
+        for bad in (-1, -0.5, float("nan"), float("inf"), True, [1, 2], "10", [[1, 2]], [None]):
             with pytest.raises(ConfigError) as info:
                 make("single", learning_cost=0.2, learned_numbers=bad)
-            assert info.value.field == "learned_numbers" and "whole number" in info.value.message
+            assert info.value.field == "learned_numbers" and "numbers at least 0" in info.value.message
+        # a fraction is a shared model's numbers over the children sharing it (mgrao-x:y, issue 45)
+        assert set(make("single", learning_cost=0.2, learned_numbers=1.5).learned_numbers.ravel().tolist()) == {1.5}
     assert parallel_env("single", learning_cost=0.0).params.learning_cost == 0.0
     params = make_params({"learning_cost": 0.4}, base=PRESETS["multi"].params)
     most = learned_by_max(params)  # mgrao-max's: 10 * (2 * 20 + 1)
@@ -138,6 +140,11 @@ def test_the_environments_price_a_cost_with_the_numbers_the_learner_declares():
     with pytest.raises(ConfigError) as info:
         env.learned_numbers = None
     assert info.value.field == "learned_numbers"
+    # children that share one model (mgrao-x:y, issue 45) each declare the team's numbers over y, a fraction: the
+    # environments price it as the engine prices the family's children, bit for bit
+    shared = parse_algorithm("mgrao-5:3", params.n_parents, n_children=params.n_children)
+    env.learned_numbers = FAMILIES_BY_NAME["mgrao"].learned_numbers(shared, params)
+    assert env.task_share.tolist() == [[task_share(shared, params)] * 3] * 2 and env.task_share[0, 0] < 1.0
 
 
 def test_chunks_blocks_and_threads_change_no_number_under_a_cost():

@@ -54,8 +54,12 @@ def test_registry_examples_are_valid_for_the_system_and_match_their_forms():
             for form in entry["forms"]:
                 if form["argument"]:
                     for x in form["valid"]:
-                        label = form["template"].replace("{" + form["argument"] + "}", str(x))
-                        assert parse_algorithm(label, n_parents).kind == entry["name"]
+                        for y in form.get("second_valid", [1]):  # a form of two arguments: every valid pair
+                            label = form["template"].replace("{" + form["argument"] + "}", str(x))
+                            label = label.replace("{" + str(form.get("second_argument")) + "}", str(y))
+                            algorithm = parse_algorithm(label, n_parents, n_children=preset.params.n_children)
+                            assert algorithm.kind == entry["name"]
+                            assert re.fullmatch(form["pattern"], label), label
 
 
 def test_every_paper_label_is_an_example_or_matches_a_form():

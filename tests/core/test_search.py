@@ -228,3 +228,36 @@ def test_a_named_system_in_the_list_runs_its_preset_with_its_overrides_and_round
             make_plan(study | {"base": study["base"] | {"system": bad}, "objective": {"metric": "final_mean",
                                                                                       "configuration": "mgrao-max"}})
         assert error.value.field == field, (bad, error.value)
+
+
+def _sharing(space, configuration="mgrao-x:y", system="multi"):
+    return {"name": "sharing", "method": "grid",
+            "base": {"system": system, "algorithms": ["uniform", "mgrao-max"], "seeds": 2, "episodes": 5},
+            "space": space, "objective": {"configuration": configuration, "metric": "pct_from_uniform"},
+            "max_trials": 100}
+
+
+def test_a_study_sweeps_y_beside_x():
+    # issue 45: the y of mgrao-x:y (children sharing one model) is a dimension beside the group count x
+    plan = make_plan(_sharing({"groups": {"values": [1, 5]}, "team_size": {"values": [1, 3]}}))
+    cells = plan.suggest(0, 4)
+    assert [plan.configuration_label(c) for c in cells] == ["mgrao-1:1", "mgrao-1:3", "mgrao-5:1", "mgrao-5:3"]
+    assert plan.specs(cells[3])[0].algorithms == ("uniform", "mgrao-max", "mgrao-5:3")
+    assert plan.specs(cells[3])[0].params == plan.specs(cells[0])[0].params  # no parameter: a configuration
+    alone = make_plan(_sharing({"team_size": {"values": [3]}, "learning_rate": {"values": [0.1]}}))
+    assert alone.configuration_label(alone.suggest(0, 1)[0]) == "mgrao-1:3"  # x is 1 without a groups dimension
+    assert make_plan(plan.as_dict()) == plan
+
+
+@pytest.mark.parametrize(("study", "field", "words"), [
+    (_sharing({"team_size": {"values": [2]}}), "space.team_size.values[0]",
+     "2 does not divide n_children = 3 (valid: 1, 3)"),
+    (_sharing({"team_size": {"low": 1, "high": 3}}), "space.team_size", "takes values (divisors of n_children)"),
+    (_sharing({"learning_rate": {"values": [0.1]}}), "objective.configuration", "needs a groups or team_size"),
+    (_sharing({"groups": {"values": [2]}, "team_size": {"values": [3]}}, "mgrao-x:1"), "objective.configuration",
+     "with a team_size dimension"),
+])
+def test_a_bad_team_size_dimension_names_the_field_and_the_valid_values(study, field, words):
+    with pytest.raises(ConfigError) as error:
+        make_plan(study)
+    assert error.value.field == field and words in error.value.message, error.value.message

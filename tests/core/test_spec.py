@@ -106,9 +106,10 @@ def test_x_must_divide_the_parents():
 
 
 def test_x_to_y_other_than_one():
+    # issue 45: y children sharing one model, y dividing n_children (single has one child)
     error = _error(algorithms=["mgrao-2:3"])
     assert error.field == "algorithms[0]"
-    assert "x:1" in error.message
+    assert "y must be a divisor of n_children = 1 (valid: 1)" in error.message
 
 
 def test_preset_algorithms_checked_against_overridden_parents():

@@ -25,9 +25,11 @@ def test_new_experiment_pickers_come_from_the_registry(browser, server, screensh
     families = api(server, "GET", "/algorithms")["data"]
     literals = {form["template"] for f in families for form in f["forms"] if not form["argument"]}
     argument_forms = [form for f in families for form in f["forms"] if form["argument"]]  # MG-RAO's first
-    [form] = [form for f in families if f["name"] == "mgrao" for form in f["forms"] if form["argument"]]
+    [form] = [form for f in families if f["name"] == "mgrao" for form in f["forms"]
+              if form["argument"] and not form.get("second_argument")]
     large = api(server, "GET", "/algorithms?system=large")["data"]
-    [large_form] = [form for f in large if f["name"] == "mgrao" for form in f["forms"] if form["argument"]]
+    [large_form] = [form for f in large if f["name"] == "mgrao" for form in f["forms"]
+                    if form["argument"] and not form.get("second_argument")]
     errors: list[str] = []
     with page_at(browser, server) as page:
         page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
@@ -101,7 +103,8 @@ def test_new_study_takes_its_group_sweep_and_objective_from_the_registry(browser
     systems = api(server, "GET", "/systems")
     group_label, reference = systems["studies"]["group_label"], systems["algorithms"]["reference"]
     single = api(server, "GET", "/algorithms?system=single")["data"]
-    [form] = [form for f in single if f["name"] == "mgrao" for form in f["forms"] if form["argument"]]
+    [form] = [form for f in single if f["name"] == "mgrao" for form in f["forms"]
+              if form["argument"] and not form.get("second_argument")]
     with page_at(browser, server) as page:
         page.goto("/#/studies/new")
         page.locator("form.newstudy").wait_for()
@@ -140,3 +143,45 @@ def test_memory_per_child_is_shown_when_the_registry_gives_it(browser, server):
         expect(literal).to_contain_text("kB per child")
         page.locator("input.argument-values").first.fill("2")  # MG-RAO's form (mgrao-adaptive's comes after it)
         expect(page.locator(".argument-check").first).to_contain_text("Memory: mgrao-2:1 ")
+
+
+def test_shared_models_are_typed_as_pairs_checked_and_run(browser, server, screenshots):
+    """Issue 45: mgrao-x:y, y children sharing one model: the form's pair field, its checks and memory, a job."""
+    multi = api(server, "GET", "/algorithms?system=multi")["data"]
+    [shared] = [form for f in multi if f["name"] == "mgrao" for form in f["forms"] if form.get("second_argument")]
+    assert (shared["valid"], shared["second_valid"]) == ([1, 2, 5, 10], [3])
+    [described] = api(server, "GET", "/algorithms?system=multi&label=mgrao-5:3")["data"]
+    with page_at(browser, server) as page:
+        errors: list[str] = []
+        page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+        page.goto("/#/new")
+        page.locator("form.newjob").wait_for()
+        page.get_by_label("System preset").select_option("multi")
+        field = page.get_by_label("Values of x:y in mgrao-<x>:<y>")
+        check = page.locator(f"input.argument-values[data-template='{shared['template']}'] ~ small.argument-check")
+        expect(check).to_contain_text("Valid x here: 1, 2, 5, 10. Valid y here: 3.")
+        field.fill("5:3, 5:2")
+        expect(check).to_contain_text(f"mgrao-5:2 is not valid here: y is the {shared['second_help']} (valid: 3)")
+        expect(check).to_have_class("help argument-check warn")
+        field.fill("5:3")
+        size = described["memory_per_child"]  # as the form writes bytes (algorithms.js fmtBytes)
+        per_child = f"{size} B" if size < 1000 else f"{size / 1000:.1f} kB"
+        expect(check).to_contain_text(f"Memory: mgrao-5:3 {per_child} per child")  # asked of the registry
+        expect(check).not_to_have_class("help argument-check warn")
+        page.locator("fieldset.algos").scroll_into_view_if_needed()
+        page.screenshot(path=str(screenshots / "new-experiment-shared-models.png"), full_page=True)
+        page.get_by_label("Seeds (number of runs)").fill("1")
+        page.get_by_label("Episodes per run").fill("5")
+        page.get_by_role("button", name="Run experiment").click()
+        page.wait_for_url("**/#/jobs/*")
+        job_id = int(page.url.rsplit("/", 1)[1])
+        assert "mgrao-5:3" in api(server, "GET", f"/jobs/{job_id}")["algorithms"]
+        # the new-study form sweeps y beside x, with the valid values of the system
+        page.goto("/#/studies/new")
+        page.locator("form.newstudy").wait_for()
+        page.get_by_label("System preset").select_option("multi")
+        page.locator("fieldset.team-sweep input[type=checkbox]").check()
+        expect(page.locator("fieldset.team-sweep small.help")).to_contain_text("Valid y here: 1, 3")
+        expect(page.locator("fieldset.team-sweep input[type=text]")).to_have_value("1, 3")
+        expect(page.locator("select[name=configuration]")).to_contain_text("mgrao-x:y")
+    assert errors == [], errors

@@ -54,13 +54,18 @@ def algorithm_labels() -> dict:
     """``algorithms`` of the answer, from the core's registry (GET /api/algorithms has the whole of it).
 
     ``fixed``: every family's example labels of the grammar alone, in view order; ``pattern``: the
-    label forms that take an argument, ``<x>`` where it goes; ``baseline``, ``reference`` and
+    label forms that take an argument, ``<x>`` where it goes (and ``<y>`` a second); ``baseline``, ``reference`` and
     ``best_fixed``: the labels that % from uniform, % of max and the weights' best fixed allocation read.
     """
     families = registry(None)
     fixed = sorted({label for f in families for label in f["examples"]}, key=sort_key)
-    pattern = ", ".join(form["template"].replace(f"{{{form['argument']}}}", f"<{form['argument']}>")
-                        for f in families for form in f["forms"] if form["argument"] is not None)
+    def shown(form: dict) -> str:
+        text = form["template"]
+        for name in filter(None, (form["argument"], form.get("second_argument"))):
+            text = text.replace(f"{{{name}}}", f"<{name}>")
+        return text
+
+    pattern = ", ".join(shown(form) for f in families for form in f["forms"] if form["argument"] is not None)
     return {"fixed": fixed, "pattern": pattern, "baseline": BASELINE, "reference": REFERENCE, "best_fixed": ORACLE}
 
 
@@ -98,7 +103,8 @@ def systems(settings: SettingsDep, db: DatabaseDep) -> dict:
         "studies": {"methods": list(search.METHODS), "metrics": list(search.METRICS),
                     "max_trials": search.MAX_TRIALS, "max_in_flight": search.MAX_IN_FLIGHT,
                     "max_dimensions": search.MAX_DIMENSIONS, "max_steps": search.MAX_STEPS,
-                    "max_values": search.MAX_VALUES, "group_label": search.GROUP_LABEL},
+                    "max_values": search.MAX_VALUES, "group_label": search.GROUP_LABEL,
+                    "team_label": search.TEAM_LABEL},
     }
 
 

@@ -1,4 +1,4 @@
-"""MG-RAO, the paper's multi-group learner: ``mgrao-x:1`` and ``mgrao-max`` (algorithms 1 and 2).
+"""MG-RAO, the paper's multi-group learner: ``mgrao-x:y`` and ``mgrao-max`` (algorithms 1 and 2).
 
 * :mod:`~mgrao_core.algorithms.mgrao.family`: the label grammar, MG-RAO's parameters and each
   lane's state (what the registry, the runner and the budget read);
@@ -7,6 +7,6 @@
 * :mod:`~mgrao_core.algorithms.mgrao.reference`: the dense reference step.
 """
 
-from mgrao_core.algorithms.mgrao.family import FAMILY, MAX_LABEL, Mgrao, divisors, parent_groups, ratio_label
+from mgrao_core.algorithms.mgrao.family import FAMILY, MAX_LABEL, Mgrao, divisors, parent_groups, ratio_label, teams
 
-__all__ = ["FAMILY", "MAX_LABEL", "Mgrao", "divisors", "parent_groups", "ratio_label"]
+__all__ = ["FAMILY", "MAX_LABEL", "Mgrao", "divisors", "parent_groups", "ratio_label", "teams"]

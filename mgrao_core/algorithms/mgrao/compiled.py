@@ -381,18 +381,31 @@ def learn(ml, Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase
 
 
 @njit(cache=True)
-def finish(ml, lane, m, weights):
-    """Materialise lane ``lane``'s final PW and combined weights (after the last episode) into ``weights``."""
+def finish(ml, lane, m, weights, team_size=1):
+    """Materialise lane ``lane``'s final PW and combined weights (after the last episode) into ``weights``.
+
+    Teams of ``team_size`` children (``mgrao-x:y``) share learner ``c // team_size``: its first member materialises
+    it, the others take its weights.
+    """
     views = lane_of(ml, lane)
-    for c in range(ml.Y.shape[1]):
-        allocate(ml, views, m, c, weights[c])
+    for c in range(weights.shape[0]):
+        if c % team_size == 0:
+            allocate(ml, views, m, c // team_size, weights[c])
+        else:
+            weights[c, :] = weights[c - c % team_size, :]
 
 
 @njit(cache=True)
-def finish_resources(ml, lane, m, weights):
-    """:func:`finish` with several resources: learner ``c * R + r`` into ``weights[c, r]`` (``(children, R, n)``)."""
+def finish_resources(ml, lane, m, weights, team_size=1):
+    """:func:`finish` with several resources: learner ``(c // team_size) * R + r`` into ``weights[c, r]``.
+
+    ``weights`` is ``(children, R, n)``.
+    """
     views = lane_of(ml, lane)
     n_resources = weights.shape[1]
     for c in range(weights.shape[0]):
         for r in range(n_resources):
-            allocate(ml, views, m, c * n_resources + r, weights[c, r])
+            if c % team_size == 0:
+                allocate(ml, views, m, (c // team_size) * n_resources + r, weights[c, r])
+            else:
+                weights[c, r, :] = weights[c - c % team_size, r, :]

@@ -3,7 +3,11 @@
 Each child keeps one row of parent-group weights (PW) per group of parents: ``mgrao-x:1`` splits
 the parents into x groups of equal size (x divides ``n_parents``; the paper's "x:y ratio of
 parent-agent groups to each child-agent", y being 1), ``mgrao-max`` gives every parent its own
-group and ``mgrao-1:1`` pools them all.
+group and ``mgrao-1:1`` pools them all. ``mgrao-x:y`` (y > 1, y divides ``n_children``) is the
+paper's notation read as sharing: children ``c`` with one ``floor(c / y)`` form a team that keeps one
+copy of that state, learns from every member's returned values in the order they come back, and
+gives every member the allocation of the shared model (docs/algorithms.md, "Children that share
+their model").
 
 The family's parts sit side by side: this module (labels, parameters, lane state),
 :mod:`~mgrao_core.algorithms.mgrao.compiled` (the kernel's steps) and
@@ -36,7 +40,8 @@ _RATIO = re.compile(r"^mgrao-0*(\d{1,9}):0*(\d{1,9})$")
 
 def divisors(n: int) -> list[int]:
     """The positive divisors of ``n`` in increasing order."""
-    return [d for d in range(1, n + 1) if n % d == 0]
+    small = [d for d in range(1, math.isqrt(n) + 1) if n % d == 0]
+    return small + [n // d for d in reversed(small) if d * d != n]
 
 
 def parent_groups(n_parents: int, n_groups: int) -> np.ndarray:
@@ -44,23 +49,33 @@ def parent_groups(n_parents: int, n_groups: int) -> np.ndarray:
     return (np.arange(n_parents) * n_groups) // n_parents
 
 
-def check_divisor(text: str, value: int, n_parents: int | None, field: str, name: str) -> None:
+def check_divisor(text: str, value: int, n_parents: int | None, field: str, name: str,
+                  of: str = "n_parents") -> None:
     """Refuse the argument ``name`` (= ``value``) of label ``text`` unless it divides ``n_parents``.
 
-    Without a system (``n_parents`` None) it need only be at least 1. Raises :class:`ConfigError` naming ``field``
-    and, with a system, the valid values.
+    Without a system (``n_parents`` None) it need only be at least 1. ``of`` names the count divided
+    (``n_children`` for MG-RAO's y). Raises :class:`ConfigError` naming ``field`` and, with a system, the valid values.
     """
     if n_parents is None:
         if value < 1:
             raise invalid(field, f"{text}: {name} must be a whole number of at least 1")
     elif value < 1 or value > n_parents or n_parents % value:
-        raise invalid(field, f"{text}: {name} must be a divisor of n_parents = {n_parents} "
+        raise invalid(field, f"{text}: {name} must be a divisor of {of} = {n_parents} "
                              f"(valid: {', '.join(str(d) for d in divisors(n_parents))})")
 
 
-def ratio_label(groups: int) -> str:
-    """The canonical label of x groups per child, ``mgrao-x:1``."""
-    return f"mgrao-{groups}:1"
+def ratio_label(groups: int, team_size: int = 1) -> str:
+    """The canonical label of x groups per child shared by teams of y children, ``mgrao-x:y``."""
+    return f"mgrao-{groups}:{team_size}"
+
+
+def teams(n_children: int, team_size: int) -> np.ndarray:
+    """Team of each child under ``mgrao-x:y`` (``team_size`` y): child ``c`` is in team ``floor(c / y)``.
+
+    Consecutive children: on a ring (``topology = ring``) a team is ``y`` neighbouring children, elsewhere the
+    children's indices (docs/algorithms.md, "Children that share their model").
+    """
+    return np.arange(n_children) // team_size
 
 
 class Mgrao(Family):
@@ -112,24 +127,42 @@ class Mgrao(Family):
     reference = "mgrao_core.algorithms.mgrao.reference:children"
     _ratio = LabelForm("mgrao-{x}:1", r"^mgrao-0*(\d{1,9}):0*1$", "x parent groups per child",
                        "x", "parent groups per child, a whole number dividing n_parents")
+    _shared = LabelForm("mgrao-{x}:{y}", r"^mgrao-0*(\d{1,9}):0*([2-9]\d{0,8}|1\d{1,8})$",
+                        "x parent groups per child, one model shared by each team of y children",
+                        "x", "parent groups per child, a whole number dividing n_parents",
+                        "y", "children per team sharing one model, a whole number of at least 2 dividing n_children")
     _max = LabelForm(MAX_LABEL, "^mgrao-max$", "one group per parent")
 
     def parse(self, text: str, n_parents: int | None, field: str) -> Algorithm | None:
-        """This family's algorithm for ``text``, or None (see :meth:`Family.parse`)."""
+        """This family's algorithm for ``text``, or None (see :meth:`Family.parse`).
+
+        y of ``mgrao-x:y`` need only be at least 1 here; :meth:`check_children` checks it against the children.
+        """
         if text == MAX_LABEL:
             return Algorithm(MAX_LABEL, self.name, n_parents or 0)
         match = _RATIO.match(text)
         if match is None:
             return None
-        groups, children = int(match.group(1)), int(match.group(2))
-        if children != 1:
-            raise invalid(field, f"{text}: only x:1 (groups per child) is supported, got y = {children}")
+        groups, team_size = int(match.group(1)), int(match.group(2))
         check_divisor(text, groups, n_parents, field, "x")
-        return Algorithm(ratio_label(groups), self.name, groups)
+        check_divisor(text, team_size, None, field, "y")
+        return Algorithm(ratio_label(groups, team_size), self.name, groups, team_size)
+
+    def check_children(self, algorithm: Algorithm, n_children: int, field: str) -> None:
+        """Refuse ``mgrao-x:y`` unless y divides ``n_children``, naming the valid values."""
+        check_divisor(algorithm.label, algorithm.team_size, n_children, field, "y", of="n_children")
 
     def forms(self, n_parents: int | None) -> list[dict[str, Any]]:
         """The family's label forms (see :meth:`Family.forms`)."""
-        return [self._ratio.as_dict(valid=None if n_parents is None else divisors(n_parents)), self._max.as_dict()]
+        valid = None if n_parents is None else divisors(n_parents)
+        return [self._ratio.as_dict(valid=valid), self._shared.as_dict(valid=valid), self._max.as_dict()]
+
+    def system_forms(self, params: System | None) -> list[dict[str, Any]]:
+        """:meth:`forms`, with the valid y of ``mgrao-x:y`` for the system's children (at least 2: y = 1 is x:1)."""
+        forms = self.forms(None if params is None else params.n_parents)
+        if params is not None:
+            forms[1]["second_valid"] = divisors(params.n_children)[1:]
+        return forms
 
     def examples(self, n_parents: int | None) -> list[str]:
         """Labels valid for the system (see :meth:`Family.examples`)."""
@@ -138,11 +171,10 @@ class Mgrao(Family):
 
     def hint(self, n_parents: int | None) -> str:
         """How the family's labels are written."""
-        ratio = self._ratio.template.format(x="x")
-        hint = f"{MAX_LABEL} or {ratio}, x being the parent groups per child, a whole number"
+        hint = f"{MAX_LABEL} or mgrao-x:y, x being the parent groups per child, a whole number"
         if n_parents is not None:
             hint = f"{hint} dividing n_parents = {n_parents} ({', '.join(str(d) for d in divisors(n_parents))})"
-        return hint
+        return f"{hint}, and y the children sharing one model (1: each its own), a whole number dividing n_children"
 
     def colour_key(self, algorithm: Algorithm) -> int:
         """1:1 blue (slot 1), max vermillion (2); other x by magnitude: 2-3 green, 4-7 pink, 8-15 yellow, 16+ orange.
@@ -163,15 +195,21 @@ class Mgrao(Family):
         return 7 if x < 16 else 5
 
     def order(self, algorithm: Algorithm) -> int:
-        """x:1 by increasing x, then max."""
-        return 2**62 if algorithm.label == MAX_LABEL else algorithm.n_groups
+        """x:1 by increasing x, then the shared x:y (y > 1) by x and then y, then max."""
+        if algorithm.label == MAX_LABEL:
+            return 2**62
+        if algorithm.team_size == 1:
+            return algorithm.n_groups
+        return algorithm.n_groups * 2**31 + algorithm.team_size
 
-    def learned_numbers(self, algorithm: Algorithm, params: System) -> int:
+    def learned_numbers(self, algorithm: Algorithm, params: System) -> int | float:
         """Per group a row of PW, one of its eligibility trace (``n_types`` each) and a sample count.
 
-        With several resources, that for each resource's PW.
+        With several resources, that for each resource's PW. A team of y children (``mgrao-x:y``) keeps one copy,
+        so each child counts ``1 / y`` of it.
         """
-        return algorithm.n_groups * (2 * params.n_types + 1) * getattr(params, "n_resources", 1)
+        numbers = algorithm.n_groups * (2 * params.n_types + 1) * getattr(params, "n_resources", 1)
+        return numbers if algorithm.team_size == 1 else numbers / algorithm.team_size
 
     def initialise(self, arrays: Mapping[str, np.ndarray], lanes: np.ndarray, params: System) -> None:
         """The active rows of the children of ``lanes`` before the first episode.
@@ -190,8 +228,17 @@ class Mgrao(Family):
             n_rows[lane] = 0
 
     def group_weights(self, arrays: Mapping[str, np.ndarray], lane: int, algorithm: Algorithm) -> np.ndarray | None:
-        """The lane's final PW of every child, ``(children, n_groups, n_types)``."""
-        return arrays["Y"][lane, :, : algorithm.n_groups].copy()
+        """The lane's final PW of every child, ``(children, n_groups, n_types)`` (learners: ``children * R``).
+
+        A child of a team (``mgrao-x:y``) shows its team's: learner ``floor(c / y) * R + r`` is child ``c``'s PW of
+        resource ``r``.
+        """
+        if algorithm.team_size == 1:
+            return arrays["Y"][lane, :, : algorithm.n_groups].copy()
+        n_resources = arrays["Y"].shape[1] // arrays["weights"].shape[1]
+        children = arrays["weights"].shape[1]
+        learners = (teams(children, algorithm.team_size)[:, None] * n_resources + np.arange(n_resources)).ravel()
+        return arrays["Y"][lane, learners, : algorithm.n_groups].copy()
 
 
 FAMILY = Mgrao()

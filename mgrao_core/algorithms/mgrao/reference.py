@@ -1,4 +1,4 @@
-"""MG-RAO's dense reference step: algorithms 1 and 2 applied literally, one child at a time.
+"""MG-RAO's dense reference step: algorithms 1 and 2 applied literally, one child (or team of children) at a time.
 
 What :mod:`mgrao_core.reference` runs for an MG-RAO configuration, built from
 :mod:`mgrao_core.equations`, so that the tests can check the compiled steps against the paper's
@@ -11,7 +11,7 @@ import numpy as np
 
 from mgrao_core import equations as eq
 from mgrao_core.algorithms.base import Algorithm, ReferenceChild, World
-from mgrao_core.algorithms.mgrao.family import parent_groups
+from mgrao_core.algorithms.mgrao.family import parent_groups, teams
 from mgrao_core.algorithms.state import System
 
 
@@ -72,11 +72,13 @@ class ResourceChild(ReferenceChild):
 
 
 def children(params: System, algorithm: Algorithm, world: World, seed: int) -> list[ReferenceChild]:
-    """One :class:`Child` per child of the system, for ``algorithm`` (``mgrao-x:1`` or ``mgrao-max``).
+    """Each child of the system's learner, for ``algorithm`` (``mgrao-x:y`` or ``mgrao-max``).
 
-    With several resources, one :class:`ResourceChild` per child.
+    One :class:`Child` per team of ``y`` children (:func:`~mgrao_core.algorithms.mgrao.family.teams`), the same
+    object for every member: the team's state learns every member's values in the order they come back, and each
+    member allocates by it (with y = 1, one per child). With several resources, one :class:`ResourceChild` per team.
     """
     groups = parent_groups(params.n_parents, algorithm.n_groups)
-    if params.n_resources > 1:
-        return [ResourceChild(algorithm.n_groups, groups, params) for _ in range(params.n_children)]
-    return [Child(algorithm.n_groups, groups, params) for _ in range(params.n_children)]
+    kind = ResourceChild if params.n_resources > 1 else Child
+    shared = [kind(algorithm.n_groups, groups, params) for _ in range(params.n_children // algorithm.team_size)]
+    return [shared[team] for team in teams(params.n_children, algorithm.team_size)]
