@@ -2,6 +2,7 @@
 
     git worktree add /tmp/a772a20 a772a20      # the commit to compare with (never committed)
     python benchmarks/bench_list_probe.py --baseline /tmp/a772a20 [--database sqlite|postgresql|both] [--pairs 5]
+        [--baseline-python /tmp/venv-a772a20/bin/python]   # the baseline in its own environment (its dependencies)
 
 The probe: ``--clients`` (50) concurrent clients, each on its own keep-alive connection, sending back to
 back the shuffled mix of ``--gets`` (2,000) ``GET /api/jobs`` (the first page of 50, the dashboard's
@@ -73,14 +74,14 @@ def _loads() -> str:
 class Tree:
     """One checkout under test: its database, its ``mgrao serve`` (run with its own code), its rounds."""
 
-    def __init__(self, label: str, tree: Path, url: str, log: Path) -> None:
-        self.label, self.tree, self.url, self.log_path = label, tree, url, log
+    def __init__(self, label: str, tree: Path, url: str, log: Path, python: str = sys.executable) -> None:
+        self.label, self.tree, self.url, self.log_path, self.python = label, tree, url, log, python
         self.rounds: list[dict] = []
         self.acknowledged: list[int] = []
         self.process: subprocess.Popen | None = None
 
     def seed(self, jobs: int) -> None:
-        subprocess.run([sys.executable, str(HERE / "bench_list_probe.py"), "--seed", self.url, "--jobs", str(jobs)],
+        subprocess.run([self.python, str(HERE / "bench_list_probe.py"), "--seed", self.url, "--jobs", str(jobs)],
                        cwd=self.tree, env=_tree_env(self.tree), check=True)
 
     def start(self) -> None:
@@ -89,7 +90,7 @@ class Tree:
         self.port = free_port()
         self.base = f"http://127.0.0.1:{self.port}"
         self.log = open(self.log_path, "ab")  # noqa: SIM115
-        argv = [sys.executable, "-m", "mgrao_cli", "serve", "--host", "127.0.0.1", "--port", str(self.port),
+        argv = [self.python, "-m", "mgrao_cli", "serve", "--host", "127.0.0.1", "--port", str(self.port),
                 "--database-url", self.url]
         self.process = subprocess.Popen(argv, cwd=self.tree, env=_tree_env(self.tree), stdout=self.log,
                                         stderr=self.log)
@@ -179,7 +180,7 @@ def _in_process_finals() -> dict:
 
 def _build_parts(tree: Tree, repeat: int) -> str:
     """The in-process cost of one page's build on the tree's database, with the tree's code: a line."""
-    done = subprocess.run([sys.executable, str(HERE / "bench_list_probe.py"), "--build-only", tree.url,
+    done = subprocess.run([tree.python, str(HERE / "bench_list_probe.py"), "--build-only", tree.url,
                            "--repeat", str(repeat)], cwd=tree.tree, env=_tree_env(tree.tree), check=True,
                           capture_output=True, text=True)
     return f"{tree.label}: {done.stdout.strip()}"
@@ -235,9 +236,10 @@ def compare(args: argparse.Namespace, backend: str) -> None:
             raise SystemExit(f"no PostgreSQL: {reason}")
         postgres = PostgresServer().start()
     trees = []
-    for label, tree in (("baseline", args.baseline.resolve()), ("this", ROOT)):
+    for label, tree, python in (("baseline", args.baseline.resolve(), args.baseline_python), ("this", ROOT,
+                                                                                               sys.executable)):
         url = postgres.create_database() if postgres else f"sqlite:///{tmp / f'{label}.db'}"
-        trees.append(Tree(label, tree, url, tmp / f"{label}.log"))
+        trees.append(Tree(label, tree, url, tmp / f"{label}.log", python))
     print(f"\n== {backend}: baseline {args.baseline} ({_commit(args.baseline)}), this {_commit(ROOT)}; logs in {tmp}",
           flush=True)
     try:
@@ -281,6 +283,8 @@ def _commit(tree: Path) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--baseline", type=Path, help="a checkout of the commit to compare with (git worktree add)")
+    parser.add_argument("--baseline-python", default=sys.executable,
+                        help="the interpreter (of a virtualenv) that runs the baseline (default: this one)")
     parser.add_argument("--database", choices=["sqlite", "postgresql", "both"], default="both")
     parser.add_argument("--jobs", type=int, default=2000, help="stored jobs at the start")
     parser.add_argument("--clients", type=int, default=50)
