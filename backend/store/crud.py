@@ -9,7 +9,7 @@ from datetime import datetime
 from typing import Any
 
 import orjson
-from sqlalchemy import ColumnElement, Row, Text, cast, delete, func, insert, or_, select, update
+from sqlalchemy import ColumnElement, Row, Text, cast, delete, exists, func, insert, select, update
 from sqlalchemy.orm import Session
 
 import mgrao_core
@@ -20,8 +20,10 @@ from backend.store.models import (
     QUEUED,
     RUNNING,
     SAVED_SYSTEM_TAG_PREFIX,
+    SEARCH_SEPARATOR,
     SIMULATION,
     Job,
+    JobSearch,
     JobTag,
     saved_system_of,
     utcnow,
@@ -87,6 +89,24 @@ def set_tags(session: Session, job: Job, tags: Sequence[str]) -> None:
     job.tag_rows = [JobTag(tag=t) for t in unique]
 
 
+def search_text(name: str, notes: str, tags: Sequence[str]) -> str:
+    """What the listing's ``q`` searches in a job (:class:`~backend.store.models.JobSearch`): name, notes, each tag.
+
+    Joined by a newline, which no name or tag holds: a text without one is found in the joined text exactly where
+    it is found in the name, the notes or a tag.
+    """
+    return SEARCH_SEPARATOR.join([name, notes, *tags])
+
+
+def index_labels(job: Job) -> None:
+    """Write ``job``'s name, notes and tags as its search row; call after any of them changes (before the flush)."""
+    text = search_text(job.name, job.notes, job.tags)
+    if job.search_row is None:
+        job.search_row = JobSearch(text=text)
+    else:
+        job.search_row.text = text
+
+
 def job_config(spec: ExperimentSpec, until: Until | None) -> dict[str, Any]:
     """A job's stored configuration: the spec's, with its stopping rule when it has one."""
     return spec.as_dict() | ({} if until is None else {"until": until.as_dict()})
@@ -108,6 +128,7 @@ def create_job(
         study_id=study_id, trial_id=trial_id, work=spec.work,
     )
     set_tags(session, job, tags)
+    index_labels(job)
     session.add(job)
     session.flush()
     return job
@@ -136,6 +157,8 @@ def create_jobs(session: Session, *, jobs: Sequence[dict[str, Any]]) -> list[int
     tag_rows = [{"job_id": job_id, "tag": tag} for job_id, unique in zip(ids, tags, strict=True) for tag in unique]
     if tag_rows:
         session.execute(insert(JobTag), tag_rows)
+    session.execute(insert(JobSearch), [{"job_id": job_id, "text": search_text(row["name"], row["notes"], row["tags"])}
+                                        for job_id, row in zip(ids, rows, strict=True)])
     return ids
 
 
@@ -159,6 +182,8 @@ def update_job(
         job.notes = notes
     if tags is not None:
         set_tags(session, job, tags)
+    if (name, notes, tags) != (None, None, None):
+        index_labels(job)
     return job
 
 
@@ -209,21 +234,19 @@ def _filters(*, status: str | None, system: str | None, tag: str | None, q: str 
     if status:
         clauses.append(Job.status == status)
     if system in PRESETS:  # a preset's own jobs, not those of a saved system based on it
-        clauses.append(Job.system == system)
-        clauses.append(Job.id.not_in(select(JobTag.job_id).where(JobTag.tag.startswith(SAVED_SYSTEM_TAG_PREFIX))))
+        clauses.append(Job.system == system)  # each job's tags looked up by its key, not every tag scanned
+        clauses.append(~exists().where(JobTag.job_id == Job.id, JobTag.tag.startswith(SAVED_SYSTEM_TAG_PREFIX)))
     elif system:  # a saved system's jobs carry its tag
         clauses.append(Job.id.in_(select(JobTag.job_id).where(JobTag.tag == f"{SAVED_SYSTEM_TAG_PREFIX}{system}")))
     if tag:
         clauses.append(Job.id.in_(select(JobTag.job_id).where(JobTag.tag == tag)))
     if q:
         pattern = f"%{_escape_like(q.lower())}%"
-        clauses.append(
-            or_(
-                func.lower(Job.name).like(pattern, escape="\\"),
-                func.lower(Job.notes).like(pattern, escape="\\"),
-                Job.id.in_(select(JobTag.job_id).where(func.lower(JobTag.tag).like(pattern, escape="\\"))),
-            )
-        )
+        if SEARCH_SEPARATOR not in q:  # found in the joined text exactly where in a name, notes or tag (search_text)
+            clauses.append(Job.id.in_(select(JobSearch.job_id).where(
+                func.lower(JobSearch.text).like(pattern, escape="\\"))))
+        else:  # text of several lines: only notes hold it
+            clauses.append(func.lower(Job.notes).like(pattern, escape="\\"))
     return clauses
 
 
@@ -258,8 +281,11 @@ def list_jobs(
     order = parse_sort(sort)
     clauses = _filters(status=status, system=system, tag=tag, q=q, config_hash=config_hash, kind=kind)
     total = session.scalar(select(func.count()).select_from(Job).where(*clauses)) or 0
-    statement = order.apply(select(*LISTED, order.value.label("sort_key")).where(*clauses), cursor)
-    rows = session.execute(statement.limit(limit + 1)).all()
+    rows: list[Row] = []
+    for part in order.parts(select(*LISTED, order.value.label("sort_key")).where(*clauses), cursor):
+        rows += session.execute(part.limit(limit + 1 - len(rows))).all()
+        if len(rows) > limit:
+            break
     next_cursor = None
     if len(rows) > limit:
         rows = rows[:limit]
