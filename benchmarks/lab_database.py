@@ -45,7 +45,6 @@ from backend.store.models import (  # noqa: E402
     SIMULATION,
     ExternalRun,
     Job,
-    JobSearch,
     JobSummary,
     JobTag,
     Run,
@@ -217,9 +216,8 @@ def seed_lab(url: str, jobs: int = 100_000, seed: int = 46, log=print) -> dict[s
                         for t in tags]
             if tag_rows:
                 session.execute(insert(JobTag), tag_rows)
-            session.execute(insert(JobSearch), [{"job_id": job_id, "text": crud.search_text(row["name"], row["notes"],
-                                                                                           row["tags"])}
-                                                for job_id, row in zip(ids, job_rows, strict=True)])
+            crud.add_search_rows(session, [(job_id, row["name"], row["notes"], row["tags"])
+                                           for job_id, row in zip(ids, job_rows, strict=True)])
             if externals:
                 session.execute(insert(ExternalRun), [{"job_id": ids[k], "open_key": None,
                                                        "definition_digest": "0" * 64} for k in externals])

@@ -9,7 +9,20 @@ from datetime import datetime
 from typing import Any
 
 import orjson
-from sqlalchemy import ColumnElement, Row, Text, cast, delete, exists, func, insert, select, update
+from sqlalchemy import (
+    ColumnElement,
+    Row,
+    Select,
+    Text,
+    bindparam,
+    cast,
+    delete,
+    exists,
+    func,
+    insert,
+    select,
+    update,
+)
 from sqlalchemy.orm import Session
 
 import mgrao_core
@@ -93,14 +106,23 @@ def search_text(name: str, notes: str, tags: Sequence[str]) -> str:
     """What the listing's ``q`` searches in a job (:class:`~backend.store.models.JobSearch`): name, notes, each tag.
 
     Joined by a newline, which no name or tag holds: a text without one is found in the joined text exactly where
-    it is found in the name, the notes or a tag.
+    it is found in the name, the notes or a tag. Stored lowered by the database's ``lower`` (:func:`add_search_rows`,
+    :func:`index_labels`), as the search lowered each of them before.
     """
     return SEARCH_SEPARATOR.join([name, notes, *tags])
 
 
+def add_search_rows(session: Session, rows: Sequence[tuple[int, str, str, Sequence[str]]]) -> None:
+    """Insert the search rows of new jobs, each given as ``(job_id, name, notes, tags)``, in one statement."""
+    if rows:
+        session.execute(insert(JobSearch).values(text=func.lower(bindparam("labels"))),
+                        [{"job_id": job_id, "labels": search_text(name, notes, tags)}
+                         for job_id, name, notes, tags in rows])
+
+
 def index_labels(job: Job) -> None:
     """Write ``job``'s name, notes and tags as its search row; call after any of them changes (before the flush)."""
-    text = search_text(job.name, job.notes, job.tags)
+    text = func.lower(search_text(job.name, job.notes, job.tags))
     if job.search_row is None:
         job.search_row = JobSearch(text=text)
     else:
@@ -157,8 +179,8 @@ def create_jobs(session: Session, *, jobs: Sequence[dict[str, Any]]) -> list[int
     tag_rows = [{"job_id": job_id, "tag": tag} for job_id, unique in zip(ids, tags, strict=True) for tag in unique]
     if tag_rows:
         session.execute(insert(JobTag), tag_rows)
-    session.execute(insert(JobSearch), [{"job_id": job_id, "text": search_text(row["name"], row["notes"], row["tags"])}
-                                        for job_id, row in zip(ids, rows, strict=True)])
+    add_search_rows(session, [(job_id, row["name"], row["notes"], row["tags"])
+                              for job_id, row in zip(ids, rows, strict=True)])
     return ids
 
 
@@ -243,8 +265,7 @@ def _filters(*, status: str | None, system: str | None, tag: str | None, q: str 
     if q:
         pattern = f"%{_escape_like(q.lower())}%"
         if SEARCH_SEPARATOR not in q:  # found in the joined text exactly where in a name, notes or tag (search_text)
-            clauses.append(Job.id.in_(select(JobSearch.job_id).where(
-                func.lower(JobSearch.text).like(pattern, escape="\\"))))
+            clauses.append(Job.id.in_(select(JobSearch.job_id).where(_found(q))))
         else:  # text of several lines: only notes hold it
             clauses.append(func.lower(Job.notes).like(pattern, escape="\\"))
     return clauses
@@ -267,6 +288,18 @@ def _config(text: str) -> dict[str, Any]:
         return json.loads(text)
 
 
+def _found(q: str) -> ColumnElement[bool]:
+    """The search rows that hold ``q`` (one line), in any case: their text is stored lowered (:func:`search_text`)."""
+    return JobSearch.text.like(f"%{_escape_like(q.lower())}%", escape="\\")
+
+
+def _count(clauses: list[ColumnElement[bool]], q: str | None, only_q: bool) -> Select:
+    """The count of the listing; of the search rows alone when ``q`` is its only filter (every job has one)."""
+    if only_q and q and SEARCH_SEPARATOR not in q:
+        return select(func.count()).select_from(JobSearch).where(_found(q))
+    return select(func.count()).select_from(Job).where(*clauses)
+
+
 def list_jobs(
     session: Session, *, status: str | None = None, system: str | None = None, tag: str | None = None,
     q: str | None = None, sort: str = "-created_at", limit: int = 50, cursor: str | None = None,
@@ -280,7 +313,8 @@ def list_jobs(
     """
     order = parse_sort(sort)
     clauses = _filters(status=status, system=system, tag=tag, q=q, config_hash=config_hash, kind=kind)
-    total = session.scalar(select(func.count()).select_from(Job).where(*clauses)) or 0
+    only_q = not (status or system or tag or config_hash or kind)
+    total = session.scalar(_count(clauses, q, only_q)) or 0
     rows: list[Row] = []
     for part in order.parts(select(*LISTED, order.value.label("sort_key")).where(*clauses), cursor):
         rows += session.execute(part.limit(limit + 1 - len(rows))).all()

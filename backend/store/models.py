@@ -109,9 +109,9 @@ SEARCH_SEPARATOR = "\n"
 class JobSearch(Base):
     """What the listing's ``q`` searches in a job, in one narrow row: its name, notes and tags (migration 0019).
 
-    ``text`` is ``name``, ``notes`` and each tag, joined by :data:`SEARCH_SEPARATOR`
-    (:func:`backend.store.crud.search_text`): a search reads this table, a few tens of bytes a job, instead of
-    every job's row and its tags.
+    ``text`` is ``name``, ``notes`` and each tag, joined by :data:`SEARCH_SEPARATOR` and lowered by the database's
+    ``lower`` (:func:`backend.store.crud.search_text`): a search reads this table, a few tens of bytes a job, instead
+    of every job's row and its tags, and lowers nothing but ``q``.
     """
 
     __tablename__ = "job_search"

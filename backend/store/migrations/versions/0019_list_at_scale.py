@@ -1,7 +1,7 @@
 """The runs list at a lab's scale (issue 46): a narrow table for its search, and the indexes of its pages.
 
-* ``job_search``: each job's name, notes and tags in one narrow row (``models.JobSearch``), filled here
-  from every stored job in one statement; the listing's ``q`` reads it instead of every job's row.
+* ``job_search``: each job's name, notes and tags in one narrow row, lowered (``models.JobSearch``), filled
+  here from every stored job in one statement; the listing's ``q`` reads it instead of every job's row.
 * ``ix_jobs_system_created`` (system, created_at, id) in place of ``ix_jobs_system`` (system): a system's
   newest jobs are read in order and the page stops, instead of sorting every job of the system.
 * ``ix_job_summaries_max`` (algorithm, pct_of_max, job_id): a sort by % of max reads its index, as the two
@@ -32,7 +32,7 @@ def upgrade() -> None:
         sa.Column("job_id", ID, sa.ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True),
         sa.Column("text", sa.Text(), nullable=False),
     )
-    # name, notes, then each tag, joined by a newline (models.SEARCH_SEPARATOR; crud.search_text)
+    # name, notes, then each tag, joined by a newline and lowered (models.SEARCH_SEPARATOR; crud.search_text)
     if op.get_bind().dialect.name == "postgresql":
         tags = "string_agg(t.tag, E'\\n' ORDER BY t.tag)"
         newline = "E'\\n'"
@@ -40,8 +40,8 @@ def upgrade() -> None:
         tags = "group_concat(t.tag, char(10))"
         newline = "char(10)"
     op.execute(
-        f"INSERT INTO job_search (job_id, text) SELECT j.id, j.name || {newline} || j.notes || "
-        f"coalesce((SELECT {newline} || {tags} FROM job_tags t WHERE t.job_id = j.id), '') FROM jobs j")
+        f"INSERT INTO job_search (job_id, text) SELECT j.id, lower(j.name || {newline} || j.notes || "
+        f"coalesce((SELECT {newline} || {tags} FROM job_tags t WHERE t.job_id = j.id), '')) FROM jobs j")
     op.create_index("ix_jobs_system_created", "jobs", ["system", "created_at", "id"])
     op.drop_index("ix_jobs_system", table_name="jobs")
     op.create_index("ix_job_summaries_max", "job_summaries", ["algorithm", "pct_of_max", "job_id"])
