@@ -246,8 +246,19 @@ def _escape_like(text: str) -> str:
     return text.replace("\\", "\\\\").replace("%", "\\%").replace("_", "\\_")
 
 
+SEARCH_FEW = 1000
+"""Up to this many jobs found, a search's page is read from its matches (sorted); beyond, from the sort's order.
+
+A page of a search either reads every match and sorts them (a key lookup each: about 2.5 us on SQLite here) or
+reads the jobs in the page's order and checks each one's search row until the page is full (about 0.5 us each,
+``limit`` x jobs / matches of them). Below about 1,000 matches of 100,000 jobs the first reads less; beyond it the
+second (docs/service.md, "The runs list at a lab's scale"). The count, read first, tells which.
+"""
+
+
 def _filters(*, status: str | None, system: str | None, tag: str | None, q: str | None,
-             config_hash: str | None = None, kind: str | None = None) -> list[ColumnElement]:
+             config_hash: str | None = None, kind: str | None = None, many: bool = False) -> list[ColumnElement]:
+    """The listing's filters; ``many``: the search as each job's check (the jobs read in the page's order)."""
     clauses: list[ColumnElement] = []
     if kind:
         clauses.append(Job.kind == kind)
@@ -265,7 +276,8 @@ def _filters(*, status: str | None, system: str | None, tag: str | None, q: str 
     if q:
         pattern = f"%{_escape_like(q.lower())}%"
         if SEARCH_SEPARATOR not in q:  # found in the joined text exactly where in a name, notes or tag (search_text)
-            clauses.append(Job.id.in_(select(JobSearch.job_id).where(_found(q))))
+            clauses.append(exists().where(JobSearch.job_id == Job.id, _found(q)) if many
+                           else Job.id.in_(select(JobSearch.job_id).where(_found(q))))
         else:  # text of several lines: only notes hold it
             clauses.append(func.lower(Job.notes).like(pattern, escape="\\"))
     return clauses
@@ -315,8 +327,11 @@ def list_jobs(
     clauses = _filters(status=status, system=system, tag=tag, q=q, config_hash=config_hash, kind=kind)
     only_q = not (status or system or tag or config_hash or kind)
     total = session.scalar(_count(clauses, q, only_q)) or 0
+    if q and total > SEARCH_FEW:
+        clauses = _filters(status=status, system=system, tag=tag, q=q, config_hash=config_hash, kind=kind, many=True)
+    parts = order.parts(select(*LISTED, order.value.label("sort_key")).where(*clauses), cursor)  # checks the cursor
     rows: list[Row] = []
-    for part in order.parts(select(*LISTED, order.value.label("sort_key")).where(*clauses), cursor):
+    for part in parts if total else []:  # nothing matches: no page to read
         rows += session.execute(part.limit(limit + 1 - len(rows))).all()
         if len(rows) > limit:
             break

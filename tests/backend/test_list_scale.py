@@ -15,6 +15,7 @@ from fastapi.testclient import TestClient
 from sqlalchemy import create_engine, event, func, insert, select
 
 from backend.api.app import create_app
+from backend.errors import BadQuery
 from backend.settings import Settings
 from backend.store import crud, external
 from backend.store.db import Database, alembic_config
@@ -240,3 +241,30 @@ def test_a_search_reads_the_narrow_search_rows(many_jobs: Database) -> None:
     """q reads job_search (tens of bytes a job), not every job's row (its configuration: kilobytes)."""
     (text,) = _page_plans(many_jobs, q="job 1", limit=5)
     assert "job_search" in text, text
+
+
+def test_a_search_of_many_matches_reads_the_jobs_in_the_pages_order(db: Database) -> None:
+    """Beyond crud.SEARCH_FEW matches a search's page reads the order's index and checks each job's search row,
+    stopping when the page is full, instead of reading every match and sorting them; the same jobs either way."""
+    spec, n = make_spec("single", seeds=1, episodes=5), 3 * crud.SEARCH_FEW // 2 + 3
+    with db.write() as session:  # one statement: one created_at, so the newest first is the highest id first
+        crud.create_jobs(session, jobs=[{"spec": spec, "name": f"common {i}" if i % 3 else f"rare {i}"}
+                                        for i in range(n)])
+    for q, many in (("common", True), ("rare", False)):
+        if db.engine.dialect.name == "sqlite":  # PostgreSQL's planner picks either way for both forms of the query
+            (text,) = _page_plans(db, q=q, limit=5)
+            assert ("TEMP B-TREE" not in text and "ix_jobs_created" in text) == many, (q, text)
+        with db.session() as session:
+            jobs, cursor, total = crud.list_jobs(session, q=q, limit=5)
+            again, _cursor, _total = crud.list_jobs(session, q=q, limit=5, cursor=cursor)
+        assert total > crud.SEARCH_FEW if many else total < crud.SEARCH_FEW
+        expected = [job_id for job_id in range(n, 0, -1) if ((job_id - 1) % 3 != 0) == many]
+        assert [job["id"] for job in jobs + again] == expected[:10], q
+
+
+def test_a_search_that_finds_nothing_still_checks_its_cursor(db: Database) -> None:
+    with db.session() as session:
+        assert crud.list_jobs(session, q="nothing")[2] == 0
+        with pytest.raises(BadQuery) as raised:
+            crud.list_jobs(session, q="nothing", cursor="bm90IGEgY3Vyc29y")
+    assert "cursor" in str(raised.value)
