@@ -79,6 +79,7 @@ class Tree:
         self.rounds: list[dict] = []
         self.acknowledged: list[int] = []
         self.process: subprocess.Popen | None = None
+        self.serve_args: list[str] = []  # more options of ``mgrao serve`` (bench_lab_scale.py: --workers 0)
 
     def seed(self, jobs: int) -> None:
         subprocess.run([self.python, str(HERE / "bench_list_probe.py"), "--seed", self.url, "--jobs", str(jobs)],
@@ -91,7 +92,7 @@ class Tree:
         self.base = f"http://127.0.0.1:{self.port}"
         self.log = open(self.log_path, "ab")  # noqa: SIM115
         argv = [self.python, "-m", "mgrao_cli", "serve", "--host", "127.0.0.1", "--port", str(self.port),
-                "--database-url", self.url]
+                "--database-url", self.url, *self.serve_args]
         self.process = subprocess.Popen(argv, cwd=self.tree, env=_tree_env(self.tree), stdout=self.log,
                                         stderr=self.log)
         wait_healthy(self.base, self.process, timeout=120)
