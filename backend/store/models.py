@@ -60,7 +60,7 @@ class Job(Base):
         Index("ix_jobs_status_created", "status", "created_at", "id"),
         Index("ix_jobs_created", "created_at", "id"),
         Index("ix_jobs_name", "name", "id"),
-        Index("ix_jobs_system_created", "system", "created_at", "id"),
+        Index("ix_jobs_system_created", "system", "created_at", "id", "status"),  # status: a count reads no row
         {"sqlite_autoincrement": True},  # a deleted job's id is never reused (migration 0004)
     )
 

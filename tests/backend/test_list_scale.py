@@ -162,12 +162,12 @@ def test_a_result_sort_pages_in_the_order_of_value_is_null_value_id(db: Database
 
 # ---- the plans that keep a page at a lab's scale (docs/service.md, "The runs list at a lab's scale") ---------
 
-def _page_plans(db: Database, **listing) -> list[str]:
-    """The database's plan of each statement with which crud.list_jobs reads a page (those with ORDER BY)."""
+def _page_plans(db: Database, containing: str = "ORDER BY", **listing) -> list[str]:
+    """The database's plan of each statement with which crud.list_jobs reads a page (those ``containing``)."""
     seen: list[tuple[str, object]] = []
 
     def capture(_conn, _cursor, statement, parameters, _context, _executemany) -> None:
-        if "ORDER BY" in statement:
+        if containing in statement:
             seen.append((statement, parameters))
 
     event.listen(db.engine, "before_cursor_execute", capture)
@@ -235,6 +235,13 @@ def test_a_systems_page_reads_its_index_in_order(many_jobs: Database) -> None:
                 assert "TEMP B-TREE" not in text and "ix_jobs_system_created" in text, (listing, text)
             else:
                 assert "Sort" not in text and "ix_jobs_system_created" in text, (listing, text)
+
+
+def test_a_count_of_a_systems_jobs_of_one_status_reads_no_jobs_row(many_jobs: Database) -> None:
+    """(system, created_at, id, status): the count of a filtered listing reads the index alone (SQLite)."""
+    (text,) = _page_plans(many_jobs, containing="count(*)", system="multi", status="queued", limit=5)
+    if many_jobs.engine.dialect.name == "sqlite":  # PostgreSQL's index-only scans depend on its visibility map
+        assert "COVERING INDEX ix_jobs_system_created" in text, text
 
 
 def test_a_search_reads_the_narrow_search_rows(many_jobs: Database) -> None:
