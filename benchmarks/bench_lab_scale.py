@@ -17,6 +17,9 @@ between the trees (A B, then B A) so that the shared machine's drift falls on bo
 p50 and p99 in ms, errors and the load average before and after; the end prints the medians over the
 rounds and checks that both trees answered each listing with the same jobs in the same order.
 
+``--pages`` (with ``--url`` and maybe ``--baseline``) times, with one client, a job's page (the job
+with the most runs), a compare of 10 succeeded jobs and their statistics at 2,000 bootstrap repetitions,
+cold (a new seed each time) and cached, ``--repeat`` times on each tree, alternated.
 ``--migrate URL`` runs this tree's migrations on that database and prints how long they took.
 ``--storage URL`` prints the bytes of each table with its indexes (SQLite's ``dbstat``, PostgreSQL's
 ``pg_total_relation_size``), the bytes per stored utility (a float64: 8 bytes raw), per run and per job,
@@ -149,6 +152,64 @@ def compare(args: argparse.Namespace) -> None:
     print(f"  target: p99 < 300 ms; load average (1/5 min) {_loads()} at the end")
 
 
+def page_paths(url: str) -> dict[str, list[str]]:
+    """A job's page, a compare of 10 jobs and its statistics (cold: a new bootstrap seed each time; cached)."""
+    from sqlalchemy import func, select
+
+    from backend.store.db import Database
+    from backend.store.models import Job, Run
+
+    db = Database(url)
+    with db.session() as session:
+        biggest = session.scalar(select(Run.job_id).group_by(Run.job_id).order_by(func.count().desc()).limit(1))
+        ten = list(session.scalars(select(Job.id).where(Job.status == "succeeded", Job.system == "single",
+                                                       Job.kind == "simulation").order_by(Job.id.desc()).limit(10)))
+    db.dispose()
+    jobs = ",".join(map(str, ten))
+    return {
+        f"job page (job {biggest}, the most runs)": [f"/api/jobs/{biggest}"],
+        "compare of 10 jobs": [f"/api/compare?jobs={jobs}"],
+        "their statistics, cold (2,000 reps)": [f"/api/compare/statistics?jobs={jobs}&reps=2000&seed={seed}"
+                                                for seed in range(100, 200)],
+        "their statistics, cached": [f"/api/compare/statistics?jobs={jobs}&reps=2000&seed=100"],
+    }
+
+
+def pages(args: argparse.Namespace) -> None:
+    """One client, each page ``--repeat`` times on each tree, alternated; medians and worst, in ms."""
+    import httpx
+
+    tmp = Path(tempfile.mkdtemp(prefix="mgrao-bench-lab-pages-"))
+    trees = [Tree("this", ROOT, args.url, tmp / "this.log")]
+    if args.baseline:
+        trees.insert(0, Tree("baseline", args.baseline.resolve(), args.baseline_url, tmp / "baseline.log",
+                             args.baseline_python))
+    for tree in trees:
+        tree.serve_args = ["--workers", "0"]
+    paths = page_paths(args.url)
+    times: dict[tuple[str, str], list[float]] = {}
+    try:
+        for tree in trees:
+            tree.start()
+        for name, urls in paths.items():
+            for number in range(args.repeat):
+                for tree in (trees if number % 2 == 0 else trees[::-1]):
+                    with httpx.Client(base_url=tree.base, timeout=120) as client:
+                        path = urls[(number * len(trees) + trees.index(tree)) % len(urls)]
+                        t0 = time.perf_counter()
+                        answer = client.get(path)
+                        times.setdefault((name, tree.label), []).append(time.perf_counter() - t0)
+                        if answer.status_code != 200:
+                            print(f"  {tree.label} {path}: {answer.status_code} {answer.text[:200]}", flush=True)
+    finally:
+        for tree in trees:
+            tree.stop()
+    print(f"one client, {args.repeat} requests each (median / worst ms); load at the end {_loads()}")
+    for name in paths:
+        print(f"  {name:<40}" + "".join(f"  {t.label} {statistics.median(times[(name, t.label)]) * 1000:7.0f} / "
+                                        f"{max(times[(name, t.label)]) * 1000:7.0f}" for t in trees))
+
+
 def migrate(url: str) -> None:
     """This tree's migrations on ``url``, timed."""
     from sqlalchemy import text
@@ -240,6 +301,8 @@ def main() -> None:
     parser.add_argument("--clients", type=int, default=50)
     parser.add_argument("--requests", type=int, default=300, help="GETs of a listing in a round")
     parser.add_argument("--rounds", type=int, default=2, help="rounds of each listing on each tree, alternated")
+    parser.add_argument("--pages", action="store_true", help="a job's page, compare and statistics, one client")
+    parser.add_argument("--repeat", type=int, default=5, help="requests of each page with --pages")
     parser.add_argument("--migrate", metavar="URL", help="time this tree's migrations on URL, then stop")
     parser.add_argument("--storage", metavar="URL", help="bytes stored in a lab database, then stop")
     parser.add_argument("--plans", metavar="URL", help="the statements of each listing and their plans, then stop")
@@ -253,7 +316,7 @@ def main() -> None:
     elif args.url:
         if args.baseline and not args.baseline_url:
             parser.error("--baseline needs --baseline-url: its own copy of the database")
-        compare(args)
+        pages(args) if args.pages else compare(args)
     else:
         parser.error("one of --url, --migrate, --storage")
 
