@@ -12,7 +12,7 @@ On 100,000 stored jobs this takes seconds (docs/service.md, "The runs list at a 
 measured by ``benchmarks/bench_lab_scale.py --migrate``); nothing is written but the new table and indexes.
 
 Revision ID: 0019
-Revises: 0017
+Revises: 0018
 Create Date: 2026-12-02
 """
 
@@ -20,7 +20,7 @@ import sqlalchemy as sa
 from alembic import op
 
 revision = "0019"
-down_revision = "0017"
+down_revision = "0018"
 branch_labels = None
 depends_on = None
 
