@@ -93,6 +93,8 @@ def insert_jobs(url: str, n: int) -> float:
                 finished_at=created + timedelta(seconds=rng.uniform(0.5, 30)),
             )
             job.tag_rows = [JobTag(tag=t) for t in tags]
+            if hasattr(crud, "index_labels"):  # its search row (migration 0019; an older checkout has none)
+                crud.index_labels(job)
             batch.append(job)
             if status == "succeeded":  # what a worker stores when a job succeeds: its summaries
                 mean = rng.uniform(1, 20)

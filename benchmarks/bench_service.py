@@ -252,7 +252,10 @@ async def _single_gets(port: int, n: int) -> list[float]:
     return samples
 
 
-async def _load(port: int, clients: int, gets: int, posts: int, seed: int) -> dict:
+async def _load(port: int, clients: int, gets: int, posts: int, seed: int, job: dict = SMALL_JOB,
+                acknowledged: list[int] | None = None) -> dict:
+    """The shuffled mix of GETs and POSTs of ``job`` by ``clients`` clients; ids of the POSTs answered 202 go in
+    ``acknowledged``."""
     operations = ["GET"] * gets + ["POST"] * posts
     random.Random(seed).shuffle(operations)
     work = iter(operations)
@@ -262,7 +265,7 @@ async def _load(port: int, clients: int, gets: int, posts: int, seed: int) -> di
     async def one_client() -> None:
         client = RawClient(port)
         for kind in work:
-            request = client.get("/api/jobs") if kind == "GET" else client.post("/api/jobs", SMALL_JOB)
+            request = client.get("/api/jobs") if kind == "GET" else client.post("/api/jobs", job)
             t0 = time.perf_counter()
             try:
                 status, body = await client.send(request)
@@ -272,6 +275,8 @@ async def _load(port: int, clients: int, gets: int, posts: int, seed: int) -> di
             times[kind].append(time.perf_counter() - t0)
             if status != (200 if kind == "GET" else 202):
                 errors.append(f"{kind}: {status} {body[:200]!r}")
+            elif kind == "POST" and acknowledged is not None:
+                acknowledged.append(json.loads(body)["id"])
         client.close()
 
     t0 = time.perf_counter()

@@ -9,7 +9,20 @@ from datetime import datetime
 from typing import Any
 
 import orjson
-from sqlalchemy import ColumnElement, Row, Text, cast, delete, func, insert, or_, select, update
+from sqlalchemy import (
+    ColumnElement,
+    Row,
+    Select,
+    Text,
+    bindparam,
+    cast,
+    delete,
+    exists,
+    func,
+    insert,
+    select,
+    update,
+)
 from sqlalchemy.orm import Session
 
 import mgrao_core
@@ -20,8 +33,10 @@ from backend.store.models import (
     QUEUED,
     RUNNING,
     SAVED_SYSTEM_TAG_PREFIX,
+    SEARCH_SEPARATOR,
     SIMULATION,
     Job,
+    JobSearch,
     JobTag,
     saved_system_of,
     utcnow,
@@ -87,6 +102,33 @@ def set_tags(session: Session, job: Job, tags: Sequence[str]) -> None:
     job.tag_rows = [JobTag(tag=t) for t in unique]
 
 
+def search_text(name: str, notes: str, tags: Sequence[str]) -> str:
+    """What the listing's ``q`` searches in a job (:class:`~backend.store.models.JobSearch`): name, notes, each tag.
+
+    Joined by a newline, which no name or tag holds: a text without one is found in the joined text exactly where
+    it is found in the name, the notes or a tag. Stored lowered by the database's ``lower`` (:func:`add_search_rows`,
+    :func:`index_labels`), as the search lowered each of them before.
+    """
+    return SEARCH_SEPARATOR.join([name, notes, *tags])
+
+
+def add_search_rows(session: Session, rows: Sequence[tuple[int, str, str, Sequence[str]]]) -> None:
+    """Insert the search rows of new jobs, each given as ``(job_id, name, notes, tags)``, in one statement."""
+    if rows:
+        session.execute(insert(JobSearch).values(text=func.lower(bindparam("labels"))),
+                        [{"job_id": job_id, "labels": search_text(name, notes, tags)}
+                         for job_id, name, notes, tags in rows])
+
+
+def index_labels(job: Job) -> None:
+    """Write ``job``'s name, notes and tags as its search row; call after any of them changes (before the flush)."""
+    text = func.lower(search_text(job.name, job.notes, job.tags))
+    if job.search_row is None:
+        job.search_row = JobSearch(text=text)
+    else:
+        job.search_row.text = text
+
+
 def job_config(spec: ExperimentSpec, until: Until | None) -> dict[str, Any]:
     """A job's stored configuration: the spec's, with its stopping rule when it has one."""
     return spec.as_dict() | ({} if until is None else {"until": until.as_dict()})
@@ -108,6 +150,7 @@ def create_job(
         study_id=study_id, trial_id=trial_id, work=spec.work,
     )
     set_tags(session, job, tags)
+    index_labels(job)
     session.add(job)
     session.flush()
     return job
@@ -136,6 +179,8 @@ def create_jobs(session: Session, *, jobs: Sequence[dict[str, Any]]) -> list[int
     tag_rows = [{"job_id": job_id, "tag": tag} for job_id, unique in zip(ids, tags, strict=True) for tag in unique]
     if tag_rows:
         session.execute(insert(JobTag), tag_rows)
+    add_search_rows(session, [(job_id, row["name"], row["notes"], row["tags"])
+                              for job_id, row in zip(ids, rows, strict=True)])
     return ids
 
 
@@ -159,6 +204,8 @@ def update_job(
         job.notes = notes
     if tags is not None:
         set_tags(session, job, tags)
+    if (name, notes, tags) != (None, None, None):
+        index_labels(job)
     return job
 
 
@@ -199,8 +246,19 @@ def _escape_like(text: str) -> str:
     return text.replace("\\", "\\\\").replace("%", "\\%").replace("_", "\\_")
 
 
+SEARCH_FEW = 1000
+"""Up to this many jobs found, a search's page is read from its matches (sorted); beyond, from the sort's order.
+
+A page of a search either reads every match and sorts them (a key lookup each: about 2.5 us on SQLite here) or
+reads the jobs in the page's order and checks each one's search row until the page is full (about 0.5 us each,
+``limit`` x jobs / matches of them). Below about 1,000 matches of 100,000 jobs the first reads less; beyond it the
+second (docs/service.md, "The runs list at a lab's scale"). The count, read first, tells which.
+"""
+
+
 def _filters(*, status: str | None, system: str | None, tag: str | None, q: str | None,
-             config_hash: str | None = None, kind: str | None = None) -> list[ColumnElement]:
+             config_hash: str | None = None, kind: str | None = None, many: bool = False) -> list[ColumnElement]:
+    """The listing's filters; ``many``: the search as each job's check (the jobs read in the page's order)."""
     clauses: list[ColumnElement] = []
     if kind:
         clauses.append(Job.kind == kind)
@@ -209,21 +267,19 @@ def _filters(*, status: str | None, system: str | None, tag: str | None, q: str 
     if status:
         clauses.append(Job.status == status)
     if system in PRESETS:  # a preset's own jobs, not those of a saved system based on it
-        clauses.append(Job.system == system)
-        clauses.append(Job.id.not_in(select(JobTag.job_id).where(JobTag.tag.startswith(SAVED_SYSTEM_TAG_PREFIX))))
+        clauses.append(Job.system == system)  # each job's tags looked up by its key, not every tag scanned
+        clauses.append(~exists().where(JobTag.job_id == Job.id, JobTag.tag.startswith(SAVED_SYSTEM_TAG_PREFIX)))
     elif system:  # a saved system's jobs carry its tag
         clauses.append(Job.id.in_(select(JobTag.job_id).where(JobTag.tag == f"{SAVED_SYSTEM_TAG_PREFIX}{system}")))
     if tag:
         clauses.append(Job.id.in_(select(JobTag.job_id).where(JobTag.tag == tag)))
     if q:
         pattern = f"%{_escape_like(q.lower())}%"
-        clauses.append(
-            or_(
-                func.lower(Job.name).like(pattern, escape="\\"),
-                func.lower(Job.notes).like(pattern, escape="\\"),
-                Job.id.in_(select(JobTag.job_id).where(func.lower(JobTag.tag).like(pattern, escape="\\"))),
-            )
-        )
+        if SEARCH_SEPARATOR not in q:  # found in the joined text exactly where in a name, notes or tag (search_text)
+            clauses.append(exists().where(JobSearch.job_id == Job.id, _found(q)) if many
+                           else Job.id.in_(select(JobSearch.job_id).where(_found(q))))
+        else:  # text of several lines: only notes hold it
+            clauses.append(func.lower(Job.notes).like(pattern, escape="\\"))
     return clauses
 
 
@@ -244,6 +300,18 @@ def _config(text: str) -> dict[str, Any]:
         return json.loads(text)
 
 
+def _found(q: str) -> ColumnElement[bool]:
+    """The search rows that hold ``q`` (one line), in any case: their text is stored lowered (:func:`search_text`)."""
+    return JobSearch.text.like(f"%{_escape_like(q.lower())}%", escape="\\")
+
+
+def _count(clauses: list[ColumnElement[bool]], q: str | None, only_q: bool) -> Select:
+    """The count of the listing; of the search rows alone when ``q`` is its only filter (every job has one)."""
+    if only_q and q and SEARCH_SEPARATOR not in q:
+        return select(func.count()).select_from(JobSearch).where(_found(q))
+    return select(func.count()).select_from(Job).where(*clauses)
+
+
 def list_jobs(
     session: Session, *, status: str | None = None, system: str | None = None, tag: str | None = None,
     q: str | None = None, sort: str = "-created_at", limit: int = 50, cursor: str | None = None,
@@ -257,9 +325,16 @@ def list_jobs(
     """
     order = parse_sort(sort)
     clauses = _filters(status=status, system=system, tag=tag, q=q, config_hash=config_hash, kind=kind)
-    total = session.scalar(select(func.count()).select_from(Job).where(*clauses)) or 0
-    statement = order.apply(select(*LISTED, order.value.label("sort_key")).where(*clauses), cursor)
-    rows = session.execute(statement.limit(limit + 1)).all()
+    only_q = not (status or system or tag or config_hash or kind)
+    total = session.scalar(_count(clauses, q, only_q)) or 0
+    if q and total > SEARCH_FEW:
+        clauses = _filters(status=status, system=system, tag=tag, q=q, config_hash=config_hash, kind=kind, many=True)
+    parts = order.parts(select(*LISTED, order.value.label("sort_key")).where(*clauses), cursor)  # checks the cursor
+    rows: list[Row] = []
+    for part in parts if total else []:  # nothing matches: no page to read
+        rows += session.execute(part.limit(limit + 1 - len(rows))).all()
+        if len(rows) > limit:
+            break
     next_cursor = None
     if len(rows) > limit:
         rows = rows[:limit]

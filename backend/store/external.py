@@ -31,7 +31,7 @@ from sqlalchemy.orm import Session
 import mgrao_core
 from backend.errors import Conflict, NotFound
 from backend.store import summaries
-from backend.store.crud import config_hash, job_dict, set_tags
+from backend.store.crud import config_hash, index_labels, job_dict, set_tags
 from backend.store.models import (
     EXTERNAL,
     OPEN,
@@ -110,6 +110,7 @@ def open_run(session: Session, *, config: dict[str, Any], name: str, tags: Seque
               kind=EXTERNAL, status=OPEN, progress=0.0, attempts=0, version=mgrao_core.__version__,
               created_at=now, started_at=now)
     set_tags(session, job, tags)
+    index_labels(job)
     session.add(job)
     session.flush()
     session.add(ExternalRun(job_id=job.id, open_key=open_key, definition_digest=digest))

@@ -42,12 +42,24 @@ class JobOrder(Keyset):
 
     configuration: str | None = None  # the summary's configuration, when ordering by a result
 
-    def apply(self, statement: Select, cursor: str | None) -> Select:
-        """``statement`` (a select of jobs) joined as needed, after ``cursor``, ordered."""
+    def valued(self, statement: Select) -> tuple[Select, ColumnElement]:
+        """The jobs with the value; a result's are joined to their summary and ordered by its ``job_id``.
+
+        So the summaries' index ``(algorithm, value, job_id)`` reads them in order (docs/service.md, "The runs
+        list at a lab's scale").
+        """
+        if self.configuration is None:
+            return super().valued(statement)
+        joined = statement.join(JobSummary, and_(JobSummary.job_id == Job.id,
+                                                 JobSummary.algorithm == self.configuration))
+        return joined.where(self.value.is_not(None)), JobSummary.job_id
+
+    def unvalued(self, statement: Select) -> Select:
+        """The jobs without the value: for a result, those without its summary or with the figure null."""
         if self.configuration is not None:
             statement = statement.outerjoin(
                 JobSummary, and_(JobSummary.job_id == Job.id, JobSummary.algorithm == self.configuration))
-        return super().apply(statement, cursor)
+        return super().unvalued(statement)
 
 
 def _order(text: str, descending: bool, value: ColumnElement, kind: str, configuration: str | None = None) -> JobOrder:

@@ -1,9 +1,10 @@
 """Keyset pages of a listing: an order over one value and the row id, and the cursor after a row.
 
 A listing is ordered by ``(value is null, value, id)``, ascending or descending, so rows without the
-value come last in either direction; the cursor of a page holds the sort it was made for, the last
-row's value and its id (opaque to clients: base64 of JSON), so a cursor stays valid while rows are
-added, and a cursor made for another sort, or crafted, answers 422 naming ``cursor``.
+value come last in either direction (where the value may be null, read in two parts: :meth:`Keyset.parts`);
+the cursor of a page holds the sort it was made for, the last row's value and its id (opaque to clients:
+base64 of JSON), so a cursor stays valid while rows are added, and a cursor made for another sort, or
+crafted, answers 422 naming ``cursor``.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
 
-from sqlalchemy import ColumnElement, Select, and_, literal, or_, tuple_
+from sqlalchemy import ColumnElement, Select, literal, tuple_
 
 from backend.errors import BadQuery
 from backend.store.models import MAX_JOB_ID, has_nul
@@ -42,33 +43,59 @@ class Keyset:
         return self.kind not in NEVER_NULL
 
     def apply(self, statement: Select, cursor: str | None) -> Select:
-        """``statement`` after ``cursor`` (if any), ordered.
+        """``statement`` after ``cursor`` (if any), ordered: an order whose value is never null.
 
-        A value that is never null is ordered by ``(value, id)`` alone, and a cursor on it is one
-        row-value comparison: an index on ``(value, id)`` then reads the page and stops, where the
-        null-first term would make the database sort every matching row for each page.
+        It is ordered by ``(value, id)`` alone, and a cursor on it is one row-value comparison: an index on
+        ``(value, id)`` then reads the page and stops. An order whose value may be null is read in
+        :meth:`parts`.
         """
-        beyond = (lambda a, b: a < b) if self.descending else (lambda a, b: a > b)
-        direction = ((self.value.desc(), self.row_id.desc()) if self.descending
-                     else (self.value.asc(), self.row_id.asc()))
-        if not self.nullable:
-            if cursor:
-                key, after = self.decode(cursor)
-                statement = statement.where(
-                    beyond(tuple_(self.value, self.row_id), tuple_(literal(key, type_=self.value.type), after)))
-            return statement.order_by(*direction)
+        if self.nullable:
+            raise ValueError(f"{self.text}: a value that may be null is read in parts (Keyset.parts)")
         if cursor:
             key, after = self.decode(cursor)
-            bound = literal(key, type_=self.value.type)  # a parameter, so that booleans compare with < and >
-            if key is None:
-                statement = statement.where(self.value.is_(None), beyond(self.row_id, after))
-            else:
-                statement = statement.where(or_(
-                    and_(self.value.is_not(None),
-                         or_(beyond(self.value, bound), and_(self.value == bound, beyond(self.row_id, after)))),
-                    self.value.is_(None),
-                ))
-        return statement.order_by(self.value.is_(None), *direction)
+            statement = statement.where(
+                self._beyond(tuple_(self.value, self.row_id), tuple_(literal(key, type_=self.value.type), after)))
+        return statement.order_by(*self._direction(self.value, self.row_id))
+
+    def parts(self, statement: Select, cursor: str | None) -> list[Select]:
+        """The statements whose rows, one after the other, are the listing after ``cursor``, each ordered.
+
+        An order whose value is never null is one statement (:meth:`apply`). Otherwise the rows with the value
+        come first, ordered by ``(value, id)`` (:meth:`valued`: an index on the value reads them in order and the
+        page stops), then the rows without it, ordered by id (:meth:`unvalued`): the order of
+        ``(value is null, value, id)`` in one statement, which made the database sort every matching row for
+        each page. A cursor in the first part goes on into the second; one in the second stays there.
+        """
+        if not self.nullable:
+            return [self.apply(statement, cursor)]
+        key, after = self.decode(cursor) if cursor else (None, None)
+        parts = []
+        if cursor is None or key is not None:
+            valued, tie = self.valued(statement)
+            if cursor:
+                bound = literal(key, type_=self.value.type)  # a parameter, so that booleans compare with < and >
+                valued = valued.where(self._beyond(tuple_(self.value, tie), tuple_(bound, after)))
+            parts.append(valued.order_by(*self._direction(self.value, tie)))
+            cursor = None
+        unvalued = self.unvalued(statement)
+        if cursor:
+            unvalued = unvalued.where(self._beyond(self.row_id, after))
+        parts.append(unvalued.order_by(*self._direction(self.row_id)))
+        return parts
+
+    def valued(self, statement: Select) -> tuple[Select, ColumnElement]:
+        """``statement``'s rows that have the value, and the column of their ids to order them by."""
+        return statement.where(self.value.is_not(None)), self.row_id
+
+    def unvalued(self, statement: Select) -> Select:
+        """``statement``'s rows without the value."""
+        return statement.where(self.value.is_(None))
+
+    def _beyond(self, a: Any, b: Any) -> ColumnElement:
+        return a < b if self.descending else a > b
+
+    def _direction(self, *columns: ColumnElement) -> tuple[ColumnElement, ...]:
+        return tuple(c.desc() if self.descending else c.asc() for c in columns)
 
     def encode(self, key: Any, row_id: int) -> str:
         """An opaque cursor after the row ``(key, row_id)``."""

@@ -60,6 +60,7 @@ class Job(Base):
         Index("ix_jobs_status_created", "status", "created_at", "id"),
         Index("ix_jobs_created", "created_at", "id"),
         Index("ix_jobs_name", "name", "id"),
+        Index("ix_jobs_system_created", "system", "created_at", "id", "status"),  # status: a count reads no row
         {"sqlite_autoincrement": True},  # a deleted job's id is never reused (migration 0004)
     )
 
@@ -67,7 +68,7 @@ class Job(Base):
     name: Mapped[str] = mapped_column(String(200), default="")
     tags: Mapped[list[str]] = mapped_column(JSON, default=list)
     notes: Mapped[str] = mapped_column(Text, default="")
-    system: Mapped[str] = mapped_column(String(32), index=True)
+    system: Mapped[str] = mapped_column(String(32))
     config: Mapped[dict[str, Any]] = mapped_column(JSON)
     config_hash: Mapped[str] = mapped_column(String(64), index=True)
     status: Mapped[str] = mapped_column(String(16), default=QUEUED)
@@ -98,6 +99,25 @@ class Job(Base):
     """A job with a stopping rule (``config["until"]``): the rule's last verdict and every block's (migration 0014)."""
 
     tag_rows: Mapped[list[JobTag]] = relationship(cascade="all, delete-orphan", passive_deletes=True)
+    search_row: Mapped[JobSearch | None] = relationship(cascade="all, delete-orphan", passive_deletes=True)
+
+
+SEARCH_SEPARATOR = "\n"
+"""Between the name, the notes and each tag in :attr:`JobSearch.text`: no name or tag holds it."""
+
+
+class JobSearch(Base):
+    """What the listing's ``q`` searches in a job, in one narrow row: its name, notes and tags (migration 0019).
+
+    ``text`` is ``name``, ``notes`` and each tag, joined by :data:`SEARCH_SEPARATOR` and lowered by the database's
+    ``lower`` (:func:`backend.store.crud.search_text`): a search reads this table, a few tens of bytes a job, instead
+    of every job's row and its tags, and lowers nothing but ``q``.
+    """
+
+    __tablename__ = "job_search"
+
+    job_id: Mapped[int] = mapped_column(ID, ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
+    text: Mapped[str] = mapped_column(Text)
 
 
 class JobTag(Base):
@@ -208,7 +228,8 @@ class JobSummary(Base):
 
     __tablename__ = "job_summaries"
     __table_args__ = (Index("ix_job_summaries_final", "algorithm", "final_mean", "job_id"),
-                      Index("ix_job_summaries_pct", "algorithm", "pct_from_uniform", "job_id"))
+                      Index("ix_job_summaries_pct", "algorithm", "pct_from_uniform", "job_id"),
+                      Index("ix_job_summaries_max", "algorithm", "pct_of_max", "job_id"))
 
     job_id: Mapped[int] = mapped_column(ID, ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
     algorithm: Mapped[str] = mapped_column(String(32), primary_key=True)

@@ -95,7 +95,9 @@ def _finite(value: float | None) -> float | None:
     return value if value is not None and math.isfinite(value) else None
 
 
-def _rows(job_id: int, summaries: dict[str, ConfigSummary], tasks: dict[str, TaskCounts]) -> list[dict[str, Any]]:
+def summary_rows(job_id: int, summaries: dict[str, ConfigSummary],
+                 tasks: dict[str, TaskCounts]) -> list[dict[str, Any]]:
+    """The ``job_summaries`` rows of a job's summaries and task counts (a configuration without counts stores 0)."""
     rows = []
     for algorithm, s in summaries.items():
         low, high = s.ci95
@@ -129,7 +131,8 @@ def write(session: Session, by_job: dict[int, dict[str, ConfigSummary]],
         return
     session.execute(delete(JobSummary).where(JobSummary.job_id.in_(list(by_job))))
     tasks = tasks or {}
-    rows = [row for job_id, summaries in by_job.items() for row in _rows(job_id, summaries, tasks.get(job_id, {}))]
+    rows = [row for job_id, summaries in by_job.items()
+            for row in summary_rows(job_id, summaries, tasks.get(job_id, {}))]
     if rows:
         session.execute(insert(JobSummary), rows)
 
