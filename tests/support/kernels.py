@@ -1,0 +1,294 @@
+"""The suite's kernels: every signature of the simulation kernel the tests may compile, and how to compile them.
+
+numba compiles :func:`mgrao_core.engine.run_block` once per signature, and the signature is chiefly which of its
+optional arguments are ``None`` (:data:`OPTIONAL`: several resources, an environment outside the run, tasks that
+fail, and each learner family's lanes; the kernel's code for an argument that is ``None`` is neither typed nor
+compiled). A signature is named by the optional arguments it has, ``+``-joined (``several+mgrao``; ``fixed``
+without any: fixed families alone). Each costs between a quarter of a minute and a few minutes to compile with an
+empty cache (the more families, the longer), so the suite keeps to the :data:`CENSUS`: a test that runs the kernel
+on another signature fails (tests/conftest.py), and adding one is a decision with its cost (the census's
+``seconds``, measured with ``python -m tests.support.kernels measure``). tests/test_kernel_census.py checks that
+each recipe gives its signature and that :data:`OPTIONAL` is every optional argument of the kernel.
+
+In a parallel run (``pytest -n``) the census is compiled before the first test, by as many processes as the run has
+workers, the longest first (:func:`precompile`, called by tests/conftest.py): the tests then load every kernel
+from numba's cache (tests that compile from scratch on purpose use caches of their own). ``python -m
+tests.support.kernels compile NAME...`` compiles some in this process.
+"""
+
+from __future__ import annotations
+
+import argparse
+import fcntl
+import json
+import os
+import subprocess
+import sys
+import time
+import warnings
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[2]
+
+OPTIONAL = ("several", "outside", "failing", "mgrao_lanes", "adaptive_lanes", "independent_q_lanes", "bandit_lanes",
+            "balance_lanes")
+"""The kernel's arguments that may be ``None``, as :func:`mgrao_core.engine.run_block` names them."""
+PARTS = ("several", "outside", "failing", "mgrao", "mgrao-adaptive", "independent-q", "bandit", "mgrao-balance")
+"""Each optional argument's part of a signature's name (the learner families by their names)."""
+
+COMPILE_TIMEOUT_S = 1800.0
+"""The deadline of one compiling process (a few minutes each on a quiet machine, more on a loaded one)."""
+
+
+@dataclass(frozen=True)
+class Recipe:
+    """A small run that calls the kernel with one signature: ``algorithms`` on ``system`` with ``overrides``, through
+    :func:`mgrao_core.run_experiment`, or through the environments' stepper (:class:`mgrao_core.stepper.SteppedWorlds`,
+    which gives the kernel an ``outside`` and no learner) when ``stepped``."""
+
+    system: str
+    algorithms: tuple[str, ...] = ("uniform",)
+    overrides: Mapping[str, Any] = field(default_factory=dict)
+    stepped: bool = False
+    seconds: float = 60.0
+    """Its compile time with an empty cache (``python -m tests.support.kernels measure``): the census's cost."""
+
+    def run(self) -> None:
+        """Run it: 1 seed, 2 episodes (compiling or loading its kernel)."""
+        from mgrao_core import make_spec, run_experiment
+
+        spec = make_spec(self.system, list(self.algorithms), seeds=1, episodes=2, overrides=dict(self.overrides))
+        if not self.stepped:
+            run_experiment(spec)
+            return
+        import numpy as np
+
+        from mgrao_core.stepper import SteppedWorlds
+
+        worlds = SteppedWorlds(spec.params, [0], block=2)
+        p = spec.params
+        shape = (1, p.n_children, p.n_resources, p.n_types) if p.n_resources > 1 else (1, p.n_children, p.n_types)
+        worlds.observe(worlds.step(np.full(shape, 1.0 / p.n_types)))
+
+
+SEVERAL = {"n_resources": 2}
+FAILING = {"task_need": 1.5}
+
+MGRAO, ADAPTIVE, BALANCE = "mgrao-1:1", "mgrao-adaptive:2", "mgrao-balance"
+LEARNERS = (MGRAO, ADAPTIVE, "independent-q", "bandit")
+
+CENSUS: dict[str, Recipe] = {
+    "fixed": Recipe("single", ("uniform", "oracle")),
+    "mgrao": Recipe("single", ("uniform", MGRAO)),
+    "outside": Recipe("single", stepped=True),
+    "several+outside": Recipe("single", overrides=SEVERAL, stepped=True),
+    "several+outside+failing": Recipe("single", overrides=SEVERAL | FAILING, stepped=True),
+    "failing+mgrao": Recipe("single", ("uniform", MGRAO), FAILING),
+    "several+mgrao": Recipe("single", ("uniform", MGRAO), SEVERAL),
+    "several+failing+mgrao": Recipe("single", ("uniform", MGRAO), SEVERAL | FAILING),
+    "several+failing+mgrao+mgrao-balance": Recipe("cloud", ("uniform", MGRAO, BALANCE)),
+    "several+mgrao-balance": Recipe("single", ("uniform", BALANCE), SEVERAL),
+    "independent-q+bandit": Recipe("single", ("uniform", "independent-q", "bandit")),
+    "mgrao+independent-q+bandit": Recipe("single", ("uniform", MGRAO, "independent-q", "bandit")),
+    "mgrao+mgrao-balance": Recipe("single", ("uniform", MGRAO, BALANCE)),
+    "mgrao-adaptive+mgrao-balance": Recipe("single", ("uniform", ADAPTIVE, BALANCE)),
+    "mgrao+mgrao-adaptive": Recipe("single", ("uniform", MGRAO, ADAPTIVE)),
+    "mgrao+mgrao-adaptive+independent-q+bandit": Recipe("single", ("uniform", *LEARNERS)),
+    "several+mgrao+mgrao-adaptive+independent-q+bandit": Recipe("single", ("uniform", *LEARNERS), SEVERAL),
+}
+"""Every signature the tests may compile, by name, with a run that compiles it."""
+
+
+def kernel_name(arguments: Sequence[Any]) -> str:
+    """The name of the signature of a call of the kernel with ``arguments`` (Python values or numba types)."""
+    from numba.core import types
+
+    from mgrao_core.engine.kernel import run_block
+
+    names = list(_parameters(run_block))
+    present = [not (arguments[names.index(a)] is None or isinstance(arguments[names.index(a)], types.NoneType))
+               for a in OPTIONAL]
+    return "+".join(part for part, here in zip(PARTS, present, strict=True) if here) or "fixed"
+
+
+def _parameters(dispatcher: Any) -> Iterable[str]:
+    import inspect
+
+    return inspect.signature(dispatcher.py_func).parameters
+
+
+class _Named(Exception):
+    def __init__(self, name: str) -> None:
+        super().__init__(name)
+        self.name = name
+
+
+def signature_of(recipe: Recipe) -> str:
+    """The name of the signature ``recipe`` calls the kernel with, found without compiling it."""
+    from mgrao_core import engine
+
+    kernel = engine.run_block
+
+    def name_it(*arguments: Any) -> None:
+        raise _Named(kernel_name(arguments))
+
+    engine.run_block = name_it
+    try:
+        recipe.run()
+    except _Named as named:
+        return named.name
+    finally:
+        engine.run_block = kernel
+    raise AssertionError(f"{recipe} never called the kernel")
+
+
+def loaded_signatures() -> list[Any]:
+    """The signatures of the kernel this process has compiled or loaded so far (numba types), if numba is loaded."""
+    engine = sys.modules.get("mgrao_core.engine")
+    return list(engine.run_block.signatures) if engine is not None else []
+
+
+# ---- compiling the census ---------------------------------------------------------------------------------------
+
+
+def serialise_cache_writes() -> None:
+    """Make numba's writes of a cache index one process at a time (an ``flock`` beside the index).
+
+    numba saves a new signature by reading the function's index, adding its entry and writing the index back:
+    two processes compiling signatures of one function at once can lose one's entry, or number their data files
+    alike, so that one loads the other's machine code. Left as numba has it if its internals look different.
+    """
+    try:
+        from numba.core.caching import IndexDataCacheFile
+    except ImportError:
+        return
+    save = getattr(IndexDataCacheFile, "save", None)
+    if save is None or getattr(save, "serialised", False) or not hasattr(IndexDataCacheFile, "__init__"):
+        return
+
+    def serialised_save(self: Any, key: Any, data: Any) -> None:
+        index = getattr(self, "_index_path", None)
+        if index is None:
+            return save(self, key, data)
+        with open(f"{index}.lock", "a") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)  # held for one index write: never long
+            try:
+                return save(self, key, data)
+            finally:
+                fcntl.flock(lock, fcntl.LOCK_UN)
+
+    serialised_save.serialised = True  # type: ignore[attr-defined]
+    IndexDataCacheFile.save = serialised_save
+
+
+def compile_here(names: Iterable[str], report: Callable[[str, float], None] | None = None) -> None:
+    """Run each named recipe in this process (compiling its kernel unless numba's cache has it)."""
+    serialise_cache_writes()
+    for name in names:
+        start = time.perf_counter()
+        CENSUS[name].run()
+        if report is not None:
+            report(name, time.perf_counter() - start)
+
+
+def _share(names: Sequence[str], processes: int) -> list[list[str]]:
+    """The names dealt to ``processes`` lists, longest first, each to the list with the least time so far."""
+    lists: list[list[str]] = [[] for _ in range(max(1, processes))]
+    totals = [0.0] * len(lists)
+    for name in sorted(names, key=lambda n: -CENSUS[n].seconds):
+        i = totals.index(min(totals))
+        lists[i].append(name)
+        totals[i] += CENSUS[name].seconds
+    return [names for names in lists if names]
+
+
+@dataclass
+class Precompiled:
+    """What :func:`precompile` did: each signature's seconds (compiled, or loaded from the cache) and the wall time."""
+
+    seconds: dict[str, float]
+    wall: float
+    processes: int
+
+
+def precompile(names: Sequence[str] | None = None, processes: int = 2, timeout: float = COMPILE_TIMEOUT_S,
+               env: Mapping[str, str] | None = None) -> Precompiled:
+    """Compile the named signatures (default: the whole census) in ``processes`` processes at once, longest first.
+
+    Raises:
+        RuntimeError: a process failed or did not finish within ``timeout`` seconds (its output says why).
+    """
+    names = list(CENSUS if names is None else names)
+    start = time.perf_counter()
+    environment = dict(os.environ if env is None else env)
+    environment["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), environment.get("PYTHONPATH")]))
+    running = [(share, subprocess.Popen([sys.executable, "-m", "tests.support.kernels", "compile", *share], cwd=ROOT,
+                                        env=environment, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True))
+               for share in _share(names, processes)]
+    seconds: dict[str, float] = {}
+    failures = []
+    deadline = time.monotonic() + timeout
+    for share, process in running:
+        try:
+            out, err = process.communicate(timeout=max(1.0, deadline - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            for _, other in running:
+                other.kill()
+            process.communicate()
+            raise RuntimeError(f"compiling the kernels {share} took more than {timeout:g} s") from None
+        for line in out.splitlines():
+            if line.startswith("{"):
+                seconds.update(json.loads(line))
+        if process.returncode != 0:
+            failures.append(f"compiling {share} failed ({process.returncode}):\n{err[-3000:]}")
+    if failures:
+        raise RuntimeError("\n".join(failures))
+    return Precompiled(seconds, time.perf_counter() - start, len(running))
+
+
+def measure(names: Sequence[str]) -> dict[str, float]:
+    """Each named signature's compile time alone: in a process of its own, on a numba cache that holds what ``fixed``
+    compiled (what every kernel calls) and nothing else (the census's ``seconds``)."""
+    import shutil
+    import tempfile
+
+    results = {}
+    with tempfile.TemporaryDirectory(prefix="mgrao-census-") as tmp:
+        environment = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
+        base = Path(tmp) / "fixed"
+        precompile(["fixed"], processes=1, env=environment | {"XDG_CACHE_HOME": str(base)})
+        for name in names:
+            home = Path(tmp) / "measure"
+            shutil.rmtree(home, ignore_errors=True)
+            shutil.copytree(base, home)
+            results[name] = precompile([name], processes=1, env=environment | {"XDG_CACHE_HOME": str(home)}
+                                       ).seconds[name]
+            print(f"{name}: {results[name]:.1f} s", flush=True)
+    return results
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m tests.support.kernels", description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    compile_ = sub.add_parser("compile", help="compile (or load) the named census signatures in this process")
+    compile_.add_argument("names", nargs="*", help="census names (default: all)")
+    measure_ = sub.add_parser("measure", help="each signature's compile time with an empty cache")
+    measure_.add_argument("names", nargs="*", help="census names (default: all)")
+    sub.add_parser("list", help="the census, with each signature's seconds")
+    args = parser.parse_args(argv)
+    if args.command == "compile":
+        compile_here(args.names or CENSUS, lambda name, s: print(json.dumps({name: round(s, 2)}), flush=True))
+    elif args.command == "measure":
+        measure(args.names or list(CENSUS))
+    else:
+        for name, recipe in CENSUS.items():
+            print(f"{name:50s} {recipe.seconds:6.0f} s  {recipe}")
+    return 0
+
+
+if __name__ == "__main__":
+    with warnings.catch_warnings():
+        sys.exit(main())
