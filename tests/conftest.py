@@ -9,6 +9,7 @@ the kernel on a signature outside the census.
 
 from __future__ import annotations
 
+import asyncio
 from collections.abc import Iterator
 
 import pytest
@@ -75,3 +76,22 @@ def _kernels_of_the_census() -> Iterator[None]:
     if twice:
         pytest.fail(f"the kernel was compiled twice for {', '.join(twice)}: an argument's type differs between two "
                     "calls with the same families (one more compile each time)", pytrace=False)
+
+
+@pytest.fixture(autouse=True)
+def _without_the_browsers_event_loop(request: pytest.FixtureRequest) -> Iterator[None]:
+    """Run a test that does not drive the browser outside Playwright's event loop.
+
+    Playwright's sync API keeps its event loop marked as running in the main thread for as long as the session's
+    ``browser`` (tests/frontend/conftest.py) lives, and ``asyncio.run()`` refuses to start under a running loop. On
+    one process the browser tests came last; on xdist's workers other tests follow them, and run without it.
+    """
+    loop = asyncio._get_running_loop()
+    if loop is None or "browser" in request.fixturenames:
+        yield
+        return
+    asyncio._set_running_loop(None)
+    try:
+        yield
+    finally:
+        asyncio._set_running_loop(loop)
