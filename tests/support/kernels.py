@@ -11,9 +11,10 @@ on another signature fails (tests/conftest.py), and adding one is a decision wit
 each recipe gives its signature and that :data:`OPTIONAL` is every optional argument of the kernel.
 
 In a parallel run (``pytest -n``) the census is compiled before the first test, by as many processes as the run has
-workers, the longest first (:func:`precompile`, called by tests/conftest.py): the tests then load every kernel
-from numba's cache (tests that compile from scratch on purpose use caches of their own). ``python -m
-tests.support.kernels compile NAME...`` compiles some in this process.
+workers, the longest first, and never two processes compiling one family's steps at once (:func:`precompile`,
+called by tests/conftest.py): the tests then load every kernel from numba's cache (tests that compile from
+scratch on purpose use caches of their own). ``python -m tests.support.kernels compile NAME...`` compiles some
+in this process, ``list`` lists the census, ``measure`` times each signature alone.
 """
 
 from __future__ import annotations
@@ -194,15 +195,14 @@ def compile_here(names: Iterable[str], report: Callable[[str, float], None] | No
             report(name, time.perf_counter() - start)
 
 
-def _share(names: Sequence[str], processes: int) -> list[list[str]]:
-    """The names dealt to ``processes`` lists, longest first, each to the list with the least time so far."""
-    lists: list[list[str]] = [[] for _ in range(max(1, processes))]
-    totals = [0.0] * len(lists)
-    for name in sorted(names, key=lambda n: -CENSUS[n].seconds):
-        i = totals.index(min(totals))
-        lists[i].append(name)
-        totals[i] += CENSUS[name].seconds
-    return [names for names in lists if names]
+def _steps(name: str) -> set[str]:
+    """What compiling ``name`` may compile first, beside the kernel: the compiled steps of its learner families other
+    than MG-RAO's (balance's once with several resources, once without) and those of tasks that fail."""
+    parts = name.split("+")
+    steps = {part for part in parts if part in ("failing", "mgrao-adaptive", "independent-q", "bandit")}
+    if "mgrao-balance" in parts:
+        steps.add("mgrao-balance+several" if "several" in parts else "mgrao-balance")
+    return steps
 
 
 @dataclass
@@ -214,39 +214,83 @@ class Precompiled:
     processes: int
 
 
+class _Compiler:
+    """A ``python -m tests.support.kernels serve`` process: compiles each name written to it, says when done."""
+
+    def __init__(self, environment: Mapping[str, str], log: Any) -> None:
+        self.process = subprocess.Popen([sys.executable, "-m", "tests.support.kernels", "serve"], cwd=ROOT,
+                                        env=dict(environment), stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                        stderr=log, text=True, bufsize=1)
+        self.name: str | None = None
+        self.steps: set[str] = set()
+
+    def give(self, name: str, steps: set[str]) -> None:
+        assert self.process.stdin is not None
+        self.name, self.steps = name, steps
+        self.process.stdin.write(name + "\n")
+        self.process.stdin.flush()
+
+
 def precompile(names: Sequence[str] | None = None, processes: int = 2, timeout: float = COMPILE_TIMEOUT_S,
                env: Mapping[str, str] | None = None) -> Precompiled:
-    """Compile the named signatures (default: the whole census) in ``processes`` processes at once, longest first.
+    """Compile the named signatures (default: the whole census) in ``processes`` processes at once.
+
+    Each process takes the longest signature left (the census's ``seconds``) whose families' compiled steps no
+    other process is compiling at the time (:func:`_steps`; numba caches them once compiled, and every later
+    signature loads them): two processes compiling adaptive groups' steps at once would each spend a minute on
+    them. A process with nothing it may take waits for the others.
 
     Raises:
-        RuntimeError: a process failed or did not finish within ``timeout`` seconds (its output says why).
+        RuntimeError: a process failed, or the whole did not finish within ``timeout`` seconds (its output says why).
     """
-    names = list(CENSUS if names is None else names)
+    import selectors
+    import tempfile
+
+    pending = sorted(CENSUS if names is None else names, key=lambda n: -CENSUS[n].seconds)
     start = time.perf_counter()
+    deadline = time.monotonic() + timeout
     environment = dict(os.environ if env is None else env)
     environment["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), environment.get("PYTHONPATH")]))
-    running = [(share, subprocess.Popen([sys.executable, "-m", "tests.support.kernels", "compile", *share], cwd=ROOT,
-                                        env=environment, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True))
-               for share in _share(names, processes)]
     seconds: dict[str, float] = {}
-    failures = []
-    deadline = time.monotonic() + timeout
-    for share, process in running:
+    compiled: set[str] = set()  # steps compiled (and cached) by a finished signature
+    with tempfile.TemporaryFile("w+") as log:
+        compilers = [_Compiler(environment, log) for _ in range(max(1, min(processes, len(pending))))]
+        selector = selectors.DefaultSelector()
+        for compiler in compilers:
+            selector.register(compiler.process.stdout, selectors.EVENT_READ, compiler)
         try:
-            out, err = process.communicate(timeout=max(1.0, deadline - time.monotonic()))
-        except subprocess.TimeoutExpired:
-            for _, other in running:
-                other.kill()
-            process.communicate()
-            raise RuntimeError(f"compiling the kernels {share} took more than {timeout:g} s") from None
-        for line in out.splitlines():
-            if line.startswith("{"):
-                seconds.update(json.loads(line))
-        if process.returncode != 0:
-            failures.append(f"compiling {share} failed ({process.returncode}):\n{err[-3000:]}")
-    if failures:
-        raise RuntimeError("\n".join(failures))
-    return Precompiled(seconds, time.perf_counter() - start, len(running))
+            while pending or any(c.name for c in compilers):
+                for compiler in compilers:
+                    others = set().union(*(c.steps for c in compilers if c is not compiler))
+                    take = next((n for n in pending if not (_steps(n) - compiled) & others), None)
+                    if compiler.name is None and take is not None:
+                        pending.remove(take)
+                        compiler.give(take, _steps(take) - compiled)
+                left = deadline - time.monotonic()
+                events = selector.select(timeout=max(0.0, left))
+                if not events and left <= 0:
+                    raise RuntimeError(f"compiling the kernels took more than {timeout:g} s; left: "
+                                       + ", ".join([*(c.name for c in compilers if c.name), *pending]))
+                for key, _ in events:
+                    compiler = key.data
+                    line = compiler.process.stdout.readline()
+                    if not line:  # the process ended: it failed
+                        compiler.process.wait(timeout=60)
+                        log.seek(0)
+                        raise RuntimeError(f"compiling {compiler.name} failed ({compiler.process.returncode}):\n"
+                                           f"{log.read()[-3000:]}")
+                    seconds.update(json.loads(line))
+                    compiled |= compiler.steps
+                    compiler.name, compiler.steps = None, set()
+        finally:
+            for compiler in compilers:
+                if compiler.process.poll() is None and compiler.name is None:
+                    compiler.process.stdin.close()  # done: it ends
+                else:
+                    compiler.process.kill()
+                compiler.process.wait(timeout=60)
+                compiler.process.stdout.close()
+    return Precompiled(seconds, time.perf_counter() - start, len(compilers))
 
 
 def measure(names: Sequence[str]) -> dict[str, float]:
@@ -273,14 +317,20 @@ def measure(names: Sequence[str]) -> dict[str, float]:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m tests.support.kernels", description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
+    sub.add_parser("serve", help="compile (or load) each census name read from standard input, a line each")
     compile_ = sub.add_parser("compile", help="compile (or load) the named census signatures in this process")
     compile_.add_argument("names", nargs="*", help="census names (default: all)")
     measure_ = sub.add_parser("measure", help="each signature's compile time with an empty cache")
     measure_.add_argument("names", nargs="*", help="census names (default: all)")
     sub.add_parser("list", help="the census, with each signature's seconds")
     args = parser.parse_args(argv)
-    if args.command == "compile":
-        compile_here(args.names or CENSUS, lambda name, s: print(json.dumps({name: round(s, 2)}), flush=True))
+    def report(name: str, seconds: float) -> None:
+        print(json.dumps({name: round(seconds, 2)}), flush=True)
+
+    if args.command == "serve":
+        compile_here((line.strip() for line in sys.stdin if line.strip()), report)
+    elif args.command == "compile":
+        compile_here(args.names or CENSUS, report)
     elif args.command == "measure":
         measure(args.names or list(CENSUS))
     else:
