@@ -68,10 +68,10 @@ def _kernels_of_the_census() -> Iterator[None]:
     names = [kernels.kernel_name(signature) for signature in signatures]
     outside = sorted({name for name in names[before:] if name not in kernels.CENSUS})
     if outside:
-        pytest.fail(f"this test compiled the kernel for {', '.join(outside)}, outside the census of "
-                    "tests/support/kernels.py: run a signature of the census instead (the families of another "
-                    "test), or add it there with its compile time (python -m tests.support.kernels measure NAME)",
-                    pytrace=False)
+        pytest.fail(f"this test ran the kernel on {', '.join(outside)}, a signature outside the census of "
+                    "tests/support/kernels.py (each is one more compile): run one of the census instead (the families "
+                    "of another test beside yours), or add it there with its compile time (python -m "
+                    "tests.support.kernels measure NAME)", pytrace=False)
     twice = sorted({name for name in names[before:] if names.count(name) > 1})
     if twice:
         pytest.fail(f"the kernel was compiled twice for {', '.join(twice)}: an argument's type differs between two "
