@@ -55,7 +55,8 @@ class Recipe:
     overrides: Mapping[str, Any] = field(default_factory=dict)
     stepped: bool = False
     seconds: float = 60.0
-    """Its compile time with an empty cache (``python -m tests.support.kernels measure``): the census's cost."""
+    """Its compile time alone, on a cache holding what ``fixed`` compiled (``python -m tests.support.kernels
+    measure``; the census's figures were measured on 2 cores under a load average of about 6): what it costs."""
 
     def run(self) -> None:
         """Run it: 1 seed, 2 episodes (compiling or loading its kernel)."""
@@ -81,24 +82,24 @@ FAILING = {"task_need": 1.5}
 MGRAO, ADAPTIVE, BALANCE = "mgrao-1:1", "mgrao-adaptive:2", "mgrao-balance"
 LEARNERS = (MGRAO, ADAPTIVE, "independent-q", "bandit")
 
-CENSUS: dict[str, Recipe] = {
-    "fixed": Recipe("single", ("uniform", "oracle")),
-    "mgrao": Recipe("single", ("uniform", MGRAO)),
-    "outside": Recipe("single", stepped=True),
-    "several+outside": Recipe("single", overrides=SEVERAL, stepped=True),
-    "several+outside+failing": Recipe("single", overrides=SEVERAL | FAILING, stepped=True),
-    "failing+mgrao": Recipe("single", ("uniform", MGRAO), FAILING),
-    "several+mgrao": Recipe("single", ("uniform", MGRAO), SEVERAL),
-    "several+failing+mgrao": Recipe("single", ("uniform", MGRAO), SEVERAL | FAILING),
-    "several+failing+mgrao+mgrao-balance": Recipe("cloud", ("uniform", MGRAO, BALANCE)),
-    "several+mgrao-balance": Recipe("single", ("uniform", BALANCE), SEVERAL),
-    "independent-q+bandit": Recipe("single", ("uniform", "independent-q", "bandit")),
-    "mgrao+independent-q+bandit": Recipe("single", ("uniform", MGRAO, "independent-q", "bandit")),
-    "mgrao+mgrao-balance": Recipe("single", ("uniform", MGRAO, BALANCE)),
-    "mgrao-adaptive+mgrao-balance": Recipe("single", ("uniform", ADAPTIVE, BALANCE)),
-    "mgrao+mgrao-adaptive": Recipe("single", ("uniform", MGRAO, ADAPTIVE)),
-    "mgrao+mgrao-adaptive+independent-q+bandit": Recipe("single", ("uniform", *LEARNERS)),
-    "several+mgrao+mgrao-adaptive+independent-q+bandit": Recipe("single", ("uniform", *LEARNERS), SEVERAL),
+CENSUS: dict[str, Recipe] = {  # fixed's seconds: what it compiles first, with an empty cache
+    "fixed": Recipe("single", ("uniform", "oracle"), seconds=35),
+    "mgrao": Recipe("single", ("uniform", MGRAO), seconds=14),
+    "outside": Recipe("single", stepped=True, seconds=12),
+    "several+outside": Recipe("single", overrides=SEVERAL, stepped=True, seconds=21),
+    "several+outside+failing": Recipe("single", overrides=SEVERAL | FAILING, stepped=True, seconds=34),
+    "failing+mgrao": Recipe("single", ("uniform", MGRAO), FAILING, seconds=28),
+    "several+mgrao": Recipe("single", ("uniform", MGRAO), SEVERAL, seconds=61),
+    "several+failing+mgrao": Recipe("single", ("uniform", MGRAO), SEVERAL | FAILING, seconds=85),
+    "several+failing+mgrao+mgrao-balance": Recipe("cloud", ("uniform", MGRAO, BALANCE), seconds=98),
+    "several+mgrao-balance": Recipe("single", ("uniform", BALANCE), SEVERAL, seconds=40),
+    "independent-q+bandit": Recipe("single", ("uniform", "independent-q", "bandit"), seconds=21),
+    "mgrao+independent-q+bandit": Recipe("single", ("uniform", MGRAO, "independent-q", "bandit"), seconds=29),
+    "mgrao+mgrao-balance": Recipe("single", ("uniform", MGRAO, BALANCE), seconds=75),
+    "mgrao-adaptive+mgrao-balance": Recipe("single", ("uniform", ADAPTIVE, BALANCE), seconds=96),
+    "mgrao+mgrao-adaptive": Recipe("single", ("uniform", MGRAO, ADAPTIVE), seconds=85),
+    "mgrao+mgrao-adaptive+independent-q+bandit": Recipe("single", ("uniform", *LEARNERS), seconds=128),
+    "several+mgrao+mgrao-adaptive+independent-q+bandit": Recipe("single", ("uniform", *LEARNERS), SEVERAL, seconds=70),
 }
 """Every signature the tests may compile, by name, with a run that compiles it."""
 
