@@ -17,6 +17,14 @@ class Conflict(Exception):
     """A state change the job's status does not allow (409)."""
 
 
+class Busy(Exception):
+    """The answer cannot be computed now: its pool is full, or it waited its longest (503 with ``Retry-After``)."""
+
+    def __init__(self, message: str, retry_after_s: int) -> None:
+        super().__init__(message)
+        self.retry_after_s = retry_after_s
+
+
 class BadQuery(Exception):
     """A query parameter that cannot be used, e.g. a malformed cursor (422)."""
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from functools import lru_cache
 from typing import Annotated
 
@@ -50,6 +51,19 @@ class Settings(BaseSettings):
     study_poll_s: float = Field(2.0, gt=0, le=3600,
                                 description="How often the API advances running studies (their trials also "
                                             "advance them as they end).")
+    stats_workers: int = Field(
+        default_factory=lambda: max(1, (os.cpu_count() or 1) // 2), ge=1, le=64,
+        description="Comparison statistics (GET /api/compare/statistics and /sample-efficiency) computed at once, in "
+                    "threads of their own (default: half the cores, at least 1).")
+    stats_queue: int = Field(
+        4, ge=0, le=1000, description="Comparison statistics waiting for one of those threads at most: a request for "
+                                      "one more is answered 503 with Retry-After at once.")
+    stats_wait_s: float = Field(
+        15.0, gt=0, le=3600, description="Longest a comparison statistics request waits for its turn: then it is "
+                                         "answered 503 with Retry-After.")
+    stats_retry_after_s: int = Field(
+        10, ge=1, le=3600, description="The Retry-After, in seconds, of a comparison statistics request refused "
+                                       "because the statistics are busy.")
     dask_address: str | None = Field(
         None, description="The Dask scheduler `mgrao dispatcher` sends chunks to, e.g. tcp://scheduler:8786.")
     host: str = "127.0.0.1"

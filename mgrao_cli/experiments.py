@@ -23,7 +23,7 @@ from mgrao_core.reproduction import DEFAULT_SEEDS, READINGS, reproduction_table
 from mgrao_core.reproduction import reproduce as run_reproduction
 from mgrao_core.spec import MAX_SEED_VALUE
 from mgrao_core.statistics.report import text_table
-from mgrao_core.statistics.sequential import Verdict, parse_until, run_until, until_spec
+from mgrao_core.statistics.sequential import Verdict, coverage_of, parse_until, run_until, until_spec
 
 PROGRESS_BAR_WORK = 20_000_000
 """Atomic tasks above which a run draws a progress bar (about a second of simulation)."""
@@ -190,7 +190,8 @@ def run(ctx: click.Context, system: str | None, algorithms: str | None, seeds: i
         payload = {
             "spec": spec.as_dict(),
             "simulation_seconds": elapsed,
-            **({} if done is None else {"until": until.as_dict(), "stopped": done.stopped.as_dict(),
+            **({} if done is None else {"until": until.as_dict(),
+                                        "stopped": done.stopped.as_dict() | coverage_of(until.as_dict()),
                                         "blocks": [verdict.as_dict() for verdict in done.blocks]}),
             "summary": {label: {**s.as_dict(), **tasks[label].rates()} for label, s in summary.items()},
             "runs": [

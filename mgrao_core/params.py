@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import re
 from collections.abc import Mapping
 from typing import Any
 
@@ -31,6 +32,12 @@ MAX_RESOURCES = 8
 RESOURCE_COMBINATIONS = ("scarcest", "weighted")
 RESOURCE_CREDITS = ("shared", "by-share")
 HIERARCHIES = ("none", "borrow", "hand-over")
+TOPOLOGIES = ("complete", "ring", "random")
+"""Which children each parent offers its tasks to (docs/model.md, "Sparse worlds")."""
+MAX_AGENTS = 1_000_000
+"""The most parents, and the most children, a system may declare; what a job may hold is bounded by its bytes
+(:mod:`mgrao_core.budget`), checked before it runs."""
+MAX_CHILDREN_PER_PARENT = 10_000
 NEIGHBOURHOODS = ("all", "ring")
 
 
@@ -42,8 +49,10 @@ _ENVIRONMENT: tuple[Parameter, ...] = (
         "types_per_composite", "int", 5,
         "Distinct atomic types in each composite type (at most n_types).", "system", 1, 200, identity="always",
     ),
-    Parameter("n_parents", "int", 10, "Number of parent agents.", "system", 1, 3000, identity="always"),
-    Parameter("n_children", "int", 1, "Number of child agents.", "system", 1, 100, identity="always"),
+    Parameter("n_parents", "int", 10, "Number of parent agents (what a job may hold is bounded by its memory).",
+              "system", 1, MAX_AGENTS, identity="always"),
+    Parameter("n_children", "int", 1, "Number of child agents (what a job may hold is bounded by its memory).",
+              "system", 1, MAX_AGENTS, identity="always"),
     Parameter(
         "resource_mean", "float", 0.5,
         "Mean of each child's resource amount, Normal(mean, sd) clipped into (0, 1].",
@@ -97,6 +106,19 @@ _ALLOCATION: tuple[Parameter, ...] = (
         "composite quality it got back (per-composite), or chooses a child for each atomic task by the "
         "value it got back for that type (per-task).",
         "allocation", choices=ROUTINGS, identity="always",
+    ),
+    Parameter(
+        "topology", "choice", "complete",
+        "Which children each parent offers its tasks to: every child (complete, the paper's), the "
+        "children_per_parent nearest to it when parents and children are spread evenly on one ring (ring), or "
+        "children_per_parent drawn at random with the seed (random). A sparse world's cost and memory grow with "
+        "its links, not with children x parents.",
+        "allocation", choices=TOPOLOGIES, identity="when-set",
+    ),
+    Parameter(
+        "children_per_parent", "int", 8,
+        "Under topology ring or random: how many children each parent offers its tasks to (at most n_children).",
+        "allocation", 1, MAX_CHILDREN_PER_PARENT, identity="when-set",
     ),
     Parameter(
         "epsilon", "float", 0.1,
@@ -290,6 +312,16 @@ class _Derived:
         return self.temperature if self.temperature is not None else 1.0 / self.n_types
 
     @property
+    def sparse(self) -> bool:
+        """Whether each parent offers its tasks to some children only (``topology`` other than complete)."""
+        return self.topology != "complete"
+
+    @property
+    def children_offered(self) -> int:
+        """How many children each parent chooses among: ``children_per_parent`` in a sparse world, else all."""
+        return self.children_per_parent if self.sparse else self.n_children
+
+    @property
     def tasks_can_fail(self) -> bool:
         """Whether an atomic task can fail (``task_need > 0``): where the engine resolves and counts failures."""
         return self.task_need > 0
@@ -369,6 +401,37 @@ parameters are fields without an edit here), and the derived values of :class:`_
 
 
 SystemParams = system_params_class(PARAMETERS)
+
+
+NUMBER_TEXT = r"^[ \t\n\r]*[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?[ \t\n\r]*$"
+"""A number written as text (the command line's ``--set``, or a string in JSON): plain decimal or exponent notation
+in ASCII digits (``12``, ``-0.25``, ``.5``, ``1e-3``), blanks around it ignored; a JSON Schema pattern as well."""
+_NUMBER_TEXT = re.compile(NUMBER_TEXT)
+_NOT_FINITE = ("inf", "infinity", "nan")
+
+
+def number_from_text(field: str, text: str) -> float:
+    """The number ``text`` writes, by the one rule for numbers given as text (:data:`NUMBER_TEXT`).
+
+    Python's ``float()`` reads more: ``"1_0"`` as 10, an Arabic-Indic or full-width ``"\u0663"`` as 3, ``"inf"``;
+    none of them is a number a person or a JSON client means to send, so each is refused.
+
+    Args:
+        field: what the text is the value of, named by the error.
+        text: the text.
+
+    Returns:
+        The number, as a float (possibly not finite: ``"1e400"``; the caller checks its own limits).
+
+    Raises:
+        ConfigError: the text is not plain decimal or exponent notation.
+    """
+    if _NUMBER_TEXT.match(text):
+        return float(text)
+    if text.strip(" \t\n\r").lower().lstrip("+-") in _NOT_FINITE:
+        raise ConfigError(field, f"must be a finite number (got {text!r})")
+    raise ConfigError(field, f"must be a number in plain decimal or exponent notation, such as 12, 0.25 or 1e-3 "
+                             f"(got {text[:60]!r})")
 
 
 _TRUE = ("true", "on", "yes", "1")
@@ -451,10 +514,7 @@ def _coerce(param: Parameter, value: Any) -> Any:
         return value
     if isinstance(value, bool) or not isinstance(value, int | float):
         if isinstance(value, str):
-            try:
-                value = float(value)
-            except ValueError:
-                raise ConfigError(param.name, f"must be a number (got {value!r})") from None
+            value = number_from_text(param.name, value)
         else:
             raise ConfigError(param.name, f"must be a number (got {type(value).__name__})")
     if param.kind == "int":
@@ -471,8 +531,13 @@ def _coerce(param: Parameter, value: Any) -> Any:
     low_ok = value > param.minimum if param.exclusive_minimum else value >= param.minimum
     if not low_ok or value > param.maximum:
         low = "(" if param.exclusive_minimum else "["
-        shown = f"{value:g}" if abs(value) < 1e15 else "a number too large"
-        raise ConfigError(param.name, f"must be in {low}{param.minimum:g}, {param.maximum:g}] (got {shown})")
+
+        def number(x: float) -> str:  # a whole number's every digit (1000000, not 1e+06)
+            return str(int(x)) if param.kind == "int" and abs(x) < 1e15 else f"{x:g}"
+
+        shown = number(value) if abs(value) < 1e15 else "a number too large"
+        limits = f"{low}{number(param.minimum)}, {number(param.maximum)}]"
+        raise ConfigError(param.name, f"must be in {limits} (got {shown})")
     return value
 
 
@@ -511,6 +576,12 @@ def make_params(overrides: Mapping[str, Any] | None = None, base: SystemParams |
         raise ConfigError(
             "types_per_composite",
             f"must be at most n_types = {values['n_types']} (got {values['types_per_composite']})",
+        )
+    if values["topology"] != "complete" and values["children_per_parent"] > values["n_children"]:
+        raise ConfigError(
+            "children_per_parent",
+            f"must be at most n_children = {values['n_children']} under topology={values['topology']} "
+            f"(got {values['children_per_parent']})",
         )
     if values["frequency_profile"] == "explicit" and len(values["composite_periods"]) != values["n_composite_types"]:
         raise ConfigError(

@@ -1,9 +1,9 @@
 """The paper's four simulated systems (section 5, appendix "Simulation parameter values"), and systems beyond them.
 
 :data:`PAPER_SYSTEMS` names the paper's four: ``mgrao reproduce`` and the paper view run those, never every
-preset. The others (``drift``, ``bursty``, ``multi-resource``, ``cloud``) exercise the parts of the paper's system
-model its experiments leave out (docs/model.md, "Task frequencies", "Changes over time", "Several resources", "A
-cloud").
+preset. The others (``drift``, ``bursty``, ``multi-resource``, ``cloud``, ``edge``) exercise the parts of the paper's
+system model its experiments leave out (docs/model.md, "Task frequencies", "Changes over time", "Several resources",
+"A cloud", "An edge": a sparse world of thousands of agents).
 """
 
 from __future__ import annotations
@@ -103,6 +103,14 @@ PRESETS: dict[str, Preset] = {
          "hierarchy": "borrow"},
         ("uniform", "mgrao-1:1", "mgrao-5:1", "mgrao-max", "mgrao-balance", "oracle"),
     ),
+    "edge": Preset(
+        "edge",
+        "5,000 mobile users send composite requests to 500 edge servers; each user reaches only the 4 servers nearest "
+        "to it, and tasks on one server share its resources (docs/model.md, \"An edge\").",
+        {"n_parents": 5000, "n_children": 500, "topology": "ring", "children_per_parent": 4, "routing": "per-task",
+         "load_sharing": True},
+        ("uniform", "mgrao-1:1", "mgrao-10:1", "mgrao-100:1"),
+    ),
 }
 PAPER_SYSTEMS: tuple[str, ...] = ("single", "multi", "volatile", "large")
 """The paper's four systems, in its order: what ``mgrao reproduce`` and the paper view run."""
@@ -112,7 +120,8 @@ def get_preset(name: str) -> Preset:
     """The preset called ``name``.
 
     Raises:
-        ConfigError: ``name`` is no preset's (single, multi, volatile, large, drift, bursty, multi-resource, cloud).
+        ConfigError: ``name`` is no preset's (single, multi, volatile, large, drift, bursty, multi-resource, cloud,
+            edge).
     """
     try:
         return PRESETS[name]

@@ -26,7 +26,15 @@ from mgrao_core.algorithms.base import ReferenceChild
 from mgrao_core.params import SystemParams
 from mgrao_core.quality import atomic_quality, combine_resources
 from mgrao_core.results import TaskCounts
-from mgrao_core.world import NEW_COMPOSITE, NEW_PROFILE, EpisodeDraws, EpisodeStreams, draw_world, is_dynamic
+from mgrao_core.world import (
+    NEW_COMPOSITE,
+    NEW_PROFILE,
+    EpisodeDraws,
+    EpisodeStreams,
+    draw_links,
+    draw_world,
+    is_dynamic,
+)
 
 
 def choose_child(estimates: np.ndarray, u: np.ndarray, params: SystemParams) -> int:
@@ -62,18 +70,23 @@ class Parent:
     tries: np.ndarray
     active: bool = True
     sending: bool = True
+    links: np.ndarray | None = None
+    """In a sparse world, the children it offers its tasks to (``estimates[k, i]`` is of child ``links[i]``)."""
 
     def allocate(self, routing: np.ndarray, params: SystemParams) -> list[int]:
         """Task allocation: the child of each atomic task of this episode's composite task."""
         n = len(self.task_types)
-        if params.n_children == 1:
-            return [0] * n
+        children = self.links if self.links is not None else np.arange(params.n_children)
+        if len(children) == 1:
+            return [int(children[0])] * n
         if params.routing == "per-composite":
-            return [choose_child(self.estimates[0], routing[0], params)] * n
-        return [choose_child(self.estimates[k], routing[k], params) for k in range(n)]
+            return [int(children[choose_child(self.estimates[0], routing[0], params)])] * n
+        return [int(children[choose_child(self.estimates[k], routing[k], params)]) for k in range(n)]
 
     def observe(self, children: list[int], values: np.ndarray, taq: float, params: SystemParams) -> None:
-        """Update the running mean of what each child gave back."""
+        """Update the running mean of what each child gave back (of its slot among the links, in a sparse world)."""
+        slot = {int(c): i for i, c in enumerate(self.links)} if self.links is not None else None
+        children = children if slot is None else [slot[c] for c in children]
         returns = [(0, children[0], taq)] if params.routing == "per-composite" else [
             (k, c, values[k]) for k, c in enumerate(children)
         ]
@@ -149,10 +162,12 @@ class SeedEnvironment:
         self._draws = None
         self._start = 0
         choices = 1 if params.routing == "per-composite" else params.types_per_composite
+        links = draw_links(params, seed)
+        offered = params.children_offered
         self.parents = [
             Parent(self.world.parent_types[p].copy(), self.world.profiles[p].copy(),
-                   np.full((choices, params.n_children), params.initial_estimate),
-                   np.zeros((choices, params.n_children), dtype=int))
+                   np.full((choices, offered), params.initial_estimate), np.zeros((choices, offered), dtype=int),
+                   links=None if links is None else links[p])
             for p in range(params.n_parents)
         ]
         shape = (params.n_parents, params.types_per_composite)
@@ -204,7 +219,7 @@ class SeedEnvironment:
             parent.sending = parent.active and (not self._dynamic or bool(draws.arrives[e, p]))
         # 2-3. Each parent that sends decomposes its task and allocates the atomic tasks.
         present = [p for p, parent in enumerate(parents) if parent.sending]
-        assigned = {p: parents[p].allocate(draws.routing[e, p] if params.n_children > 1 else None, params)
+        assigned = {p: parents[p].allocate(draws.routing[e, p] if params.children_offered > 1 else None, params)
                     for p in present}
         # 4. Children perform the atomic tasks; composite qualities make the system utility.
         utility = 0.0
@@ -257,7 +272,7 @@ class SeedEnvironment:
         # 5. Values come back composite by composite, in a random order of parents: first to the
         # parents' estimates of their children (the children's learning is the caller's).
         order = [int(p) for p in draws.order[e] if parents[p].sending]
-        if params.n_children > 1:
+        if params.children_offered > 1:
             for p in order:
                 parents[p].observe(assigned[p], values[p], taqs[p], params)
         return Episode(utility, self._present, self._task_types, child_of, values, taqs, order, shares)

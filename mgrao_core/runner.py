@@ -19,7 +19,7 @@ from mgrao_core.errors import Cancelled, NumericalError
 from mgrao_core.lanes import allocate_lanes
 from mgrao_core.results import ExperimentResult, Run, TaskCounts
 from mgrao_core.spec import ExperimentSpec
-from mgrao_core.world import EpisodeDraws, EpisodeStreams, World, draw_world
+from mgrao_core.world import EpisodeDraws, EpisodeStreams, World, draw_links, draw_world
 
 ProgressCallback = Callable[[float], None]
 StopCheck = Callable[[], bool]
@@ -59,6 +59,13 @@ def kernel_worlds(p, worlds: Sequence[World]) -> tuple[engine.Worlds, engine.Sev
         per_resource=np.ascontiguousarray(np.stack([w.resource_per_type for w in worlds])),
         needs=np.ascontiguousarray(np.stack([w.needs for w in worlds])),
     )
+
+
+def kernel_links(p, seeds: Sequence[int]) -> np.ndarray | None:
+    """The kernel's links of a sparse world, ``(seeds, n_parents, children_per_parent)``; ``None`` in a complete one."""
+    if not p.sparse:
+        return None
+    return np.ascontiguousarray(np.stack([draw_links(p, seed) for seed in seeds]))
 
 
 def kernel_failing(p, arrays: dict[str, np.ndarray]) -> engine.Failing | None:
@@ -121,6 +128,7 @@ def run_chunk(
     worlds = [draw_world(p, seed) for seed in seeds]
     arrays, lanes, learners = _build_lanes(spec, worlds, seeds, should_stop)
     world, several = kernel_worlds(p, worlds)
+    links = kernel_links(p, seeds)
     environment = engine.environment_of(p)
     streams = [EpisodeStreams(p, seed, world) for seed, world in zip(seeds, worlds, strict=True)]
     utilities = np.zeros((len(lanes.kind), spec.episodes))
@@ -132,8 +140,8 @@ def run_chunk(
             raise Cancelled(f"stopped after {done} of {spec.episodes} episodes")
         count = min(block, spec.episodes - done)
         out = np.zeros((len(lanes.kind), count))
-        engine.run_block(lanes, world, several, block_draws([s.draw(count) for s in streams]), environment, out,
-                         None, failing, *learners)
+        engine.run_block(lanes, world, several, links, block_draws([s.draw(count) for s in streams]), environment,
+                         out, None, failing, *learners)
         utilities[:, done : done + count] = out
         done += count
         if on_progress is not None:

@@ -57,12 +57,22 @@ class ExperimentSpec:
 
     @property
     def group_updates(self) -> int:
-        """Algorithm-1 row updates the experiment needs (what :data:`MAX_GROUP_UPDATES` bounds)."""
+        """Row updates the experiment needs at their worst (what :data:`MAX_GROUP_UPDATES` bounds).
+
+        Algorithm 1's: each returned value renormalises every active row of its child. And what grows with the
+        children rather than the tasks: mgrao-adaptive's statistics visit every child for each composite that comes
+        back, and a failing task under a hierarchy of every neighbour (``neighbours = all``) may ask every other child.
+        """
         p = self.params
         per_run = self.episodes * p.n_parents * p.types_per_composite
         # MG-RAO keeps a PW per resource (docs/model.md, "Several resources"): each value updates every one
         per_resource = {"mgrao": p.n_resources}
-        return len(self.seeds) * per_run * sum(a.n_groups * per_resource.get(a.kind, 1) for a in self.parsed_algorithms)
+        updates = per_run * sum(a.n_groups * per_resource.get(a.kind, 1) for a in self.parsed_algorithms)
+        adaptive = sum(a.kind == "mgrao-adaptive" for a in self.parsed_algorithms)
+        updates += adaptive * self.episodes * p.n_parents * p.n_children
+        if p.tasks_can_fail and p.hierarchy != "none" and p.neighbours == "all":
+            updates += len(self.algorithms) * per_run * (p.n_children - 1)
+        return len(self.seeds) * updates
 
     def as_dict(self) -> dict[str, Any]:
         """The specification as JSON-ready data (round-trips through :func:`spec_from_dict`).
@@ -158,6 +168,14 @@ def make_spec(
         checked(lambda: [task_share(a, params) for a in parsed])
     raise_all(errors)  # every field refused by its own rule, before any limit on their product
     spec = ExperimentSpec(system, params, labels, checked_seeds, checked_episodes)
+    one_seed = chunk_cost(spec, 1).total
+    if one_seed > memory_budget:
+        raise WorkLimitError(
+            "memory",
+            f"simulating one seed of every algorithm would need {one_seed / 1024**2:,.0f} MiB, over the memory "
+            f"budget of {memory_budget / 1024**2:,.0f} MiB per chunk (use fewer algorithms, groups, children, "
+            "parents or types)",
+        )
     if spec.work > MAX_WORK:
         raise WorkLimitError(
             "work",
@@ -167,9 +185,9 @@ def make_spec(
     if spec.group_updates > MAX_GROUP_UPDATES:
         raise WorkLimitError(
             "work",
-            f"atomic tasks x parent groups = {spec.group_updates:,} exceeds the limit of "
-            f"{MAX_GROUP_UPDATES:,} algorithm-1 row updates per experiment (use fewer groups, "
-            "seeds or episodes)",
+            f"atomic tasks x parent groups (and, for mgrao-adaptive or a hierarchy asking every neighbour, the "
+            f"children each composite or failing task visits) = {spec.group_updates:,} exceeds the limit of "
+            f"{MAX_GROUP_UPDATES:,} row updates per experiment (use fewer groups, children, seeds or episodes)",
         )
     stored = result_bytes(spec)
     if stored > MAX_RESULT_BYTES:
@@ -177,14 +195,6 @@ def make_spec(
             "results",
             f"the runs' utilities and weights would take {stored / 1024**2:,.0f} MiB, over the limit of "
             f"{MAX_RESULT_BYTES // 1024**2:,} MiB per experiment (use fewer seeds, episodes or algorithms)",
-        )
-    one_seed = chunk_cost(spec, 1).total
-    if one_seed > memory_budget:
-        raise WorkLimitError(
-            "memory",
-            f"simulating one seed of every algorithm would need {one_seed / 1024**2:,.0f} MiB, over the memory "
-            f"budget of {memory_budget / 1024**2:,.0f} MiB per chunk (use fewer algorithms, groups, children, "
-            "parents or types)",
         )
     return spec
 

@@ -17,12 +17,13 @@ from mgrao_core.params import SystemParams
 
 _STREAM_IDS = {"world": 0, "noise": 1, "order": 2, "volatility": 3, "routing": 4, "profiles": 6,
                "arrivals": 16, "schedule": 17, "unpredictable": 18, "capability": 19, "resources": 20,
-               "needs": 21} | {
+               "needs": 21, "topology": 22} | {
     name: number for family in FAMILIES for name, number in family.streams.items()}
 """Each stream's number in its seed sequence: the environment's, then each family's own (the oracle's
 ``"oracle"``, 5); a number, once used, is never given to another stream. The system's dynamics took 16 to
 19 (arrival phases, scheduled events, unpredictable parents, capability), several resources 20 and 21 (the
-amounts of resources after the first, the types' needs), leaving 7 to 15 to families."""
+amounts of resources after the first, the types' needs), a sparse world 22 (its random links), leaving 7 to 15
+to families."""
 RESOURCE_FLOOR = 1e-6
 NEED_FLOOR = 1e-6
 """Smallest need of a type for a resource (a Dirichlet draw at a small concentration may underflow to 0)."""
@@ -132,6 +133,34 @@ def draw_world(params: SystemParams, seed: int) -> World:
     needs /= needs.sum(axis=1, keepdims=True)
     return World(composite_types, np.ascontiguousarray(parent_types), profiles, resources, capability,
                  amounts, needs, params.resource_combination)
+
+
+def draw_links(params: SystemParams, seed: int) -> np.ndarray | None:
+    """``(n_parents, children_per_parent)``: the children each parent offers its tasks to, in increasing order.
+
+    docs/model.md ("Sparse worlds"). None in a complete world (every child, and nothing is drawn). Under
+    ``topology="ring"`` parents and children sit evenly on one ring, parent ``p`` at ``(p + 1/2) / n_parents`` and
+    child ``c`` at ``(c + 1/2) / n_children`` of its length, and a parent's links are the ``k`` children nearest to it
+    (the same for every seed); under ``"random"`` they are ``k`` distinct children drawn from the seed's
+    ``"topology"`` stream, uniformly among the ``k``-subsets.
+    """
+    if not params.sparse:
+        return None
+    n, k, parents = params.n_children, params.children_per_parent, params.n_parents
+    if params.topology == "ring":
+        # the nearest child's index, then k children centred on the parent's place (the lower one first on a tie)
+        place = (np.arange(parents) + 0.5) * n / parents - 0.5
+        first = np.ceil(place - k / 2).astype(np.int64)
+        return np.sort((first[:, None] + np.arange(k)[None, :]) % n, axis=1)
+    rng = stream(seed, "topology")
+    if 4 * k >= n:  # a large share of the children: each row a random permutation's first k
+        return np.sort(rng.permuted(np.tile(np.arange(n, dtype=np.int64), (parents, 1)), axis=1)[:, :k], axis=1)
+    links = np.sort(rng.integers(0, n, size=(parents, k)), axis=1)  # a few of many: draw again where a row repeats
+    while True:
+        repeated = np.flatnonzero((links[:, 1:] == links[:, :-1]).any(axis=1))
+        if not len(repeated):
+            return links
+        links[repeated] = np.sort(rng.integers(0, n, size=(len(repeated), k)), axis=1)
 
 
 def composite_periods(params: SystemParams) -> np.ndarray:
@@ -251,7 +280,8 @@ class EpisodeDraws:
         routing: ``(episodes, n_parents, choices, 3)`` uniforms for a parent's choice of child:
             explore or not, which other child, which of tied children. ``choices`` is 1 under
             ``routing="per-composite"`` (one choice per composite task) and ``types_per_composite``
-            under ``"per-task"``; multi-child systems only (shape ``(episodes, 0, 0, 3)`` otherwise).
+            under ``"per-task"``; where a parent chooses among several children only (shape
+            ``(episodes, 0, 0, 3)`` otherwise).
         changes: ``(episodes, n_parents)`` int8: each parent's change at the episode's start, a sum of
             :data:`NEW_PROFILE` and :data:`NEW_COMPOSITE` (scheduled events, unpredictable parents).
         event_profiles: ``(episodes, n_parents, types_per_composite)`` the new profiles of those changes.
@@ -308,7 +338,7 @@ class EpisodeStreams:
             new_profiles=new_profiles,
             routing=(
                 self._routing.random(shape[:2] + (routing_choices(p), 3))
-                if p.n_children > 1
+                if p.children_offered > 1
                 else np.zeros((episodes, 0, 0, 3))
             ),
         )

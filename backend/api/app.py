@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from typing import Any
@@ -27,7 +28,8 @@ from backend.api.security import (
 )
 from backend.api.static import CompressAssets, frontend_dir, install_static, plotly_js
 from backend.api.validation import validation_detail, validation_details
-from backend.errors import BadQuery, Conflict, InvalidSpec, NotFound
+from backend.errors import BadQuery, Busy, Conflict, InvalidSpec, NotFound
+from backend.services.compute_pool import ComputePool
 from backend.services.memory import return_large_blocks
 from backend.services.studies import StudyDriver
 from backend.settings import Settings
@@ -62,6 +64,11 @@ def _install_error_handlers(app: FastAPI) -> None:
     async def not_found(_request: Request, error: NotFound) -> JSONResponse:
         return JSONResponse({"detail": str(error)}, status_code=404)
 
+    @app.exception_handler(Busy)
+    async def busy(_request: Request, error: Busy) -> JSONResponse:
+        return JSONResponse({"detail": str(error)}, status_code=503,
+                            headers={"Retry-After": str(error.retry_after_s)})
+
     @app.exception_handler(Conflict)
     async def conflict(_request: Request, error: Conflict) -> JSONResponse:
         return JSONResponse({"detail": str(error)}, status_code=409)
@@ -86,6 +93,21 @@ def _describe_token(app: FastAPI, required: bool) -> None:
     app.openapi = openapi  # type: ignore[method-assign]
 
 
+def _api_log_lines() -> None:
+    """The API's own log lines (``mgrao.api``, INFO and up) on stderr, where nothing configured logging already.
+
+    (Without this only its warnings would reach stderr, through logging's last resort.) A process that sets up
+    logging itself, e.g. a test run, keeps its own.
+    """
+    logger = logging.getLogger("mgrao.api")
+    if logger.handlers or logging.getLogger().handlers:
+        return
+    handler = logging.StreamHandler()
+    handler.setFormatter(logging.Formatter("%(asctime)s %(name)s %(levelname)s %(message)s"))
+    logger.addHandler(handler)
+    logger.setLevel(logging.INFO)
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     """Build the service: API routers first, then the API docs, libraries and the dashboard at ``/``."""
     settings = settings or Settings()
@@ -94,11 +116,16 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         return_large_blocks()
+        _api_log_lines()
         db.migrate()
         driver = StudyDriver(db, settings.study_poll_s)
         driver.start()
+        app.state.statistics_pool = ComputePool(  # docs/service.md, "Statistics under load"
+            workers=settings.stats_workers, queue=settings.stats_queue, retry_after_s=settings.stats_retry_after_s,
+            wait_s=settings.stats_wait_s, name="statistics")
         yield
         driver.stop()
+        app.state.statistics_pool.close()
         db.dispose()
 
     app = FastAPI(

@@ -73,6 +73,13 @@ CONTROL_NAMES = {0x00: "NUL", 0x07: "BEL", 0x08: "BS", 0x09: "TAB", 0x0A: "LF", 
 """The control characters an error names as well as numbers."""
 LINE_BREAKS = "\t\n\r"
 """The control characters that notes (text of several lines) may hold."""
+BIDI_CONTROLS = "\\u202a-\\u202e\\u2066-\\u2069"
+"""Unicode's bidirectional embeddings, overrides and isolates (LRE, RLE, PDF, LRO, RLO; LRI, RLI, FSI, PDI): they
+reorder the text around them as a reader sees it (a name shown as another, "Trojan Source"), so text a person
+reads refuses them as it refuses control characters."""
+BIDI_NAMES = {0x202A: "LRE", 0x202B: "RLE", 0x202C: "PDF", 0x202D: "LRO", 0x202E: "RLO",
+              0x2066: "LRI", 0x2067: "RLI", 0x2068: "FSI", 0x2069: "PDI"}
+"""The bidirectional controls refused, by their Unicode abbreviations."""
 
 
 @dataclass(frozen=True)
@@ -80,10 +87,11 @@ class Printable:
     """The rule for text a person names or describes something with: NFC, no control character.
 
     "é" typed as one character (NFC) or as "e" and a combining accent (NFD) is one name, one tag: the text is
-    stored in NFC. A control character (a terminal escape, ESC [31m, or a tab in a tag) is refused with 422
-    naming the field and the character, alike on SQLite and PostgreSQL; ``multiline`` text (notes) keeps tabs
-    and line breaks. The OpenAPI document shows the rule as a pattern (:meth:`pattern`); a tag's also needs a
-    character that is not white space, as the server strips it first.
+    stored in NFC. A control character (a terminal escape, ESC [31m, or a tab in a tag) or a bidirectional
+    control (:data:`BIDI_CONTROLS`, RLO U+202E) is refused with 422 naming the field and the character, alike
+    on SQLite and PostgreSQL; ``multiline`` text (notes) keeps tabs and line breaks. The OpenAPI document shows
+    the rule as a pattern (:meth:`pattern`); a tag's also needs a character that is not white space, as the
+    server strips it first.
     """
 
     multiline: bool = False
@@ -91,9 +99,10 @@ class Printable:
 
     def pattern(self) -> str:
         """The JSON Schema pattern of the text this rule accepts."""
-        allowed = f"[^{CONTROLS}]" if not self.multiline else f"(?:[^{CONTROLS}]|[{LINE_BREAKS}])"
+        refused = CONTROLS + BIDI_CONTROLS
+        allowed = f"[^{refused}]" if not self.multiline else f"(?:[^{refused}]|[{LINE_BREAKS}])"
         if self.needs_text:
-            return f"^{allowed}*[^\\s{CONTROLS}]{allowed}*$"
+            return f"^{allowed}*[^\\s{refused}]{allowed}*$"
         return f"^{allowed}*$"
 
     def __get_pydantic_core_schema__(self, source: Any, handler: GetCoreSchemaHandler) -> core_schema.CoreSchema:
@@ -111,6 +120,10 @@ class Printable:
                 named = f"{CONTROL_NAMES[ord(ch)]}, " if ord(ch) in CONTROL_NAMES else ""
                 raise PydanticCustomError("value_error", f"must not contain control characters ({named}"
                                                          f"U+{ord(ch):04X}, at character {i + 1}): text only")
+            if ord(ch) in BIDI_NAMES:
+                raise PydanticCustomError("value_error", f"must not contain bidirectional controls "
+                                                         f"({BIDI_NAMES[ord(ch)]}, U+{ord(ch):04X}, at character "
+                                                         f"{i + 1}): they reorder what a reader sees")
         return unicodedata.normalize("NFC", value)
 
 

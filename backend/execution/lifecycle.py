@@ -195,7 +195,7 @@ class Lifecycle:
         """
         judged = plan.done_seeds + len(next_block(plan.spec, plan.until, plan.done_seeds))
         verdicts = (*plan.verdicts, judge_first(plan.spec, plan.until, plan.finals, judged))
-        stopped = stopped_dict(verdicts)
+        stopped = stopped_dict(verdicts, plan.until.as_dict())
         if not self.persist(lambda: queue.record_stopped(self.db, claim=claim, stopped=stopped,
                                                          progress=judged / len(plan.spec.seeds)),
                             f"storing the verdict of job {claim.job_id}"):
@@ -221,7 +221,8 @@ class Lifecycle:
 
     def finish(self, claim: queue.Claim, plan: Plan) -> bool:
         """Mark the job succeeded (with a rule: why it stopped); False when it was cancelled or taken over meanwhile."""
-        ran = {} if plan.until is None else {"stopped": stopped_dict(plan.verdicts), "seeds": plan.ran_seeds}
+        ran = {} if plan.until is None else {"stopped": stopped_dict(plan.verdicts, plan.until.as_dict()),
+                                             "seeds": plan.ran_seeds}
         return self.persist(lambda: queue.finish(self.db, claim=claim, expected_runs=plan.expected_runs, **ran),
                             f"finishing job {claim.job_id}")
 

@@ -4,7 +4,8 @@ Runs are read a few at a time and folded into per-episode statistics, so the mem
 needs grows with the episodes of a configuration, not with its runs. Every answer is bounded:
 at most :data:`MAX_RESPONSE_VALUES` numbers in curves (beyond that the default downsamples and
 an explicit request is refused with 422 naming the limit) and at most
-:data:`backend.services.weights.MAX_WEIGHT_VALUES` learned weights per configuration. A job that is still
+:data:`backend.services.weights.MAX_WEIGHT_VALUES` learned weights per configuration, of the first page of children
+(:data:`backend.services.weights.CHILDREN_PAGE`). A job that is still
 running, or was cancelled or failed after storing some chunks, answers with what is stored, marked ``partial``.
 """
 
@@ -26,7 +27,7 @@ from backend.services.cache import AnswerCache
 from backend.services.memory import trim
 from backend.store.crud import get_job, job_dict
 from backend.store.models import RUN_READ_BATCH, SUCCEEDED, Job, Run
-from backend.store.summaries import summary_dict
+from backend.store.summaries import in_seed_order, summary_dict
 from mgrao_core import (
     PRESETS,
     ConfigError,
@@ -126,8 +127,7 @@ def _configurations(session: Session, job: Job, points: int | None, include_seed
             one.add(values)
             band = one.band_arrays(used)
             per_seed[algorithm].append({"seed": seed, "episode": band["episode"], "utility": band["mean"]})
-    ordered = {a: dict(sorted(finals[a].items(), key=lambda kv: seed_order.get(kv[0], 0)))
-               for a in algorithms if finals[a]}
+    ordered = in_seed_order({a: finals[a] for a in algorithms if finals[a]}, job.config["seeds"])
     summaries = summarise(ordered)
     configurations = []
     for algorithm in algorithms:

@@ -58,6 +58,14 @@ class AnswerCache:
             with self._lock:
                 self._building.pop(key).set()
 
+    def get(self, key: tuple) -> bytes | None:
+        """The cached bytes of ``key``, or None (nothing is built, nothing waited for)."""
+        with self._lock:
+            if key in self._entries:
+                self._entries.move_to_end(key)
+                return self._entries[key]
+            return None
+
     def _build_uncached(self, key: tuple, build: Callable[[], bytes]) -> bytes:
         with self._lock:
             self.builds += 1

@@ -17,7 +17,8 @@ sorted into *configurations* (:mod:`mgrao_core.statistics.pairing`): a world, a 
 * A run whose final utility is not finite (a corrupted or legacy store) takes no part: its seed is listed in
   ``non_finite_seeds``.
 * Worlds are named by their system, and where two worlds share one, by what differs between them:
-  ``single (episodes=200)``.
+  ``single (episodes=200)``. A world's system is the saved system its jobs ran where they ran one
+  (:func:`_system_names`): ``large30``, not its base ``large``.
 
 Every figure that relates two configurations is the core's (:mod:`mgrao_core.statistics`), on the seeds they
 share. Memory grows with the runs compared (a final and a digest each, numpy arrays) and with one
@@ -30,7 +31,7 @@ import hashlib
 import json
 import math
 from collections import Counter
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -41,7 +42,7 @@ from sqlalchemy.orm import Session
 from backend.services.analysis import BAND_ARRAYS, BUILDS, RESULTS_CACHE, choose_points, described, dumps
 from backend.services.memory import trim
 from backend.store.crud import get_job, job_dict
-from backend.store.models import EXTERNAL, RUN_READ_BATCH, SUCCEEDED, Job, Run
+from backend.store.models import EXTERNAL, RUN_READ_BATCH, SUCCEEDED, Job, Run, saved_system_of
 from backend.store.summaries import summary_dict
 from mgrao_core import ConfigError, EpisodeStats, TaskCounts, complete_params, final_utilities, make_params, summarise
 from mgrao_core.algorithms import sort_key
@@ -128,6 +129,10 @@ class Gathered:
     worlds: dict[str, str]
     """World digest -> its name, in the order first met."""
     configurations: list[Configuration]
+    systems: dict[str, str] = field(default_factory=dict)
+    """World digest -> its system's name (:func:`_system_names`): a saved system's where its jobs ran one."""
+    bases: dict[str, str] = field(default_factory=dict)
+    """World digest -> the preset its system is based on (its jobs' ``system``)."""
 
     def of_world(self, digest: str) -> list[Configuration]:
         """The world's configurations in the order views show them."""
@@ -172,14 +177,43 @@ def _suffix(values: dict[str, Any], names: list[str]) -> str:
     return shown + (", ..." if len(names) > _SUFFIX_PARAMS else "")
 
 
-def _world_names(jobs: Sequence[Job]) -> dict[str, str]:
-    """Each world's name: its system's, and where several worlds share a system, what differs between them."""
+def _system_names(jobs: Sequence[Job]) -> tuple[dict[str, str], dict[str, str]]:
+    """Each world's system name and base preset, by world digest (docs/statistics.md, "Names").
+
+    A world's system is the saved system its jobs ran (their tag ``system:<name>``), even beside jobs of the
+    base preset with the same overrides: those are the same system, and the preset's name would present it
+    as the preset's (a 30-parent ``large30`` as the paper's ``large``). One definition saved under several
+    names, and run under each, is named by all of them in alphabetical order: ``large30 = thirty``. A world
+    none of whose jobs ran a saved system is named by its preset. The name is the system's, whatever the
+    world's episodes: every world of one system (one base, one set of parameters) in a comparison has the
+    same name, wherever its jobs come in the order asked.
+    """
+    saved: dict[str, set[str]] = {}
+    keys: dict[str, str] = {}
+    bases: dict[str, str] = {}
+    for job in jobs:
+        described = world(job.config)
+        key = json.dumps({"base": described["system"], "params": described["params"]}, sort_keys=True)
+        digest = world_digest(job.config)
+        keys[digest], bases[digest] = key, described["system"]
+        named = saved.setdefault(key, set())
+        if (name := saved_system_of(job.tags)) is not None:
+            named.add(name)
+    return {digest: " = ".join(sorted(saved[key])) or bases[digest] for digest, key in keys.items()}, bases
+
+
+def _world_names(jobs: Sequence[Job], systems: dict[str, str]) -> dict[str, str]:
+    """Each world's name: its system's (``systems``, by digest), and where worlds share one, what differs.
+
+    What differs between them may be their base preset too (one saved name, redefined on another base).
+    """
     worlds: dict[str, dict[str, Any]] = {}
     for job in jobs:
         digest = world_digest(job.config)
         if digest not in worlds:
             described = world(job.config)
-            worlds[digest] = {"system": job.system, "episodes": described["episodes"]} | described["params"]
+            worlds[digest] = {"system": systems[digest], "base": described["system"],
+                              "episodes": described["episodes"]} | described["params"]
     names = {}
     for digest, values in worlds.items():
         peers = {d: v for d, v in worlds.items() if v["system"] == values["system"]}
@@ -247,10 +281,11 @@ def gather(session: Session, jobs: Sequence[Job]) -> Gathered:
                 configurations.append(target)
             target.add(job, stored)
     _label(configurations)
-    names = _world_names(succeeded)
+    systems, bases = _system_names(succeeded)
+    names = _world_names(succeeded, systems)
     order = {d: i for i, d in enumerate(names)}
     configurations.sort(key=lambda c: (order[c.world], sort_key(c.algorithm), c.label))
-    return Gathered(list(jobs), names, configurations)
+    return Gathered(list(jobs), names, configurations, systems, bases)
 
 
 def _caveats(job: Job) -> list[str]:
@@ -263,7 +298,7 @@ def worlds_of(gathered: Gathered, curves: dict[str, dict[int, np.ndarray]] | Non
     for digest, name in gathered.worlds.items():
         configurations = gathered.of_world(digest)
         first = configurations[0].jobs[0]
-        out.append(World(name=name, system=first.system, episodes=first.config["episodes"],
+        out.append(World(name=name, system=gathered.systems[digest], episodes=first.config["episodes"],
                          finals={c.label: c.finals for c in configurations}, caveats=_caveats(first),
                          curves=None if curves is None else {c.label: curves[_key(c)] for c in configurations
                                                              if _key(c) in curves}))
@@ -279,8 +314,11 @@ def _jobs(session: Session, job_ids: Sequence[int]) -> list[Job]:
 
 
 def _state(jobs: Sequence[Job]) -> tuple:
-    """What an answer about these jobs is made of: each job's id, state, end and configuration, in order."""
-    return tuple((job.id, job.status, job.finished_at, job.config_hash) for job in jobs)
+    """What an answer about these jobs is made of: each job's id, state, end, configuration and saved system.
+
+    (The saved system is a tag, which names its world's system: :func:`_system_names`.) In the order asked.
+    """
+    return tuple((job.id, job.status, job.finished_at, job.config_hash, saved_system_of(job.tags)) for job in jobs)
 
 
 def _head(jobs: Sequence[Job]) -> bytes:
@@ -330,7 +368,8 @@ def _groups(session: Session, gathered: Gathered, points: int | None) -> list[di
             groups.append({
                 "config_hash": c.jobs[0].config_hash,
                 "config_hashes": list(dict.fromkeys(j.config_hash for j in c.jobs)),
-                "algorithm": c.algorithm, "label": c.label, "system": c.jobs[0].system, "world": name,
+                "algorithm": c.algorithm, "label": c.label, "system": gathered.systems[digest],
+                "base": gathered.bases[digest], "world": name,
                 "params": c.own, "external": c.external, "episodes_per_run": episodes,
                 "job_ids": list(dict.fromkeys(job_id for job_id, _, _ in c.taken.values())),
                 "mismatched_seeds": sorted(c.mismatched), "non_finite_seeds": sorted(c.non_finite),
@@ -365,28 +404,65 @@ def standing_for(gathered: Gathered, job_ids: Sequence[int]) -> list[str]:
     return list(dict.fromkeys(gathered.worlds[world_digest(by_id[job_id].config)] for job_id in job_ids))
 
 
-def statistics(session: Session, *, job_ids: Sequence[int], repetitions: int, seed: int,
-               aggregate: Sequence[int] = ()) -> dict[str, Any]:
-    """``GET /api/compare/statistics`` as data: :func:`mgrao_core.statistics.comparison.compare` of the jobs.
+@dataclass(frozen=True)
+class Pending:
+    """An answer of the comparison statistics, to compute (docs/service.md, "Statistics under load").
+
+    ``key`` is what the answer is in :data:`RESULTS_CACHE` (the kind, its query and the jobs' state), ``build``
+    computes its bytes from a session of the caller's (a thread of the statistics' pool opens its own), and
+    :meth:`answer` gives the route's data from those bytes.
+    """
+
+    key: tuple
+    what: str
+    """How a log line names it."""
+    build: Callable[[Session], bytes]
+    extra: dict[str, Any] = field(default_factory=dict)
+    """Added to the cached answer's data (what is read afresh, not kept)."""
+
+    def cached(self) -> bytes | None:
+        """The kept answer, if any (nothing is computed)."""
+        return RESULTS_CACHE.get(self.key)
+
+    def compute(self, session: Session) -> bytes:
+        """The answer's bytes: kept, or built on ``session`` and kept."""
+        return RESULTS_CACHE.get_or_build(self.key, lambda: self.build(session))
+
+    def answer(self, body: bytes) -> dict[str, Any]:
+        """The route's data from the answer's bytes."""
+        return json.loads(body) | self.extra
+
+
+def pending_statistics(session: Session, *, job_ids: Sequence[int], repetitions: int, seed: int,
+                       aggregate: Sequence[int] = ()) -> Pending:
+    """``GET /api/compare/statistics``, to compute: :func:`mgrao_core.statistics.comparison.compare` of the jobs.
 
     ``aggregate``: jobs whose worlds stand for their systems in the aggregates (:func:`standing_for`).
     """
     jobs = _jobs(session, job_ids)
 
-    def build() -> bytes:
-        with BUILDS:
-            try:
-                gathered = gather(session, jobs)
-                answer = compare_worlds(worlds_of(gathered), repetitions=repetitions, seed=seed,
-                                        aggregate=standing_for(gathered, aggregate))
-                _add_task_rates(answer["systems"], gathered)
-                answer["configurations"] = _described_configurations(gathered)
-                return dumps(answer)
-            finally:
-                trim()
+    def build(s: Session) -> bytes:
+        try:
+            gathered = gather(s, jobs)
+            answer = compare_worlds(worlds_of(gathered), repetitions=repetitions, seed=seed,
+                                    aggregate=standing_for(gathered, aggregate))
+            _add_task_rates(answer["systems"], gathered)
+            answer["configurations"] = _described_configurations(gathered)
+            return dumps(answer)
+        finally:
+            trim()
 
-    body = RESULTS_CACHE.get_or_build(("statistics", repetitions, seed, tuple(aggregate), *_state(jobs)), build)
-    return json.loads(body) | {"jobs": [job.id for job in jobs]}
+    return Pending(("statistics", repetitions, seed, tuple(aggregate), *_state(jobs)),
+                   f"statistics of jobs {[job.id for job in jobs]} (reps={repetitions}, seed={seed}, "
+                   f"aggregate={list(aggregate)})", build,
+                   {"jobs": [job.id for job in jobs]})
+
+
+def statistics(session: Session, *, job_ids: Sequence[int], repetitions: int, seed: int,
+               aggregate: Sequence[int] = ()) -> dict[str, Any]:
+    """``GET /api/compare/statistics`` as data, computed here (:func:`pending_statistics`)."""
+    pending = pending_statistics(session, job_ids=job_ids, repetitions=repetitions, seed=seed, aggregate=aggregate)
+    return pending.answer(pending.compute(session))
 
 
 def _add_task_rates(systems: dict[str, dict[str, dict[str, Any]]], gathered: Gathered) -> None:
@@ -399,44 +475,51 @@ def _add_task_rates(systems: dict[str, dict[str, dict[str, Any]]], gathered: Gat
 
 def _described_configurations(gathered: Gathered) -> list[dict[str, Any]]:
     """What each configuration of an answer is: its world, algorithm, own parameters, jobs and mismatched seeds."""
-    return [{"system": gathered.worlds[c.world], "label": c.label, "algorithm": c.algorithm, "params": c.own,
+    return [{"system": gathered.worlds[c.world], "base": gathered.bases[c.world], "label": c.label,
+             "algorithm": c.algorithm, "params": c.own,
              "external": c.external, "job_ids": list(dict.fromkeys(job_id for job_id, _, _ in c.taken.values())),
              "mismatched_seeds": sorted(c.mismatched), "non_finite_seeds": sorted(c.non_finite)}
             for c in gathered.configurations]
 
 
-def sample_efficiency_answer(session: Session, *, job_ids: Sequence[int], points: int, repetitions: int,
-                             seed: int, aggregate: Sequence[int] = ()) -> dict[str, Any]:
-    """``GET /api/compare/sample-efficiency`` as data: IQM of the scores per bucket of episodes, with bands.
+def pending_sample_efficiency(session: Session, *, job_ids: Sequence[int], points: int, repetitions: int,
+                              seed: int, aggregate: Sequence[int] = ()) -> Pending:
+    """``GET /api/compare/sample-efficiency``, to compute: IQM of the scores per bucket of episodes, with bands.
 
     Each world's episodes are cut into ``points`` equal buckets (fewer when it has fewer episodes: then every
     world takes the smallest count), and a run's bucket is the mean of its utilities over it.
     """
     jobs = _jobs(session, job_ids)
 
-    def build() -> bytes:
-        with BUILDS:
-            try:
-                gathered = gather(session, jobs)
-                episodes = {digest: gathered.of_world(digest)[0].jobs[0].config["episodes"]
-                            for digest in gathered.worlds}
-                count = min([points, *episodes.values()]) if episodes else points
-                curves = {}
-                for c in gathered.configurations:
-                    edges = np.linspace(0, episodes[c.world], count + 1).round().astype(int)
-                    by_seed = {}
-                    for seed_, values in _taken_runs(session, c):
-                        by_seed[seed_] = np.add.reduceat(values, edges[:-1]) / np.diff(edges)
-                    curves[_key(c)] = by_seed
-                answer = sample_efficiency(worlds_of(gathered, curves), repetitions=repetitions, seed=seed,
-                                           aggregate=standing_for(gathered, aggregate))
-                answer["points"] = count
-                answer["episodes"] = {gathered.worlds[d]: np.linspace(0, e, count + 1).round().astype(int)[:-1].tolist()
-                                      for d, e in episodes.items()}
-                return dumps(answer)
-            finally:
-                trim()
+    def build(s: Session) -> bytes:
+        try:
+            gathered = gather(s, jobs)
+            episodes = {digest: gathered.of_world(digest)[0].jobs[0].config["episodes"] for digest in gathered.worlds}
+            count = min([points, *episodes.values()]) if episodes else points
+            curves = {}
+            for c in gathered.configurations:
+                edges = np.linspace(0, episodes[c.world], count + 1).round().astype(int)
+                by_seed = {}
+                for seed_, values in _taken_runs(s, c):
+                    by_seed[seed_] = np.add.reduceat(values, edges[:-1]) / np.diff(edges)
+                curves[_key(c)] = by_seed
+            answer = sample_efficiency(worlds_of(gathered, curves), repetitions=repetitions, seed=seed,
+                                       aggregate=standing_for(gathered, aggregate))
+            answer["points"] = count
+            answer["episodes"] = {gathered.worlds[d]: np.linspace(0, e, count + 1).round().astype(int)[:-1].tolist()
+                                  for d, e in episodes.items()}
+            return dumps(answer)
+        finally:
+            trim()
 
-    body = RESULTS_CACHE.get_or_build(("sample-efficiency", points, repetitions, seed, tuple(aggregate),
-                                       *_state(jobs)), build)
-    return json.loads(body)
+    return Pending(("sample-efficiency", points, repetitions, seed, tuple(aggregate), *_state(jobs)),
+                   f"sample efficiency of jobs {[job.id for job in jobs]} (points={points}, reps={repetitions}, "
+                   f"seed={seed})", build)
+
+
+def sample_efficiency_answer(session: Session, *, job_ids: Sequence[int], points: int, repetitions: int,
+                             seed: int, aggregate: Sequence[int] = ()) -> dict[str, Any]:
+    """``GET /api/compare/sample-efficiency`` as data, computed here (:func:`pending_sample_efficiency`)."""
+    pending = pending_sample_efficiency(session, job_ids=job_ids, points=points, repetitions=repetitions, seed=seed,
+                                        aggregate=aggregate)
+    return pending.answer(pending.compute(session))

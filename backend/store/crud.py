@@ -15,9 +15,19 @@ from sqlalchemy.orm import Session
 import mgrao_core
 from backend.errors import Conflict, NotFound
 from backend.store.job_order import parse_sort
-from backend.store.models import CANCELLED, QUEUED, RUNNING, SAVED_SYSTEM_TAG_PREFIX, SIMULATION, Job, JobTag, utcnow
+from backend.store.models import (
+    CANCELLED,
+    QUEUED,
+    RUNNING,
+    SAVED_SYSTEM_TAG_PREFIX,
+    SIMULATION,
+    Job,
+    JobTag,
+    saved_system_of,
+    utcnow,
+)
 from mgrao_core import PRESETS, ExperimentSpec, complete_params
-from mgrao_core.statistics.sequential import Until, stopped_dict
+from mgrao_core.statistics.sequential import Until, coverage_of, stopped_dict
 
 
 def config_hash(config: dict[str, Any]) -> str:
@@ -52,13 +62,11 @@ def job_dict(job: Job | Row, config: dict[str, Any] | None = None) -> dict[str, 
         "created_at": iso(job.created_at), "started_at": iso(job.started_at),
         "finished_at": iso(job.finished_at), "duration_s": duration, "version": job.version,
         "study_id": job.study_id, "trial_id": job.trial_id, "kind": job.kind,
-        "saved_system": next((t.removeprefix(SAVED_SYSTEM_TAG_PREFIX) for t in job.tags
-                              if t.startswith(SAVED_SYSTEM_TAG_PREFIX)), None),
+        "saved_system": saved_system_of(job.tags),
         "until": config.get("until"), "stopped": stopped_of(job.status, config, job.stopped),
     }
 
 
-NOT_JUDGED = stopped_dict(())
 """What a job with a stopping rule says before its first block is judged."""
 
 
@@ -66,7 +74,7 @@ def stopped_of(status: str, config: dict[str, Any], stopped: dict[str, Any] | No
     """A job's ``stopped`` as the API shows it: None without a rule; a cancelled job's reason is ``cancelled``."""
     if not config.get("until"):
         return None
-    stopped = stopped or NOT_JUDGED
+    stopped = (stopped or stopped_dict((), config["until"])) | coverage_of(config["until"])  # stored before: added
     if status == CANCELLED and stopped["reason"] is None:
         return stopped | {"reason": "cancelled"}
     return stopped

@@ -12,14 +12,14 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
 from sqlalchemy import Row, delete, func, insert, select
 from sqlalchemy.orm import Session
 
-from backend.store.models import JobSummary, Run
+from backend.store.models import Job, JobSummary, Run
 from mgrao_core import ConfigSummary, TaskCounts, final_utilities, summarise
 
 RESULT_FIELDS = ("final_mean", "pct_from_uniform", "pct_of_max")
@@ -27,18 +27,32 @@ RESULT_FIELDS = ("final_mean", "pct_from_uniform", "pct_of_max")
 
 
 def finals(session: Session, job_id: int) -> dict[str, dict[int, float]]:
-    """Each stored run's final utility, by algorithm and seed (the runs streamed a few at a time)."""
+    """Each stored run's final utility, by algorithm and seed, in the order stored (streamed a few at a time)."""
     out: dict[str, dict[int, float]] = defaultdict(dict)
-    statement = select(Run.algorithm, Run.seed, Run.utilities).where(Run.job_id == job_id).execution_options(
-        yield_per=32)
+    statement = (select(Run.algorithm, Run.seed, Run.utilities).where(Run.job_id == job_id).order_by(Run.id)
+                 .execution_options(yield_per=32))
     for algorithm, seed, blob in session.execute(statement):
         out[algorithm][seed] = float(final_utilities(np.frombuffer(blob, dtype="<f8"))[0])
     return dict(out)
 
 
+def in_seed_order(finals: dict[str, dict[int, float]], seeds: Sequence[int]) -> dict[str, dict[int, float]]:
+    """Each configuration's final utilities in the job's seed order: the order its summaries are computed in.
+
+    A mean's last bits depend on the order of its terms, so every summary of a job, stored (:func:`compute`, a
+    batch's :func:`backend.store.queue.finish_batch`, migration 0016) or computed on read (its results), takes
+    its seeds in the order of its configuration's ``seeds``, and a seed it does not list (a run logged from
+    outside) at the first's place, in the order stored: one interval per configuration, wherever it is shown.
+    """
+    order = {seed: i for i, seed in enumerate(seeds)}
+    return {algorithm: dict(sorted(by_seed.items(), key=lambda item: order.get(item[0], 0)))
+            for algorithm, by_seed in finals.items()}
+
+
 def compute(session: Session, job_id: int) -> dict[str, ConfigSummary]:
-    """The per-configuration summaries of a job's stored runs (final utilities only)."""
-    return summarise(finals(session, job_id))
+    """The per-configuration summaries of a job's stored runs (final utilities only, in its seed order)."""
+    config = session.scalar(select(Job.config).where(Job.id == job_id))
+    return summarise(in_seed_order(finals(session, job_id), (config or {}).get("seeds", [])))
 
 
 def finals_of_rows(rows: Iterable[dict[str, Any]]) -> dict[str, dict[int, float]]:
@@ -127,7 +141,7 @@ def as_config_summary(row: JobSummary | Row) -> ConfigSummary:
     def number(value: float | None) -> float:
         return nan if value is None else value
 
-    pct_ci = None if row.pct_low is None and row.pct_high is None else (number(row.pct_low), number(row.pct_high))
+    pct_ci = None if row.pct_from_uniform is None else (number(row.pct_low), number(row.pct_high))
     return ConfigSummary(algorithm=row.algorithm, n_runs=row.n_runs, final_mean=number(row.final_mean),
                          ci95=(number(row.final_low), number(row.final_high)), pct_from_uniform=row.pct_from_uniform,
                          pct_ci95=pct_ci, pct_of_max=row.pct_of_max, n_paired=row.n_paired or 0,
@@ -145,8 +159,12 @@ def config_summaries(session: Session, job_ids: Iterable[int]) -> dict[int, dict
 
 
 def as_dict(row: JobSummary | Row) -> dict[str, Any]:
-    """A stored summary, a model or a row of its columns, as the API shows it (:func:`summary_dict`)."""
-    pct_ci = None if row.pct_low is None and row.pct_high is None else [row.pct_low, row.pct_high]
+    """A stored summary, a model or a row of its columns, as the API shows it (:func:`summary_dict`).
+
+    As there, ``pct_ci95`` is null where there is no % from uniform, and ``[null, null]`` where there is one
+    without an interval (a single paired seed).
+    """
+    pct_ci = None if row.pct_from_uniform is None else [row.pct_low, row.pct_high]
     tasks = TaskCounts(row.tasks_allocated or 0, row.tasks_failed or 0, row.tasks_handed_over or 0)
     return {
         "algorithm": row.algorithm, "n_runs": row.n_runs, "final_mean": row.final_mean,

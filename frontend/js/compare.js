@@ -7,7 +7,7 @@
 import { api } from './api.js';
 import { h, notice, nextId, kindBadge, debounce } from './ui.js';
 import { draw, drawWhenSeen, purge, loadPlotly, meanBandTraces, utilityLayout, pctBarTrace, bandsBelow, bandAlpha } from './charts.js';
-import { parseIds, badIds, DEFINITIONS, groupKey, pctErrorBars, fmtNumber, fmtPct, fmtCI, seedCount, smoothingNote, episodesPerPoint, bandCaution, SUMMARY_COLUMNS, summaryCells, pairedText, showsTaskRates, fmtRate, TASK_RATE_DEFINITIONS } from './stats.js';
+import { parseIds, badIds, DEFINITIONS, groupKey, pctErrorBars, fmtNumber, fmtPct, fmtCI, seedCount, systemName, smoothingNote, episodesPerPoint, bandCaution, SUMMARY_COLUMNS, summaryCells, pairedText, showsTaskRates, fmtRate, TASK_RATE_DEFINITIONS } from './stats.js';
 import { compareLabels, ready, rememberAnswer } from './algorithms.js';
 import { configurations, groupLabels, diffTable, facets, facetOf, lineStyles, legendLayout, barsLayout } from './comparegroups.js';
 import { statisticsPanel } from './statspanel.js';
@@ -62,7 +62,7 @@ export async function mount(root, params, ctx) {
         const ids = parseIds(idsIn.value).filter((x) => x !== j.id);
         if (e.target.checked) ids.push(j.id);
         idsIn.value = ids.join(', ');
-      } }), h('label', { for: cbId }, `#${j.id} ${j.name || ''} (${j.saved_system || j.system}, ${seedCount(j)} seeds × ${j.episodes})`, kindBadge(j)));
+      } }), h('label', { for: cbId }, `#${j.id} ${j.name || ''} (${systemName(j)}, ${seedCount(j)} seeds × ${j.episodes})`, kindBadge(j)));
     }));
     pickCount.textContent = q ? `${page.count.toLocaleString('en-US')} found${page.count > page.data.length ? `, the ${page.data.length} newest shown` : ''}.`
       : `The ${page.data.length} newest of ${page.count.toLocaleString('en-US')}; search for older ones.`;
@@ -106,7 +106,7 @@ export async function mount(root, params, ctx) {
     loadPicker();
     return () => { stopped = true; controller.abort(); };
   }
-  const configs = configurations(data.jobs);
+  const configs = configurations(data.jobs, data.groups);
   const external = new Set(data.jobs.filter((j) => j.kind === 'external').map((j) => j.id));
   const labels = groupLabels(groups).map((l, i) => (groups[i].job_ids.some((id) => external.has(id)) ? `${l} · external` : l));
   const styles = lineStyles(groups, data.jobs);

@@ -6,13 +6,23 @@
 import { isAnchor, labelSlot, slotStyles } from './colours.js';
 import { compareLabels } from './algorithms.js';
 import { fmtParam } from './studydata.js';
-import { sameValue } from './stats.js';
+import { sameValue, systemName } from './stats.js';
 
-/** Each configuration's resolved parameters (and its episodes), by config_hash, from the compared jobs. */
-export function configurations(jobs) {
+/**
+ * Each configuration's resolved parameters (and its episodes), by config_hash, from the compared jobs; its system
+ * named as compare's `groups` name it (a saved system's name where its jobs ran one, the server's rule:
+ * docs/statistics.md, "Names"), else as its first job does.
+ */
+export function configurations(jobs, groups = []) {
+  const named = {};
+  for (const g of groups || []) {
+    for (const hash of g.config_hashes || [g.config_hash]) if (!(hash in named)) named[hash] = g.system;
+  }
   const out = {};
   for (const j of jobs || []) {
-    if (!(j.config_hash in out)) out[j.config_hash] = { system: j.system, episodes: j.episodes, ...(j.params || {}) };
+    if (!(j.config_hash in out)) {
+      out[j.config_hash] = { system: named[j.config_hash] ?? systemName(j), episodes: j.episodes, ...(j.params || {}) };
+    }
   }
   return out;
 }

@@ -371,10 +371,16 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
     return changedParams(rawParams(), preset().params);
   }
 
-  /** Fill the inputs from an experiment as read() gives it (the preset first, then its changes). */
+  /**
+   * Fill the inputs from an experiment as read() gives it (the preset first, then its changes). Its `system` is
+   * a preset or a saved system; `base`, if given, is taken where that system is no longer among the choices (a
+   * saved system deleted since). Returns the system chosen, or null (neither is).
+   */
   function load(experiment) {
-    if (!experiment || !choices.some((s) => s.name === experiment.system)) return;
-    systemSel.value = experiment.system;
+    const system = [experiment && experiment.system, experiment && experiment.base]
+      .find((name) => name && choices.some((s) => s.name === name));
+    if (!system) return null;
+    systemSel.value = system;
     applyPreset();
     if (Array.isArray(experiment.algorithms)) showAlgorithms(experiment.algorithms);
     if (experiment.seeds !== undefined) seedsIn.value = String(experiment.seeds);
@@ -382,6 +388,7 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
     for (const [name, value] of Object.entries(experiment.params || {})) {
       if (paramInputs.has(name)) setParam(name, value);
     }
+    return system;
   }
 
   /** The experiment as the API takes it; {invalidArguments} when an argument field cannot be read. */

@@ -2,7 +2,7 @@
 // it. Pure functions (no DOM), so that node's test runner checks them.
 
 import { fmtParam } from './studydata.js';
-import { csvOf, sameValue } from './stats.js';
+import { csvOf, sameValue, systemName } from './stats.js';
 
 
 /**
@@ -55,11 +55,15 @@ export function listLines(value) {
   });
 }
 
-/** "3 of 27 parameters differ from the single preset: learning_rate 0.05, ..." (or that none does). */
+/**
+ * "3 of 27 parameters differ from the single preset: learning_rate 0.05, ..." (or that none does); a saved
+ * system's job says it is that system, whose base is the preset compared with.
+ */
 export function differenceSummary(job, rows) {
   const differ = rows.filter((r) => r.differs);
-  if (!differ.length) return `Every parameter is the ${job.system} preset's.`;
-  return `${differ.length} of ${rows.length} parameters differ from the ${job.system} preset: ` +
+  const preset = job.saved_system ? `${job.saved_system}'s base, the ${job.system} preset` : `the ${job.system} preset`;
+  if (!differ.length) return `Every parameter is ${preset}'s.`;
+  return `${differ.length} of ${rows.length} parameters differ from ${preset}: ` +
     differ.map((r) => `${r.name} ${Array.isArray(r.value) ? `[${listLines(r.value).join('; ')}]` : fmtParam(r.value)}`).join(', ') + '.';
 }
 
@@ -69,14 +73,14 @@ export function differenceSummary(job, rows) {
  */
 export function summaryCsv(job, configurations) {
   const names = Object.keys(job.params || {}).sort();
-  const head = ['job_id', 'system', 'config_hash', 'algorithm', 'seeds_stored', 'seeds', 'episodes', 'final_mean',
+  const head = ['job_id', 'system', 'saved_system', 'config_hash', 'algorithm', 'seeds_stored', 'seeds', 'episodes', 'final_mean',
     'ci95_low', 'ci95_high', 'pct_from_uniform', 'pct_ci95_low', 'pct_ci95_high', 'pct_of_max', ...names];
   const lines = [head];
   for (const c of configurations) {
     const s = c.summary || {};
     const ci = s.ci95 || [null, null];
     const pci = s.pct_ci95 || [null, null];
-    const row = [job.id, job.system, job.config_hash, c.algorithm, c.seeds_done ?? s.n_runs, job.seeds.length, job.episodes,
+    const row = [job.id, job.system, job.saved_system ?? null, job.config_hash, c.algorithm, c.seeds_done ?? s.n_runs, job.seeds.length, job.episodes,
       s.final_mean, ci[0], ci[1], s.pct_from_uniform, pci[0], pci[1], s.pct_of_max, ...names.map((n) => job.params[n])];
     lines.push(row);
   }
@@ -86,7 +90,7 @@ export function summaryCsv(job, configurations) {
 /** The job's configuration as one JSON document: what re-running it needs, and where it came from. */
 export function configJson(job) {
   return JSON.stringify({
-    id: job.id, name: job.name, system: job.system, algorithms: job.algorithms, seeds: job.seeds,
+    id: job.id, name: job.name, system: systemName(job), base: job.system, algorithms: job.algorithms, seeds: job.seeds,
     episodes: job.episodes, params: job.params, config_hash: job.config_hash, version: job.version,
   }, null, 2);
 }

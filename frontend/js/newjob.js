@@ -3,7 +3,7 @@
 
 import { api } from './api.js';
 import { h, notice, nextId, confirmDialog } from './ui.js';
-import { parseTags } from './stats.js';
+import { parseTags, systemName } from './stats.js';
 import { experimentFields, STUDY_DRAFT } from './experimentfields.js';
 import { families, literalLabels, ready } from './algorithms.js';
 import { untilFields } from './untilfields.js';
@@ -48,17 +48,21 @@ export async function mount(root, params, ctx) {
   if (params.clone) {
     try {
       const job = await api.getJob(Number(params.clone));
-      fields.load({ system: job.system, algorithms: job.algorithms, seeds: job.seeds.length, episodes: job.episodes,
-        params: job.params });
+      // a saved system's job clones into the saved system (its base preset if it was deleted since), with the
+      // job's values; its tag system:NAME is the server's to give (it follows the system chosen)
+      const chosen = fields.load({ system: systemName(job), base: job.system, algorithms: job.algorithms,
+        seeds: job.seeds.length, episodes: job.episodes, params: job.params });
       nameIn.value = `${job.name || `job ${job.id}`} (clone)`;
       nameIn.dataset.touched = '1';
-      tagsIn.value = (job.tags || []).join(', ');
+      tagsIn.value = (job.tags || []).filter((t) => !job.saved_system || t !== `system:${job.saved_system}`).join(', ');
       notesIn.value = `Cloned from job ${job.id}.`;
       const plain = job.until || job.seeds.every((seed, i) => seed === i);
       if (!plain) clonedSeeds = job.seeds;
       rule.load(job); // a job run until decided: its rule, from its first seed
       cloneNote.textContent = `A copy of job ${job.id}'s configuration: change what you need and run it.` +
-        (plain ? '' : ` It runs the same seeds (${job.seeds.join(', ')}) unless you change their number.`);
+        (plain ? '' : ` It runs the same seeds (${job.seeds.join(', ')}) unless you change their number.`) +
+        (job.saved_system && chosen !== job.saved_system ? ` Its saved system ${job.saved_system} is no longer ` +
+          `saved: the form holds its base, ${job.system}, with the job's values.` : '');
       fields.seedsIn.addEventListener('input', () => { clonedSeeds = null; }, { once: true });
     } catch (e) {
       cloneNote.textContent = `Cannot clone job ${params.clone}: ${e.message}`;

@@ -2,7 +2,7 @@
 
 import { api } from './api.js';
 import { h, statusCell, confirmDialog, promptDialog, cancelConsequence, keepLabel, editJobDialog, notice, debounce, nextId, downloadText } from './ui.js';
-import { fmtDate, fmtDuration, seedCount, parseTags, csvOf } from './stats.js';
+import { fmtDate, fmtDuration, seedCount, parseTags, csvOf, systemName, systemDescription } from './stats.js';
 import { outsideRegistry, ready, sortLabels } from './algorithms.js';
 import { columnsFromQuery, sortKey, nextSort, sortState, cellText, cellInterval, refreshLimit, sameJob, progressOnly, exportRows } from './runcolumns.js';
 
@@ -282,8 +282,7 @@ export async function mount(root, params, ctx) {
       h('td', { class: 'job-name' }, h('a', { href: `#/jobs/${job.id}` }, job.name || `job ${job.id}`),
         job.notes ? h('div', { class: 'note', title: job.notes }, job.notes) : null),
       h('td', { class: 'status' }, statusCell(job)),
-      h('td', { class: 'system', title: job.saved_system ? `saved system ${job.saved_system}, based on ${job.system}` : null },
-        job.saved_system || job.system),
+      h('td', { class: 'system', title: job.saved_system ? systemDescription(job) : null }, systemName(job)),
       h('td', { class: 'algos' }, sortLabels(job.algorithms || []).flatMap((label, i) => [i ? ', ' : '',
         h('span', { class: 'label' }, label)])),
       h('td', { class: 'num' }, seedCount(job)),

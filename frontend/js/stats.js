@@ -282,6 +282,19 @@ export function groupKey(group) {
   return `${String(group.config_hash || '').slice(0, 8)}:${label}`;
 }
 
+/**
+ * A job's system as people name it: the saved system it ran (`saved_system`), else its preset (`system`, which for
+ * a saved system's job is the base preset: docs/api.md, "Saved systems").
+ */
+export function systemName(job) {
+  return (job && (job.saved_system || job.system)) || '';
+}
+
+/** A job's system with its base where it is a saved system: "large30 (saved system, based on large)". */
+export function systemDescription(job) {
+  return job && job.saved_system ? `${job.saved_system} (saved system, based on ${job.system})` : systemName(job);
+}
+
 /** Number of seeds of a job (its `seeds` list, or a count). */
 export function seedCount(job) {
   if (!job) return 0;

@@ -1,6 +1,6 @@
 // Small DOM helpers shared by the views: element builder, status badges, dialogs.
 
-import { fmtDate, fmtDuration, pctProgress, seedCount } from './stats.js';
+import { fmtDate, fmtDuration, pctProgress, seedCount, systemDescription } from './stats.js';
 import { api, authorizedFetch, getToken } from './api.js';
 
 /** h('button', {class: 'x', onclick: f}, 'text', child) -> element. Attributes starting with "on" are listeners. */
@@ -58,7 +58,7 @@ export function kindBadge(job) {
 
 export function jobMeta(job) {
   return [
-    ['System', job.system],
+    ['System', systemDescription(job)],
     ['Configurations', (job.algorithms || []).join(', ')],
     ['Seeds', seedCount(job)],
     ['Episodes', job.episodes],

@@ -33,6 +33,9 @@ def bound_caveats(params: System) -> list[str]:
     if params.n_children > 1:
         reasons.append("several children: each child's allocation assumes it receives every task, and children "
                        "that specialise can beat it")
+    if getattr(params, "sparse", False):
+        reasons.append("a sparse world: each child's allocation assumes every parent's tasks, though only the "
+                       "parents linked to it send it any, so a child that learns its neighbours' can beat it")
     if params.n_resources > 1:
         reasons.append("several resources: it is the best single split applied to every resource, which a learner "
                        "splitting each resource on its own can beat")

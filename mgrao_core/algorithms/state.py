@@ -28,12 +28,13 @@ class System(Protocol):
 
     def __getattr__(self, name: str) -> Any: ...  # noqa: D105
 
-SIZES = ("lanes", "children", "groups", "n_types", "n_parents", "choices", "types_per_composite",
+SIZES = ("lanes", "children", "groups", "n_types", "n_parents", "choices", "links", "types_per_composite",
          "tracked_parents", "tracked_children", "snapshots", "learners", "resources", "extra_resources",
          "task_outcomes")
 """The sizes a shape may name: the chunk's lanes, the system's children, the most parent groups of
 the chunk's algorithms (at least 1), atomic types, parents, a parent's child choices per composite
-(:func:`mgrao_core.world.routing_choices`) and atomic types per composite; and two a family asks for
+(:func:`mgrao_core.world.routing_choices`), the children a parent chooses among (``links``: every child, or
+``children_per_parent`` in a sparse world) and atomic types per composite; and two a family asks for
 (:meth:`Family.sizes <mgrao_core.algorithms.base.Family.sizes>`, the largest over the chunk's
 algorithms, else 0): parents and children a learner keeps statistics or counters of, and records of a
 bounded history. So a chunk that runs no such family holds none of those arrays. With several resources
@@ -97,7 +98,7 @@ def sizes_of(params: System, lanes: int, groups: int, family_sizes: Mapping[str,
     """
     resources = getattr(params, "n_resources", 1)
     return {"lanes": lanes, "children": params.n_children, "groups": max(groups, 1), "n_types": params.n_types,
-            "n_parents": params.n_parents, "choices": routing_choices(params),
+            "n_parents": params.n_parents, "choices": routing_choices(params), "links": params.children_offered,
             "types_per_composite": params.types_per_composite, "learners": params.n_children * resources,
             "resources": resources, "extra_resources": resources if resources > 1 else 0,
             "task_outcomes": 3 if params.tasks_can_fail else 0} | {

@@ -171,15 +171,17 @@ class Draws(NamedTuple):
 
 
 @njit(cache=True, parallel=True)
-def run_block(lanes, worlds, several, draws, env, utilities, outside, failing, mgrao_lanes, adaptive_lanes,
+def run_block(lanes, worlds, several, links, draws, env, utilities, outside, failing, mgrao_lanes, adaptive_lanes,
               independent_q_lanes, bandit_lanes, balance_lanes):
     """Run every lane through the episodes of one block.
 
     The system utility of each lane and episode goes into ``utilities (lanes, episodes)``, and what came
     back in the last episode into ``outside`` (:class:`Outside`, which may also give the allocation of each of
     several resources; ``None``: nowhere);
-    ``several`` is the seeds' :class:`SeveralResources` (``None`` with one resource); ``failing`` the lanes'
-    :class:`Failing` counts where tasks can fail (``None``: none can);
+    ``several`` is the seeds' :class:`SeveralResources` (``None`` with one resource); ``links`` each seed's
+    ``(seeds, n_parents, k)`` children a parent offers its tasks to in a sparse world (``None``: every child; a
+    parent's estimates and routing are then of its ``k`` links, and a chosen slot is mapped to its child);
+    ``failing`` the lanes' :class:`Failing` counts where tasks can fail (``None``: none can);
     ``mgrao_lanes``, ``adaptive_lanes``, ``independent_q_lanes``, ``bandit_lanes`` and ``balance_lanes`` are each
     learner family's compiled lanes (:class:`~mgrao_core.algorithms.mgrao.compiled.MgraoLanes` and the like), in
     registry order, ``None`` for a family with no lane here (the module says why).
@@ -188,6 +190,7 @@ def run_block(lanes, worlds, several, draws, env, utilities, outside, failing, m
     n_episodes = utilities.shape[1]
     n_parents, types_per_composite = lanes.parent_types.shape[1], lanes.parent_types.shape[2]
     n_children = lanes.weights.shape[1]
+    n_links = lanes.estimates.shape[3]  # the children a parent chooses among: every child, or its links
     for lane in prange(n_lanes):
         s = lanes.seed_index[lane]
         kind = lanes.kind[lane]
@@ -199,12 +202,13 @@ def run_block(lanes, worlds, several, draws, env, utilities, outside, failing, m
         task_share = lanes.task_share[lane]
         if mgrao_lanes is not None:  # the views once per lane, unpacked for the learning (its docstring says why)
             mgrao_views = mgrao.lane_of(mgrao_lanes, lane)
-            Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, _ = mgrao_views
+            Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, row_kl = mgrao_views
         if adaptive_lanes is not None:
             adaptive_views = adaptive.lane_of(adaptive_lanes, lane)
         if balance_lanes is not None:
             balance_views = balance.lane_of(balance_lanes, lane)
         child_of = np.zeros((n_parents, types_per_composite), dtype=np.int64)
+        slot_of = np.zeros((n_parents, types_per_composite), dtype=np.int64)  # in a sparse world: the link chosen
         ctv = np.zeros((n_parents, types_per_composite))
         values = np.zeros((n_parents, types_per_composite))
         taq = np.zeros(n_parents)
@@ -215,6 +219,10 @@ def run_block(lanes, worlds, several, draws, env, utilities, outside, failing, m
         w_scratch = np.zeros(n_resources)
         a_scratch = np.zeros(n_resources)
         learner_of = np.zeros((n_parents, types_per_composite), dtype=np.int64)
+        # MG-RAO's returned values sorted child by child, each child's in the order they came back (step 5)
+        bucket = np.zeros(n_parents * types_per_composite, dtype=np.int64)
+        bucket_start = np.zeros(n_children + 1, dtype=np.int64)
+        bucket_fill = np.zeros(n_children, dtype=np.int64)
         credit = np.zeros((n_parents, types_per_composite))
         if outside is not None:  # the lane's rows, taken here: numba's parallel loop loses a write such as
             # outside.values[lane, p, k] = x, made through the tuple's attribute (numba 0.68)
@@ -268,7 +276,14 @@ def run_block(lanes, worlds, several, draws, env, utilities, outside, failing, m
             for p in range(n_parents):
                 if sending[p]:
                     proportional_values(lanes.profiles[lane, p], draws.noise[s, e, p], env.value_noise, ctv[p])
-                    if n_children == 1:  # no choice (and no routing draws to index)
+                    if links is not None:  # a slot among the parent's links, then its child
+                        if n_links == 1:
+                            slot_of[p, :] = 0
+                        else:
+                            allocate_atomic_tasks(lanes.estimates[lane, p], draws.routing[s, e, p], env, slot_of[p])
+                        for k in range(types_per_composite):
+                            child_of[p, k] = links[s, p, slot_of[p, k]]
+                    elif n_children == 1:  # no choice (and no routing draws to index)
                         child_of[p, :] = 0
                     else:
                         allocate_atomic_tasks(lanes.estimates[lane, p], draws.routing[s, e, p], env, child_of[p])
@@ -317,24 +332,33 @@ def run_block(lanes, worlds, several, draws, env, utilities, outside, failing, m
                     for k in range(types_per_composite):
                         observed_child_of[p, k] = child_of[p, k]
                         observed_values[p, k] = values[p, k]
-            # 5. Values come back composite by composite, in a random order of parents.
-            for i in range(n_parents):
+            # 5. Values come back composite by composite, in a random order of parents: to each parent's estimates of
+            # its children (each parent's own: taken in the order of parents), and to the children, which learn them
+            # in the order they came back.
+            for p in range(n_parents):
+                if not sending[p]:
+                    continue
+                if links is not None and n_links > 1:
+                    update_estimates(lanes.estimates[lane, p], lanes.tries[lane, p], slot_of[p], values[p], taq[p],
+                                     env.per_composite)
+                elif links is None and n_children > 1:
+                    update_estimates(lanes.estimates[lane, p], lanes.tries[lane, p], child_of[p], values[p], taq[p],
+                                     env.per_composite)
+            # the learners that take the values parent by parent (MG-RAO on one resource learns below, child by child;
+            # a fixed family learns nothing)
+            in_order = (kind == MGRAO and several is not None) or kind == ADAPTIVE or kind == INDEPENDENT_Q \
+                or kind == BANDIT or kind == BALANCE
+            for i in range(n_parents if in_order else 0):
                 p = draws.order[s, e, i]
                 if not sending[p]:
                     continue
-                if n_children > 1:
-                    update_estimates(lanes.estimates[lane, p], lanes.tries[lane, p], child_of[p], values[p], taq[p],
-                                     env.per_composite)
                 if several is not None and mgrao_lanes is not None and kind == MGRAO:  # each resource's PW: its share
                     for r in range(n_resources):
                         for k in range(types_per_composite):
                             learner_of[p, k] = child_of[p, k] * n_resources + r
                             credit[p, k] = values[p, k] * shares[p, k, r] if env.by_share else values[p, k]
                         mgrao.learn(mgrao_lanes, Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts,
-                                    rebase_due, m, p, n_parents, learner_of, parent_types, credit)
-                elif mgrao_lanes is not None and kind == MGRAO:
-                    mgrao.learn(mgrao_lanes, Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due,
-                                m, p, n_parents, child_of, parent_types, values)
+                                    rebase_due, row_kl, m, p, n_parents, learner_of, parent_types, credit)
                 elif adaptive_lanes is not None and kind == ADAPTIVE:
                     adaptive.learn(adaptive_lanes, adaptive_views, m, p, n_parents, child_of[p],
                                    parent_types[p], values[p])
@@ -346,6 +370,45 @@ def run_block(lanes, worlds, several, draws, env, utilities, outside, failing, m
                                  weights)
                 elif balance_lanes is not None and kind == BALANCE:
                     balance.learn(balance_lanes, balance_views, p, n_parents, child_of[p], parent_types[p], values[p])
+            if mgrao_lanes is not None and kind == MGRAO and several is None:
+                # Each child learns from its values in the order they came back; children never share a value, so
+                # taking them child by child is the same arithmetic in another order of children, and each child's
+                # state is visited once instead of at every value (many children: the cache keeps it)
+                sort_by_child(sending, child_of, draws.order[s, e], bucket, bucket_start, bucket_fill)
+                bounded = m > mgrao_lanes.min_bounded_groups
+                for c in range(n_children):
+                    for b in range(bucket_start[c], bucket_start[c + 1]):
+                        p = bucket[b] // types_per_composite
+                        k = bucket[b] - p * types_per_composite
+                        mgrao.learn_value(Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due,
+                                          row_kl, c, bounded, (p * m) // n_parents, parent_types[p, k], values[p, k],
+                                          mgrao_lanes)
+
+
+@njit(cache=True)
+def sort_by_child(sending, child_of, order, bucket, start, fill):
+    """The atomic tasks of the parents that sent one, child by child, each child's in the order values come back.
+
+    Composite by composite in ``order``, atomic task by atomic task: ``bucket[start[c]:start[c + 1]]`` are child
+    ``c``'s, each as ``p * types_per_composite + k``.
+    """
+    n_children = fill.shape[0]
+    per_composite = child_of.shape[1]
+    start[:] = 0
+    for p in range(child_of.shape[0]):
+        if sending[p]:
+            for k in range(per_composite):
+                start[child_of[p, k] + 1] += 1
+    for c in range(n_children):
+        start[c + 1] += start[c]
+        fill[c] = start[c]
+    for i in range(order.shape[0]):
+        p = order[i]
+        if sending[p]:
+            for k in range(per_composite):
+                c = child_of[p, k]
+                bucket[fill[c]] = p * per_composite + k
+                fill[c] += 1
 
 
 @njit(cache=True)

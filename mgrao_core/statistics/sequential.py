@@ -36,6 +36,7 @@ import numpy as np
 
 from mgrao_core.algorithms import parse_algorithm
 from mgrao_core.errors import ConfigError, raise_all
+from mgrao_core.params import number_from_text
 from mgrao_core.results import ExperimentResult
 from mgrao_core.spec import MAX_SEED_VALUE, MAX_SEEDS, ExperimentSpec, make_spec
 from mgrao_core.statistics.confidence_sequence import cs_half_width
@@ -73,9 +74,7 @@ class Until:
     @property
     def level(self) -> float:
         """The level of each interval the rule judges: 95%, or Bonferroni's ``1 - 0.05 / k`` when joint."""
-        if self.joint and len(self.judge) > 1:
-            return 1.0 - (1.0 - CONFIDENCE) / len(self.judge)
-        return CONFIDENCE
+        return coverage_of(self.as_dict())["level"]
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready, every field."""
@@ -143,6 +142,21 @@ def make_until(data: Mapping[str, Any], algorithms: Sequence[str]) -> Until:
     if decide is None and not judge:
         judge = default_judged(algorithms, of)
     return Until(half_width, of, max_seeds, block, decide, tuple(judge or ()) if decide is None else (), joint)
+
+
+def coverage_of(rule: Mapping[str, Any]) -> dict[str, Any]:
+    """What a rule's intervals cover (``level`` of each, ``coverage``), from its dict (:meth:`Until.as_dict`).
+
+    ``"each"``: each judged interval covers its own configuration's value at ``level`` (95%), not all at once;
+    ``"joint"``: every one at ``1 - 0.05 / k`` for ``k`` judged, so that all hold at once at least 95% of the time;
+    ``"pair"``: the decide rule's one confidence sequence.
+    """
+    if rule.get("decide") is not None:
+        return {"level": CONFIDENCE, "coverage": "pair"}
+    judged = len(rule.get("judge") or ())
+    if rule.get("joint") and judged > 1:
+        return {"level": 1.0 - (1.0 - CONFIDENCE) / judged, "coverage": "joint"}
+    return {"level": CONFIDENCE, "coverage": "each"}
 
 
 def default_judged(algorithms: Sequence[str], of: str) -> tuple[str, ...]:
@@ -265,10 +279,7 @@ def parse_until(text: str) -> dict[str, Any]:
                 raise ConfigError("until.joint", f"must be true or false (got {value!r})")
             data[key] = value == "true"
         else:
-            try:
-                number = float(value)
-            except ValueError:
-                raise ConfigError(f"until.{key}", f"must be a number (got {value!r})") from None
+            number = number_from_text(f"until.{key}", value)
             data[key] = int(number) if number.is_integer() and key != "half_width" else number
     return data
 
@@ -387,11 +398,14 @@ def judge_first(spec: ExperimentSpec, until: Until, finals: Mapping[str, Mapping
     return judge(until, {label: {s: finals[label][s] for s in seeds} for label in spec.algorithms}, judged)
 
 
-def stopped_dict(verdicts: Sequence[Verdict]) -> dict[str, Any]:
-    """What a job says of its rule: the last verdict (none judged yet: reason null, 0 seeds) with ``blocks``."""
+def stopped_dict(verdicts: Sequence[Verdict], rule: Mapping[str, Any]) -> dict[str, Any]:
+    """What a job says of its rule: the last verdict (none judged yet: reason null, 0 seeds) with ``blocks``.
+
+    With what its intervals cover (:func:`coverage_of` of the rule's dict).
+    """
     last = verdicts[-1] if verdicts else Verdict(None, 0, {})
-    return last.as_dict() | {"blocks": [{"seeds": v.seeds, "intervals": v.as_dict()["intervals"]}
-                                        for v in verdicts]}
+    return last.as_dict() | coverage_of(rule) | {"blocks": [{"seeds": v.seeds, "intervals": v.as_dict()["intervals"]}
+                                                            for v in verdicts]}
 
 
 def run_until(spec: ExperimentSpec, until: Until, run_block: Callable[[ExperimentSpec], ExperimentResult],

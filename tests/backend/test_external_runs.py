@@ -175,7 +175,7 @@ REFUSED_OPENINGS = [
     ({"label": "x" * 33}, "label", None),
     ({"system": "nope"}, "system",
      "system: unknown system 'nope': use one of single, multi, volatile, large, drift, bursty, "
-     "multi-resource, cloud"),
+     "multi-resource, cloud, edge"),
     ({"params": {"n_types": 1}}, "n_types", "n_types: must be in [2, 200] (got 1)"),
     ({"params": {"nope": 1}}, "nope", None),
     ({"seeds": [4, 5, 4]}, "seeds[2]", "seeds[2]: repeats seeds[0] (4): a run's seeds are distinct"),

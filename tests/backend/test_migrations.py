@@ -368,3 +368,117 @@ def test_runs_and_summaries_stored_before_0015_count_no_tasks_and_answer_rates_o
         engine.dispose()
     finally:
         db.dispose()
+
+
+SUMMARIES_0015 = json.loads((FIXTURE.parent / "legacy_summaries_0015.json").read_text())
+"""Finished jobs whose summaries were stored with the t table (tests/fixtures/make_legacy_summaries_0015.py)."""
+FIGURES = ("n_runs", "final_mean", "final_low", "final_high", "pct_from_uniform", "pct_low", "pct_high", "pct_of_max",
+           "n_paired", "n_paired_max")
+JOBS_0015 = sa.table("jobs", *(sa.column(name) for name in (
+    "name", "tags", "notes", "system", "config", "config_hash", "status", "progress", "attempts", "version",
+    "created_at", "started_at", "finished_at")))
+JOBS_0015.c.config.type = sa.JSON()
+JOBS_0015.c.tags.type = sa.JSON()
+RUNS_0015 = sa.table("runs", *(sa.column(name) for name in (
+    "job_id", "algorithm", "seed", "episodes", "utilities", "combined_weights", "group_weights", "group_shape")))
+RUNS_0015.c.group_shape.type = sa.JSON()
+SUMMARIES_TABLE = sa.table("job_summaries", sa.column("job_id"), sa.column("algorithm"),
+                           *(sa.column(name) for name in FIGURES))
+
+
+def _figure(value: str | int | None) -> float | int | None:
+    return float.fromhex(value) if isinstance(value, str) else value
+
+
+def _store_as_0015(db_url: str) -> list[int]:
+    """The fixture's jobs at revision 0015: succeeded, their runs, and their summaries as the t table made them."""
+    _alembic(db_url, command.upgrade, "0015")
+    engine = create_engine(db_url)
+    ids = []
+    with engine.begin() as connection:
+        for job in SUMMARIES_0015["jobs"]:
+            config = job["config"]
+            when = datetime(2026, 11, 20)
+            job_id = connection.execute(JOBS_0015.insert().values(
+                name="stored with the t table", tags=[], notes="", system=config["system"], config=config,
+                config_hash=job["config_hash"], status="succeeded", progress=1.0, attempts=1, version="0.1.0",
+                created_at=when, started_at=when, finished_at=when).returning(sa.literal_column("id"))).scalar()
+            ids.append(job_id)
+            params = config["params"]
+            connection.execute(RUNS_0015.insert(), [{
+                "job_id": job_id, "algorithm": run["algorithm"], "seed": run["seed"],
+                "episodes": len(run["utilities"]),
+                "utilities": np.array([float.fromhex(v) for v in run["utilities"]], dtype="<f8").tobytes(),
+                "combined_weights": b"", "group_weights": b"",  # summaries stand on the utilities alone
+                "group_shape": [params["n_children"], 0, params["n_types"]]} for run in job["runs"]])
+            connection.execute(SUMMARIES_TABLE.insert(), [
+                {"job_id": job_id, "algorithm": algorithm} | {k: _figure(v) for k, v in row.items()}
+                for algorithm, row in job["legacy"].items()])
+    engine.dispose()
+    return ids
+
+
+def _interval(summary: dict) -> tuple:
+    return summary["final_mean"], tuple(summary["ci95"]), summary["pct_from_uniform"], summary["pct_ci95"] and tuple(
+        summary["pct_ci95"]), summary["pct_of_max"]
+
+
+def test_summaries_stored_with_the_t_table_show_the_interval_their_results_and_a_new_identical_job_show(
+        service, db_url: str) -> None:
+    ids = _store_as_0015(db_url)
+    service.start_server(workers=0)  # `mgrao serve` migrates the database to the head: 0016 recomputes them
+    listed = {job["id"]: job["summaries"] for job in service.get("/api/jobs?limit=200").json()["data"]}
+    changed = 0
+    for job_id, job in zip(ids, SUMMARIES_0015["jobs"], strict=True):
+        record = service.get(f"/api/jobs/{job_id}").json()["summaries"]
+        results = {c["algorithm"]: c["summary"] for c in service.get(f"/api/jobs/{job_id}/results").json()[
+            "configurations"]}
+        assert set(record) == set(results) == set(listed[job_id]) == set(job["current"])
+        for algorithm, now in job["current"].items():
+            one = _interval(record[algorithm])
+            assert one == _interval(results[algorithm]) == _interval(listed[job_id][algorithm]), algorithm
+            expected = {k: _figure(v) for k, v in now.items()}
+            # today's figures, as the fixture recorded them: if this fails, how a summary is computed changed, and
+            # the summaries stored before need a migration that recomputes them, as 0016 does
+            shown = {k: record[algorithm][k] for k in ("final_mean", "pct_from_uniform", "pct_of_max", "n_paired",
+                                                       "n_paired_max", "n_runs")}
+            shown |= dict(zip(("final_low", "final_high"), record[algorithm]["ci95"], strict=True))
+            shown |= dict(zip(("pct_low", "pct_high"), record[algorithm]["pct_ci95"] or [None, None], strict=True))
+            assert shown == expected, (f"job {job_id} {algorithm}: a summary is no longer computed as when the "
+                                       "fixture was made; the summaries stored before need a migration that "
+                                       "recomputes them, as 0016 does (docs/service.md, 'One interval per "
+                                       "experiment'), and the fixture's 'current' figures remade")
+            changed += record[algorithm]["ci95"] != [_figure(job["legacy"][algorithm][k])
+                                                     for k in ("final_low", "final_high")]
+    assert changed >= 6  # the table's intervals are gone (the one-seed job has none)
+
+    service.start_worker()  # the same experiment submitted today stores the same summaries
+    first = SUMMARIES_0015["jobs"][0]["config"]
+    body = {k: first[k] for k in ("system", "algorithms", "seeds", "episodes")}
+    new = service.post("/api/jobs", json=body).json()["id"]
+    service.wait_for(lambda: service.get(f"/api/jobs/{new}").json()["status"] == "succeeded", timeout=300,
+                     what="the identical job")
+    listed = {job["id"]: job["summaries"] for job in service.get("/api/jobs?limit=200").json()["data"]}
+    assert service.get(f"/api/jobs/{new}").json()["config_hash"] == SUMMARIES_0015["jobs"][0]["config_hash"]
+    assert {a: _interval(s) for a, s in listed[new].items()} == {a: _interval(s) for a, s in listed[ids[0]].items()}
+
+
+@pytest.mark.parametrize("path", ["alone", "in a batch"])
+def test_a_job_on_seeds_out_of_order_stores_the_summary_its_results_show(service, path: str) -> None:
+    # a mean's last bits depend on its seeds' order: the stored summary takes them in the job's order, as the
+    # results do (SQLite read them back in ascending order: uniform's mean here differed in its last bit)
+    if path == "alone":
+        service.env["MGRAO_SMALL_JOB_WORK"] = "0"  # no job is small: each is claimed, run and finished alone
+    service.start_server(workers=1)
+    job = SUMMARIES_0015["jobs"][2]["config"]
+    assert job["seeds"] == [7, 2, 9, 4, 0]
+    job_id = service.post("/api/jobs", json={k: job[k] for k in ("system", "algorithms", "seeds", "episodes")}).json()[
+        "id"]
+    service.wait_for(lambda: service.get(f"/api/jobs/{job_id}").json()["status"] == "succeeded", timeout=300,
+                     what="the job")
+    record = service.get(f"/api/jobs/{job_id}").json()["summaries"]
+    results = {c["algorithm"]: c["summary"] for c in service.get(f"/api/jobs/{job_id}/results").json()[
+        "configurations"]}
+    assert {a: _interval(s) for a, s in record.items()} == {a: _interval(s) for a, s in results.items()}
+    assert record["uniform"]["final_mean"] == float.fromhex(SUMMARIES_0015["jobs"][2]["current"]["uniform"][
+        "final_mean"])

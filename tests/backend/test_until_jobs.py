@@ -49,12 +49,13 @@ def test_a_job_runs_blocks_until_its_rule_answers_as_in_process(client, single_w
     assert submitted.status_code == 202, submitted.text
     job = submitted.json()
     assert job["until"]["block"] == rule["block"] and job["stopped"] == {
-        "reason": None, "seeds": 0, "outcome": None, "intervals": {}, "blocks": []}
+        "reason": None, "seeds": 0, "outcome": None, "intervals": {}, "blocks": [], "level": 0.95,
+        "coverage": "pair" if "decide" in rule else "each"}
     drain(single_worker)
     done = client.get(f"/api/jobs/{job['id']}").json()
     expected = _in_process(rule, 500, 30)
     assert done["status"] == "succeeded"
-    assert done["stopped"] == stopped_dict(expected.blocks)  # the same verdict after every block
+    assert done["stopped"] == stopped_dict(expected.blocks, done["until"])  # the same verdict after every block
     assert done["stopped"]["reason"] in ("half_width", "decided", "max_seeds")
     n = expected.stopped.seeds
     assert done["seeds"] == list(range(500, 500 + n)) and _stored_runs(db_url, job["id"]) == 3 * n
@@ -137,7 +138,7 @@ def test_a_worker_killed_between_blocks_resumes_to_the_same_decision(tmp_path, d
             service.get(f"/api/jobs/{job['id']}").json()), timeout=240, what="the job resumed and succeeded")
         expected = _in_process(rule, 40, 6000)
         assert done["attempts"] >= 2
-        assert done["stopped"] == stopped_dict(expected.blocks)
+        assert done["stopped"] == stopped_dict(expected.blocks, done["until"])
         n = expected.stopped.seeds
         assert done["seeds"] == list(range(40, 40 + n)) and _stored_runs(db_url, job["id"]) == 3 * n
     finally:
@@ -163,3 +164,5 @@ def test_the_rule_judges_the_learners_not_the_oracle_by_default(client, single_w
     _, low, high = asked["stopped"]["intervals"]["mgrao-max"]
     _, low95, high95 = plain["stopped"]["intervals"]["mgrao-max"]
     assert high - low > high95 - low95  # the same seeds, each interval at 97.5%
+    assert (asked["stopped"]["coverage"], asked["stopped"]["level"]) == ("joint", 0.975)
+    assert (plain["stopped"]["coverage"], plain["stopped"]["level"]) == ("each", 0.95)

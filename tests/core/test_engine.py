@@ -144,7 +144,8 @@ def test_the_kernel_is_compiled_for_the_families_a_job_runs(monkeypatch):
     def nones(algorithms, overrides=None):
         calls.clear()
         run_experiment(make_spec("single", algorithms, seeds=1, episodes=2, overrides=overrides))
-        several, outside, failing, learners = calls[0][2], calls[0][6], calls[0][7], calls[0][8:]  # as LEARNERS
+        several, links, outside, failing, learners = calls[0][2], calls[0][3], calls[0][7], calls[0][8], calls[0][9:]
+        assert links is None  # a complete world: no links drawn, the sparse code not compiled
         assert outside is None  # a run has no environment outside it (mgrao_core.env's steps do)
         assert failing is None  # no task can fail (task_need 0)
         return [several is None] + [lanes is None for lanes in learners]
@@ -156,5 +157,5 @@ def test_the_kernel_is_compiled_for_the_families_a_job_runs(monkeypatch):
         False, False, False, False, False, True]
     assert nones(["uniform"]) == [True, True, True, True, True, True]
     # and numba compiled a kernel of that signature: uniform alone, without any learner's code, several resources,
-    # observations or tasks that fail
-    assert any(sum(isinstance(t, types.NoneType) for t in sig) == 3 + len(LEARNERS) for sig in run_block.signatures)
+    # observations, tasks that fail or links of a sparse world
+    assert any(sum(isinstance(t, types.NoneType) for t in sig) == 4 + len(LEARNERS) for sig in run_block.signatures)

@@ -279,6 +279,10 @@ def test_the_action_space_samples_what_a_box_samples():
     (np.r_[np.nan, np.ones(19)], "finite"), (np.r_[np.ones(19), np.nan], "finite"),  # a NaN that min and max
     (np.r_[0.5, np.nan, np.ones(18)], "finite"), (np.r_[np.ones(19), np.inf], "finite"),  # of a list let pass
     ([], "child_0: an action is 20 numbers, one weight per atomic type \\(got none\\)"),
+    (np.ones(20) + 1j, "child_0: .*real numbers.* \\(got complex"),
+    (np.ones(20, dtype=bool), "child_0: .*real numbers.* \\(got booleans"),
+    ([True] * 20, "child_0: .*real numbers.* \\(got booleans"),
+    ([np.True_] + [1.0] * 19, "child_0: .*real numbers.* \\(got booleans"),
 ])
 def test_invalid_actions_are_refused(action, match):
     env = parallel_env("single")
@@ -308,3 +312,11 @@ def test_invalid_configurations_name_the_field(kwargs, field):
     with pytest.raises(ConfigError) as error:
         parallel_env(**kwargs)
     assert error.value.field == field
+
+
+def test_the_single_agent_env_refuses_unknown_reset_options_too():
+    env = single_agent_env("single", episodes=3)
+    env.reset(seed=4, options={})
+    with pytest.raises(ConfigError, match="options: unknown option reset_mask: one world, which a reset starts"):
+        env.reset(options={"reset_mask": np.array([True])})
+    assert env.parallel.world_seed == 4

@@ -64,7 +64,11 @@ def test_the_budget_grows_only_by_the_kernel_temporaries_it_now_counts(system, a
     first = {a.name for f in FAMILIES if f.name in ("uniform", "oracle", "mgrao") for a in f.state}
     later = list({a.name: a for f in FAMILIES for a in f.state if a.name not in first}.values())
     added = nbytes(later, chunk_sizes(spec.params, spec.parsed_algorithms, seeds))
-    assert chunk_cost(spec, seeds).state == (_before(spec, seeds) + lanes * (spec.params.n_children + 8 * groups
+    # (issue 42) algorithm 2's blending vector became each learner's row dkls, kept while a row is inactive
+    learners = spec.params.n_children * spec.params.n_resources if any(
+        a.kind in ("mgrao", "mgrao-adaptive", "mgrao-balance") for a in spec.parsed_algorithms) else 1
+    assert chunk_cost(spec, seeds).state == (_before(spec, seeds) + lanes * (spec.params.n_children
+                                                                              + 8 * groups * learners
                                                                               + parent_types
                                                                               + 8 * spec.params.n_children) + added)
 

@@ -45,8 +45,8 @@ def test_whole_float_is_accepted_for_an_int():
 
 
 @pytest.mark.parametrize(("name", "value", "limit"), [
-    ("n_parents", 0, "[1, 3000]"),
-    ("n_parents", 3001, "[1, 3000]"),
+    ("n_parents", 0, "[1, 1000000]"),
+    ("n_parents", 1_000_001, "[1, 1000000]"),
     ("trace_decay", 1.0, "[0.001, 0.999]"),
     ("trace_decay", 0.0, "[0.001, 0.999]"),
     ("learning_rate", -0.1, "[0, 1]"),
@@ -124,7 +124,7 @@ def test_overrides_apply_on_the_base():
 
 def test_presets_match_the_paper():
     assert PAPER_SYSTEMS == ("single", "multi", "volatile", "large")
-    assert set(PRESETS) == {*PAPER_SYSTEMS, "drift", "bursty", "multi-resource", "cloud"}
+    assert set(PRESETS) == {*PAPER_SYSTEMS, "drift", "bursty", "multi-resource", "cloud", "edge"}
     assert all(PRESETS[name].paper_pct_from_uniform for name in PAPER_SYSTEMS)
     assert (PRESETS["single"].params.n_parents, PRESETS["single"].params.n_children) == (10, 1)
     assert PRESETS["multi"].params.n_children == 3
@@ -197,4 +197,30 @@ def test_negative_zero_is_zero():
 def test_a_huge_integer_for_an_int_parameter_names_the_limit():
     with pytest.raises(ConfigError) as info:
         make_params({"n_parents": 10**400})
-    assert "[1, 3000]" in info.value.message and "too large" in info.value.message
+    assert "[1, 1000000]" in info.value.message and "too large" in info.value.message
+
+
+@pytest.mark.parametrize("text", ["1_0", "\u0663", "\uff13", "1\u00a0", "0x10", "1,5", "nan", "-Infinity", "", "+"])
+def test_a_number_as_text_is_plain_decimal_or_exponent_notation_only(text):
+    # float() read "1_0" as 10 and the Arabic-Indic "٣" as 3 (issue 47, item 9)
+    for name in ("task_need", "n_parents"):
+        with pytest.raises(ConfigError) as info:
+            make_params({name: text})
+        assert info.value.field == name
+        assert repr(text) in info.value.message or "finite" in info.value.message
+
+
+@pytest.mark.parametrize(("text", "value"), [
+    ("3", 3.0), ("+3", 3.0), ("-0", 0.0), ("0.5", 0.5), (".5", 0.5), ("5.", 5.0), ("1e0", 1.0),
+    ("2.5E-1", 0.25), (" 4 ", 4.0), ("1e+1", 10.0),
+])
+def test_plain_decimal_and_exponent_text_is_still_a_number(text, value):
+    assert make_params({"task_need": text}).task_need == value
+
+
+def test_text_numbers_in_lists_and_events_follow_the_same_rule():
+    with pytest.raises(ConfigError) as info:
+        make_params({"frequency_profile": "explicit", "n_composite_types": 2, "composite_periods": "1,1_0"})
+    assert info.value.field == "composite_periods[1]"
+    assert make_params({"frequency_profile": "explicit", "n_composite_types": 2,
+                        "composite_periods": "1, 10"}).composite_periods == (1, 10)

@@ -76,6 +76,9 @@ def test_defaults_and_the_command_lines_form():
         "half_width": 1.5, "max_seeds": 200, "block": 20, "decide": ["mgrao-max", "mgrao-1:1"], "of": "final_utility"}
     with pytest.raises(ConfigError, match="KEY=VALUE"):
         parse_until("half_width")
+    for text in ("half_width=1_0", "max_seeds=\u0663\u0660", "block=0x3"):  # plain decimal only (issue 47 item 9)
+        with pytest.raises(ConfigError, match="plain decimal or exponent notation"):
+            parse_until(text)
     assert parse_until("half_width=2,") == {"half_width": 2.0}  # a trailing comma is nothing
     with pytest.raises(ConfigError, match="is given twice") as twice:
         parse_until("of=final_utility,of=pct_from_uniform")
@@ -195,7 +198,7 @@ def test_the_command_line_runs_the_rule_in_process_and_prints_only_json():
     until = make_until({"half_width": 3, "block": 5, "max_seeds": 60}, LABELS)
     spec = make_spec("single", list(LABELS), list(range(500, 560)), 30)
     in_process = run_until(spec, until, run_experiment).stopped
-    assert in_process.as_dict() == stopped  # the same seeds, the same verdict
+    assert in_process.as_dict() | {"level": 0.95, "coverage": "each"} == stopped  # the same seeds, the same verdict
 
 
 @pytest.mark.parametrize("args, words", [
@@ -310,5 +313,24 @@ def test_the_sequence_keeps_its_level_on_normal_data_looked_at_every_block():
     for n in range(20, 501, 10):
         mean = sums[:, n - 1] / n
         sd = np.sqrt((squares[:, n - 1] - n * mean**2) / (n - 1))
+        wrong |= np.abs(mean) > np.array([cs_half_width(s, n) for s in sd])
+    assert wrong.mean() <= 0.05
+
+
+def test_the_decide_rule_keeps_its_level_on_real_skewed_differences():
+    # issue 47 item 6: single's mgrao-max - mgrao-1:1 per-seed differences (skewness about 1.6), centred so that
+    # there is no difference at all, 2,000 sequences judged every 10 seeds up to 500: the asymptotic normal
+    # mixture named a winner 5.7% of the time here; the sequential t keeps under 5%
+    labels = ["uniform", "mgrao-1:1", "mgrao-max"]
+    results = [run_experiment(make_spec("single", labels, list(range(first, first + 1000)), 100))
+               for first in (200_000_000, 200_001_000)]
+    finals = {label: np.concatenate([final_utilities(r.utilities(label)) for r in results]) for label in labels}
+    differences = 100 * (finals["mgrao-max"] - finals["mgrao-1:1"]) / finals["uniform"]
+    draws = np.random.default_rng(0).choice(differences - differences.mean(), size=(2000, 500))
+    sums, squares = np.cumsum(draws, axis=1), np.cumsum(draws * draws, axis=1)
+    wrong = np.zeros(len(draws), dtype=bool)
+    for n in range(MIN_SEEDS, 501, 10):
+        mean = sums[:, n - 1] / n
+        sd = np.sqrt(np.maximum(squares[:, n - 1] - n * mean**2, 0) / (n - 1))
         wrong |= np.abs(mean) > np.array([cs_half_width(s, n) for s in sd])
     assert wrong.mean() <= 0.05

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from collections.abc import Callable
+from typing import Annotated, Any, Literal
 
-from fastapi import APIRouter, Query
+from fastapi import APIRouter, Query, Request
 from fastapi.responses import Response
+from starlette.concurrency import run_in_threadpool
 
-from backend.api.deps import SessionDep
+from backend.api.deps import DatabaseDep, SessionDep
 from backend.api.paths import API_PREFIX
 from backend.api.responses import Comparison, ComparisonStatistics, SampleEfficiency, answers
 from backend.api.schemas import MAX_COMPARE_JOBS, Text
@@ -15,6 +17,8 @@ from backend.api.strict_query import StrictQueryRoute
 from backend.errors import BadQuery
 from backend.services import comparison
 from backend.services.analysis import dumps
+from backend.services.compute_pool import ClientGone, ComputePool
+from backend.store.db import Database
 from backend.store.models import MAX_JOB_ID
 from mgrao_core import MAX_EPISODES, ConfigError
 from mgrao_core.statistics.bootstrap import DEFAULT_REPETITIONS, MAX_REPETITIONS
@@ -83,32 +87,83 @@ def compare(
                     media_type="application/json")
 
 
+BUSY = {503: {
+    "description": "The database cannot be read now, or the statistics are busy: every thread of their pool computes "
+                   "and its queue is full (MGRAO_STATS_WORKERS, MGRAO_STATS_QUEUE), or this request waited "
+                   "MGRAO_STATS_WAIT_S for its turn. Nothing was computed for it: retry after Retry-After seconds.",
+    "headers": {"Retry-After": {"description": "Seconds to wait before retrying.", "schema": {"type": "integer"}}},
+    "content": {"application/json": {"schema": {"type": "object", "properties": {"detail": {"type": "string"}}}}},
+}}
+
+
+async def _computed(request: Request, db: Database, pending: comparison.Pending) -> bytes | None:
+    """The answer's bytes: kept, or computed in the statistics' pool; None when the client has gone meanwhile."""
+    cached = pending.cached()
+    if cached is not None:
+        return cached
+
+    def compute() -> bytes:
+        with db.session() as session:
+            return pending.compute(session)
+
+    pool: ComputePool = request.app.state.statistics_pool
+    try:
+        return await pool.answer(pending.key, compute, gone=request.is_disconnected, what=pending.what)
+    except ClientGone:
+        return None
+
+
+def _pending(db: Database, make: Callable[..., comparison.Pending], **query: Any) -> comparison.Pending:
+    with db.session() as session:
+        return make(session, **query)
+
+
+CLIENT_GONE = 499
+"""The status of an answer nobody reads: its client closed the connection before it was ready (never sent)."""
+
+
 @router.get("/compare/statistics", response_model=ComparisonStatistics,
-            responses=answers(found=True, extra={200: STATISTICS_TEXT}))
-def statistics(
-    session: SessionDep,
+            responses=answers(found=True, extra={200: STATISTICS_TEXT} | BUSY))
+async def statistics(
+    request: Request,
+    db: DatabaseDep,
     jobs: Jobs,
     reps: Repetitions = DEFAULT_REPETITIONS,
     seed: BootstrapSeed = 0,
     format: Literal["json", "csv", "latex", "table"] = "json",
     aggregate: Aggregate = None,
 ) -> Response:
-    """Scores, aggregates across systems, performance profiles, P(X > Y) and paired tests of the configurations."""
+    """Scores, aggregates across systems, performance profiles, P(X > Y) and paired tests of the configurations.
+
+    Computed in a pool of threads of its own, bounded (docs/service.md, "Statistics under load"): 503 with
+    ``Retry-After`` when it is full; the same request again is answered from the kept answer.
+    """
+    ids = parse_ids(jobs)
     try:
-        answer = comparison.statistics(session, job_ids=parse_ids(jobs), repetitions=reps, seed=seed,
-                                       aggregate=_aggregate(aggregate))
+        pending = await run_in_threadpool(_pending, db, comparison.pending_statistics, job_ids=ids, repetitions=reps,
+                                          seed=seed, aggregate=_aggregate(aggregate))
+        body = await _computed(request, db, pending)
     except ConfigError as error:
         raise BadQuery(error.field, error.message) from None
-    if format == "json":
-        return Response(dumps(answer), media_type="application/json")
-    extension = {"csv": "csv", "latex": "tex", "table": "txt"}[format]
-    return Response(render(answer, format), media_type=TEXT_FORMATS[format],
-                    headers={"Content-Disposition": f'inline; filename="compare-statistics.{extension}"'})
+    if body is None:
+        return Response(status_code=CLIENT_GONE)
+
+    def respond() -> Response:
+        answer = pending.answer(body)
+        if format == "json":
+            return Response(dumps(answer), media_type="application/json")
+        extension = {"csv": "csv", "latex": "tex", "table": "txt"}[format]
+        return Response(render(answer, format), media_type=TEXT_FORMATS[format],
+                        headers={"Content-Disposition": f'inline; filename="compare-statistics.{extension}"'})
+
+    return await run_in_threadpool(respond)
 
 
-@router.get("/compare/sample-efficiency", response_model=SampleEfficiency, responses=answers(found=True))
-def sample_efficiency(
-    session: SessionDep,
+@router.get("/compare/sample-efficiency", response_model=SampleEfficiency,
+            responses=answers(found=True, extra=BUSY))
+async def sample_efficiency(
+    request: Request,
+    db: DatabaseDep,
     jobs: Jobs,
     points: Annotated[int, Query(ge=2, le=comparison.MAX_CURVE_POINTS,
                                  description="Buckets of episodes per curve.")] = comparison.MAX_CURVE_POINTS,
@@ -116,10 +171,18 @@ def sample_efficiency(
     seed: BootstrapSeed = 0,
     aggregate: Aggregate = None,
 ) -> Response:
-    """IQM of the scores per bucket of episodes, with 95% stratified bootstrap bands (sample-efficiency curves)."""
+    """IQM of the scores per bucket of episodes, with 95% stratified bootstrap bands (sample-efficiency curves).
+
+    Computed in the statistics' pool, as ``/compare/statistics`` is.
+    """
+    ids = parse_ids(jobs)
     try:
-        answer = comparison.sample_efficiency_answer(session, job_ids=parse_ids(jobs), points=points,
-                                                     repetitions=reps, seed=seed, aggregate=_aggregate(aggregate))
+        pending = await run_in_threadpool(_pending, db, comparison.pending_sample_efficiency, job_ids=ids,
+                                          points=points, repetitions=reps, seed=seed,
+                                          aggregate=_aggregate(aggregate))
+        body = await _computed(request, db, pending)
     except ConfigError as error:
         raise BadQuery(error.field, error.message) from None
-    return Response(dumps(answer), media_type="application/json")
+    if body is None:
+        return Response(status_code=CLIENT_GONE)
+    return await run_in_threadpool(lambda: Response(dumps(pending.answer(body)), media_type="application/json"))

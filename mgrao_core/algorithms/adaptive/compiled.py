@@ -47,7 +47,7 @@ class AdaptiveLanes(NamedTuple):
     n_rows: np.ndarray
     counts: np.ndarray
     rebase_due: np.ndarray
-    scratch: np.ndarray
+    row_kl: np.ndarray
     learning_rate: float
     temperature: float
     gamma_pow: np.ndarray
@@ -86,7 +86,7 @@ def lane_of(al, lane):
     snapshot_stride (items 12-23).
     """
     return (al.Y[lane], al.F[lane], al.H[lane], al.cs[lane], al.G[lane], al.rows[lane], al.slot[lane],
-            al.n_rows[lane], al.k_since_rebase[lane], al.counts[lane], al.rebase_due[lane], al.scratch[lane],
+            al.n_rows[lane], al.k_since_rebase[lane], al.counts[lane], al.rebase_due[lane], al.row_kl[lane],
             al.membership[lane], al.returns[lane], al.signature_mean[lane], al.signature_m2[lane],
             al.spread_mean[lane], al.spread_m2[lane], al.episodes_seen[lane], al.votes[lane], al.taken[lane],
             al.membership_history[lane], al.n_snapshots[lane], al.snapshot_stride[lane])
@@ -228,8 +228,8 @@ def learn(al, views, m, p, n_parents, children, task_types, values):
         observe(views[13], views[14], views[15], views[16], views[17], c, p, children, task_types, values)
     for k in range(task_types.shape[0]):
         c = children[k]
-        mgrao.learn_value(Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, c, bounded,
-                          membership[c, p], task_types[k], values[k], al)
+        mgrao.learn_value(Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, views[11], c,
+                          bounded, membership[c, p], task_types[k], values[k], al)
 
 
 @njit(cache=True)

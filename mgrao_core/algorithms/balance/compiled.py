@@ -59,7 +59,7 @@ class BalanceLanes(NamedTuple):
     n_rows: np.ndarray
     counts: np.ndarray
     rebase_due: np.ndarray
-    scratch: np.ndarray
+    row_kl: np.ndarray
     learning_rate: float
     temperature: float
     gamma_pow: np.ndarray
@@ -102,7 +102,7 @@ def lane_of(bl, lane):
     episodes_seen, membership, membership_history, n_snapshots, snapshot_stride (items 12-19).
     """
     return (bl.Y[lane], bl.F[lane], bl.H[lane], bl.cs[lane], bl.G[lane], bl.rows[lane], bl.slot[lane],
-            bl.n_rows[lane], bl.k_since_rebase[lane], bl.counts[lane], bl.rebase_due[lane], bl.scratch[lane],
+            bl.n_rows[lane], bl.k_since_rebase[lane], bl.counts[lane], bl.rebase_due[lane], bl.row_kl[lane],
             bl.balance_groups[lane], bl.balance_last_split[lane], bl.balance_settled[lane], bl.episodes_seen[lane],
             bl.membership[lane], bl.membership_history[lane], bl.n_snapshots[lane], bl.snapshot_stride[lane])
 
@@ -177,6 +177,7 @@ def decide(bl, views, bound, c):
         q = smallest_prime_factor(bound // m)
         views[7][c] = split(views[0][c], views[1][c], views[2][c], views[3][c], views[4][c], views[5][c],
                             views[6][c], views[9][c], m, q)
+        views[11][c][: m * q] = math.nan  # the rows are copies now: every one's dkl to be computed
         m *= q
         views[12][c] = m
         views[13][c] = q
@@ -198,7 +199,8 @@ def allocate(bl, views, bound, c, weights, shares):
     m = views[12][c]
     k = views[8][c]
     views[7][c] = mgrao.rebase(views[0][c], views[1][c], views[2][c], views[3][c], views[4][c], views[5][c],
-                               views[6][c], views[7][c], bl.gamma_pow[k], bl.trace_tail, m > bl.min_bounded_groups)
+                               views[6][c], views[7][c], bl.gamma_pow[k], bl.trace_tail, m > bl.min_bounded_groups,
+                               views[11][c])
     views[8][c] = 0
     views[10][c] = False
     e = views[15][c]
@@ -210,7 +212,8 @@ def allocate(bl, views, bound, c, weights, shares):
     views[15][c] = e + 1
     shares[c] = task_share(bl.learning_cost, m * bl.learned_per_group + bl.rule_numbers, bl.learned_by_max)
     Y = views[0][c]
-    mgrao.combined_weights(Y, views[9][c], m, Y.shape[1], bl.temperature, weights, views[11], bl.use_counts)
+    mgrao.combined_weights(Y, views[9][c], m, Y.shape[1], bl.temperature, weights, views[11][c], views[6][c],
+                           bl.use_counts)
 
 
 @njit(cache=True, inline="always")
@@ -225,7 +228,7 @@ def learn(bl, views, p, n_parents, children, task_types, values):
     for k in range(task_types.shape[0]):
         c = children[k]
         m = groups[c]
-        mgrao.learn_value(Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, c,
+        mgrao.learn_value(Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, views[11], c,
                           m > bl.min_bounded_groups, (p * m) // n_parents, task_types[k], values[k], bl)
 
 
@@ -241,6 +244,6 @@ def finish(bl, lane, weights):
         views[7][c] = mgrao.fix_allocation(views[0][c], views[1][c], views[2][c], views[3][c], views[4][c],
                                            views[5][c], views[6][c], views[7][c], views[9][c], m,
                                            m > bl.min_bounded_groups, bl.gamma_pow[views[8][c]], bl.trace_tail,
-                                           bl.temperature, weights[c], views[11], bl.use_counts)
+                                           bl.temperature, weights[c], views[11][c], bl.use_counts)
         views[8][c] = 0
         views[10][c] = False

@@ -81,7 +81,11 @@ class MgraoLanes(NamedTuple):
         counts: ``(lanes, children, groups)`` parent agent sample counts.
         rebase_due: ``(lanes, children)`` whether a row's scale came so close to underflow that the
             child rebases before its next update.
-        scratch: ``(lanes, groups)`` the blending vector of algorithm 2, while it is computed.
+        row_kl: ``(lanes, children, groups)`` each row's ``dkl`` (algorithm 2), kept while the row is inactive
+            (its PW cannot change), NaN while it is active or since it left the active rows: a child's
+            allocation computes ``dkl`` of its active rows and of the rows that left them only, so that a
+            child with many groups and few active rows does not take a logarithm of every weight every
+            episode (the same numbers, bit for bit).
         learning_rate: alpha.
         temperature: the softmax temperature of algorithm 2 in use.
         gamma_pow: ``trace_decay ** k`` for ``k = 0 .. rebase interval``.
@@ -103,7 +107,7 @@ class MgraoLanes(NamedTuple):
     n_rows: np.ndarray
     counts: np.ndarray
     rebase_due: np.ndarray
-    scratch: np.ndarray
+    row_kl: np.ndarray
     learning_rate: float
     temperature: float
     gamma_pow: np.ndarray
@@ -153,13 +157,13 @@ def trace_is_negligible(weights, trace, trace_sum, tail):
 
 
 @njit(cache=True)
-def rebase(Y, F, H, cs, G, rows, slot, n_rows, gamma_k, tail, bounded):
+def rebase(Y, F, H, cs, G, rows, slot, n_rows, gamma_k, tail, bounded, row_kl):
     """Materialise PW into Y and E into F for the active rows; reset H, cs and G.
 
     ``H``, ``cs`` and ``G`` of the active row ``rows[s]`` are at ``s``. With ``bounded`` (the
     child's scales are reciprocal; the row sum normalises them away), a row whose trace became
     negligible drops it (``F`` of the row becomes 0, so ``Y`` is its PW) and leaves the active
-    rows. Returns the number of active rows.
+    rows, its ``row_kl`` to be computed again (NaN). Returns the number of active rows.
     """
     n = Y.shape[1]
     s = n_rows
@@ -183,6 +187,7 @@ def rebase(Y, F, H, cs, G, rows, slot, n_rows, gamma_k, tail, bounded):
         G[s] = trace_sum
         if bounded and trace_is_negligible(Y[i], F[i], trace_sum, tail):
             F[i, :] = 0.0
+            row_kl[i] = math.nan
             n_rows -= 1
             rows[s] = rows[n_rows]  # rebased already (H 0, cs 1): only its trace sum moves
             G[s] = G[n_rows]
@@ -192,45 +197,46 @@ def rebase(Y, F, H, cs, G, rows, slot, n_rows, gamma_k, tail, bounded):
 
 
 @njit(cache=True)
-def combined_weights(PW, counts, m, n, temperature, out, scratch, use_counts=True):
+def combined_weights(PW, counts, m, n, temperature, out, row_kl, slot, use_counts=True):
     """Algorithm 2 on materialised rows: ``softmax(sumnorm(B) @ PW / temperature)`` into ``out``.
 
     The blending vector is ``B = sumnorm(dkl) + sumnorm(count)``, or ``sumnorm(dkl)`` without
-    ``use_counts`` (``group_blend = dkl-only``).
+    ``use_counts`` (``group_blend = dkl-only``). A row's ``dkl`` is computed where it is active (``slot[i] >= 0``)
+    or not kept (``row_kl[i]`` NaN), else read from ``row_kl``; an inactive row keeps what it computed, an active
+    one is left NaN. ``sumnorm(B) @ PW`` accumulates row by row, each type's sum taking the rows in the same order
+    as a sum type by type would.
     """
     kl_total = 0.0
     count_total = 0.0
     for i in range(m):
-        kl = 0.0
-        for j in range(n):
-            w = PW[i, j]
-            if w > 0.0:
-                kl += w * math.log(w * n)
-        if kl < 0.0:
+        kl = row_kl[i]
+        if slot[i] >= 0 or kl != kl:
             kl = 0.0
-        scratch[i] = kl
+            for j in range(n):
+                w = PW[i, j]
+                if w > 0.0:
+                    kl += w * math.log(w * n)
+            if kl < 0.0:
+                kl = 0.0
+            row_kl[i] = kl  # an active row's only until the end of this call
         kl_total += kl
         count_total += counts[i]
     blend_total = 0.0
     for i in range(m):
-        kl_part = scratch[i] / kl_total if kl_total > 0.0 else 1.0 / m
-        if use_counts:
-            count_part = counts[i] / count_total if count_total > 0.0 else 1.0 / m
-            scratch[i] = kl_part + count_part
-        else:
-            scratch[i] = kl_part
-        blend_total += scratch[i]
+        blend_total += _blend(row_kl[i], counts[i], m, kl_total, count_total, use_counts)
+    for j in range(n):
+        out[j] = 0.0
     for i in range(m):
-        scratch[i] /= blend_total  # sumnorm(B)
+        b = _blend(row_kl[i], counts[i], m, kl_total, count_total, use_counts) / blend_total  # sumnorm(B)
+        for j in range(n):
+            out[j] += b * PW[i, j]
+        if slot[i] >= 0:
+            row_kl[i] = math.nan
     top = -np.inf
     for j in range(n):
-        v = 0.0
-        for i in range(m):
-            v += scratch[i] * PW[i, j]
-        v /= temperature
-        out[j] = v
-        if v > top:
-            top = v
+        out[j] /= temperature
+        if out[j] > top:
+            top = out[j]
     total = 0.0
     for j in range(n):
         out[j] = math.exp(out[j] - top)
@@ -241,6 +247,15 @@ def combined_weights(PW, counts, m, n, temperature, out, scratch, use_counts=Tru
         total = float(n)
     for j in range(n):
         out[j] /= total
+
+
+@njit(cache=True, inline="always")
+def _blend(kl, count, m, kl_total, count_total, use_counts):
+    """A row's blend, ``sumnorm(dkl)[i] + sumnorm(count)[i]``, before ``B`` is sum-normalised."""
+    kl_part = kl / kl_total if kl_total > 0.0 else 1.0 / m
+    if use_counts:
+        return kl_part + (count / count_total if count_total > 0.0 else 1.0 / m)
+    return kl_part
 
 
 @njit(cache=True, inline="always")
@@ -286,13 +301,13 @@ def pw_update(Y, F, H, cs, G, rows, slot, n_rows, c, k, group, task_type, step, 
 
 @njit(cache=True)
 def fix_allocation(Y, F, H, cs, G, rows, slot, n_rows, counts, m, bounded, gamma_k, tail, temperature, weights,
-                   scratch, use_counts=True):
+                   row_kl, use_counts=True):
     """A child fixes its resource weights for the episode: its PW is materialised, then algorithm 2 writes ``weights``.
 
     Returns the number of active rows.
     """
-    n_rows = rebase(Y, F, H, cs, G, rows, slot, n_rows, gamma_k, tail, bounded)
-    combined_weights(Y, counts, m, Y.shape[1], temperature, weights, scratch, use_counts)
+    n_rows = rebase(Y, F, H, cs, G, rows, slot, n_rows, gamma_k, tail, bounded, row_kl)
+    combined_weights(Y, counts, m, Y.shape[1], temperature, weights, row_kl, slot, use_counts)
     return n_rows
 
 
@@ -307,14 +322,14 @@ def allocate(ml, views, m, c, weights):
     k = views[8][c]
     views[7][c] = fix_allocation(views[0][c], views[1][c], views[2][c], views[3][c], views[4][c], views[5][c],
                                  views[6][c], views[7][c], views[9][c], m, m > ml.min_bounded_groups, ml.gamma_pow[k],
-                                 ml.trace_tail, ml.temperature, weights, views[11], ml.use_counts)
+                                 ml.trace_tail, ml.temperature, weights, views[11][c], ml.use_counts)
     views[8][c] = 0
     views[10][c] = False
 
 
 @njit(cache=True, inline="always")
-def learn_value(Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, c, bounded, group, task_type,
-                value, ml):
+def learn_value(Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, row_kl, c, bounded, group,
+                task_type, value, ml):
     """Child ``c`` receives an atomic task's absolute value from a parent of ``group``.
 
     The sample count, then algorithm 1 (rebasing first when due). The arrays are the lane's, first
@@ -324,7 +339,7 @@ def learn_value(Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, reba
     k = k_since_rebase[c]
     if rebase_due[c] or k == ml.gamma_pow.shape[0] - 1:
         n_rows[c] = rebase(Y[c], F[c], H[c], cs[c], G[c], rows[c], slot[c], n_rows[c], ml.gamma_pow[k], ml.trace_tail,
-                           bounded)
+                           bounded, row_kl[c])
         k = 0
     k += 1
     k_since_rebase[c] = k
@@ -337,18 +352,18 @@ def lane_of(ml, lane):
     """Lane ``lane``'s views of the arrays the steps write, made once per lane (as the kernel did before).
 
     A plain tuple, in this order: Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts,
-    rebase_due, scratch. The kernel unpacks it once per lane for :func:`learn`, around a loop that keeps
+    rebase_due, row_kl. The kernel unpacks it once per lane for :func:`learn`, around a loop that keeps
     using every view; :func:`allocate` takes its items by position, which numba's parallel loop sees
     as the tuple's (a write through a NamedTuple's field, or through an unpacked item nothing reads
     later, would be dropped as dead there; docs/algorithms.md).
     """
     return (ml.Y[lane], ml.F[lane], ml.H[lane], ml.cs[lane], ml.G[lane], ml.rows[lane], ml.slot[lane],
-            ml.n_rows[lane], ml.k_since_rebase[lane], ml.counts[lane], ml.rebase_due[lane], ml.scratch[lane])
+            ml.n_rows[lane], ml.k_since_rebase[lane], ml.counts[lane], ml.rebase_due[lane], ml.row_kl[lane])
 
 
 @njit(cache=True, inline="always")
-def learn(ml, Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, m, p, n_parents, children,
-          task_types, values):
+def learn(ml, Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, row_kl, m, p, n_parents,
+          children, task_types, values):
     """The values of parent ``p``'s composite task come back to the children that performed its atomic tasks.
 
     Atomic task ``k``, of type ``task_types[p, k]``, gives ``values[p, k]`` to child ``children[p, k]``,
@@ -361,8 +376,8 @@ def learn(ml, Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase
     group = (p * m) // n_parents
     bounded = m > ml.min_bounded_groups
     for k in range(task_types.shape[1]):
-        learn_value(Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, children[p, k], bounded,
-                    group, task_types[p, k], values[p, k], ml)
+        learn_value(Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts, rebase_due, row_kl, children[p, k],
+                    bounded, group, task_types[p, k], values[p, k], ml)
 
 
 @njit(cache=True)

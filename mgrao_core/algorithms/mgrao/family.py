@@ -12,6 +12,7 @@ The family's parts sit side by side: this module (labels, parameters, lane state
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Mapping
 from typing import Any
@@ -104,7 +105,8 @@ class Mgrao(Family):
         StateArray("n_rows", ("lanes", "learners"), "int64", help="how many rows are active"),
         StateArray("counts", ("lanes", "learners", "groups"), help="parent agent sample counts"),
         StateArray("rebase_due", ("lanes", "learners"), "bool", help="a scale nears underflow: rebase first"),
-        StateArray("scratch", ("lanes", "groups"), help="algorithm 2's blending vector, while it is computed"),
+        StateArray("row_kl", ("lanes", "learners", "groups"), fill=math.nan,
+                   help="each row's dkl (algorithm 2), kept while the row is inactive (NaN: to be computed)"),
     )
     steps = "mgrao_core.algorithms.mgrao.compiled"
     reference = "mgrao_core.algorithms.mgrao.reference:children"

@@ -31,6 +31,20 @@ test('groupLabels: the world and the label the server gave (the algorithm and sy
   assert.deepEqual(facets(groups), ['single', 'single (episodes=200)', 'large']);
 });
 
+test('configurations name a saved system as compare\'s groups do, else as the job does (issue 47, item 3)', () => {
+  const mine = { config_hash: 'ffffffff6', system: 'large', saved_system: 'large30', episodes: 100,
+    params: { n_parents: 30 } };
+  const plain = { config_hash: 'ffffffff6', system: 'large', episodes: 100, params: { n_parents: 30 } };
+  assert.equal(configurations([mine]).ffffffff6.system, 'large30');  // without groups: the job's saved system
+  // the plain job comes first, but its world is the saved system's: the server's name (its groups') holds
+  const groups = [{ config_hash: 'ffffffff6', config_hashes: ['ffffffff6'], system: 'large30', base: 'large' }];
+  assert.equal(configurations([plain, mine], groups).ffffffff6.system, 'large30');
+  const paper = { config_hash: 'cccccccc3', system: 'large', episodes: 100, params: { n_parents: 50 } };
+  const both = configurations([mine, paper], groups);
+  assert.deepEqual(diffTable(['ffffffff6', 'cccccccc3'], both).rows[0],
+    { name: 'system', values: ['large30', 'large'] });
+});
+
 test('diffTable: one row per differing parameter, one column per configuration, the system first if mixed', () => {
   const t = diffTable(['aaaaaaaa1', 'bbbbbbbb2', 'aaaaaaaa1', 'cccccccc3'], configs);
   assert.deepEqual(t.hashes, ['aaaaaaaa1', 'bbbbbbbb2', 'cccccccc3']);

@@ -50,16 +50,28 @@ test('summaryCsv: one row per configuration with every parameter as a column, qu
   ];
   const lines = summaryCsv({ ...job, params: { ...job.params, quality_model: 'a,"b"' } }, configs).trim().split('\n');
   assert.equal(lines.length, 3);
-  assert.equal(lines[0], 'job_id,system,config_hash,algorithm,seeds_stored,seeds,episodes,final_mean,ci95_low,ci95_high,' +
+  assert.equal(lines[0], 'job_id,system,saved_system,config_hash,algorithm,seeds_stored,seeds,episodes,final_mean,ci95_low,ci95_high,' +
     'pct_from_uniform,pct_ci95_low,pct_ci95_high,pct_of_max,learning_rate,legacy_knob,n_types,quality_model');
-  assert.equal(lines[1], '7,single,abc,uniform,2,2,100,1.5,1.4,1.6,0,,,0,0.05,3,20,"a,""b"""');
-  assert.equal(lines[2], '7,single,abc,mgrao-max,1,2,100,2,,,33.3,10,50,100,0.05,3,20,"a,""b"""');
+  assert.equal(lines[1], '7,single,,abc,uniform,2,2,100,1.5,1.4,1.6,0,,,0,0.05,3,20,"a,""b"""');
+  assert.equal(lines[2], '7,single,,abc,mgrao-max,1,2,100,2,,,33.3,10,50,100,0.05,3,20,"a,""b"""');
 });
 
 test('configJson holds what re-running the job needs', () => {
   const parsed = JSON.parse(configJson(job));
-  assert.deepEqual(Object.keys(parsed), ['id', 'name', 'system', 'algorithms', 'seeds', 'episodes', 'params', 'config_hash', 'version']);
+  assert.deepEqual(Object.keys(parsed), ['id', 'name', 'system', 'base', 'algorithms', 'seeds', 'episodes', 'params',
+    'config_hash', 'version']);
   assert.equal(parsed.params.learning_rate, 0.05);
+  assert.deepEqual([parsed.system, parsed.base], ['single', 'single']);
+});
+
+test('a saved system\'s job is named by it: its summary, CSV and configuration (issue 47, item 3)', () => {
+  const saved = { ...job, saved_system: 'single12' };
+  assert.equal(differenceSummary(saved, configRows(saved, schema)),
+    "2 of 4 parameters differ from single12's base, the single preset: learning_rate 0.05, legacy_knob 3.");
+  const parsed = JSON.parse(configJson(saved));
+  assert.deepEqual([parsed.system, parsed.base], ['single12', 'single']);  // POSTed again: the saved system's job
+  const lines = summaryCsv(saved, [{ algorithm: 'uniform', seeds_done: 2, summary: {} }]).trim().split('\n');
+  assert.ok(lines[1].startsWith('7,single,single12,abc,uniform,'), lines[1]);
 });
 
 test('listLines: an event list one event per line, its episode and change first; a plain list item by item', () => {
