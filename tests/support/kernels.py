@@ -1,8 +1,8 @@
 """The suite's kernels: every signature of the simulation kernel the tests may compile, and how to compile them.
 
 numba compiles :func:`mgrao_core.engine.run_block` once per signature, and the signature is chiefly which of its
-optional arguments are ``None`` (:data:`OPTIONAL`: several resources, an environment outside the run, tasks that
-fail, and each learner family's lanes; the kernel's code for an argument that is ``None`` is neither typed nor
+optional arguments are ``None`` (:data:`OPTIONAL`: several resources, a sparse world's links, an environment outside
+the run, tasks that fail, and each learner family's lanes; the kernel's code for an argument that is ``None`` is neither typed nor
 compiled). A signature is named by the optional arguments it has, ``+``-joined (``several+mgrao``; ``fixed``
 without any: fixed families alone). Each costs between a quarter of a minute and a few minutes to compile with an
 empty cache (the more families, the longer), so the suite keeps to the :data:`CENSUS`: a test that runs the kernel
@@ -33,10 +33,10 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parents[2]
 
-OPTIONAL = ("several", "outside", "failing", "mgrao_lanes", "adaptive_lanes", "independent_q_lanes", "bandit_lanes",
+OPTIONAL = ("several", "links", "outside", "failing", "mgrao_lanes", "adaptive_lanes", "independent_q_lanes", "bandit_lanes",
             "balance_lanes")
 """The kernel's arguments that may be ``None``, as :func:`mgrao_core.engine.run_block` names them."""
-PARTS = ("several", "outside", "failing", "mgrao", "mgrao-adaptive", "independent-q", "bandit", "mgrao-balance")
+PARTS = ("several", "links", "outside", "failing", "mgrao", "mgrao-adaptive", "independent-q", "bandit", "mgrao-balance")
 """Each optional argument's part of a signature's name (the learner families by their names)."""
 
 COMPILE_TIMEOUT_S = 2400.0
@@ -76,6 +76,7 @@ class Recipe:
 
 
 SEVERAL = {"n_resources": 2}
+SPARSE = {"topology": "ring", "children_per_parent": 2}
 FAILING = {"task_need": 1.5}
 
 MGRAO, ADAPTIVE, BALANCE = "mgrao-1:1", "mgrao-adaptive:2", "mgrao-balance"
@@ -91,6 +92,7 @@ CENSUS: dict[str, Recipe] = {  # fixed's seconds: what it compiles first, with a
     "several+mgrao": Recipe("single", ("uniform", MGRAO), SEVERAL, seconds=61),
     "several+failing+mgrao": Recipe("single", ("uniform", MGRAO), SEVERAL | FAILING, seconds=85),
     "several+failing+mgrao+mgrao-balance": Recipe("cloud", ("uniform", MGRAO, BALANCE), seconds=98),
+    "links+mgrao": Recipe("multi", ("uniform", MGRAO), SPARSE, seconds=30),
     "several+mgrao-balance": Recipe("single", ("uniform", BALANCE), SEVERAL, seconds=40),
     "independent-q+bandit": Recipe("single", ("uniform", "independent-q", "bandit"), seconds=21),
     "mgrao+independent-q+bandit": Recipe("single", ("uniform", MGRAO, "independent-q", "bandit"), seconds=29),
