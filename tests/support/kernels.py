@@ -2,11 +2,11 @@
 
 numba compiles :func:`mgrao_core.engine.run_block` once per signature, and the signature is chiefly which of its
 optional arguments are ``None`` (:data:`OPTIONAL`: several resources, a sparse world's links, an environment outside
-the run, tasks that fail, and each learner family's lanes; the kernel's code for an argument that is ``None`` is neither typed nor
-compiled). A signature is named by the optional arguments it has, ``+``-joined (``several+mgrao``; ``fixed``
-without any: fixed families alone). Each costs between a quarter of a minute and a few minutes to compile with an
-empty cache (the more families, the longer), so the suite keeps to the :data:`CENSUS`: a test that runs the kernel
-on another signature fails (tests/conftest.py), and adding one is a decision with its cost (the census's
+the run, tasks that fail, and each learner family's lanes; the kernel's code for an argument that is ``None`` is
+neither typed nor compiled). A signature is named by the optional arguments it has, ``+``-joined (``several+mgrao``;
+``fixed`` without any: fixed families alone). Each costs between a quarter of a minute and a few minutes to compile
+with an empty cache (the more families, the longer), so the suite keeps to the :data:`CENSUS`: a test that runs the
+kernel on another signature fails (tests/conftest.py), and adding one is a decision with its cost (the census's
 ``seconds``, measured with ``python -m tests.support.kernels measure``). tests/test_kernel_census.py checks that
 each recipe gives its signature and that :data:`OPTIONAL` is every optional argument of the kernel.
 
@@ -33,10 +33,11 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parents[2]
 
-OPTIONAL = ("several", "links", "outside", "failing", "mgrao_lanes", "adaptive_lanes", "independent_q_lanes", "bandit_lanes",
-            "balance_lanes")
+OPTIONAL = ("several", "links", "outside", "failing", "mgrao_lanes", "adaptive_lanes", "independent_q_lanes",
+            "bandit_lanes", "balance_lanes")
 """The kernel's arguments that may be ``None``, as :func:`mgrao_core.engine.run_block` names them."""
-PARTS = ("several", "links", "outside", "failing", "mgrao", "mgrao-adaptive", "independent-q", "bandit", "mgrao-balance")
+PARTS = ("several", "links", "outside", "failing", "mgrao", "mgrao-adaptive", "independent-q", "bandit",
+         "mgrao-balance")
 """Each optional argument's part of a signature's name (the learner families by their names)."""
 
 COMPILE_TIMEOUT_S = 2400.0
