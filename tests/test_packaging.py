@@ -28,6 +28,16 @@ def test_quick_start_is_two_commands_and_ci_runs_the_test_one():
     assert test in ci_script.splitlines()
 
 
+def test_the_test_command_runs_the_suite_on_every_core_with_work_stealing():
+    # pytest-xdist: one worker per core, an idle one taking tests from a busy one (tests/support/scheduling.py)
+    _, test = quick_start_commands()
+    assert test.endswith(".venv/bin/python -m pytest -n auto --dist worksteal"), test
+    import tomllib
+
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["project"]
+    assert any(re.match(r"pytest-xdist\b", requirement) for requirement in project["optional-dependencies"]["test"])
+
+
 def test_readme_links_point_to_existing_files():
     for target in re.findall(r"\]\(([^)#]+)\)", README):
         if not target.startswith("http"):

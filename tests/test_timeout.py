@@ -36,12 +36,14 @@ def test_the_suite_has_a_per_test_deadline_far_above_its_slowest_test(pytestconf
     assert pytestconfig.getini("timeout_method") == "signal"  # the thread method would end the whole run at once
 
 
-def test_a_hanging_test_fails_alone_and_its_fixtures_teardown_runs(tmp_path: Path) -> None:
+@pytest.mark.parametrize("workers", [[], ["-n", "2", "--dist", "worksteal"]], ids=["one-process", "xdist"])
+def test_a_hanging_test_fails_alone_and_its_fixtures_teardown_runs(tmp_path: Path, workers: list[str]) -> None:
+    # also on pytest-xdist's workers, as the README's command runs the suite: SIGALRM needs the test in the main thread
     stopped = tmp_path / "stopped"
     (tmp_path / "test_hang.py").write_text(HANGING.format(stopped=str(stopped)))
     # the project's own settings, with a deadline of 2 s instead of the suite's
     done = subprocess.run([sys.executable, "-m", "pytest", "-c", str(ROOT / "pyproject.toml"), "-o", "timeout=2",
-                           "-p", "no:cacheprovider", "-q", str(tmp_path / "test_hang.py")],
+                           "-p", "no:cacheprovider", "-q", *workers, str(tmp_path / "test_hang.py")],
                           cwd=tmp_path, capture_output=True, text=True, timeout=120, check=False)
     assert done.returncode == 1, done.stdout + done.stderr
     assert "1 failed, 1 passed" in done.stdout and "Timeout (>2.0s)" in done.stdout, done.stdout

@@ -29,6 +29,7 @@ def only_detail(response) -> dict:
     return body["detail"][0]
 
 
+@pytest.mark.one_database
 @pytest.mark.parametrize(("method", "path"), ID_ROUTES)
 @pytest.mark.parametrize("bad", [TOO_BIG, 10**30, 0])
 def test_path_id_out_of_range_is_422_naming_job_id(client: TestClient, method: str, path: str, bad: int) -> None:
@@ -64,6 +65,7 @@ def cursor(*content: object) -> str:
     return base64.urlsafe_b64encode(json.dumps(list(content)).encode()).decode().rstrip("=")
 
 
+@pytest.mark.one_database
 @pytest.mark.parametrize("after", [TOO_BIG, -TOO_BIG - 1, 0])
 def test_crafted_cursor_with_an_id_out_of_range_is_422(client: TestClient, after: int) -> None:
     response = client.get("/api/jobs", params={"sort": "name", "cursor": cursor("name", "a", after)})
@@ -78,6 +80,7 @@ def test_cursor_with_the_largest_id_pages_normally(client: TestClient) -> None:
     assert response.status_code == 200 and response.json()["data"] == []
 
 
+@pytest.mark.one_database
 @pytest.mark.parametrize(
     ("jobs", "needle"),
     [(f"1,{TOO_BIG}", str(MAX_JOB_ID)), ("0", str(MAX_JOB_ID)), ("9" * 900, str(MAX_JOB_ID)),
@@ -96,6 +99,7 @@ def test_compare_with_the_largest_id_is_404(client: TestClient) -> None:
     assert response.status_code == 404, response.text
 
 
+@pytest.mark.one_database
 def test_a_cursor_whose_id_is_a_boolean_is_422(client: TestClient) -> None:
     response = client.get("/api/jobs", params={"cursor": cursor("-created_at", "2020-01-01", True)})
     assert response.status_code == 422, response.text

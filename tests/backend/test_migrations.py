@@ -30,6 +30,8 @@ FIXTURE = Path(__file__).resolve().parents[1] / "fixtures" / "legacy_jobs_0001.j
 LEGACY = json.loads(FIXTURE.read_text())
 HEAD = ScriptDirectory.from_config(alembic_config()).get_current_head()
 
+pytestmark = pytest.mark.empty_database  # db_url without a schema: these tests migrate it themselves
+
 
 JOBS_0001 = sa.table(
     "jobs", sa.column("name", sa.String), sa.column("tags", sa.JSON), sa.column("notes", sa.Text),

@@ -124,6 +124,7 @@ def test_cross_origin_cancel_against_a_real_server(live_server: str) -> None:
 # ---- Host header: DNS rebinding ------------------------------------------------------------------
 
 
+@pytest.mark.one_database
 @pytest.mark.parametrize("path", ["/", "/api/health", "/api/jobs", "/docs", "/openapi.json"])
 def test_unknown_host_is_400(make_client, path: str) -> None:
     response = make_client(EVIL).get(path)
@@ -201,6 +202,7 @@ def assert_security_headers(response: httpx.Response) -> None:
     assert response.headers["x-frame-options"] == "DENY"
 
 
+@pytest.mark.one_database
 def test_csp_constant_is_what_is_sent(client: TestClient) -> None:
     assert client.get("/").headers["content-security-policy"] == CONTENT_SECURITY_POLICY
 
@@ -221,6 +223,7 @@ def test_security_headers_on_every_answer(client: TestClient, method: str, path:
     assert_security_headers(response)
 
 
+@pytest.mark.one_database
 def test_security_headers_on_a_refused_host(make_client) -> None:
     response = make_client(EVIL).get("/")
     assert response.status_code == 400

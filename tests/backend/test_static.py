@@ -16,6 +16,7 @@ GZIP = {"Accept-Encoding": "gzip"}
 DASHBOARD_FILES = ["/", "/index.html", "/js/app.js", "/js/charts.js", "/js/api.js", "/style.css", "/favicon.svg"]
 
 
+@pytest.mark.one_database
 def test_plotly_is_served_under_its_version(client: TestClient) -> None:
     import hashlib
 
@@ -32,6 +33,7 @@ def test_plotly_is_served_under_its_version(client: TestClient) -> None:
     assert client.get("/vendor/plotly-0.0.1.min.js").status_code == 404
 
 
+@pytest.mark.one_database
 def test_plotly_gzip_when_accepted(client: TestClient) -> None:
     raw = plotly_js().read_bytes()
     with client.stream("GET", plotly_url(), headers=GZIP) as response:
@@ -43,6 +45,7 @@ def test_plotly_gzip_when_accepted(client: TestClient) -> None:
     assert response.headers["cache-control"] == "public, max-age=31536000, immutable"
 
 
+@pytest.mark.one_database
 def test_old_plotly_address_redirects_to_the_versioned_one(client: TestClient) -> None:
     response = client.get("/vendor/plotly.min.js", follow_redirects=False)
     assert response.status_code == 307 and response.headers["location"] == plotly_url()
@@ -51,6 +54,7 @@ def test_old_plotly_address_redirects_to_the_versioned_one(client: TestClient) -
     assert followed.status_code == 200 and followed.content == plotly_js().read_bytes()
 
 
+@pytest.mark.one_database
 def test_versioned_files_revalidate_by_etag(client: TestClient) -> None:
     for url in (plotly_url(), docs_asset_url("swagger-ui-bundle.js")):
         etag = client.head(url).headers["etag"]
@@ -58,6 +62,7 @@ def test_versioned_files_revalidate_by_etag(client: TestClient) -> None:
         assert response.status_code == 304 and response.content == b""
 
 
+@pytest.mark.one_database
 @pytest.mark.parametrize("encoding", [IDENTITY, GZIP])
 def test_head_answers_every_static_file(client: TestClient, encoding: dict) -> None:
     urls = [*DASHBOARD_FILES, plotly_url(), "/vendor/plotly.min.js", docs_asset_url("swagger-ui-bundle.js"),
@@ -71,6 +76,7 @@ def test_head_answers_every_static_file(client: TestClient, encoding: dict) -> N
         assert int(head.headers["content-length"]) > 0
 
 
+@pytest.mark.one_database
 @pytest.mark.parametrize("url", DASHBOARD_FILES)
 def test_dashboard_files_revalidate(client: TestClient, url: str) -> None:
     response = client.get(url)
@@ -81,6 +87,7 @@ def test_dashboard_files_revalidate(client: TestClient, url: str) -> None:
     assert again.status_code == 304 and again.headers["cache-control"] == "no-cache"
 
 
+@pytest.mark.one_database
 def test_index_names_the_versioned_plotly(client: TestClient) -> None:
     html = client.get("/").text
     assert re.search(r'<link rel="prefetch" id="plotly-src" href="([^"]+)" as="script">', html)[1] == plotly_url()
@@ -90,6 +97,7 @@ def test_index_names_the_versioned_plotly(client: TestClient) -> None:
     assert static is not None and 'href="/vendor/plotly.min.js"' in (static / "index.html").read_text()
 
 
+@pytest.mark.one_database
 @pytest.mark.parametrize("url", ["/js/app.js", "/js/job.js", "/style.css", "/", "/openapi.json"])
 def test_text_is_gzipped_when_accepted(client: TestClient, url: str) -> None:
     plain = client.get(url, headers=IDENTITY)
@@ -106,6 +114,7 @@ def test_api_answers_are_not_compressed(client: TestClient) -> None:
         assert response.status_code == 200 and "content-encoding" not in response.headers
 
 
+@pytest.mark.one_database
 def test_docs_assets_come_from_fastapi_offline(client: TestClient) -> None:
     for name in ("swagger-ui-bundle.js", "swagger-ui.css"):
         response = client.get(docs_asset_url(name), headers=IDENTITY)
@@ -132,11 +141,13 @@ def test_real_server_head_and_gzip(live_server: str) -> None:
         assert http.get("/js/app.js").headers["cache-control"] == "no-cache"
 
 
+@pytest.mark.one_database
 def test_gzip_refused_with_q_zero_is_not_sent(client) -> None:
     response = client.get("/js/app.js", headers={"Accept-Encoding": "gzip;q=0"})
     assert response.status_code == 200 and "content-encoding" not in response.headers
 
 
+@pytest.mark.one_database
 def test_index_preloads_every_module_of_the_dashboard(client: TestClient) -> None:
     # all at once, instead of a level of imports at a time, each revalidated before the next is found
     html = client.get("/").text
@@ -147,6 +158,7 @@ def test_index_preloads_every_module_of_the_dashboard(client: TestClient) -> Non
         assert client.get(f"{prefix}/js/{name}").status_code == 200
 
 
+@pytest.mark.one_database
 def test_the_dashboard_is_named_under_its_digest_and_cached_there_for_a_year(client: TestClient) -> None:
     # A full reload then asks for index.html (revalidated) and the data alone, not for 25 modules.
     html = client.get("/").text

@@ -41,7 +41,7 @@ def _run(root: Path, systems: str, **env: str) -> str:
     environment = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")} | env
     environment |= {"PYTHONPATH": str(root), "XDG_CACHE_HOME": str(root / "cache")}  # the copy's own cache
     done = subprocess.run([sys.executable, "run.py", systems], cwd=root, env=environment, capture_output=True,
-                          text=True, timeout=300)
+                          text=True, timeout=600)
     assert done.returncode == 0, done.stderr
     return done.stdout
 

@@ -99,7 +99,8 @@ def test_a_learner_that_does_not_say_what_it_keeps_runs_only_without_a_cost(monk
     with pytest.raises(ConfigError) as info:
         make_spec("single", ["uniform", "bandit"], seeds=2, episodes=5, overrides={"learning_cost": 0.1})
     assert info.value.field == "learning_cost" and "bandit does not declare" in info.value.message
-    assert run_experiment(make_spec("single", ["uniform", "bandit"], seeds=2, episodes=5)).runs
+    # (beside independent-q: the learners' kernel of tests/core/test_learners.py, not one for bandit alone)
+    assert run_experiment(make_spec("single", ["uniform", "independent-q", "bandit"], seeds=2, episodes=5)).runs
     make_spec("single", ["uniform", "oracle"], seeds=2, episodes=5, overrides={"learning_cost": 0.1})  # no learner
 
 

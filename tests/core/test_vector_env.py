@@ -31,9 +31,16 @@ AGENT_PRESETS = [name for name, preset in PRESETS.items() if preset.params.n_chi
 
 
 def engine_utilities(system: str, algorithm: str, overrides: dict | None = None) -> np.ndarray:
-    """``(seeds, episodes)``: the engine's run of ``algorithm`` on SEEDS."""
-    result = run_experiment(make_spec(system, [algorithm], list(SEEDS), EPISODES, overrides=overrides or {}))
-    return np.stack([run.utilities for run in result.runs])
+    """``(seeds, episodes)``: the engine's run of ``algorithm`` on SEEDS.
+
+    Beside mgrao-max, and the independent learners beside each other (a lane's numbers do not depend on the
+    others'), so that every algorithm runs in a kernel of the census (tests/support/kernels.py), not in one compiled
+    for its families alone.
+    """
+    beside = ("independent-q", "bandit") if algorithm in ("independent-q", "bandit") else ()
+    algorithms = list(dict.fromkeys([algorithm, "mgrao-max", *beside]))
+    result = run_experiment(make_spec(system, algorithms, list(SEEDS), EPISODES, overrides=overrides or {}))
+    return np.stack([run.utilities for run in result.runs if run.algorithm == algorithm])
 
 
 def act(env, algorithm: str) -> np.ndarray:

@@ -6,6 +6,9 @@ of them start the service the same way and stop what they start.
 
 from __future__ import annotations
 
+import itertools
+import os
+import random
 import socket
 import subprocess
 import sys
@@ -14,12 +17,42 @@ import urllib.request
 
 from mgrao_cli.supervisor import stop_processes
 
+PORTS_PER_WORKER = 1000
+FIRST_WORKER_PORT = 20000
+"""The ports of xdist worker ``gwN``: ``FIRST_WORKER_PORT + N * PORTS_PER_WORKER`` and the next 999, below Linux's
+ephemeral range (32768-60999), where ``bind(0)`` and outgoing connections draw theirs."""
+WORKER_RANGES = 12
+_next = itertools.count(random.randrange(PORTS_PER_WORKER))
+
+
+def _bindable(port: int) -> bool:
+    with socket.socket() as s:
+        try:
+            s.bind(("127.0.0.1", port))
+        except OSError:
+            return False
+    return True
+
 
 def free_port() -> int:
-    """A TCP port on 127.0.0.1 that nothing listens on right now."""
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+    """A TCP port on 127.0.0.1 that nothing listens on right now.
+
+    Outside pytest-xdist, one the kernel picks (``bind(0)``). In xdist worker ``gwN`` (its ``worker_id``),
+    one of that worker's own range (:data:`PORTS_PER_WORKER` ports), never the same twice in a row: a port
+    picked and closed here stays free until the server it is for binds it, and two workers picking at once
+    (one for its PostgreSQL server, the other for an ``mgrao serve``) could otherwise be given the same one.
+    """
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "")
+    if not worker.startswith("gw") or not worker[2:].isdigit():
+        with socket.socket() as s:
+            s.bind(("127.0.0.1", 0))
+            return s.getsockname()[1]
+    first = FIRST_WORKER_PORT + int(worker[2:]) % WORKER_RANGES * PORTS_PER_WORKER
+    for _ in range(PORTS_PER_WORKER):
+        port = first + next(_next) % PORTS_PER_WORKER
+        if _bindable(port):
+            return port
+    raise RuntimeError(f"no free port in {first}-{first + PORTS_PER_WORKER - 1} (xdist worker {worker})")
 
 
 def mgrao_command(*args: str) -> list[str]:

@@ -1,0 +1,346 @@
+"""The suite's kernels: every signature of the simulation kernel the tests may compile, and how to compile them.
+
+numba compiles :func:`mgrao_core.engine.run_block` once per signature, and the signature is chiefly which of its
+optional arguments are ``None`` (:data:`OPTIONAL`: several resources, a sparse world's links, an environment outside
+the run, tasks that fail, and each learner family's lanes; the kernel's code for an argument that is ``None`` is
+neither typed nor compiled). A signature is named by the optional arguments it has, ``+``-joined (``several+mgrao``;
+``fixed`` without any: fixed families alone). Each costs between a quarter of a minute and a few minutes to compile
+with an empty cache (the more families, the longer), so the suite keeps to the :data:`CENSUS`: a test that runs the
+kernel on another signature fails (tests/conftest.py), and adding one is a decision with its cost (the census's
+``seconds``, measured with ``python -m tests.support.kernels measure``). tests/test_kernel_census.py checks that
+each recipe gives its signature and that :data:`OPTIONAL` is every optional argument of the kernel.
+
+In a parallel run (``pytest -n``) the census is compiled before the first test, by as many processes as the run has
+workers, the longest first, and never two processes compiling one family's steps at once (:func:`precompile`,
+called by tests/conftest.py): the tests then load every kernel from numba's cache (tests that compile from
+scratch on purpose use caches of their own). ``python -m tests.support.kernels compile NAME...`` compiles some
+in this process, ``list`` lists the census, ``measure`` times each signature alone.
+"""
+
+from __future__ import annotations
+
+import argparse
+import fcntl
+import json
+import os
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[2]
+
+OPTIONAL = ("several", "links", "outside", "failing", "mgrao_lanes", "adaptive_lanes", "independent_q_lanes",
+            "bandit_lanes", "balance_lanes")
+"""The kernel's arguments that may be ``None``, as :func:`mgrao_core.engine.run_block` names them."""
+PARTS = ("several", "links", "outside", "failing", "mgrao", "mgrao-adaptive", "independent-q", "bandit",
+         "mgrao-balance")
+"""Each optional argument's part of a signature's name (the learner families by their names)."""
+
+COMPILE_TIMEOUT_S = 2400.0
+"""The deadline of compiling the whole census (about 5 minutes on 2 quiet cores, 17 under a load average of 7)."""
+
+
+@dataclass(frozen=True)
+class Recipe:
+    """A small run that calls the kernel with one signature: ``algorithms`` on ``system`` with ``overrides``, through
+    :func:`mgrao_core.run_experiment`, or through the environments' stepper (:class:`mgrao_core.stepper.SteppedWorlds`,
+    which gives the kernel an ``outside`` and no learner) when ``stepped``."""
+
+    system: str
+    algorithms: tuple[str, ...] = ("uniform",)
+    overrides: Mapping[str, Any] = field(default_factory=dict)
+    stepped: bool = False
+    seconds: float = 60.0
+    """Its compile time alone, on a cache holding what ``fixed`` compiled (``python -m tests.support.kernels
+    measure``; the census's figures were measured on 2 cores under a load average of about 6): what it costs."""
+
+    def run(self) -> None:
+        """Run it: 1 seed, 2 episodes (compiling or loading its kernel)."""
+        from mgrao_core import make_spec, run_experiment
+
+        spec = make_spec(self.system, list(self.algorithms), seeds=1, episodes=2, overrides=dict(self.overrides))
+        if not self.stepped:
+            run_experiment(spec)
+            return
+        import numpy as np
+
+        from mgrao_core.stepper import SteppedWorlds
+
+        worlds = SteppedWorlds(spec.params, [0], block=2)
+        p = spec.params
+        shape = (1, p.n_children, p.n_resources, p.n_types) if p.n_resources > 1 else (1, p.n_children, p.n_types)
+        worlds.observe(worlds.step(np.full(shape, 1.0 / p.n_types)))
+
+
+SEVERAL = {"n_resources": 2}
+SPARSE = {"topology": "ring", "children_per_parent": 2}
+FAILING = {"task_need": 1.5}
+
+MGRAO, ADAPTIVE, BALANCE = "mgrao-1:1", "mgrao-adaptive:2", "mgrao-balance"
+LEARNERS = (MGRAO, ADAPTIVE, "independent-q", "bandit")
+
+CENSUS: dict[str, Recipe] = {  # fixed's seconds: what it compiles first, with an empty cache
+    "fixed": Recipe("single", ("uniform", "oracle"), seconds=35),
+    "mgrao": Recipe("single", ("uniform", MGRAO), seconds=14),
+    "outside": Recipe("single", stepped=True, seconds=12),
+    "several+outside": Recipe("single", overrides=SEVERAL, stepped=True, seconds=21),
+    "several+outside+failing": Recipe("single", overrides=SEVERAL | FAILING, stepped=True, seconds=34),
+    "failing+mgrao": Recipe("single", ("uniform", MGRAO), FAILING, seconds=28),
+    "several+mgrao": Recipe("single", ("uniform", MGRAO), SEVERAL, seconds=61),
+    "several+failing+mgrao": Recipe("single", ("uniform", MGRAO), SEVERAL | FAILING, seconds=85),
+    "several+failing+mgrao+mgrao-balance": Recipe("cloud", ("uniform", MGRAO, BALANCE), seconds=98),
+    "links+mgrao": Recipe("multi", ("uniform", MGRAO), SPARSE, seconds=113),
+    "several+mgrao-balance": Recipe("single", ("uniform", BALANCE), SEVERAL, seconds=40),
+    "independent-q+bandit": Recipe("single", ("uniform", "independent-q", "bandit"), seconds=21),
+    "mgrao+independent-q+bandit": Recipe("single", ("uniform", MGRAO, "independent-q", "bandit"), seconds=29),
+    "mgrao+mgrao-balance": Recipe("single", ("uniform", MGRAO, BALANCE), seconds=75),
+    "mgrao-adaptive+mgrao-balance": Recipe("single", ("uniform", ADAPTIVE, BALANCE), seconds=96),
+    "mgrao+mgrao-adaptive": Recipe("single", ("uniform", MGRAO, ADAPTIVE), seconds=85),
+    "mgrao+mgrao-adaptive+independent-q+bandit": Recipe("single", ("uniform", *LEARNERS), seconds=128),
+    "several+mgrao+mgrao-adaptive+independent-q+bandit": Recipe("single", ("uniform", *LEARNERS), SEVERAL, seconds=70),
+}
+"""Every signature the tests may compile, by name, with a run that compiles it."""
+
+
+def kernel_name(arguments: Sequence[Any]) -> str:
+    """The name of the signature of a call of the kernel with ``arguments`` (Python values or numba types)."""
+    from numba.core import types
+
+    from mgrao_core.engine.kernel import run_block
+
+    names = list(_parameters(run_block))
+    present = [not (arguments[names.index(a)] is None or isinstance(arguments[names.index(a)], types.NoneType))
+               for a in OPTIONAL]
+    return "+".join(part for part, here in zip(PARTS, present, strict=True) if here) or "fixed"
+
+
+def _parameters(dispatcher: Any) -> Iterable[str]:
+    import inspect
+
+    return inspect.signature(dispatcher.py_func).parameters
+
+
+class _Named(Exception):
+    def __init__(self, name: str) -> None:
+        super().__init__(name)
+        self.name = name
+
+
+def signature_of(recipe: Recipe) -> str:
+    """The name of the signature ``recipe`` calls the kernel with, found without compiling it."""
+    from mgrao_core import engine
+
+    kernel = engine.run_block
+
+    def name_it(*arguments: Any) -> None:
+        raise _Named(kernel_name(arguments))
+
+    engine.run_block = name_it
+    try:
+        recipe.run()
+    except _Named as named:
+        return named.name
+    finally:
+        engine.run_block = kernel
+    raise AssertionError(f"{recipe} never called the kernel")
+
+
+def loaded_signatures() -> list[Any]:
+    """The signatures of the kernel this process has compiled or loaded so far (numba types), if numba is loaded."""
+    engine = sys.modules.get("mgrao_core.engine")
+    return list(engine.run_block.signatures) if engine is not None else []
+
+
+# ---- compiling the census ---------------------------------------------------------------------------------------
+
+
+def serialise_cache_writes() -> None:
+    """Make numba's writes of a cache index one process at a time (an ``flock`` beside the index).
+
+    numba saves a new signature by reading the function's index, adding its entry and writing the index back:
+    two processes compiling signatures of one function at once can lose one's entry, or number their data files
+    alike, so that one loads the other's machine code. Left as numba has it if its internals look different.
+    """
+    try:
+        from numba.core.caching import IndexDataCacheFile
+    except ImportError:
+        return
+    save = getattr(IndexDataCacheFile, "save", None)
+    if save is None or getattr(save, "serialised", False) or not hasattr(IndexDataCacheFile, "__init__"):
+        return
+
+    def serialised_save(self: Any, key: Any, data: Any) -> None:
+        index = getattr(self, "_index_path", None)
+        if index is None:
+            return save(self, key, data)
+        with open(f"{index}.lock", "a") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)  # held for one index write: never long
+            try:
+                return save(self, key, data)
+            finally:
+                fcntl.flock(lock, fcntl.LOCK_UN)
+
+    serialised_save.serialised = True  # type: ignore[attr-defined]
+    IndexDataCacheFile.save = serialised_save
+
+
+def compile_here(names: Iterable[str], report: Callable[[str, float], None] | None = None) -> None:
+    """Run each named recipe in this process (compiling its kernel unless numba's cache has it)."""
+    serialise_cache_writes()
+    for name in names:
+        start = time.perf_counter()
+        CENSUS[name].run()
+        if report is not None:
+            report(name, time.perf_counter() - start)
+
+
+def _steps(name: str) -> set[str]:
+    """What compiling ``name`` may compile first, beside the kernel: the compiled steps of its learner families other
+    than MG-RAO's (balance's once with several resources, once without) and those of tasks that fail."""
+    parts = name.split("+")
+    steps = {part for part in parts if part in ("failing", "mgrao-adaptive", "independent-q", "bandit")}
+    if "mgrao-balance" in parts:
+        steps.add("mgrao-balance+several" if "several" in parts else "mgrao-balance")
+    return steps
+
+
+@dataclass
+class Precompiled:
+    """What :func:`precompile` did: each signature's seconds (compiled, or loaded from the cache) and the wall time."""
+
+    seconds: dict[str, float]
+    wall: float
+    processes: int
+
+
+class _Compiler:
+    """A ``python -m tests.support.kernels serve`` process: compiles each name written to it, says when done."""
+
+    def __init__(self, environment: Mapping[str, str], log: Any) -> None:
+        self.process = subprocess.Popen([sys.executable, "-m", "tests.support.kernels", "serve"], cwd=ROOT,
+                                        env=dict(environment), stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                        stderr=log, text=True, bufsize=1)
+        self.name: str | None = None
+        self.steps: set[str] = set()
+
+    def give(self, name: str, steps: set[str]) -> None:
+        assert self.process.stdin is not None
+        self.name, self.steps = name, steps
+        self.process.stdin.write(name + "\n")
+        self.process.stdin.flush()
+
+
+def precompile(names: Sequence[str] | None = None, processes: int = 2, timeout: float = COMPILE_TIMEOUT_S,
+               env: Mapping[str, str] | None = None) -> Precompiled:
+    """Compile the named signatures (default: the whole census) in ``processes`` processes at once.
+
+    Each process takes the longest signature left (the census's ``seconds``) whose families' compiled steps no
+    other process is compiling at the time (:func:`_steps`; numba caches them once compiled, and every later
+    signature loads them): two processes compiling adaptive groups' steps at once would each spend a minute on
+    them. A process with nothing it may take waits for the others.
+
+    Raises:
+        RuntimeError: a process failed, or the whole did not finish within ``timeout`` seconds (its output says why).
+    """
+    import selectors
+    import tempfile
+
+    pending = sorted(CENSUS if names is None else names, key=lambda n: -CENSUS[n].seconds)
+    start = time.perf_counter()
+    deadline = time.monotonic() + timeout
+    environment = dict(os.environ if env is None else env)
+    environment["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), environment.get("PYTHONPATH")]))
+    seconds: dict[str, float] = {}
+    compiled: set[str] = set()  # steps compiled (and cached) by a finished signature
+    with tempfile.TemporaryFile("w+") as log:
+        compilers = [_Compiler(environment, log) for _ in range(max(1, min(processes, len(pending))))]
+        selector = selectors.DefaultSelector()
+        for compiler in compilers:
+            selector.register(compiler.process.stdout, selectors.EVENT_READ, compiler)
+        try:
+            while pending or any(c.name for c in compilers):
+                for compiler in compilers:
+                    others = set().union(*(c.steps for c in compilers if c is not compiler))
+                    take = next((n for n in pending if not (_steps(n) - compiled) & others), None)
+                    if compiler.name is None and take is not None:
+                        pending.remove(take)
+                        compiler.give(take, _steps(take) - compiled)
+                left = deadline - time.monotonic()
+                events = selector.select(timeout=max(0.0, left))
+                if not events and left <= 0:
+                    raise RuntimeError(f"compiling the kernels took more than {timeout:g} s; left: "
+                                       + ", ".join([*(c.name for c in compilers if c.name), *pending]))
+                for key, _ in events:
+                    compiler = key.data
+                    line = compiler.process.stdout.readline()
+                    if not line:  # the process ended: it failed
+                        compiler.process.wait(timeout=60)
+                        log.seek(0)
+                        raise RuntimeError(f"compiling {compiler.name} failed ({compiler.process.returncode}):\n"
+                                           f"{log.read()[-3000:]}")
+                    seconds.update(json.loads(line))
+                    compiled |= compiler.steps
+                    compiler.name, compiler.steps = None, set()
+        finally:
+            for compiler in compilers:
+                if compiler.process.poll() is None and compiler.name is None:
+                    compiler.process.stdin.close()  # done: it ends
+                else:
+                    compiler.process.kill()
+                compiler.process.wait(timeout=60)
+                compiler.process.stdout.close()
+    return Precompiled(seconds, time.perf_counter() - start, len(compilers))
+
+
+def measure(names: Sequence[str]) -> dict[str, float]:
+    """Each named signature's compile time alone: in a process of its own, on a numba cache that holds what ``fixed``
+    compiled (what every kernel calls) and nothing else (the census's ``seconds``)."""
+    import shutil
+    import tempfile
+
+    results = {}
+    with tempfile.TemporaryDirectory(prefix="mgrao-census-") as tmp:
+        environment = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
+        base = Path(tmp) / "fixed"
+        precompile(["fixed"], processes=1, env=environment | {"XDG_CACHE_HOME": str(base)})
+        for name in names:
+            home = Path(tmp) / "measure"
+            shutil.rmtree(home, ignore_errors=True)
+            shutil.copytree(base, home)
+            results[name] = precompile([name], processes=1, env=environment | {"XDG_CACHE_HOME": str(home)}
+                                       ).seconds[name]
+            print(f"{name}: {results[name]:.1f} s", flush=True)
+    return results
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m tests.support.kernels", description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    sub.add_parser("serve", help="compile (or load) each census name read from standard input, a line each")
+    compile_ = sub.add_parser("compile", help="compile (or load) the named census signatures in this process")
+    compile_.add_argument("names", nargs="*", help="census names (default: all)")
+    measure_ = sub.add_parser("measure", help="each signature's compile time with an empty cache")
+    measure_.add_argument("names", nargs="*", help="census names (default: all)")
+    sub.add_parser("list", help="the census, with each signature's seconds")
+    args = parser.parse_args(argv)
+    def report(name: str, seconds: float) -> None:
+        print(json.dumps({name: round(seconds, 2)}), flush=True)
+
+    if args.command == "serve":
+        compile_here((line.strip() for line in sys.stdin if line.strip()), report)
+    elif args.command == "compile":
+        compile_here(args.names or CENSUS, report)
+    elif args.command == "measure":
+        measure(args.names or list(CENSUS))
+    else:
+        for name, recipe in CENSUS.items():
+            print(f"{name:50s} {recipe.seconds:6.0f} s  {recipe}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,38 @@
+"""The census of the suite's kernels (tests/support/kernels.py): what the tests may compile, each with its cost.
+
+Every signature of the kernel is one more compile of a quarter of a minute to a few minutes on a new install, in
+CI and for whoever runs the suite; tests/conftest.py fails a test that runs the kernel outside the census, and a
+parallel run compiles the census before its first test. These tests keep the census itself true.
+"""
+
+from __future__ import annotations
+
+import inspect
+
+import pytest
+
+from mgrao_core.algorithms import LEARNERS
+from mgrao_core.engine.kernel import run_block
+from tests.support.kernels import CENSUS, OPTIONAL, PARTS, signature_of
+
+ALLOWED = sorted(CENSUS)
+
+
+def test_the_census_names_every_optional_argument_of_the_kernel() -> None:
+    # a new argument that may be None doubles what can be compiled: each signature the tests give it is another
+    # compile (tests/support/kernels.py says how to weigh one), so a new one must come here, and into the census
+    parameters = list(inspect.signature(run_block.py_func).parameters)
+    assert parameters == ["lanes", "worlds", "several", "links", "draws", "env", "utilities", "outside", "failing",
+                          *OPTIONAL[4:]], "run_block's arguments changed: update OPTIONAL and the census"
+    assert len(OPTIONAL[4:]) == len(LEARNERS) and PARTS[4:] == tuple(family.name for family in LEARNERS)
+
+
+@pytest.mark.parametrize("name", ALLOWED)
+def test_each_recipe_calls_the_kernel_with_the_signature_it_is_listed_under(name: str) -> None:
+    assert signature_of(CENSUS[name]) == name
+
+
+def test_the_census_is_small_and_says_what_each_signature_costs() -> None:
+    # the allowed signatures, with their compile times alone (python -m tests.support.kernels measure)
+    assert len(ALLOWED) <= 18, f"{len(ALLOWED)} kernels to compile for the tests: {ALLOWED}"
+    assert all(recipe.seconds > 0 for recipe in CENSUS.values())
