@@ -238,7 +238,11 @@ class CompareGroup(BaseModel):
                                                "logged from outside).")
     external: bool
     episodes_per_run: int
-    job_ids: list[int] = Field(description="The jobs whose runs it takes.")
+    job_ids: list[int] = Field(description="Every job read for it, in the order asked: those whose runs it takes "
+                                           "and those only checked (checked_job_ids).")
+    checked_job_ids: list[int] = Field(description="Jobs read whose every seed an earlier job gave first (a job whose "
+                                                   "seeds are a subset of another's): their runs are checked against "
+                                                   "those (mismatched_seeds), none counted twice.")
     mismatched_seeds: list[int] = Field(description="Seeds whose pooled runs differ between jobs (the first job's is "
                                                     "used): built-in runs of one configuration should be identical.")
     summary: Summary
@@ -321,7 +325,7 @@ class ComparisonStatistics(BaseModel):
     protocol: dict[str, Any]
     configurations: list[dict[str, Any]] = Field(description="Each configuration's system (its world's name), "
                                                              "base (the preset), label, algorithm, params, job_ids, "
-                                                             "mismatched_seeds.")
+                                                             "checked_job_ids, mismatched_seeds.")
 
 
 class SampleEfficiency(BaseModel):
