@@ -258,8 +258,10 @@ def list_jobs(
     order = parse_sort(sort)
     clauses = _filters(status=status, system=system, tag=tag, q=q, config_hash=config_hash, kind=kind)
     total = session.scalar(select(func.count()).select_from(Job).where(*clauses)) or 0
-    statement = order.apply(select(*LISTED, order.value.label("sort_key")).where(*clauses), cursor)
-    rows = session.execute(statement.limit(limit + 1)).all()
+    listed = select(*LISTED, order.value.label("sort_key")).where(*clauses)
+    rows = session.execute(order.apply(listed, cursor).limit(limit + 1)).all()
+    if len(rows) <= limit and order.more_blanks(cursor):  # by name: the unnamed jobs after the named ones
+        rows += session.execute(order.blanks(listed).limit(limit + 1 - len(rows))).all()
     next_cursor = None
     if len(rows) > limit:
         rows = rows[:limit]

@@ -2,7 +2,8 @@
 
 ``sort`` is one of (each with an optional leading ``-`` for descending):
 
-* ``created_at``, ``name``, ``status``;
+* ``created_at``, ``name``, ``status``; unnamed jobs (the dashboard's "job 12") come after every named one
+  in either direction, by id;
 * ``param.NAME`` for any parameter of the schema (``param.learning_rate``);
 * ``final_mean:CONFIGURATION``, ``pct_from_uniform:CONFIGURATION``, ``pct_of_max:CONFIGURATION``, a
   configuration's stored summary (``-pct_from_uniform:mgrao-max``).
@@ -41,17 +42,39 @@ class JobOrder(Keyset):
     """A parsed ``sort`` of jobs: a keyset order, and the join a configuration's result needs."""
 
     configuration: str | None = None  # the summary's configuration, when ordering by a result
+    blank_last: bool = False
+    """An empty text (a job without a name) comes after every other value, in either direction, by id.
+
+    Each part is read along the column's index: the others (``value <> ''``), then, where a page is not full,
+    :meth:`blanks` (``value = ''``, in id order); a page that ends among the blanks has a cursor of key ``''``."""
 
     def apply(self, statement: Select, cursor: str | None) -> Select:
         """``statement`` (a select of jobs) joined as needed, after ``cursor``, ordered."""
         if self.configuration is not None:
             statement = statement.outerjoin(
                 JobSummary, and_(JobSummary.job_id == Job.id, JobSummary.algorithm == self.configuration))
+        if self.blank_last:
+            if cursor and self.decode(cursor)[0] == "":
+                return self.blanks(statement, cursor)
+            statement = statement.where(self.value != "")
         return super().apply(statement, cursor)
 
+    def blanks(self, statement: Select, cursor: str | None = None) -> Select:
+        """``statement``'s rows whose value is empty, after ``cursor``'s id, in id order (this order's direction)."""
+        statement = statement.where(self.value == "")
+        if cursor:
+            after = self.decode(cursor)[1]
+            statement = statement.where(self.row_id < after if self.descending else self.row_id > after)
+        return statement.order_by(self.row_id.desc() if self.descending else self.row_id.asc())
 
-def _order(text: str, descending: bool, value: ColumnElement, kind: str, configuration: str | None = None) -> JobOrder:
-    return JobOrder(text, descending, value, kind, Job.id, "job", configuration)
+    def more_blanks(self, cursor: str | None) -> bool:
+        """Whether a page that the other values did not fill goes on with the blanks (not yet among them)."""
+        return self.blank_last and not (cursor and self.decode(cursor)[0] == "")
+
+
+def _order(text: str, descending: bool, value: ColumnElement, kind: str, configuration: str | None = None,
+           blank_last: bool = False) -> JobOrder:
+    return JobOrder(text, descending, value, kind, Job.id, "job", configuration, blank_last)
 
 
 def _configuration(label: str) -> str:
@@ -68,7 +91,7 @@ def parse_sort(text: str) -> JobOrder:
     name = text[1:] if descending else text
     if name in _COLUMNS:
         column, kind = _COLUMNS[name]
-        return _order(text, descending, column, kind)
+        return _order(text, descending, column, kind, blank_last=name == "name")
     if name.startswith("param."):
         parameter = _PARAMETERS.get(name[len("param."):])
         if parameter is None:

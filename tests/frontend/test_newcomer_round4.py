@@ -26,3 +26,36 @@ def test_compare_says_a_job_whose_seeds_are_a_subset_of_anothers_was_read(browse
         assert "none is counted twice" in checked.get_attribute("title")
         page.screenshot(path=str(screenshots / "compare-subset-job-checked.png"), full_page=True)
         assert errors == [], errors
+
+
+def test_the_runs_table_fits_1024_px_and_sorts_unnamed_jobs_last(browser, server, screenshots):
+    """Issue 43, item 14: at 1024 px Duration and Actions were cut off; "Name A-Z" put the unnamed "job 1" first."""
+    every = ["uniform", "mgrao-1:1", "mgrao-2:1", "mgrao-5:1", "mgrao-10:1", "mgrao-25:1", "mgrao-max"]
+    jobs = [post_job(server, {"system": "large", "algorithms": every, "seeds": 1, "episodes": 5,
+                              "name": "every configuration of large", "tags": ["round4-runs", "paper-figure"]}),
+            post_job(server, {"system": "single", "algorithms": ["uniform"], "seeds": 1, "episodes": 5,
+                              "name": "a named one", "tags": ["round4-runs"]}),
+            post_job(server, {"system": "single", "algorithms": ["uniform"], "seeds": 1, "episodes": 5,
+                              "tags": ["round4-runs"]})]  # the newest: first until sorted by name
+    wait_succeeded(server, jobs)
+    with page_at(browser, server, width=1024, height=768) as page:
+        errors = console_errors(page)
+        page.goto("/#/runs?tag=round4-runs")
+        page.locator("table.runs tbody tr").nth(2).wait_for()
+        wrap = page.locator(".table-wrap").first
+        scroll, client = wrap.evaluate("el => [el.scrollWidth, el.clientWidth]")
+        assert scroll <= client, (scroll, client)  # nothing to scroll to: every column on screen
+        right = wrap.bounding_box()["x"] + wrap.bounding_box()["width"]
+        for header in ("Duration", "Actions"):
+            box = page.locator("table.runs thead th", has_text=header).bounding_box()
+            assert box["x"] + box["width"] <= right + 0.5, (header, box, right)
+        delete = page.locator(f"table.runs tbody tr[data-id='{jobs[0]['id']}'] button", has_text="Delete")
+        box = delete.bounding_box()
+        assert box["x"] + box["width"] <= right + 0.5, (box, right)
+        page.screenshot(path=str(screenshots / "runs-at-1024.png"), full_page=True)
+        page.locator("select[name=sort]").select_option("name")
+        page.wait_for_function("(id) => document.querySelector('table.runs tbody tr:last-child')?.dataset.id === id",
+                               arg=str(jobs[2]["id"]), timeout=30000)
+        names = page.locator("table.runs tbody td.job-name a").all_inner_texts()
+        assert names == ["a named one", "every configuration of large", f"job {jobs[2]['id']}"], names
+        assert errors == [], errors
