@@ -22,7 +22,7 @@ from mgrao_core.presets import PAPER_SYSTEMS, PRESETS
 from mgrao_core.reproduction import DEFAULT_SEEDS, READINGS, reproduction_table
 from mgrao_core.reproduction import reproduce as run_reproduction
 from mgrao_core.spec import MAX_SEED_VALUE
-from mgrao_core.statistics.report import text_table
+from mgrao_core.statistics.report import deciding_digits, text_table
 from mgrao_core.statistics.sequential import Verdict, coverage_of, parse_until, run_until, until_spec
 
 PROGRESS_BAR_WORK = 20_000_000
@@ -276,9 +276,10 @@ def reproduce(seeds: int, first_seed: int, episodes: int, reading: str, sets: tu
         return
     blocks = []
     for name, rows in table["systems"].items():
-        body = [
-            [label, _fmt(r["pct_from_uniform"]), _interval(r["ci95"]),
-             _fmt(r["paper_pct_from_uniform"]) + (" *" if r["paper_outside_ci"] else "  "),
+        judged = {label: deciding_digits(r["ci95"], r["paper_pct_from_uniform"]) for label, r in rows.items()}
+        body = [  # an interval and the paper's figure to the decimal that shows the verdict (the paper view's rule)
+            [label, _fmt(r["pct_from_uniform"]), _interval(r["ci95"], judged[label]),
+             _fmt(r["paper_pct_from_uniform"], judged[label]) + (" *" if r["paper_outside_ci"] else "  "),
              _fmt(r["pct_of_max"]), _fmt(r["paper_pct_of_max"])]
             for label, r in rows.items() if label != "uniform"
         ]

@@ -5,7 +5,7 @@
 import { api } from './api.js';
 import { h, statusCell, jobMeta, notice, editJobDialog, confirmDialog, cancelConsequence, keepLabel, nextId, downloadText, downloadWithToken } from './ui.js';
 import { draw, purge, loadPlotly, meanBandTraces, seedTraces, utilityLayout, bandsBelow, bandAlpha, withEvents } from './charts.js';
-import { fmtNumber, fmtPct, fmtCI, pctProgress, waitingMessage, smoothingNote, episodesPerPoint, bandCaution, DEFINITIONS, SUMMARY_COLUMNS, summaryCells, seedPoints, MIN_SEED_POINTS } from './stats.js';
+import { fmtNumber, fmtPct, fmtCI, decidingDigits, pctProgress, waitingMessage, smoothingNote, episodesPerPoint, bandCaution, DEFINITIONS, SUMMARY_COLUMNS, summaryCells, seedPoints, MIN_SEED_POINTS } from './stats.js';
 import { algorithmStyles } from './colours.js';
 import { compareLabels, ready, rememberAnswer } from './algorithms.js';
 import { axisControls, withAxis, tableCsvButton } from './chartcontrols.js';
@@ -401,15 +401,16 @@ export async function mount(root, params, ctx) {
       h('tbody', {}, r.configurations.map((c) => {
         const s = c.summary || {};
         const pv = paper ? paper[c.algorithm] : undefined;
+        const judged = pv === undefined || pv === null ? 1 : decidingDigits(s.pct_ci95, pv); // the paper view's rule
         return h('tr', {},
           h('th', { scope: 'row' }, c.algorithm),
           h('td', { class: 'num' }, s.n_runs ?? '–'),
           h('td', { class: 'num' }, fmtNumber(s.final_mean)),
           h('td', { class: 'num ci' }, fmtCI(s.ci95)),
           h('td', { class: 'num' }, fmtPct(s.pct_from_uniform)),
-          h('td', { class: 'num ci' }, fmtCI(s.pct_ci95, 1, true)),
+          h('td', { class: 'num ci pct-ci' }, fmtCI(s.pct_ci95, judged, true)),
           h('td', { class: 'num' }, fmtPct(s.pct_of_max, 1, false)),
-          paper ? h('td', { class: 'num paper' }, pv === undefined || pv === null ? '–' : fmtPct(pv)) : null);
+          paper ? h('td', { class: 'num paper' }, pv === undefined || pv === null ? '–' : fmtPct(pv, judged)) : null);
       })));
     return h('section', { 'aria-labelledby': 'h-sum' },
       h('h2', { id: 'h-sum' }, 'Final utility ', tableCsvButton(`job-${id}-final-utility.csv`, () => [

@@ -230,6 +230,23 @@ export function fmtCI(ci, digits = 3, pct = false) {
   return `[${f(ci[0])}, ${f(ci[1])}]`;
 }
 
+/**
+ * The one rounding rule of an interval shown against a figure it is judged by (the paper's % from uniform): the
+ * decimals at which both read as on the side of `value` that it is. One (`digits`) unless rounding hides the verdict
+ * (the paper's +28.0% outside [+23.28%, +27.99%] would read as its end, [+23.3%, +28.0%]), then as many as tell
+ * them apart, at most `most`. Every view that shows the interval beside that figure (the paper view, a job's page)
+ * writes both with these decimals; `deciding_digits` of mgrao_core/statistics/report.py is the command line's.
+ */
+export function decidingDigits(ci, value, digits = 1, most = 4) {
+  if (!Array.isArray(ci) || !Number.isFinite(ci[0]) || !Number.isFinite(ci[1]) || !Number.isFinite(value)) return digits;
+  const outside = value < ci[0] || value > ci[1];
+  for (let d = digits; d < most; d += 1) {
+    const at = (x) => Number(x.toFixed(d));
+    if ((at(value) < at(ci[0]) || at(value) > at(ci[1])) === outside) return d;
+  }
+  return most;
+}
+
 export function fmtDuration(seconds) {
   if (!isFiniteNumber(seconds)) return '–';
   if (seconds < 1) return `${Math.round(seconds * 1000)} ms`;

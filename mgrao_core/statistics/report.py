@@ -36,6 +36,36 @@ def _fixed(value: float, digits: int) -> str:
     return f"{0.0 if abs(value) < 0.5 * 10**-digits else value:.{digits}f}"
 
 
+def deciding_digits(interval: Sequence[float | None] | None, value: float | None, digits: int = 1,
+                    most: int = 4) -> int:
+    """The one rounding rule of an interval shown against a figure it is judged by (the paper's % from uniform).
+
+    The decimals at which the interval's ends and ``value`` read as on the side of it that ``value`` is: ``digits``
+    unless rounding hides the verdict (the paper's 28.0 outside [23.28, 27.99] would read as its end at one
+    decimal), then as many as tell them apart, at most ``most``. The dashboard's ``decidingDigits``
+    (frontend/js/stats.js) is the same rule.
+
+    Args:
+        interval: the interval's ends (``None`` or a missing end: ``digits``).
+        value: the figure judged against it (``None``: ``digits``).
+        digits: the decimals shown when they suffice.
+        most: the decimals shown at most.
+
+    Returns:
+        The decimals to write both with.
+    """
+    if (not interval or value is None or any(v is None or not math.isfinite(v) for v in interval)
+            or not math.isfinite(value)):
+        return digits
+    low, high = interval
+    outside = value < low or value > high
+    for d in range(digits, most):
+        at = [float(f"{x:.{d}f}") for x in (value, low, high)]
+        if (at[0] < at[1] or at[0] > at[2]) == outside:
+            return d
+    return most
+
+
 def _number(value: float | None, digits: int) -> str:
     if value is None or (isinstance(value, float) and not math.isfinite(value)):
         return "-"

@@ -9,7 +9,7 @@ from click.testing import CliRunner
 
 from mgrao_cli.main import cli
 from mgrao_core.statistics.comparison import compare
-from mgrao_core.statistics.report import latex, table
+from mgrao_core.statistics.report import deciding_digits, latex, table
 from tests.core.test_comparison import _paper_like
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -50,3 +50,13 @@ def test_the_readme_says_where_compare_finds_its_service() -> None:
     readme = (ROOT / "README.md").read_text()
     assert re.search(r"^\s+mgrao compare \S+ .*--url http", readme, re.M), "no compare example with --url"
     assert "http://127.0.0.1:8000" in readme and "MGRAO_URL" in readme
+
+
+def test_one_rounding_rule_shows_the_digit_that_decides_whether_the_paper_lies_in_the_interval() -> None:
+    """Issue 43, item 12: the command line's rule is the dashboard's (the cases of tests/frontend/js/paperdata.test.mjs,
+    decidingDigits)."""
+    assert deciding_digits([23.31, 27.99], 28.0) == 2  # outside by 0.01: +27.99% against +28.00%
+    assert deciding_digits([23.31, 27.2], 28.0) == 1  # plainly outside
+    assert deciding_digits([23.31, 28.04], 28.0) == 1  # within, and reads within
+    assert deciding_digits([23.31, 27.9999], 28.0) == 4  # at most four
+    assert deciding_digits(None, 28.0) == deciding_digits([1.0, 2.0], None) == 1
