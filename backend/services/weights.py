@@ -66,10 +66,14 @@ def _answer(combined: np.ndarray, groups: np.ndarray | None, shape: list[int], n
     return out
 
 
+def membership_history(blob: bytes, meta: dict[str, Any]) -> np.ndarray:
+    """A run's recorded memberships as stored, ``(children, records, n_parents)``: each parent's group."""
+    return np.frombuffer(blob, dtype="<i2").reshape(meta["shape"])
+
+
 def _membership(blob: bytes, meta: dict[str, Any]) -> dict[str, Any]:
     """A run's recorded memberships: per child, per record, each parent's group; and the episodes between records."""
-    history = np.frombuffer(blob, dtype="<i2").reshape(meta["shape"])
-    return {"every": meta["every"], "children": history.tolist()}
+    return {"every": meta["every"], "children": membership_history(blob, meta).tolist()}
 
 
 def mean_over_seeds(session: Session, job_id: int, algorithm: str) -> dict[str, Any]:

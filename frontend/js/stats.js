@@ -40,11 +40,20 @@ export function episodesPerPoint(episodes) {
   return Math.max(1, Math.round((episodes[episodes.length - 1] - episodes[0]) / (episodes.length - 1)));
 }
 
-/** One line saying what the chart's smoothing is, in episodes, whatever the downsampling. */
-export function smoothingNote(window, perPoint, bands = true) {
+/**
+ * One line saying what the chart draws and its smoothing, in episodes, whatever the downsampling. `seeds`
+ * (`{drawn, of}`: individual seeds drawn per configuration, of how many) when they are shown.
+ */
+export function smoothingNote(window, perPoint, bands = true, seeds = null) {
   const w = Math.max(1, Math.floor(Number(window) || 1));
   const points = perPoint > 1 ? ` Each plotted point is already the mean of ${perPoint} consecutive episodes.` : '';
-  const lines = bands ? 'Lines: mean over seeds; bands: its 95% interval.' : 'Lines: mean over seeds (95% bands hidden).';
+  const mean = seeds ? 'Thick lines: mean over seeds' : 'Lines: mean over seeds';
+  let lines = bands ? `${mean}; bands: its 95% interval.` : `${mean} (95% bands hidden).`;
+  if (seeds) {
+    lines += seeds.drawn < seeds.of
+      ? ` Faint lines beneath: ${seeds.drawn} of each configuration’s ${seeds.of} seeds, spread evenly over them.`
+      : ` Faint lines beneath: each of its ${seeds.of} ${seeds.of === 1 ? 'seed' : 'seeds'}.`;
+  }
   if (w === 1) return `${lines} Not smoothed.${points}`;
   return `${lines} Smoothed with a centred mean over ${w} episodes ` +
     `(${(w - 1) / 2} before and after each${bands ? '; the band likewise' : ''}).${points}`;
@@ -94,6 +103,49 @@ export function badIds(value) {
 export const DEFINITIONS = 'Final mean: system utility averaged over the last 10 episodes, then over seeds (95% t-interval). ' +
   '% from uniform: gain over uniform, paired seed by seed (same worlds), over the seeds shared with uniform (Paired). ' +
   '% of max: this configuration’s gain over uniform as a share of mgrao-max’s, on the seeds all three share.';
+
+/**
+ * What a reader of "% of max" should know where mgrao-max is not the yardstick they assume ('' where it is):
+ * configurations that gain more over uniform than mgrao-max (above 100%), or none at all where mgrao-max gained
+ * nothing (the column is empty). `configurations`: `{algorithm, summary}` of one world.
+ */
+export function maxNote(configurations) {
+  const rows = (configurations || []).filter((c) => c && c.summary);
+  const max = rows.find((c) => c.algorithm === 'mgrao-max');
+  if (!max) return '';
+  if (!isFiniteNumber(max.summary.pct_of_max)) {
+    return '% of max is not given: mgrao-max gained nothing over uniform here, so no share of its gain means anything.';
+  }
+  const above = rows.filter((c) => c.algorithm !== 'mgrao-max' && isFiniteNumber(c.summary.pct_of_max) &&
+    c.summary.pct_of_max > 100);
+  if (!above.length) return '';
+  const named = above.map((c) => `${c.algorithm} (${fmtPct(c.summary.pct_of_max, 1, false)})`);
+  const list = named.length > 1 ? `${named.slice(0, -1).join(', ')} and ${named[named.length - 1]}` : named[0];
+  return `mgrao-max is not the best here: ${list} ${above.length > 1 ? 'gain' : 'gains'} more over uniform than it ` +
+    'does. % of max is a share of mgrao-max’s gain, not of the best configuration’s: rank them by % from uniform.';
+}
+
+/**
+ * A learner's parent groups at the end (`learning` of a results configuration): "1" where every child has one
+ * count, else each count with its children, "5 groups: 4 of 6 children; 10 groups: 2 of 6". '–' without groups.
+ */
+export function groupsText(learning) {
+  const groups = learning && learning.groups;
+  if (!groups) return '–';
+  const counts = Object.entries(groups).map(([g, n]) => [Number(g), n]).sort((a, b) => a[0] - b[0]);
+  if (counts.length === 1 && !learning.groups_change) return String(counts[0][0]);
+  const of = learning.children;
+  return counts.map(([g, n]) => `${g} ${g === 1 ? 'group' : 'groups'}: ${n} of ${of} ${of === 1 ? 'child' : 'children'}`)
+    .join('; ');
+}
+
+/** The share of a child's resources learning took (`learning.taken`): "12.5%", or "8.0% (5.0–12.5%)" where it varies. */
+export function takenText(learning) {
+  const t = learning && learning.taken;
+  if (!t || !isFiniteNumber(t.mean)) return '–';
+  const pct = (x) => (100 * x).toFixed(1);
+  return t.high - t.low > 5e-4 ? `${pct(t.mean)}% (${pct(t.low)}–${pct(t.high)}%)` : `${pct(t.mean)}%`;
+}
 
 /** The export columns of a configuration's summary: numbers, units in the names (`summaryCells`). */
 export const SUMMARY_COLUMNS = ['n_runs', 'n_paired', 'final_mean_utility', 'final_ci95_low_utility',

@@ -73,11 +73,13 @@ def learned_by_max(params: System) -> int:
     return mgrao.FAMILY.learned_numbers(Algorithm(MGRAO_MAX, mgrao.FAMILY.name, params.n_parents), params)
 
 
-def task_share(algorithm: Algorithm, params: System) -> float:
+def task_share(algorithm: Algorithm, params: System, groups: int | None = None) -> float:
     """The share of each child's resources its tasks get under ``learning_cost`` (:func:`.equations.task_share`).
 
-    What ``algorithm``'s children learn (:meth:`Family.learned_numbers`) priced against ``mgrao-max``'s; 1 without
-    a cost (the paper's experiments: nothing computed, every family's numbers unchanged).
+    What ``algorithm``'s children learn (:meth:`Family.learned_numbers`; with ``groups``, what a child with that
+    many groups keeps, :meth:`Family.learned_with`: ``mgrao-balance``'s changes as it runs) priced against
+    ``mgrao-max``'s; 1 without a cost (the paper's experiments: nothing computed, every family's numbers unchanged).
+    What learning takes is the rest, ``1 - task_share``.
 
     Raises:
         ConfigError: naming ``learning_cost``, for a learner that does not declare what it learns.
@@ -85,11 +87,26 @@ def task_share(algorithm: Algorithm, params: System) -> float:
     cost = getattr(params, "learning_cost", 0.0)
     if not cost:
         return 1.0
+    family = family_of(algorithm)
     try:
-        learned = family_of(algorithm).learned_numbers(algorithm, params)
+        learned = (family.learned_numbers(algorithm, params) if groups is None
+                   else family.learned_with(algorithm, params, groups))
     except NotImplementedError as error:
         raise ConfigError("learning_cost", str(error)) from None
     return equations.task_share(cost, learned, learned_by_max(params))
+
+
+def groups_at_end(history: Any) -> Any:
+    """Each child's number of parent groups in its last recorded membership.
+
+    Args:
+        history: a run's recorded memberships ``(children, records, n_parents)`` (:meth:`Family.membership`),
+            each parent's group ``0 .. m - 1`` in each record.
+
+    Returns:
+        ``(children,)`` the groups of each child's last record (every group holds a parent: ``m <= n_parents``).
+    """
+    return history[:, -1, :].max(axis=1) + 1
 
 
 def parse_algorithms(labels: list[str] | tuple[str, ...], n_parents: int) -> tuple[Algorithm, ...]:
@@ -175,9 +192,11 @@ __all__ = [
     "describe_label",
     "divisors",
     "family_of",
+    "groups_at_end",
     "parent_groups",
     "parse_algorithm",
     "parse_algorithms",
     "registry",
     "sort_key",
+    "task_share",
 ]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 from backend_helpers import drain
 from fastapi.testclient import TestClient
 
@@ -54,3 +55,47 @@ def test_sorting_by_name_puts_unnamed_jobs_last_in_either_direction_page_by_page
                     break
             assert [j["name"] for j in seen[:4]] == named, (sort, limit, seen)
             assert [j["id"] for j in seen[4:]] == (unnamed if sort == "name" else unnamed[::-1]), (sort, limit)
+
+
+def test_a_jobs_results_say_what_learning_cost_and_which_groups_balance_settled_on_and_the_oracles_caveat(
+        client: TestClient, worker: Worker) -> None:
+    """Issue 43, items 7 and 8: the oracle's caveat was compare's alone; the cost learning took and mgrao-balance's
+    group count at the end were nowhere (it "stores no group weights")."""
+    from collections import Counter
+
+    from mgrao_core import make_spec, run_experiment
+    from mgrao_core.algorithms import groups_at_end, parse_algorithm, task_share
+    from mgrao_core.algorithms.oracle import bound_caveats
+
+    body = {"system": "multi", "algorithms": ["uniform", "mgrao-1:1", "mgrao-balance", "oracle"], "seeds": 2,
+            "episodes": 40, "params": {"learning_cost": 0.3}}
+    job = submit(client, **body)
+    assert drain(worker) == 1
+    answer = client.get(f"/api/jobs/{job['id']}/results?points=10")
+    assert answer.status_code == 200, answer.text
+    results = answer.json()
+    spec = make_spec("multi", body["algorithms"], seeds=2, episodes=40, overrides=body["params"])
+    assert results["oracle_caveats"] == bound_caveats(spec.params) and results["oracle_caveats"]
+    learning = {c["algorithm"]: c["learning"] for c in results["configurations"]}
+    assert learning["uniform"] is None and learning["oracle"] is None  # they learn nothing
+    one = parse_algorithm("mgrao-1:1", spec.params.n_parents)
+    share = 1 - task_share(one, spec.params)
+    assert learning["mgrao-1:1"] == {"groups": {"1": 2 * spec.params.n_children}, "children": 6,
+                                     "groups_change": False, "taken": {"mean": share, "low": share, "high": share}}
+    assert learning["mgrao-balance"]["groups_change"] is True
+    # mgrao-balance: each child's groups at the end of the core's own runs, and the share that many groups take
+    runs = [r for r in run_experiment(spec).runs if r.algorithm == "mgrao-balance"]
+    ended = Counter(g for r in runs for g in groups_at_end(r.membership).tolist())
+    balance = parse_algorithm("mgrao-balance", spec.params.n_parents)
+    assert learning["mgrao-balance"]["groups"] == {str(g): n for g, n in sorted(ended.items())}
+    taken = {g: 1 - task_share(balance, spec.params, g) for g in ended}
+    assert learning["mgrao-balance"]["taken"]["mean"] == pytest.approx(
+        sum(taken[g] * n for g, n in ended.items()) / sum(ended.values()))
+    assert learning["mgrao-balance"]["taken"]["high"] == max(taken.values())
+    assert max(ended) > 1  # it split at least once: more groups than it started with
+    # without the oracle, no caveat; without a cost, the groups alone
+    job = submit(client, seeds=1, algorithms=["uniform", "mgrao-1:1"])
+    assert drain(worker) == 1
+    results = client.get(f"/api/jobs/{job['id']}/results?points=10").json()
+    assert results["oracle_caveats"] is None
+    assert {c["algorithm"]: c["learning"] for c in results["configurations"]}["mgrao-1:1"]["taken"] is None

@@ -98,3 +98,68 @@ def test_an_interval_and_the_papers_figure_read_alike_on_the_job_page_and_the_pa
             cells = row.locator("td").all_inner_texts()
             assert (cells[4], cells[5]) == said and "outside" in cells[6], cells
             assert errors == [], errors
+
+
+def test_the_job_page_says_what_learning_took_when_max_is_not_the_best_and_where_the_oracle_is_no_bound(
+        browser, server, screenshots):
+    """Issue 43, items 6-8: "% of max" above 100% unexplained (and always 100% in the runs table's mgrao-max column);
+    the oracle's caveat on compare only; no cost of learning, and mgrao-balance's groups nowhere."""
+    job = post_job(server, {"system": "multi", "seeds": 3, "episodes": 40, "name": "round4 cost of learning",
+                            "algorithms": ["uniform", "mgrao-1:1", "mgrao-max", "mgrao-balance", "oracle"],
+                            "params": {"learning_cost": 0.05}, "tags": ["round4-cost"]})
+    wait_succeeded(server, [job])
+    results = api(server, "GET", f"/jobs/{job['id']}/results?points=10")
+    summary = {c["algorithm"]: c["summary"] for c in results["configurations"]}
+    above = [a for a, s in summary.items() if a != "mgrao-max" and (s["pct_of_max"] or 0) > 100]
+    assert above, summary  # this world has configurations that gain more than mgrao-max
+    learning = {c["algorithm"]: c["learning"] for c in results["configurations"]}
+    with page_at(browser, server) as page:
+        errors = console_errors(page)
+        page.goto(f"/#/jobs/{job['id']}")
+        page.locator("#utility-chart[data-rendered]").wait_for()
+        caveat = page.locator("#oracle-caveat")
+        assert "no upper bound" in caveat.inner_text()
+        assert caveat.locator("li").all_inner_texts() == results["oracle_caveats"]
+        note = page.inner_text("#max-note")
+        assert note.startswith("mgrao-max is not the best here:"), note
+        for algorithm in above:
+            assert f"{algorithm} ({summary[algorithm]['pct_of_max']:.1f}%)" in note, note
+        rows = {r.locator("th").inner_text(): r.locator("td").all_inner_texts()
+                for r in page.locator("#learning-table tbody tr").all()}
+        assert set(rows) == {"mgrao-1:1", "mgrao-max", "mgrao-balance"}, rows
+        assert rows["mgrao-1:1"] == ["1", f"{100 * learning['mgrao-1:1']['taken']['mean']:.1f}%"]
+        assert rows["mgrao-max"][0] == "10" and rows["mgrao-max"][1] == "5.0%"  # mgrao-max pays learning_cost
+        ended = sorted(learning["mgrao-balance"]["groups"].items(), key=lambda kv: int(kv[0]))
+        assert rows["mgrao-balance"][0] == "; ".join(f"{g} {'group' if g == '1' else 'groups'}: {n} of 9 children"
+                                                     for g, n in ended), rows
+        page.locator("#learning-table").scroll_into_view_if_needed()
+        page.screenshot(path=str(screenshots / "job-learning-max-oracle.png"), full_page=True)
+        page.goto("/#/runs?tag=round4-cost&result=mgrao-max")
+        page.locator("table.runs tbody tr").first.wait_for()
+        headers = page.locator("table.runs thead th").all_inner_texts()
+        assert any(h.startswith("% from uniform") for h in headers), headers
+        assert not any(h.startswith("% of max") for h in headers), headers  # 100% by definition: not a column
+        assert errors == [], errors
+
+
+def test_a_hundred_seeds_are_drawn_as_a_faint_sample_beneath_the_means_under_a_true_caption(browser, server,
+                                                                                           screenshots):
+    """Issue 43, item 9: 400 opaque seed lines hid the means and bands, under "Lines: mean over seeds"."""
+    job = post_job(server, {"system": "single", "algorithms": ["uniform", "mgrao-1:1", "mgrao-2:1", "mgrao-max"],
+                            "seeds": 100, "episodes": 30, "name": "round4 a hundred seeds"})
+    wait_succeeded(server, [job])
+    with page_at(browser, server) as page:
+        errors = console_errors(page)
+        page.goto(f"/#/jobs/{job['id']}?seeds=1")
+        page.locator("#utility-chart[data-rendered]").wait_for()
+        kinds = page.eval_on_selector("#utility-chart", "el => el.data.map(t => t.meta.kind)")
+        assert kinds.count("seed") == 4 * 20, kinds.count("seed")  # a sample of each configuration's seeds
+        assert kinds.index("band") > max(i for i, k in enumerate(kinds) if k == "seed")  # beneath every band
+        alphas = page.eval_on_selector("#utility-chart", """el => el.data.filter(t => t.meta.kind === 'seed')
+            .map(t => Number(t.line.color.split(',').pop().replace(')', '')))""")
+        assert max(alphas) <= 0.2, max(alphas)  # faint
+        caption = page.inner_text("#smoothing-note")
+        assert caption.startswith("Thick lines: mean over seeds; bands: its 95% interval."), caption
+        assert "Faint lines beneath: 20 of each configuration’s 100 seeds" in caption, caption
+        page.screenshot(path=str(screenshots / "job-a-hundred-seeds.png"), full_page=True)
+        assert errors == [], errors

@@ -44,6 +44,9 @@ test('episodesPerPoint and smoothingNote say what a line is, in episodes', () =>
   assert.match(smoothingNote(1, 1), /Not smoothed\.$/);
   assert.match(smoothingNote(11, 1), /centred mean over 11 episodes \(5 before and after each/);
   assert.match(smoothingNote(11, 17), /already the mean of 17 consecutive episodes/);
+  assert.match(smoothingNote(1, 1, true, { drawn: 20, of: 100 }),
+    /^Thick lines: mean over seeds; bands: its 95% interval\. Faint lines beneath: 20 of each configuration’s 100 seeds/);
+  assert.match(smoothingNote(1, 1, false, { drawn: 3, of: 3 }), /Faint lines beneath: each of its 3 seeds\./);
 });
 
 test('smoothSeries smooths mean and band, keeps episodes', () => {
@@ -198,4 +201,25 @@ test('showsTaskRates: a nonzero rate, or a job whose tasks can fail; fmtRate: a 
   assert.equal(showsTaskRates([zero], [{ task_need: 1.5 }]), true);  // can fail, even where none did
   assert.equal(showsTaskRates([{}, undefined], [undefined, { task_need: 0 }]), false);  // an older answer
   assert.deepEqual([0, 0.1234, 1, 0.0001, null].map(fmtRate), ['0.0%', '12.3%', '100.0%', '<0.1%', '–']);
+});
+
+test('maxNote: says so where a configuration gains more than mgrao-max, or mgrao-max gained nothing', async () => {
+  const { maxNote } = await import('../../../frontend/js/stats.js');
+  const c = (algorithm, pct) => ({ algorithm, summary: { pct_of_max: pct } });
+  assert.equal(maxNote([c('uniform', 0), c('mgrao-1:1', 80), c('mgrao-max', 100)]), '');
+  const note = maxNote([c('uniform', 0), c('mgrao-1:1', 116.4), c('mgrao-max', 100), c('oracle', 273.7)]);
+  assert.match(note, /^mgrao-max is not the best here: mgrao-1:1 \(116\.4%\) and oracle \(273\.7%\) gain more/);
+  assert.match(maxNote([c('mgrao-max', null), c('mgrao-1:1', null)]), /mgrao-max gained nothing over uniform/);
+  assert.equal(maxNote([c('uniform', 0), c('mgrao-1:1', 120)]), ''); // no mgrao-max: the column is empty anyway
+});
+
+test('groupsText and takenText: a learner\'s groups at the end and what learning took', async () => {
+  const { groupsText, takenText } = await import('../../../frontend/js/stats.js');
+  assert.equal(groupsText({ groups: { 5: 6 }, children: 6, groups_change: false }), '5');
+  assert.equal(groupsText({ groups: { 10: 2, 5: 4 }, children: 6, groups_change: true }),
+    '5 groups: 4 of 6 children; 10 groups: 2 of 6 children');
+  assert.equal(groupsText({ groups: null, children: 0 }), '–');
+  assert.equal(takenText({ taken: { mean: 0.125, low: 0.125, high: 0.125 } }), '12.5%');
+  assert.equal(takenText({ taken: { mean: 0.08, low: 0.05, high: 0.125 } }), '8.0% (5.0–12.5%)');
+  assert.equal(takenText({ taken: null }), '–');
 });
