@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import csv
+import functools
 import io
 import json
 import math
 import os
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
@@ -81,6 +82,14 @@ def _progress(label: str, show: bool) -> Iterator[Any]:
             bar.update(int(round(fraction * 1000)) - bar.pos)
 
         yield update
+
+
+def _compile_notices(bar: bool) -> Callable[[Any], None]:
+    """A run's ``on_compile``: each notice on a line of stderr, under a progress bar drawn there already."""
+    def say(notice: Any) -> None:
+        click.echo(("\n" if bar and notice.seconds is None else "") + f"mgrao: {notice.message}", err=True)
+
+    return say
 
 
 def _emit(text: str, out: str | None) -> None:
@@ -177,11 +186,13 @@ def run(ctx: click.Context, system: str | None, algorithms: str | None, seeds: i
         _fail(error)
     load_engine()
     started = time.perf_counter()
-    with _progress(f"{system}", spec.work >= PROGRESS_BAR_WORK) as update:
+    bar = spec.work >= PROGRESS_BAR_WORK
+    with _progress(f"{system}", bar) as update:
+        said = _compile_notices(bar)
         if until is None:
-            result, done = mgrao_core.run_experiment(spec, on_progress=update), None
+            result, done = mgrao_core.run_experiment(spec, on_progress=update, on_compile=said), None
         else:
-            done = run_until(spec, until, mgrao_core.run_experiment,
+            done = run_until(spec, until, functools.partial(mgrao_core.run_experiment, on_compile=said),
                              on_block=lambda _result, verdict: update(verdict.seeds / until.max_seeds))
             result, spec = done.result, done.result.spec
     elapsed = time.perf_counter() - started
@@ -264,6 +275,7 @@ def reproduce(seeds: int, first_seed: int, episodes: int, reading: str, sets: tu
             results = run_reproduction(
                 _seed_range(seeds, first_seed), episodes, overrides,
                 on_progress=lambda name, f: update((order[name] + f) / count),
+                on_compile=_compile_notices(seeds * episodes >= 30_000),
             )
     except ConfigError as error:
         _fail(error)

@@ -5,7 +5,7 @@
 import { api } from './api.js';
 import { h, statusCell, jobMeta, notice, editJobDialog, confirmDialog, cancelConsequence, keepLabel, nextId, downloadText, downloadWithToken } from './ui.js';
 import { draw, purge, loadPlotly, meanBandTraces, seedTraces, SEED_SAMPLE, utilityLayout, bandsBelow, bandAlpha, withEvents } from './charts.js';
-import { fmtNumber, fmtPct, fmtCI, decidingDigits, maxNote, groupsText, takenText, pctProgress, waitingMessage, smoothingNote, episodesPerPoint, bandCaution, DEFINITIONS, SUMMARY_COLUMNS, summaryCells, seedPoints, MIN_SEED_POINTS } from './stats.js';
+import { fmtNumber, fmtPct, fmtCI, decidingDigits, compilingText, maxNote, groupsText, takenText, pctProgress, waitingMessage, smoothingNote, episodesPerPoint, bandCaution, DEFINITIONS, SUMMARY_COLUMNS, summaryCells, seedPoints, MIN_SEED_POINTS } from './stats.js';
 import { algorithmStyles } from './colours.js';
 import { compareLabels, ready, rememberAnswer } from './algorithms.js';
 import { axisControls, withAxis, tableCsvButton } from './chartcontrols.js';
@@ -141,7 +141,8 @@ export async function mount(root, params, ctx) {
         h('span', { class: `badge status-${job.status}` },
           job.status === 'running' ? h('span', { class: 'spinner', 'aria-hidden': 'true' }) : null, job.status),
         h('progress', { class: 'big', max: 100, value: pct, 'aria-label': 'Job progress', id: 'job-progress' }),
-        h('span', { class: 'pct', role: 'status', id: 'job-waiting' }, job.status === 'queued' ? waiting : `Running: ${pct}% done`)),
+        h('span', { class: 'pct', role: 'status', id: 'job-waiting' }, job.status === 'queued' ? waiting
+          : (job.compiling ? `Running: ${compilingText(job.compiling)}` : `Running: ${pct}% done`))),
       ...[requeueNote()].filter(Boolean));
     } else if (job.status === 'failed') {
       statusBox.replaceChildren(notice('error', 'This job failed.', h('pre', { class: 'error-text' }, job.error || 'No reason was recorded.')));

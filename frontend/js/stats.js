@@ -261,6 +261,35 @@ export function fieldErrors(detail, knownParams = new Set()) {
   return out;
 }
 
+const RANGE_ENDS = { low: 'from', high: 'to', steps: 'steps', log: 'log scale' };
+
+/** What a form calls the field of an API path: `learning_rate` for `base.params.learning_rate`, '' for a label. */
+export function fieldName(path) {
+  const p = String(path || '');
+  let m;
+  if ((m = /^(?:base\.)?params\.(\w+)$/.exec(p))) return m[1];
+  if ((m = /^space\.(\w+)\.(low|high|steps|log)$/.exec(p))) return `${m[1]} (${RANGE_ENDS[m[2]]})`;
+  if ((m = /^space\.(\w+)\.values\[(\d+)\]$/.exec(p))) return `${m[1]} (value ${Number(m[2]) + 1})`;
+  if ((m = /^space\.(\w+)(?:\.values)?$/.exec(p))) return m[1];
+  if (/^(?:base\.)?algorithms\[\d+\]$/.test(p)) return '';
+  if (p === 'space') return 'the parameters swept';
+  if ((m = /^(?:base\.|until\.)(\w+)$/.exec(p))) return m[1];
+  return p;
+}
+
+/**
+ * A refusal as shown beside its field, in the field's own words: the API's path that opens it
+ * ("space.learning_rate.high: ...") as the form names that field ("learning_rate (to): ..."); a refused label's
+ * path left out (its message names the label).
+ */
+export function ownWords(path, msg) {
+  const text = String(msg || '');
+  const m = /^([\w.[\]-]+): /.exec(text);
+  if (!m) return text;
+  const name = fieldName(m[1]);
+  return name ? `${name}: ${text.slice(m[0].length)}` : text.slice(m[0].length);
+}
+
 // ---- formatting -------------------------------------------------------------------------
 
 export function fmtNumber(x, digits = 3) {
@@ -362,6 +391,41 @@ export function systemName(job) {
 /** A job's system with its base where it is a saved system: "large30 (saved system, based on large)". */
 export function systemDescription(job) {
   return job && job.saved_system ? `${job.saved_system} (saved system, based on ${job.system})` : systemName(job);
+}
+
+/**
+ * A job's seeds as its header says them: the count, and for a job run until a question is answered (`until`),
+ * "20 of at most 500" (the seeds judged so far, or run, of the rule's most).
+ */
+export function seedsText(job) {
+  if (!job || !job.until) return String(seedCount(job));
+  const run = job.stopped && isFiniteNumber(job.stopped.seeds) && job.stopped.seeds > 0 ? job.stopped.seeds
+    : (job.status === 'succeeded' ? seedCount(job) : 0);
+  return `${run} of at most ${job.until.max_seeds}`;
+}
+
+/**
+ * Where a job's time went, for its header: [label, text] pairs: queued (from its submission to its start: waiting
+ * for a worker, or for one to warm up), compiling the engine for it, and running (the rest of its run).
+ */
+export function jobTimes(job) {
+  const compiling = isFiniteNumber(job.compile_s) ? job.compile_s : 0;
+  const running = isFiniteNumber(job.duration_s) ? Math.max(0, job.duration_s - compiling) : null;
+  return [
+    ['Queued', fmtDuration(job.queued_s)],
+    ['Compiling', job.compiling ? 'under way' : (compiling > 0 ? fmtDuration(compiling) : (job.started_at ? 'none' : '–'))],
+    ['Running', fmtDuration(running)],
+  ];
+}
+
+/** A running job's compile (its `compiling`) as the job page says it: the notice and how long so far. */
+export function compilingText(compiling, nowMs = Date.now()) {
+  if (!compiling || !compiling.message) return '';
+  const since = Date.parse(compiling.since || '');
+  const so = Number.isFinite(since) ? ` (${fmtDuration(Math.max(0, (nowMs - since) / 1000))} so far)` : '';
+  const message = compiling.message.charAt(0).toUpperCase() + compiling.message.slice(1);
+  return `${message}${so}. The engine is cached once compiled: later jobs of these families start at once ` +
+    '(“mgrao compile” compiles every family ahead).';
 }
 
 /** Number of seeds of a job (its `seeds` list, or a count). */

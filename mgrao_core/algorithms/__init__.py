@@ -130,6 +130,21 @@ def parse_algorithms(labels: list[str] | tuple[str, ...], n_parents: int) -> tup
     return tuple(parsed)
 
 
+def valid_labels(labels: list[str] | tuple[str, ...], n_parents: int) -> tuple[str, ...]:
+    """The labels valid in a system of ``n_parents`` parents, in their order (``mgrao-25:1`` leaves a 30-parent one).
+
+    A preset's configurations are its default; where overrides change its parents, these are what is left of them.
+    """
+    valid = []
+    for label in labels:
+        try:
+            parse_algorithm(label, n_parents)
+        except ConfigError:
+            continue
+        valid.append(label)
+    return tuple(valid)
+
+
 def sort_key(label: str) -> tuple[int, int, str]:
     """Where a configuration comes in views: uniform, then x:1 by x, then max, then the oracle.
 
@@ -199,4 +214,5 @@ __all__ = [
     "registry",
     "sort_key",
     "task_share",
+    "valid_labels",
 ]

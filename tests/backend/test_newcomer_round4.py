@@ -99,3 +99,39 @@ def test_a_jobs_results_say_what_learning_cost_and_which_groups_balance_settled_
     results = client.get(f"/api/jobs/{job['id']}/results?points=10").json()
     assert results["oracle_caveats"] is None
     assert {c["algorithm"]: c["learning"] for c in results["configurations"]}["mgrao-1:1"]["taken"] is None
+
+
+def test_a_job_says_while_its_worker_compiles_for_it_and_counts_the_seconds_apart(
+        client: TestClient, settings) -> None:  # noqa: ANN001
+    """Issue 43, items 2 and 11: nothing said a job was compiling; its duration hid the compile and the wait."""
+    from backend.execution.heartbeats import Heartbeats
+    from backend.store import queue
+    from backend.store.db import Database
+    from mgrao_core.compiling import Compiling
+    from tests.support.waiting import wait_until
+
+    job = submit(client, seeds=1, algorithms=["uniform", "bandit"])
+    db = Database(settings.database_url)
+    beats = Heartbeats(db, heartbeat_s=0.2, progress_s=0.1)
+    try:
+        claim = queue.claim(db, worker_id="test", stale_after_s=60, max_attempts=3)
+        assert claim is not None and claim.job_id == job["id"]
+        beats.add(claim)
+        beats.start()
+        notice = Compiling(("engine", "bandit"), 20.0)
+        beats.compiling(job["id"], notice)
+        shown = wait_until(lambda: client.get(f"/api/jobs/{job['id']}").json()["compiling"], 10,
+                           "the job to say that its worker compiles")
+        assert shown["message"] == notice.message and shown["parts"] == ["engine", "bandit"] and shown["since"]
+        assert client.get("/api/jobs?limit=5").json()["data"][0]["compiling"]["message"] == notice.message
+        beats.compiling(job["id"], Compiling(("engine", "bandit"), 20.0, seconds=12.5))
+        done = wait_until(lambda: (j := client.get(f"/api/jobs/{job['id']}").json())["compile_s"] and j, 10,
+                          "the job to count its compile")
+        assert done["compiling"] is None and done["compile_s"] == 12.5
+        beats.compiling(job["id"], Compiling(("engine", "bandit"), 20.0, seconds=0.5))  # a second chunk's compile
+        wait_until(lambda: client.get(f"/api/jobs/{job['id']}").json()["compile_s"] == 13.0, 10,
+                   "the job to add a second compile's seconds")
+        assert done["queued_s"] is not None and done["queued_s"] >= 0
+    finally:
+        beats.close()
+        db.dispose()

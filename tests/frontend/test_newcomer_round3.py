@@ -113,7 +113,7 @@ def test_a_new_study_error_of_no_field_is_brought_into_view_and_focused(browser,
         start.click()
         alert = page.locator(".error-summary .notice.error").first
         alert.wait_for(timeout=10000)
-        assert "space" in alert.inner_text()
+        assert "the parameters swept" in alert.inner_text()  # the space, in the form's words (issue 43, item 5)
         assert page.evaluate("document.activeElement === document.querySelector('.error-summary .notice.error')")
         top, bottom = page.evaluate("(() => { const r = document.querySelector('.error-summary .notice.error')"
                                     ".getBoundingClientRect(); return [r.top, r.bottom]; })()")

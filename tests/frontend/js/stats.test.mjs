@@ -223,3 +223,32 @@ test('groupsText and takenText: a learner\'s groups at the end and what learning
   assert.equal(takenText({ taken: { mean: 0.08, low: 0.05, high: 0.125 } }), '8.0% (5.0–12.5%)');
   assert.equal(takenText({ taken: null }), '–');
 });
+
+test('seedsText, jobTimes, compilingText: a header that says how many seeds of how many, and where time went', async () => {
+  const { seedsText, jobTimes, compilingText } = await import('../../../frontend/js/stats.js');
+  assert.equal(seedsText({ seeds: [0, 1, 2] }), '3');
+  const until = { until: { max_seeds: 500 }, seeds: Array.from({ length: 500 }, (_, i) => i), status: 'running' };
+  assert.equal(seedsText({ ...until, stopped: { seeds: 20 } }), '20 of at most 500');
+  assert.equal(seedsText({ ...until, stopped: { seeds: 0 } }), '0 of at most 500');
+  assert.deepEqual(jobTimes({ queued_s: 100.2, compile_s: 279, duration_s: 279.132, started_at: 'x' }),
+    [['Queued', '1 min 40 s'], ['Compiling', '4 min 39 s'], ['Running', '132 ms']]);
+  assert.deepEqual(jobTimes({ queued_s: 0.5, compile_s: null, duration_s: 2, started_at: 'x' }).map((p) => p[1]),
+    ['500 ms', 'none', '2.0 s']);
+  const text = compilingText({ message: 'compiling the engine for bandit: first time only, about 20 s',
+    since: '2026-11-28T10:00:00Z' }, Date.parse('2026-11-28T10:00:40Z'));
+  assert.match(text, /^Compiling the engine for bandit: first time only, about 20 s \(40\.0 s so far\)\. /);
+  assert.equal(compilingText(null), '');
+});
+
+test('ownWords: a refusal beside its field in the field\'s words, not the API\'s path', async () => {
+  const { ownWords } = await import('../../../frontend/js/stats.js');
+  assert.equal(ownWords('space.learning_rate', 'space.learning_rate.high: must be at most 1 (got 10)'),
+    'learning_rate (to): must be at most 1 (got 10)');
+  assert.equal(ownWords('params.n_types', 'base.params.n_types: must be in [2, 200] (got 1)'), 'n_types: must be in [2, 200] (got 1)');
+  assert.equal(ownWords('algorithms:mgrao-{x}:1', 'mgrao-25:1: x must be a divisor of n_parents = 30'),
+    'mgrao-25:1: x must be a divisor of n_parents = 30');
+  assert.equal(ownWords('algorithms', 'algorithms[1]: mgrao-25:1: x must be a divisor'), 'mgrao-25:1: x must be a divisor');
+  assert.equal(ownWords('seeds', 'seeds: must be at least 1 (got -5)'), 'seeds: must be at least 1 (got -5)');
+  assert.equal(ownWords('space', 'space: a trial with n_parents = 15 is not a valid experiment: ...'),
+    'the parameters swept: a trial with n_parents = 15 is not a valid experiment: ...');
+});
