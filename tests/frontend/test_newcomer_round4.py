@@ -345,3 +345,39 @@ def test_the_systems_page_lists_opens_edits_and_deletes_a_saved_system(browser, 
         kept = api(server, "GET", f"/jobs/{job['id']}")
         assert kept["status"] == "succeeded" and kept["saved_system"] == "round4-sys"
         assert [e for e in errors if "status of 422" not in e] == [], errors  # the refused edit's answer alone
+
+
+def test_a_study_draws_nothing_it_does_not_know_and_says_what_it_cannot_tell(browser, server, screenshots):
+    """Issue 43, item 10: "null" above the trials; invented axes before any trial; importance 1.00 after 4 trials and
+    a best on 3 seeds with a wide interval, both without a warning."""
+    from tests.support.waiting import wait_until
+
+    definition = {"name": "round4 four trials", "method": "grid",
+                  "base": {"system": "single", "seeds": 3, "episodes": 20},
+                  "space": {"learning_rate": {"values": [0.05, 0.1, 0.2, 0.4]}},
+                  "objective": {"metric": "pct_from_uniform", "configuration": "mgrao-max"}}
+    study = api(server, "POST", "/studies", definition)["study"]
+    wait_until(lambda: api(server, "GET", f"/studies/{study['id']}?trials=false")["study"]["status"] != "running",
+               300, "the study to finish")
+    # one stopped before any trial ended: nothing to draw
+    empty = api(server, "POST", "/studies", definition | {"name": "round4 stopped at once",
+                                                          "base": {"system": "large", "seeds": 30, "episodes": 500}})
+    api(server, "POST", f"/studies/{empty['study']['id']}/cancel")
+    with page_at(browser, server) as page:
+        errors = console_errors(page)
+        page.goto(f"/#/studies/{study['id']}")
+        page.locator(".study-plots[data-rendered]").wait_for()
+        assert "null" not in page.inner_text("section[aria-labelledby='h-trials']")
+        note = page.inner_text("#importance-note")
+        assert note.startswith("Not told apart from noise with 4 trials: learning_rate (η² 1.00, p = 1.00)"), note
+        best = dict(zip(page.locator(".meta dt").all_inner_texts(), page.locator(".meta dd").all_inner_texts(),
+                        strict=True))
+        said = next(v for k, v in best.items() if k.upper() == "BEST")
+        assert "(95% interval over 3 seeds) at trial" in said, said
+        page.screenshot(path=str(screenshots / "study-what-it-cannot-tell.png"), full_page=True)
+        page.goto(f"/#/studies/{empty['study']['id']}")
+        page.locator(".study-plots[data-rendered]").wait_for()
+        assert api(server, "GET", f"/studies/{empty['study']['id']}/plots")["trials"] == 0  # cancelled long before
+        assert page.inner_text("#plots-note").startswith("No trial has an objective yet")
+        assert page.locator(".study-plots .js-plotly-plot:visible, .study-plots svg.main-svg:visible").count() == 0
+        assert errors == [], errors
