@@ -32,7 +32,6 @@ import numpy as np  # noqa: E402
 from bench_scale import kernel_seconds  # noqa: E402
 
 from mgrao_core import WorkLimitError, make_spec, run_experiment  # noqa: E402
-from mgrao_core.lanes import lane_bytes  # noqa: E402
 from mgrao_core.statistics.student import mean_ci95  # noqa: E402
 from mgrao_core.statistics.summary import final_utilities  # noqa: E402
 
@@ -57,13 +56,13 @@ def learners(parents: int) -> list[str]:
     return labels
 
 
-def per_child_bytes(parents: int, label: str) -> float:
-    """What the budget counts of a learner's lane per child, beyond a uniform lane's (nothing is allocated)."""
-    from mgrao_core.algorithms import parse_algorithm
+def per_child_bytes(parents: int, label: str) -> int:
+    """A child's learner state in bytes, as the registry gives it (``Family.memory_per_child``: nothing allocated)."""
+    from mgrao_core.algorithms import family_of, parse_algorithm
 
     params = make_spec("multi", ["uniform"], [0], 1, overrides(parents)).params
-    algorithm, uniform = parse_algorithm(label, params.n_parents), parse_algorithm("uniform", params.n_parents)
-    return (lane_bytes(params, [algorithm], 1) - lane_bytes(params, [uniform], 1)) / params.n_children
+    algorithm = parse_algorithm(label, params.n_parents)
+    return family_of(algorithm).memory_per_child(algorithm, params)
 
 
 def study(parents: int, seeds: int, episodes: int) -> dict:

@@ -20,6 +20,11 @@ to store the chunk's runs (one serialised copy of every run, as the service's wo
   :data:`ORACLE_DRAWS` noise values at a time) and its weights;
 * ``results``: the final weights copied into each run, and the serialised copy of every run.
 
+What a job *stores* is bounded per run (:func:`stored_weights`): every episode utility, and of the final
+weights every child's combined weights and parent-group weights up to :data:`MAX_STORED_COMBINED_VALUES` and
+:data:`MAX_STORED_GROUP_VALUES` (beyond, the first children's that fit), with their mean over every child
+where a run has more than :data:`MEAN_ABOVE_CHILDREN` children; :func:`result_bytes` counts that.
+
 The process's own baseline (the interpreter, numpy, numba and the compiled kernel, about 150 to
 200 MiB) comes on top and is not part of the budget.
 """
@@ -38,7 +43,17 @@ from mgrao_core.world import is_dynamic, routing_choices
 MAX_CHUNK_BYTES = 2 * 1024**3
 """Default memory budget of one chunk (what :func:`chunk_cost` counts, above the baseline)."""
 MAX_RESULT_BYTES = 2 * 1024**3
-"""Stored bytes of one experiment's runs: every episode utility and the final weights."""
+"""Stored bytes of one experiment's runs: every episode utility and the final weights (:func:`result_bytes`)."""
+MAX_STORED_COMBINED_VALUES = 2_000_000
+"""Combined weights a run stores, at most (16 MB): every child's up to 100,000 children of 20 types, else the
+first children's that fit (every resource's, resource-major)."""
+MAX_STORED_GROUP_VALUES = 2_000_000
+"""Parent-group weights (PW) a run stores, at most (16 MB): every child's where they fit, else the first
+children's that fit (10,000 children x 100 groups x 20 types would be 20,000,000: 160 MB a run)."""
+MEAN_ABOVE_CHILDREN = 100
+"""A run of more children also stores its weights' mean over every child (combined, and PW where they fit the
+bound): what a view of a system too large to show child by child draws (100: every child of the systems that
+came before sparse worlds)."""
 CHUNK_ATOMIC_TASKS = 50_000_000
 """Atomic tasks per chunk, at most: a few seconds of simulation, so that a job's runs are stored,
 and its progress shown, a chunk at a time, and a cluster can share the chunks out."""
@@ -130,12 +145,60 @@ def chunk_cost(spec: Experiment, n_seeds: int) -> ChunkCost:
     return ChunkCost(state, worlds, draws, utilities, preparation, results)
 
 
+@dataclass(frozen=True)
+class StoredWeights:
+    """Which of a run's final weights are stored (see :func:`stored_weights`).
+
+    Attributes:
+        children: the run's children.
+        combined_children: the first children whose combined weights are stored (every resource's).
+        group_children: the first children whose parent-group weights are stored (``children`` when the
+            algorithm learns none: nothing is left out).
+        means: whether the weights' mean over every child is stored (more than :data:`MEAN_ABOVE_CHILDREN`).
+        group_mean: whether that mean includes the PW's (where the algorithm learns them and they fit the bound).
+        values: every stored weight: the kept children's and the means.
+    """
+
+    children: int
+    combined_children: int
+    group_children: int
+    means: bool
+    group_mean: bool
+    values: int
+
+
+def stored_weights(children: int, n_groups: int, n_types: int, n_resources: int = 1) -> StoredWeights:
+    """What a run of ``children`` children stores of its final weights, within the bounds above.
+
+    Combined weights ``(n_resources, children, n_types)`` and PW ``(n_resources, children, n_groups, n_types)``:
+    each child's while they fit :data:`MAX_STORED_COMBINED_VALUES` and :data:`MAX_STORED_GROUP_VALUES`, the
+    first children that fit beyond (none of the PW when one child's alone exceed the bound); and, for more than
+    :data:`MEAN_ABOVE_CHILDREN` children, the mean over every child of each (the PW's when they fit the bound).
+    """
+    per_child = n_resources * n_types
+    combined = min(children, MAX_STORED_COMBINED_VALUES // per_child)
+    group_values = per_child * n_groups
+    grouped = children if n_groups == 0 else min(children, MAX_STORED_GROUP_VALUES // group_values)
+    means = children > MEAN_ABOVE_CHILDREN
+    group_mean = means and 0 < group_values <= MAX_STORED_GROUP_VALUES
+    values = (combined * per_child + grouped * group_values + (per_child if means else 0)
+              + (group_values if group_mean else 0))
+    return StoredWeights(children, combined, grouped, means, group_mean, values)
+
+
 def result_bytes(spec: Experiment) -> int:
-    """Bytes of every run's stored utilities and final weights (what :data:`MAX_RESULT_BYTES` bounds)."""
+    """Bytes of every run's stored utilities and final weights (what :data:`MAX_RESULT_BYTES` bounds).
+
+    Every episode utility, and the weights :func:`stored_weights` keeps (a run of several resources keeps
+    each resource's, and its first PW beside them where the family keeps one PW).
+    """
     p = spec.params
-    per_seed = sum(p.n_children * (a.n_groups + 1) * p.n_types for a in spec.parsed_algorithms)
-    if p.n_resources > 1:  # each resource's final allocation and PW beside the first's
-        per_seed *= 1 + p.n_resources
+    per_seed = 0
+    for a in spec.parsed_algorithms:
+        kept = stored_weights(p.n_children, a.n_groups, p.n_types, p.n_resources)
+        per_seed += kept.values
+        if p.n_resources > 1:  # the first resource's PW beside each resource's, as before bounds existed
+            per_seed += stored_weights(p.n_children, a.n_groups, p.n_types).values
     return _F * len(spec.seeds) * (len(spec.algorithms) * spec.episodes + per_seed)
 
 

@@ -39,27 +39,52 @@ in the same world") describes them.
   at reset), ``resources`` (``Box(0, inf, (n_types,))``) its resource per unit of weight of each type
   (its amount over its capability; with several resources both are ``(R, n_types)``, each resource
   relative to the type's need of it), ``episode`` (``MultiDiscrete(episodes + 1)``, shape ``(1,)``) the
-  episodes played. With ``flatten=True`` the observation is one ``Box`` of :func:`flat_length` float64
-  numbers, these entries flattened in the order of :data:`OBSERVATION_KEYS`.
+  episodes played. With ``flatten=True`` the observation is one ``Box`` of :func:`flat_length`
+  numbers, these entries flattened in the order of :data:`OBSERVATION_KEYS`. The floating-point entries
+  (``value``, ``allocation``, ``resources``, and the flat form) are float64, or float32 with
+  ``dtype=np.float32``, their spaces to match.
 * **Reward**: the sum of the absolute values returned to the child in the episode (added in the
   order they came back); with ``reward="team"``, the system utility, for every child.
 * **State** (``state()``, ``state_space``), for centralised training: every child's flat observation in
   agent order, then each parent's presence (1 or 0) in the last episode.
 * **Infos**: ``{"utility": system utility of the episode, "episode": its index from 0}``, the same
-  for every child (empty at reset).
+  for every child (empty at reset); :class:`MgraoSingleChildEnv`, a Gymnasium ``Env``, gives the index as
+  ``"episode_index"`` (:data:`GYMNASIUM_INFO`).
 * **Seeds**: ``reset(seed=s)`` gives the world of the engine's seed ``s``, with the same draws
   (common random numbers); ``reset()`` without a seed draws a fresh world from the environment's
   generator, seeded by the last ``reset(seed=...)`` (Gymnasium's convention); the first ``reset()``
   without any gives the constructor's ``seed``.
-* **Reset options**: none. The vector environment refuses any option naming it (Gymnasium's autoreset sends
-  ``reset_mask`` to reset some worlds only, and a reset here starts every world); the one-world environments
-  refuse ``reset_mask`` too and ignore other keys, as PettingZoo's API test requires (it resets with
-  ``options={"options": 1}``). Nothing is reset by a refused call.
+* **Reset options**: the one-world environments take none: they refuse ``reset_mask`` (Gymnasium's option to
+  reset some worlds only; a reset starts their one world) and ignore other keys, as PettingZoo's API test
+  requires (it resets with ``options={"options": 1}``). The vector environment takes ``reset_mask`` and refuses
+  any other option naming it. Nothing is reset by a refused call.
+* **Learning cost**: under a ``learning_cost`` (docs/model.md, "The cost of learning") the caller declares what
+  its learner keeps, ``learned_numbers``: the numbers one child keeps (as :meth:`Family.learned_numbers
+  <mgrao_core.algorithms.base.Family.learned_numbers>` for a built-in family), one for every child, one per
+  child, or in the vector environment one per world and child; settable between steps. Each child's tasks then
+  get the share :func:`task_shares` of its allocation, as the engine gives a family's children (the action and
+  the ``allocation`` observed are the weights themselves). A cost without a declaration is refused.
 * **Many worlds** (:func:`vector_env`): the same, world ``i`` being the engine's seed ``seeds[i]``, with
   a leading axis of length ``n_worlds`` on every action ``(n_worlds, n_types)``, observation entry,
   reward, termination, truncation and info entry, and on the spaces. ``reset(seed=s)`` with a whole
   number gives the worlds of seeds ``s, s + 1, ...`` (Gymnasium's vector convention), with a list, those
-  seeds; ``reset()``, the constructor's. Every world ends after ``episodes`` steps, together.
+  seeds (None in it: a fresh world there); ``reset()`` fresh worlds, world ``i``'s drawn from its own generator
+  as ``parallel_env(seed=seeds[i])`` draws (the first ``reset()``: the constructor's seeds). World ``i`` is that
+  ``parallel_env`` step for step, through every reset and autoreset.
+* **Gymnasium's vector conventions**, where they have a meaning for many agents (Gymnasium 1.x ``VectorEnv``):
+  ``num_envs`` (``n_worlds``); ``single_observation_space(agent)`` and ``single_action_space(agent)``, one world's
+  spaces per agent (methods, as PettingZoo's spaces are), the batched ones Gymnasium's ``batch_space`` of them;
+  ``metadata["autoreset_mode"]`` (``autoreset_mode=``, a ``gymnasium.vector.AutoresetMode``): next-step (the
+  default: the step after a world's last episode starts it afresh, returning its reset observation, reward 0,
+  no termination or truncation and no info, its action unused), same-step (the world starts afresh in the step
+  that ended it: the fresh observation, that step's reward and truncation, ``final_obs`` and ``final_info`` in
+  its infos with their masks) or disabled (a world that ended must be reset before a step);
+  ``reset(options={"reset_mask": mask})`` resets the worlds where the boolean ``mask`` is True (the others go on
+  as they were); each info key has Gymnasium's mask (``"_utility"``: the worlds whose info it is); ``call`` and
+  ``get_attr`` answer per world. What stays different: everything is keyed by agent (a dict of per-world
+  arrays, as PettingZoo's parallel API); every child acts in every world; ``agents`` empties when every world
+  ended at once (PettingZoo's loops ``while env.agents`` stop there, and under next-step autoreset the next step
+  starts them afresh), while worlds reset apart end apart and ``agents`` stays full.
 """
 
 from __future__ import annotations
@@ -70,6 +95,7 @@ from typing import Any
 import numpy as np
 
 from mgrao_core import equations as eq
+from mgrao_core.algorithms import learned_by_max
 from mgrao_core.errors import ConfigError
 from mgrao_core.params import SystemParams, make_params
 from mgrao_core.presets import get_preset
@@ -79,6 +105,8 @@ from mgrao_core.stepper import SteppedWorlds
 try:
     import gymnasium
     from gymnasium import spaces
+    from gymnasium.vector import AutoresetMode
+    from gymnasium.vector.utils import batch_space
     from pettingzoo import ParallelEnv
 except ImportError as error:  # pragma: no cover - the extra is part of the test install
     raise ImportError(
@@ -99,6 +127,8 @@ RETURNED_KEYS = ("received", "task_type", "value", "position")
 OBSERVATION_KEYS = (*RETURNED_KEYS, "allocation", "resources", "episode")
 """Every entry of an observation, in the order of its flat form (``flatten=True``)."""
 REWARDS = ("child", "team")
+DTYPES = (np.dtype(np.float64), np.dtype(np.float32))
+"""The observations' numbers: float64 (the default, the engine's) or float32 (most learners' own)."""
 _LARGEST = float(np.finfo(np.float64).max)
 
 
@@ -138,15 +168,58 @@ def _episodes(value: Any) -> int:
 def system_params(system: str, params: dict[str, Any]) -> SystemParams:
     """A preset's parameters with ``params`` on top, validated as a job's (:func:`mgrao_core.make_params`).
 
-    Raises:
-        ConfigError: a ``learning_cost``: the children here are the caller's learner, whose learning the
-            environment cannot price (it would have to know what the learner keeps).
+    A ``learning_cost`` is taken here; the environments price it only with the numbers the caller's learner
+    keeps (``learned_numbers``, :func:`task_shares`).
     """
-    validated = make_params(params, base=get_preset(system).params)
-    if validated.learning_cost:
-        raise ConfigError("learning_cost", "must be 0 in the environments: their children are your learner, whose "
-                                           "learning they cannot price")
-    return validated
+    return make_params(params, base=get_preset(system).params)
+
+
+def _learned(value: Any, n_worlds: int, n_children: int, *, per_world: bool) -> np.ndarray | None:
+    """``learned_numbers`` as ``(n_worlds, n_children)`` whole numbers, or None (module docstring: "Learning cost")."""
+    if value is None:
+        return None
+    given = np.asarray(value, dtype=object if isinstance(value, list | tuple) else None)
+    shapes = [(), (n_children,)] + ([(n_worlds, n_children)] if per_world else [])
+    listed = given.ravel().tolist()
+    whole = all(isinstance(x, int | np.integer) and not isinstance(x, bool | np.bool_) and x >= 0 for x in listed)
+    if given.shape not in shapes or not whole:
+        forms = "a whole number for every child, one per child" + (", or one per world and child" if per_world else "")
+        raise ConfigError("learned_numbers", f"must be {forms}: the numbers at least 0 that one child of your learner "
+                                             f"keeps, shape {' or '.join(map(str, shapes))} (got {str(value)[:80]})")
+    return np.broadcast_to(np.array(listed, dtype=np.int64).reshape(given.shape), (n_worlds, n_children)).copy()
+
+
+def task_shares(params: SystemParams, learned: np.ndarray | None) -> np.ndarray:
+    """The share of each child's resources its tasks get, what learning ``learned`` numbers leaves them.
+
+    As the engine prices a built-in family's children (:func:`mgrao_core.algorithms.task_share`): each number
+    through :func:`mgrao_core.equations.task_share` against what ``mgrao-max`` keeps, so that a learner declaring
+    a family's :meth:`~mgrao_core.algorithms.base.Family.learned_numbers` gets that family's share, bit for bit.
+    1 everywhere without a cost or a declaration. ``learned`` is an integer array of any shape; so is the answer.
+    """
+    if learned is None or not params.learning_cost:
+        return np.ones(() if learned is None else learned.shape)
+    yardstick = learned_by_max(params)
+    share = {n: eq.task_share(params.learning_cost, n, yardstick) for n in np.unique(learned).tolist()}
+    return np.array([share[n] for n in learned.ravel().tolist()], dtype=np.float64).reshape(learned.shape)
+
+
+def _dtype(value: Any) -> np.dtype:
+    try:
+        dtype = np.dtype(value)
+    except TypeError:
+        dtype = None
+    if dtype not in DTYPES:
+        raise ConfigError("dtype", f"must be float64 or float32, the observations' numbers (got {value!r})")
+    return dtype
+
+
+def _autoreset(value: Any) -> AutoresetMode:
+    try:
+        return value if isinstance(value, AutoresetMode) else AutoresetMode(value)
+    except ValueError:
+        raise ConfigError("autoreset_mode", f"must be one of {', '.join(m.value for m in AutoresetMode)} (a "
+                                            f"gymnasium.vector.AutoresetMode or its value; got {value!r})") from None
 
 
 def allocations(action: Any, agent: str, n_types: int) -> np.ndarray:
@@ -238,24 +311,58 @@ def _holds_a_boolean(items: list | tuple) -> bool:
 
 
 PARTIAL_RESET = "reset_mask"
-"""Gymnasium's vector option to reset some worlds only; no environment here can (a reset starts every world)."""
+"""Gymnasium's vector option to reset some worlds only (``options={"reset_mask": mask}``)."""
 
 
-def _options(options: Any, *, vector: bool) -> None:
-    """Refuse reset options the environment would not honour, naming them (module docstring: "Reset options").
+def _options(options: Any, *, vector: bool, n_worlds: int = 1) -> np.ndarray | None:
+    """The worlds a reset's options ask for (``reset_mask``), None for every world; refuse what would not be honoured.
 
-    The vector environment takes none: every option is refused (Gymnasium's autoreset sends ``reset_mask`` to
-    reset some worlds only). The one-world environments refuse ``reset_mask`` and ignore other keys, as
-    PettingZoo's API test requires of them (it resets with ``options={"options": 1}``).
+    The vector environment takes ``reset_mask`` alone, a boolean array of one entry per world with at least one
+    True (Gymnasium's checks), and refuses any other option naming it. The one-world environments refuse
+    ``reset_mask`` (they have one world: a reset starts it) and ignore other keys, as PettingZoo's API test
+    requires of them (it resets with ``options={"options": 1}``). The caller's dict is left as it is.
     """
     if options is None:
-        return
+        return None
     if not isinstance(options, dict):
         raise ConfigError("options", f"must be a dict of options or None (got {type(options).__name__})")
-    refused = sorted(map(str, options)) if vector else [PARTIAL_RESET] if PARTIAL_RESET in options else []
+    if not vector:
+        if PARTIAL_RESET in options:
+            raise ConfigError("options", f"unknown option {PARTIAL_RESET}: one world, which a reset starts (a vector "
+                                         "environment's worlds can be reset apart)")
+        return None
+    refused = sorted(str(key) for key in options if key != PARTIAL_RESET)
     if refused:
-        raise ConfigError("options", f"unknown option{'s' if len(refused) > 1 else ''} {', '.join(refused)}: "
-                                     f"this environment takes none (a reset starts every world)")
+        raise ConfigError("options", f"unknown option{'s' if len(refused) > 1 else ''} {', '.join(refused)}: this "
+                                     f"environment takes {PARTIAL_RESET} only")
+    if PARTIAL_RESET not in options:
+        return None
+    given = options[PARTIAL_RESET]
+    mask = np.asarray(given) if isinstance(given, np.ndarray | list | tuple) else None
+    if mask is None or mask.dtype != np.bool_ or mask.shape != (n_worlds,) or not mask.any():
+        raise ConfigError(f"options.{PARTIAL_RESET}", f"must be {n_worlds} booleans, one per world, at least one True "
+                                                      f"(the worlds to reset; got {str(given)[:80]})")
+    return mask
+
+
+def _reset_seeds(value: Any, n_worlds: int) -> list[int | None]:
+    """A reset's seeds, one per world (None: a fresh world): None, ``s`` for ``s, s + 1, ...``, or a list.
+
+    A list may hold None for a world that takes a fresh one; its seeds must not repeat.
+    """
+    if value is None:
+        return [None] * n_worlds
+    if isinstance(value, list | tuple) and any(s is None for s in value):
+        if len(value) != n_worlds:
+            raise ConfigError("seed", f"must be {n_worlds} seeds, one per world (got {len(value)})")
+        given = [(i, _seed(s, f"seed[{i}]")) for i, s in enumerate(value) if s is not None]
+        if len({s for _, s in given}) != len(given):
+            raise ConfigError("seed", "must not repeat a seed")
+        seeds: list[int | None] = [None] * n_worlds
+        for i, s in given:
+            seeds[i] = s
+        return seeds
+    return list(_seeds(value, n_worlds, "seed"))
 
 
 def _reward(value: Any) -> str:
@@ -301,81 +408,150 @@ def _entry_bounds(params: SystemParams, episodes: int) -> dict[str, tuple[float,
             "episode": (0, episodes, 1)}
 
 
-def observation_space(params: SystemParams, episodes: int, batch: tuple[int, ...] = (),
-                      flatten: bool = False) -> spaces.Space:
-    """A child's observation space, with ``batch`` as leading axes (module docstring: "Observation").
+def observation_space(params: SystemParams, episodes: int, flatten: bool = False,
+                      dtype: Any = np.float64) -> spaces.Space:
+    """A child's observation space in one world (module docstring: "Observation").
 
-    A ``Dict`` of :data:`OBSERVATION_KEYS`, or with ``flatten`` one ``Box`` of :func:`flat_length` numbers
-    (float64): the entries flattened in that order.
+    A ``Dict`` of :data:`OBSERVATION_KEYS` (``value``, ``allocation`` and ``resources`` of ``dtype``), or with
+    ``flatten`` one ``Box`` of :func:`flat_length` numbers of ``dtype``: the entries flattened in that order. Many
+    worlds' is Gymnasium's batching of it (``gymnasium.vector.utils.batch_space``).
     """
-    grid = (*batch, params.n_parents, params.types_per_composite)
-    types = (*batch, *action_shape(params))
+    grid = (params.n_parents, params.types_per_composite)
+    types = action_shape(params)
     if flatten:
         bounds = _entry_bounds(params, episodes).values()
-        low = np.concatenate([np.full(size, low, np.float64) for low, _, size in bounds])
-        high = np.concatenate([np.full(size, high, np.float64) for _, high, size in bounds])
-        shape = (*batch, low.size)
-        return spaces.Box(np.broadcast_to(low, shape), np.broadcast_to(high, shape), shape, np.float64)
+        low = np.concatenate([np.full(size, low, dtype) for low, _, size in bounds])
+        high = np.concatenate([np.full(size, high, dtype) for _, high, size in bounds])
+        return spaces.Box(low, high, low.shape, dtype)
     return spaces.Dict({
         "received": spaces.MultiBinary(list(grid)),
         "task_type": spaces.MultiDiscrete(np.full(grid, params.n_types, dtype=np.int64)),
-        "value": spaces.Box(0.0, 1.0, grid, np.float64),
-        "position": spaces.MultiDiscrete(np.full(grid, grid[-2] * grid[-1], dtype=np.int64)),
-        "allocation": spaces.Box(0.0, 1.0, types, np.float64),
-        "resources": spaces.Box(0.0, np.inf, types, np.float64),
-        "episode": spaces.MultiDiscrete(np.full((*batch, 1), episodes + 1, dtype=np.int64)),
+        "value": spaces.Box(0.0, 1.0, grid, dtype),
+        "position": spaces.MultiDiscrete(np.full(grid, grid[0] * grid[1], dtype=np.int64)),
+        "allocation": spaces.Box(0.0, 1.0, types, dtype),
+        "resources": spaces.Box(0.0, np.inf, types, dtype),
+        "episode": spaces.MultiDiscrete(np.full(1, episodes + 1, dtype=np.int64)),
     })
 
 
-def state_space(params: SystemParams, episodes: int, batch: tuple[int, ...] = ()) -> spaces.Box:
+def state_space(params: SystemParams, episodes: int, batch: tuple[int, ...] = (),
+                dtype: Any = np.float64) -> spaces.Box:
     """The state's space: every child's flat observation in agent order, then each parent's presence (0 or 1)."""
-    child = observation_space(params, episodes, (), flatten=True)
-    low = np.concatenate([np.tile(child.low, params.n_children), np.zeros(params.n_parents)])
-    high = np.concatenate([np.tile(child.high, params.n_children), np.ones(params.n_parents)])
+    child = observation_space(params, episodes, flatten=True, dtype=dtype)
+    low = np.concatenate([np.tile(child.low, params.n_children), np.zeros(params.n_parents, dtype)])
+    high = np.concatenate([np.tile(child.high, params.n_children), np.ones(params.n_parents, dtype)])
     shape = (*batch, low.size)
-    return spaces.Box(np.broadcast_to(low, shape), np.broadcast_to(high, shape), shape, np.float64)
+    return spaces.Box(np.broadcast_to(low, shape), np.broadcast_to(high, shape), shape, dtype)
 
 
 class MgraoVectorEnv(ParallelEnv):
     """Many worlds of a system, stepped together on the compiled engine (module docstring: "Many worlds").
 
-    Build it with :func:`vector_env`.
+    A PettingZoo ``ParallelEnv`` with a leading world axis, following Gymnasium's ``VectorEnv`` wherever a
+    convention has a meaning for many agents (module docstring: "Gymnasium's vector conventions"). Build it with
+    :func:`vector_env`.
 
     Attributes:
         system: the preset it starts from.
         params: the full parameter set (preset plus overrides).
-        seeds: the engine's seeds of the worlds ``reset()`` without a seed gives.
-        n_worlds: how many worlds step at once.
-        episodes: steps before truncation.
+        seeds: the engine's seeds of the worlds the first ``reset()`` without a seed gives.
+        n_worlds: how many worlds step at once; ``num_envs`` is the same number (Gymnasium's name).
+        episodes: steps before a world is truncated.
+        reward: ``"child"`` or ``"team"`` (module docstring: "Reward").
+        flatten: observations as one array (:func:`flat_length`) instead of a ``Dict``.
+        dtype: the observations' floating-point numbers, float64 or float32.
+        autoreset_mode: what a world does after its last episode (``metadata["autoreset_mode"]``).
     """
 
-    metadata = {"name": "mgrao_vector_v0", "render_modes": [], "is_parallelizable": True}
+    metadata = {"name": "mgrao_vector_v0", "render_modes": [], "is_parallelizable": True,
+                "autoreset_mode": AutoresetMode.NEXT_STEP}
 
     def __init__(self, system: str = "single", seeds: Any = range(64), episodes: int = 100, *, reward: str = "child",
-                 flatten: bool = False, **params: Any) -> None:
+                 flatten: bool = False, dtype: Any = np.float64, autoreset_mode: Any = AutoresetMode.NEXT_STEP,
+                 learned_numbers: Any = None, **params: Any) -> None:
         self.system = system
         self.params = p = system_params(system, params)
         self.seeds = _seeds(seeds, None)
-        self.n_worlds = len(self.seeds)
+        self.n_worlds = self.num_envs = len(self.seeds)
         self.episodes = _episodes(episodes)
         self.reward = _reward(reward)
         self.flatten = bool(flatten)
+        self.dtype = _dtype(dtype)
+        self.autoreset_mode = _autoreset(autoreset_mode)
+        self.metadata = {**type(self).metadata, "autoreset_mode": self.autoreset_mode}
         self.render_mode = None
         self.possible_agents = [f"child_{c}" for c in range(p.n_children)]
         self.agents: list[str] = []
         self._index = {agent: c for c, agent in enumerate(self.possible_agents)}
         self._world_index: dict[int, dict[str, tuple[int, int]]] = {}  # one world's entries (_observations)
-        self._observation_spaces = dict.fromkeys(
-            self.possible_agents, observation_space(p, self.episodes, (self.n_worlds,), self.flatten))
-        self._action_spaces = {agent: WeightsSpace((self.n_worlds, *action_shape(p)))
-                               for agent in self.possible_agents}
-        self.state_space = state_space(p, self.episodes, (self.n_worlds,))
+        n = self.n_worlds
+        single = observation_space(p, self.episodes, self.flatten, self.dtype)
+        self._single_observation_spaces = dict.fromkeys(self.possible_agents, single)
+        self._observation_spaces = dict.fromkeys(self.possible_agents, batch_space(single, n))  # Gymnasium's batching
+        self._single_action_spaces = {agent: WeightsSpace(action_shape(p)) for agent in self.possible_agents}
+        self._action_spaces = {agent: WeightsSpace((n, *action_shape(p))) for agent in self.possible_agents}
+        self.state_space = state_space(p, self.episodes, (n,), self.dtype)
         self._worlds: SteppedWorlds | None = None
+        self._generators: list[np.random.Generator | None] = [None] * n  # each world's, seeded by its last seed
         self._last: dict[str, np.ndarray] = {}
+        self._done = np.zeros(n, np.bool_)  # the worlds whose last episode ended at the last step, not reset since
+        self._ended = False  # any of them
+        self._learned: np.ndarray | None = None
+        self._task_share = np.ones((n, p.n_children))
+        self.learned_numbers = learned_numbers
+
+    # ---- spaces -------------------------------------------------------------------------------------------
 
     def observation_space(self, agent: str) -> spaces.Space:
         """The child's observation space, a leading world axis on every entry (the same object on every call)."""
         return self._observation_spaces[agent]
+
+    def single_observation_space(self, agent: str) -> spaces.Space:
+        """The child's observation space in one world (Gymnasium's ``single_observation_space``, per agent)."""
+        return self._single_observation_spaces[agent]
+
+    def action_space(self, agent: str) -> spaces.Box:
+        """The child's action space, ``(n_worlds, n_types)`` or ``(n_worlds, R, n_types)`` (the same object)."""
+        return self._action_spaces[agent]
+
+    def single_action_space(self, agent: str) -> spaces.Box:
+        """The child's action space in one world (Gymnasium's ``single_action_space``, per agent)."""
+        return self._single_action_spaces[agent]
+
+    # ---- the learner's cost of learning ---------------------------------------------------------------------
+
+    @property
+    def learned_numbers(self) -> np.ndarray | None:
+        """The numbers each child of the caller's learner keeps, ``(n_worlds, n_children)`` (None: undeclared).
+
+        Setting it (a whole number, one per child, or one per world and child) prices the learning from the next
+        episode on (:func:`task_shares`), as the engine prices a built-in family's children.
+
+        Raises:
+            ConfigError: naming ``learned_numbers``: not whole numbers at least 0 of one of those shapes, or None
+                under a ``learning_cost`` (the environment cannot price a learner that does not say what it keeps).
+        """
+        return None if self._learned is None else self._learned.copy()
+
+    @learned_numbers.setter
+    def learned_numbers(self, value: Any) -> None:
+        learned = _learned(value, self.n_worlds, len(self.possible_agents), per_world=True)
+        if learned is None and self.params.learning_cost:
+            raise ConfigError("learned_numbers", "must be declared under a learning_cost: the numbers one child of "
+                                                 "your learner keeps (as Family.learned_numbers for a built-in family; "
+                                                 "docs/model.md, 'The cost of learning')")
+        self._learned = learned
+        self._task_share = np.broadcast_to(task_shares(self.params, learned),
+                                           (self.n_worlds, len(self.possible_agents))).copy()
+        if self._worlds is not None:
+            self._worlds.set_task_share(self._task_share)
+
+    @property
+    def task_share(self) -> np.ndarray:
+        """``(n_worlds, n_children)`` the share of each child's resources its tasks get (1: no learning cost)."""
+        return self._task_share.copy()
+
+    # ---- observations and state ---------------------------------------------------------------------------
 
     def state(self) -> np.ndarray:
         """The state for centralised training, ``(n_worlds, len)`` (:attr:`state_space`).
@@ -387,11 +563,11 @@ class MgraoVectorEnv(ParallelEnv):
             raise RuntimeError("call reset() first: there is no state before it")
         flat = self._flat(self._last)  # (children, worlds, flat_length)
         children = flat.transpose(1, 0, 2).reshape(self.n_worlds, -1)
-        return np.concatenate([children, self._worlds.present.astype(np.float64)], axis=1)
+        return np.concatenate([children, self._worlds.present.astype(self.dtype)], axis=1)
 
     def _flat(self, entries: dict[str, np.ndarray]) -> np.ndarray:
         n_children = len(self.possible_agents)
-        return np.concatenate([entries[key].reshape(n_children, self.n_worlds, -1).astype(np.float64)
+        return np.concatenate([entries[key].reshape(n_children, self.n_worlds, -1).astype(self.dtype)
                                for key in OBSERVATION_KEYS], axis=2)
 
     def _observations(self, entries: dict[str, np.ndarray], agents: list[str],
@@ -414,17 +590,35 @@ class MgraoVectorEnv(ParallelEnv):
         """Every entry ``(children, worlds, ...)`` of the observations.
 
         What came back (``returned``), the allocations ``weights (worlds, children, ...)`` it came back for,
-        each child's resources and the episodes played.
+        each child's resources and the episodes each world has played.
         """
         n_children = len(self.possible_agents)
+        together = self._worlds.played_together
+        if together is None:
+            episode = np.empty((n_children, self.n_worlds, 1), np.int64)
+            episode[:] = self._worlds.played[None, :, None]
+        else:
+            episode = np.full((n_children, self.n_worlds, 1), together, np.int64)
+        if self.dtype != np.float64:
+            returned["value"] = returned["value"].astype(self.dtype)
         return returned | {
-            "allocation": weights.swapaxes(0, 1).copy(),
+            "allocation": weights.swapaxes(0, 1).astype(self.dtype, order="C"),
             "resources": self._resources.copy(),
-            "episode": np.full((n_children, self.n_worlds, 1), self._worlds.episode, np.int64)}
+            "episode": episode}
 
-    def action_space(self, agent: str) -> spaces.Box:
-        """The child's action space, ``(n_worlds, n_types)`` or ``(n_worlds, R, n_types)`` (the same object)."""
-        return self._action_spaces[agent]
+    def _nothing(self) -> dict[str, np.ndarray]:
+        """The entries of a reset: nothing received, no allocation, each world's resources, no episode played."""
+        p = self.params
+        grid = (len(self.possible_agents), self.n_worlds, p.n_parents, p.types_per_composite)
+        nothing = {"received": np.zeros(grid, np.int8), "task_type": np.zeros(grid, np.int64),
+                   "value": np.zeros(grid), "position": np.zeros(grid, np.int64)}
+        return self._entries(nothing, np.zeros((self.n_worlds, len(self.possible_agents), *action_shape(p))))
+
+    def _blank(self, entries: dict[str, np.ndarray], rows: np.ndarray) -> None:
+        """Make worlds ``rows`` of ``entries`` a reset's (:meth:`_nothing`), in place."""
+        for key in (*RETURNED_KEYS, "allocation", "episode"):
+            entries[key][:, rows] = 0
+        entries["resources"][:, rows] = self._resources[:, rows]
 
     @property
     def world_seeds(self) -> tuple[int, ...] | None:
@@ -432,32 +626,115 @@ class MgraoVectorEnv(ParallelEnv):
         return None if self._worlds is None else self._worlds.seeds
 
     @property
+    def world_episodes(self) -> np.ndarray:
+        """``(n_worlds,)`` the episodes each world has played since it began (0 before the first reset)."""
+        return np.zeros(self.n_worlds, np.int64) if self._worlds is None else self._worlds.played
+
+    @property
     def episode(self) -> int:
-        """Episodes played since the last reset."""
+        """Steps since the last reset of every world (each world's own count: :attr:`world_episodes`)."""
         return 0 if self._worlds is None else self._worlds.episode
 
+    # ---- reset --------------------------------------------------------------------------------------------
+
     def reset(self, seed: Any = None, options: dict | None = None) -> tuple[dict, dict]:
-        """Start the worlds of ``seed`` (a list, or ``s`` for ``s, s + 1, ...``; the constructor's when None).
+        """Start the worlds of ``seed``, or with ``options={"reset_mask": mask}`` those where ``mask`` is True.
+
+        ``seed``: a list of seeds, one per world (None in it: a fresh world for that one), ``s`` for ``s, s + 1,
+        ...``, or None: fresh worlds, each drawn from its world's own generator, which that world's last seed
+        seeded (the first ``reset()`` without a seed gives the constructor's ``seeds``). With a mask, the seeds of
+        the worlds reset are read and the others' ignored (Gymnasium's).
 
         Returns:
-            Each child's observation (nothing received yet: every entry 0) and an empty info.
+            Each child's observation of every world (a reset world's: nothing received, every entry of what came
+            back 0; the others' as they were) and an empty info.
 
         Raises:
-            ConfigError: bad seeds, or ``options`` other than None or ``{}`` (the environment takes none: a reset
-                starts every world, so Gymnasium's ``reset_mask`` is refused, naming it); nothing is reset.
+            ConfigError: bad seeds, ``options`` other than ``reset_mask`` (naming them), a mask that is not one
+                boolean per world with a True, or a mask before the first reset; nothing is reset.
         """
-        _options(options, vector=True)
-        seeds = self.seeds if seed is None else _seeds(seed, self.n_worlds, "seed")
-        block = min(self.episodes, DRAW_BLOCK, max(1, DRAWN_WORLD_EPISODES // self.n_worlds))
-        self._worlds = SteppedWorlds(self.params, seeds, block=block)
-        self._resources = np.ascontiguousarray(np.moveaxis(self._worlds.resources, 1, 0))  # fixed for the worlds
+        mask = _options(options, vector=True, n_worlds=self.n_worlds)
+        seeds = _reset_seeds(seed, self.n_worlds)
+        if mask is not None:
+            if self._worlds is None:
+                raise ConfigError(f"options.{PARTIAL_RESET}", "the first reset() starts every world: there is no "
+                                                              "world to keep yet")
+            rows = np.flatnonzero(mask)
+            self._renew(rows, [seeds[i] for i in rows.tolist()])
+            entries = {key: value.copy() for key, value in self._last.items()}
+            self._blank(entries, rows)
+            self._done[rows] = False
+            self._ended = bool(self._done.any())
+        else:
+            world_seeds = [self._world_seed(i, s) for i, s in enumerate(seeds)]
+            block = min(self.episodes, DRAW_BLOCK, max(1, DRAWN_WORLD_EPISODES // self.n_worlds))
+            self._worlds = SteppedWorlds(self.params, world_seeds, block=block)
+            self._worlds.set_task_share(self._task_share)
+            self._resources = np.ascontiguousarray(np.moveaxis(self._worlds.resources, 1, 0), dtype=self.dtype)
+            self._done[:] = False
+            self._ended = False
+            entries = self._nothing()
         self.agents = list(self.possible_agents)
-        p = self.params
-        grid = (len(self.agents), self.n_worlds, p.n_parents, p.types_per_composite)
-        nothing = {"received": np.zeros(grid, np.int8), "task_type": np.zeros(grid, np.int64),
-                   "value": np.zeros(grid), "position": np.zeros(grid, np.int64)}
-        entries = self._entries(nothing, np.zeros((self.n_worlds, len(self.agents), *action_shape(p))))
         return self._observations(entries, self.agents), {agent: {} for agent in self.agents}
+
+    def _world_seed(self, world: int, seed: int | None) -> int:
+        """World ``world``'s next seed: ``seed``, which seeds its generator, or without one a draw from it.
+
+        The first without any seed is the constructor's. The draws are :class:`MgraoParallelEnv`'s (world ``i`` is
+        ``parallel_env(seed=seeds[i])``, unseeded resets included).
+        """
+        if seed is None:
+            generator = self._generators[world]
+            if generator is not None:
+                return int(generator.integers(0, MAX_SEED_VALUE, endpoint=True))
+            seed = self.seeds[world]
+        self._generators[world] = np.random.default_rng(seed)
+        return seed
+
+    def _renew(self, rows: np.ndarray, seeds: list[int | None]) -> None:
+        """Start worlds ``rows`` afresh, each of its seed (None: a fresh one, :meth:`_world_seed`)."""
+        chosen = [self._world_seed(i, s) for i, s in zip(rows.tolist(), seeds, strict=True)]
+        self._worlds.renew(rows, chosen)
+        self._resources[:, rows] = np.moveaxis(self._worlds.resources[rows], 1, 0)
+
+    # ---- call and get_attr ----------------------------------------------------------------------------------
+
+    def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
+        """Each world's answer to ``name``, one per world (Gymnasium's ``VectorEnv.call``).
+
+        A world answers as :class:`MgraoParallelEnv` of it would: ``world_seed``, ``seed`` (the constructor's),
+        ``episode`` (its episodes played), ``learned_numbers`` (its children's), ``state()`` (its row),
+        ``observation_space(agent)`` and ``action_space(agent)`` (one world's), ``render()`` (None); any other
+        attribute that is no method (``params``, ``episodes``, ``possible_agents``...) is the same in every world.
+
+        Raises:
+            AttributeError: ``name`` is nothing a world answers on its own (stepping and resetting are the
+                vector environment's).
+        """
+        n = self.n_worlds
+        answers: dict[str, Callable[[], tuple[Any, ...]]] = {
+            "world_seed": lambda: self.world_seeds or (None,) * n,
+            "seed": lambda: self.seeds,
+            "episode": lambda: tuple(self.world_episodes.tolist()),
+            "learned_numbers": lambda: (None,) * n if self._learned is None else tuple(self._learned.copy()),
+            "state": lambda: tuple(self.state(*args, **kwargs)),
+            "observation_space": lambda: (self.single_observation_space(*args, **kwargs),) * n,
+            "action_space": lambda: (self.single_action_space(*args, **kwargs),) * n,
+            "render": lambda: (None,) * n,
+        }
+        if name in answers:
+            return answers[name]()
+        value = getattr(self, name, None) if isinstance(name, str) and not name.startswith("_") else None
+        if value is None or callable(value):
+            raise AttributeError(f"call: {name!r} is nothing a world answers on its own (a world answers "
+                                 f"{', '.join(answers)} and the attributes every world shares, such as params)")
+        return (value,) * n
+
+    def get_attr(self, name: str) -> tuple[Any, ...]:
+        """Each world's ``name`` (Gymnasium's ``VectorEnv.get_attr``: :meth:`call` without arguments)."""
+        return self.call(name)
+
+    # ---- step ---------------------------------------------------------------------------------------------
 
     def allocation(self, action: Any, agent: str = "") -> np.ndarray:
         """The weights an action ``(n_worlds, n_types)`` (``(n_worlds, R, n_types)``) stands for (:func:`allocations`).
@@ -477,15 +754,21 @@ class MgraoVectorEnv(ParallelEnv):
 
         Each action is read by ``read`` (:meth:`allocation` when None).
         """
-        if self._worlds is None or not self.agents:
+        if self._worlds is None:
             raise RuntimeError("call reset() first: no episode is under way")
+        if self._ended and self.autoreset_mode is AutoresetMode.DISABLED:
+            if self._done.all():
+                raise RuntimeError("call reset() first: no episode is under way")
+            raise RuntimeError(f"call reset() first: world{'s' if self._done.sum() > 1 else ''} "
+                               f"{', '.join(map(str, np.flatnonzero(self._done).tolist()))} ended (autoreset is "
+                               f"disabled: reset them with options={{'reset_mask': ...}})")
         if not isinstance(actions, dict):
             raise ValueError(f"actions must be a dict of the agents' actions (got {type(actions).__name__})")
         if actions.keys() != self._index.keys():  # every agent acts while any does
             self._refuse_agents(actions)
         read = read or self.allocation
-        weights = np.empty((self.n_worlds, len(self.agents), *action_shape(self.params)))
-        for c, agent in enumerate(self.agents):
+        weights = np.empty((self.n_worlds, len(self.possible_agents), *action_shape(self.params)))
+        for c, agent in enumerate(self.possible_agents):
             weights[:, c] = read(actions[agent], agent)
         return weights
 
@@ -495,52 +778,124 @@ class MgraoVectorEnv(ParallelEnv):
         if unknown:
             raise ValueError(f"{', '.join(unknown)}: not an agent of this environment (agents: "
                              f"{self.possible_agents[0]} to {self.possible_agents[-1]})")
-        missing = [agent for agent in self.agents if agent not in actions]
+        missing = [agent for agent in self.possible_agents if agent not in actions]
         if missing:
             raise ValueError(f"no action for {', '.join(missing)}")
 
     def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
         """One episode of every world, each child holding the allocation its action gives in each world.
 
+        A world that ended at the last step starts afresh instead under next-step autoreset (its action is read
+        and not used; module docstring: "Gymnasium's vector conventions").
+
         Returns:
             observations, rewards, terminations, truncations and infos, keyed by child, each value with a
             leading world axis.
 
         Raises:
-            RuntimeError: before :meth:`reset`, or after the last episode.
+            RuntimeError: before :meth:`reset`, or with autoreset disabled, while a world that ended is not reset.
             ValueError: a child without an action, an agent that is none, or an action that is not one
                 (:meth:`allocation`); nothing is stepped.
         """
         return self._advance(self._allocations(actions))
 
-    def _play(self, weights: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, list[str]]:
+    def _play(self, weights: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
         """One episode of every world with every child's weights read (:meth:`_allocations`).
+
+        Marks the worlds whose last episode it was (:attr:`_done`); :attr:`agents` empties when that is every
+        world and they are not reset at once (autoreset other than same-step).
 
         Returns:
             The observations' entries ``(children, worlds, ...)`` (kept for :meth:`state`), the rewards
-            ``(children, worlds)``, the system utility ``(worlds,)`` and the agents that acted (:attr:`agents`
-            is empty after the last episode).
+            ``(children, worlds)`` and the system utility ``(worlds,)``.
         """
         outcome = self._worlds.step(weights)
         returned, rewards = self._worlds.observe(outcome)
-        agents = self.agents
-        if self._worlds.episode >= self.episodes:
-            self.agents = []
+        together = self._worlds.played_together
+        if together is None:
+            np.greater_equal(self._worlds.played, self.episodes, out=self._done)
+            self._ended = bool(self._done.any())
+        elif together >= self.episodes:
+            self._done[:] = self._ended = True
+            if self.autoreset_mode is not AutoresetMode.SAME_STEP:
+                self.agents = []
         utility = outcome.utility.copy()
         if self.reward == "team":
             rewards = np.broadcast_to(utility, rewards.shape)
         self._last = self._entries(returned, weights)
-        return self._last, rewards, utility, agents
+        return self._last, rewards, utility
 
     def _advance(self, weights: np.ndarray) -> tuple[dict, dict, dict, dict, dict]:
-        """:meth:`step` with every child's weights read (:meth:`_allocations`)."""
-        entries, rewards, utility, agents = self._play(weights)
-        done, episode = not self.agents, np.full(self.n_worlds, self._worlds.episode - 1)
+        """:meth:`step` with every child's weights read (:meth:`_allocations`), autoreset included."""
+        n, agents = self.n_worlds, self.possible_agents
+        next_step = self.autoreset_mode is AutoresetMode.NEXT_STEP
+        if next_step and self._ended and self._done.all():  # every world ended: all start afresh, none plays
+            return self._restart()
+        pending = np.flatnonzero(self._done) if next_step and self._ended else None
+        entries, rewards, utility = self._play(weights)
+        together = self._worlds.played_together
+        index = np.full(n, together - 1) if together is not None else self._worlds.played - 1
+        shown = np.ones(n, np.bool_)  # the worlds whose info is this episode's
+        if pending is not None:  # they played beyond their end; they start afresh instead (next-step autoreset)
+            self._renew(pending, [None] * len(pending))
+            self._blank(entries, pending)
+            rewards = rewards.copy()
+            rewards[:, pending] = 0.0
+            utility[pending] = 0.0
+            index[pending] = 0
+            shown[pending] = False
+            self._done[pending] = False
+            self._ended = bool(self._done.any())
+            self.agents = list(agents)
+        truncated = self._done.copy()
+        infos = {agent: {"utility": utility.copy(), "_utility": shown.copy(), "episode": index.copy(),
+                         "_episode": shown.copy()} for agent in agents}
+        if self._ended and self.autoreset_mode is AutoresetMode.SAME_STEP:
+            self._same_step(entries, infos, utility, index)
         return (self._observations(entries, agents),
                 {agent: rewards[c].copy() for c, agent in enumerate(agents)},
-                {agent: np.zeros(self.n_worlds, np.bool_) for agent in agents},
-                {agent: np.full(self.n_worlds, done) for agent in agents},
-                {agent: {"utility": utility.copy(), "episode": episode.copy()} for agent in agents})
+                {agent: np.zeros(n, np.bool_) for agent in agents},
+                {agent: truncated.copy() for agent in agents},
+                infos)
+
+    def _same_step(self, entries: dict[str, np.ndarray], infos: dict[str, dict], utility: np.ndarray,
+                   index: np.ndarray) -> None:
+        """Same-step autoreset: the worlds that ended start afresh now, their last observation and info kept.
+
+        As Gymnasium's: ``infos[agent]["final_obs"]`` is an object array of each ended world's observation (None
+        elsewhere), ``"final_info"`` its info, each with its mask (``"_final_obs"``, ``"_final_info"``), and the
+        ended worlds' own entries are a reset's (no info).
+        """
+        rows = np.flatnonzero(self._done)
+        ended = self._done.copy()
+        final = self._observations(entries, self.possible_agents)
+        for agent in self.possible_agents:
+            observations = np.full(self.n_worlds, None, dtype=object)
+            for i in rows.tolist():
+                observations[i] = (final[agent][i].copy() if self.flatten
+                                   else {key: value[i].copy() for key, value in final[agent].items()})
+            info = infos[agent]
+            info["final_info"] = {"utility": np.where(ended, utility, 0.0), "_utility": ended.copy(),
+                                  "episode": np.where(ended, index, 0), "_episode": ended.copy()}
+            info["final_obs"], info["_final_obs"], info["_final_info"] = observations, ended.copy(), ended.copy()
+            for key in ("_utility", "_episode"):
+                info[key][rows] = False
+            info["utility"][rows] = 0.0
+            info["episode"][rows] = 0
+        self._renew(rows, [None] * len(rows))
+        self._blank(entries, rows)
+        self._done[:] = self._ended = False
+
+    def _restart(self) -> tuple[dict, dict, dict, dict, dict]:
+        """Next-step autoreset of every world at once: fresh worlds, nothing played, empty infos."""
+        n, agents = self.n_worlds, self.possible_agents
+        self._renew(np.arange(n), [None] * n)
+        self._done[:] = self._ended = False
+        self.agents = list(agents)
+        entries = self._nothing()
+        return (self._observations(entries, agents), {agent: np.zeros(n) for agent in agents},
+                {agent: np.zeros(n, np.bool_) for agent in agents}, {agent: np.zeros(n, np.bool_) for agent in agents},
+                {agent: {} for agent in agents})
 
     def render(self) -> None:
         """Nothing to render (the dashboard shows runs)."""
@@ -550,21 +905,29 @@ class MgraoVectorEnv(ParallelEnv):
 
 
 def vector_env(system: str = "single", seeds: Any = range(64), episodes: int = 100, *, reward: str = "child",
-               flatten: bool = False, **params: Any) -> MgraoVectorEnv:
+               flatten: bool = False, dtype: Any = np.float64, autoreset_mode: Any = AutoresetMode.NEXT_STEP,
+               learned_numbers: Any = None, **params: Any) -> MgraoVectorEnv:
     """Many worlds of ``system`` with ``params`` on top, stepped together, as a batched PettingZoo ``ParallelEnv``.
 
     Args:
         system: a preset (``GET /api/systems`` lists them).
         seeds: the engine's seed of each world (world ``i`` is seed ``seeds[i]``, with its draws).
-        episodes: steps (episodes) before every world is truncated.
+        episodes: steps (episodes) before a world is truncated.
         reward: ``"child"`` (what came back to the child) or ``"team"`` (the system utility, for every child).
         flatten: observations as one array of :func:`flat_length` numbers per world instead of a ``Dict``.
+        dtype: the observations' floating-point numbers: float64 (the default) or float32, the spaces to match.
+        autoreset_mode: a ``gymnasium.vector.AutoresetMode`` (or its value): next-step (the default), same-step or
+            disabled.
+        learned_numbers: what one child of your learner keeps, under a ``learning_cost`` (module docstring:
+            "Learning cost").
         **params: parameter overrides, as ``--set name=value`` (docs/model.md).
 
     Raises:
-        ConfigError: an unknown system or parameter, a value outside its limits, bad seeds or reward (naming it).
+        ConfigError: an unknown system or parameter, a value outside its limits, bad seeds, reward, dtype, autoreset
+            mode or learned numbers, or a learning cost without learned numbers (naming it).
     """
-    return MgraoVectorEnv(system, seeds, episodes, reward=reward, flatten=flatten, **params)
+    return MgraoVectorEnv(system, seeds, episodes, reward=reward, flatten=flatten, dtype=dtype,
+                          autoreset_mode=autoreset_mode, learned_numbers=learned_numbers, **params)
 
 
 class MgraoParallelEnv(ParallelEnv):
@@ -584,20 +947,21 @@ class MgraoParallelEnv(ParallelEnv):
     metadata = {"name": "mgrao_v0", "render_modes": [], "is_parallelizable": True}
 
     def __init__(self, system: str = "single", seed: int = 0, episodes: int = 100, *, reward: str = "child",
-                 flatten: bool = False, **params: Any) -> None:
+                 flatten: bool = False, dtype: Any = np.float64, learned_numbers: Any = None, **params: Any) -> None:
         self.seed = _seed(seed)
-        self._vector = MgraoVectorEnv(system, [self.seed], episodes, reward=reward, flatten=flatten, **params)
+        learned = _learned(learned_numbers, 1, system_params(system, params).n_children, per_world=False)
+        self._vector = MgraoVectorEnv(system, [self.seed], episodes, reward=reward, flatten=flatten, dtype=dtype,
+                                      autoreset_mode=AutoresetMode.DISABLED, learned_numbers=learned, **params)
         self.system, self.params, self.episodes = system, self._vector.params, self._vector.episodes
-        self.reward, self.flatten = self._vector.reward, self._vector.flatten
+        self.reward, self.flatten, self.dtype = self._vector.reward, self._vector.flatten, self._vector.dtype
         self.render_mode = None
         self.possible_agents = list(self._vector.possible_agents)
         self.agents: list[str] = []
-        self._observation_spaces = dict.fromkeys(self.possible_agents,
-                                                 observation_space(self.params, self.episodes, (), self.flatten))
+        self._observation_spaces = {agent: self._vector.single_observation_space(agent)
+                                    for agent in self.possible_agents}
         self._shape = action_shape(self.params)
-        self._action_spaces = {agent: WeightsSpace(self._shape) for agent in self.possible_agents}
-        self.state_space = state_space(self.params, self.episodes)
-        self._generator: np.random.Generator | None = None
+        self._action_spaces = {agent: self._vector.single_action_space(agent) for agent in self.possible_agents}
+        self.state_space = state_space(self.params, self.episodes, (), self.dtype)
 
     def observation_space(self, agent: str) -> spaces.Space:
         """The child's observation space (the same object on every call)."""
@@ -610,6 +974,20 @@ class MgraoParallelEnv(ParallelEnv):
     def action_space(self, agent: str) -> spaces.Box:
         """The child's action space (the same object on every call)."""
         return self._action_spaces[agent]
+
+    @property
+    def learned_numbers(self) -> np.ndarray | None:
+        """What each child of the caller's learner keeps, ``(n_children,)`` (:attr:`MgraoVectorEnv.learned_numbers`).
+
+        Setting it (a whole number, or one per child) prices the learning from the next episode on.
+        """
+        learned = self._vector.learned_numbers
+        return None if learned is None else learned[0]
+
+    @learned_numbers.setter
+    def learned_numbers(self, value: Any) -> None:
+        n_children = len(self.possible_agents)
+        self._vector.learned_numbers = _learned(value, 1, n_children, per_world=False)
 
     @property
     def world_seed(self) -> int | None:
@@ -638,17 +1016,10 @@ class MgraoParallelEnv(ParallelEnv):
                 which one world cannot have), naming it; nothing is reset. Other keys are ignored (module docstring).
         """
         _options(options, vector=False)
-        if seed is not None:
-            world_seed = _seed(seed)
-            self._generator = np.random.default_rng(world_seed)
-        elif self._generator is None:
-            world_seed = self.seed
-            self._generator = np.random.default_rng(world_seed)
-        else:
-            world_seed = int(self._generator.integers(0, MAX_SEED_VALUE, endpoint=True))
-        observations, infos = self._vector.reset(seed=[world_seed])
+        observations, infos = self._vector.reset(seed=None if seed is None else [_seed(seed)])
         self.agents = list(self._vector.agents)
-        return {agent: _first(observation) for agent, observation in observations.items()}, infos
+        return {agent: _first(observation) for agent, observation in observations.items()}, \
+            {agent: {} for agent in self.agents}
 
     def allocation(self, action: Any, agent: str = "") -> np.ndarray:
         """The weights an action stands for (:func:`allocations`).
@@ -676,7 +1047,8 @@ class MgraoParallelEnv(ParallelEnv):
                 (:meth:`allocation`); nothing is stepped.
         """
         vector = self._vector
-        entries, rewards, utility, agents = vector._play(vector._allocations(actions, self.allocation))
+        entries, rewards, utility = vector._play(vector._allocations(actions, self.allocation))
+        agents = self.possible_agents
         self.agents = list(vector.agents)
         done, value, episode = not self.agents, float(utility[0]), vector.episode - 1
         return (vector._observations(entries, agents, world=0),
@@ -698,7 +1070,8 @@ def _first(observation: dict[str, np.ndarray] | np.ndarray) -> dict[str, np.ndar
 
 
 def parallel_env(system: str = "single", seed: int = 0, episodes: int = 100, *, reward: str = "child",
-                 flatten: bool = False, **params: Any) -> MgraoParallelEnv:
+                 flatten: bool = False, dtype: Any = np.float64, learned_numbers: Any = None,
+                 **params: Any) -> MgraoParallelEnv:
     """The world the engine simulates for ``system`` with ``params`` on top, as a PettingZoo ``ParallelEnv``.
 
     Args:
@@ -707,26 +1080,47 @@ def parallel_env(system: str = "single", seed: int = 0, episodes: int = 100, *, 
         episodes: steps (episodes) before truncation.
         reward: ``"child"`` (what came back to the child) or ``"team"`` (the system utility, for every child).
         flatten: observations as one array of :func:`flat_length` numbers instead of a ``Dict``.
+        dtype: the observations' floating-point numbers: float64 (the default) or float32, the spaces to match.
+        learned_numbers: what one child of your learner keeps, a whole number or one per child, under a
+            ``learning_cost`` (module docstring: "Learning cost").
         **params: parameter overrides, as ``--set name=value`` (docs/model.md).
 
     Raises:
-        ConfigError: an unknown system or parameter, a value outside its limits, or a bad reward (naming it).
+        ConfigError: an unknown system or parameter, a value outside its limits, a bad reward, dtype or learned
+            numbers, or a learning cost without learned numbers (naming it).
     """
-    return MgraoParallelEnv(system, seed, episodes, reward=reward, flatten=flatten, **params)
+    return MgraoParallelEnv(system, seed, episodes, reward=reward, flatten=flatten, dtype=dtype,
+                            learned_numbers=learned_numbers, **params)
+
+
+GYMNASIUM_INFO = {"episode": "episode_index", "_episode": "_episode_index"}
+"""Info keys renamed where the environment is seen as a Gymnasium one (:class:`MgraoSingleChildEnv`, an agent's
+view of the vector environment in :mod:`mgrao_core.per_agent`): Gymnasium's ``RecordEpisodeStatistics`` writes its
+statistics under ``"episode"`` and refuses an info that has one."""
+
+
+def gymnasium_info(info: dict[str, Any]) -> dict[str, Any]:
+    """An info as a Gymnasium environment gives it (:data:`GYMNASIUM_INFO`; a ``final_info`` in it too), a new dict."""
+    renamed = {GYMNASIUM_INFO.get(key, key): value for key, value in info.items()}
+    if isinstance(renamed.get("final_info"), dict):
+        renamed["final_info"] = gymnasium_info(renamed["final_info"])
+    return renamed
 
 
 class MgraoSingleChildEnv(gymnasium.Env):
     """A one-child system as a Gymnasium ``Env``: the :class:`MgraoParallelEnv` of its only child.
 
-    The spaces, reward and info are that child's; ``reset(seed=s)`` also gives the world of the
+    The spaces, reward and info are that child's (its episode's index as ``"episode_index"``: :data:`GYMNASIUM_INFO`);
+    ``reset(seed=s)`` also gives the world of the
     engine's seed ``s`` (and seeds ``np_random``, which the environment itself never draws from).
     Build it with :func:`single_agent_env`.
     """
 
     metadata = {"render_modes": []}
 
-    def __init__(self, system: str = "single", seed: int = 0, episodes: int = 100, **params: Any) -> None:
-        self.parallel = MgraoParallelEnv(system, seed, episodes, **params)
+    def __init__(self, system: str = "single", seed: int = 0, episodes: int = 100, *, dtype: Any = np.float64,
+                 learned_numbers: Any = None, **params: Any) -> None:
+        self.parallel = MgraoParallelEnv(system, seed, episodes, dtype=dtype, learned_numbers=learned_numbers, **params)
         if self.parallel.params.n_children != 1:
             raise ConfigError("n_children", f"a single-agent environment needs one child (got "
                                             f"{self.parallel.params.n_children}): use parallel_env")
@@ -750,14 +1144,14 @@ class MgraoSingleChildEnv(gymnasium.Env):
         """One episode with the child's allocation ``action`` (see :meth:`MgraoParallelEnv.allocation`)."""
         observations, rewards, terminations, truncations, infos = self.parallel.step({self.agent: action})
         a = self.agent
-        return observations[a], rewards[a], terminations[a], truncations[a], infos[a]
+        return observations[a], rewards[a], terminations[a], truncations[a], gymnasium_info(infos[a])
 
 
-def single_agent_env(system: str = "single", seed: int = 0, episodes: int = 100,
-                     **params: Any) -> MgraoSingleChildEnv:
+def single_agent_env(system: str = "single", seed: int = 0, episodes: int = 100, *, dtype: Any = np.float64,
+                     learned_numbers: Any = None, **params: Any) -> MgraoSingleChildEnv:
     """A one-child system's world as a Gymnasium ``Env`` (arguments as :func:`parallel_env`).
 
     Raises:
         ConfigError: as :func:`parallel_env`, or the system has more than one child.
     """
-    return MgraoSingleChildEnv(system, seed, episodes, **params)
+    return MgraoSingleChildEnv(system, seed, episodes, dtype=dtype, learned_numbers=learned_numbers, **params)

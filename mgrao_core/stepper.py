@@ -5,8 +5,10 @@ learner outside it does: :meth:`SteppedWorlds.step` takes every world's allocati
 every world in one call of :func:`mgrao_core.engine.run_block` (lanes of a fixed family, which hold
 whatever allocation they are given), and returns what came back. World ``i`` is the engine's seed
 ``seeds[i]``: its world, and its per-episode draws taken from the seed's streams a block of episodes
-at a time as the runner takes them, so the same allocations give the engine's numbers. The
-environments of :mod:`mgrao_core.env` are built on it.
+at a time as the runner takes them, so the same allocations give the engine's numbers. Some worlds can
+start afresh while the others go on (:meth:`SteppedWorlds.renew`): a renewed world is the world of its new
+seed from that seed's first episode, wherever the others are. The environments of :mod:`mgrao_core.env` are
+built on it.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from mgrao_core.algorithms import LEARNERS, parse_algorithm
 from mgrao_core.lanes import allocate_lanes
 from mgrao_core.params import SystemParams
 from mgrao_core.runner import block_draws, kernel_failing, kernel_links, kernel_worlds
-from mgrao_core.world import EpisodeStreams, draw_world
+from mgrao_core.world import EpisodeStreams, draw_links, draw_world
 
 _NO_LEARNERS = (None,) * len(LEARNERS)
 
@@ -57,9 +59,10 @@ class SteppedWorlds:
 
     Attributes:
         params: the parameter set.
-        seeds: the engine's seed of each world.
+        seeds: the engine's seed of each world (a renewed world's new seed).
         block: episodes drawn at a time.
-        episode: episodes stepped so far.
+        episode: steps taken so far (every world plays one episode a step); :attr:`played` counts each
+            world's own episodes since it began.
     """
 
     def __init__(self, params: SystemParams, seeds: Sequence[int], block: int = 256) -> None:
@@ -67,7 +70,8 @@ class SteppedWorlds:
         self.block = max(1, int(block))
         self.seeds = tuple(int(s) for s in seeds)
         worlds = [draw_world(p, seed) for seed in self.seeds]
-        self._arrays = allocate_lanes(p, [parse_algorithm("uniform", p.n_parents)], len(worlds))
+        self._uniform = parse_algorithm("uniform", p.n_parents)
+        self._arrays = allocate_lanes(p, [self._uniform], len(worlds))
         self._arrays["profiles"][:] = np.stack([world.profiles for world in worlds])
         self._arrays["parent_types"][:] = np.stack([world.parent_types for world in worlds])
         self._lanes = engine.Lanes(**{name: self._arrays[name] for name in engine.Lanes._fields})
@@ -83,10 +87,70 @@ class SteppedWorlds:
         self._utility = np.zeros((n, 1))
         self._failing = kernel_failing(p, self._arrays)
         self._draws: list[engine.Draws] | None = None
+        self._block: list[np.ndarray] = []  # the block's draws, episode first (self._draws are views of them)
         self._kernel: Callable[..., None] | None = None
         self._observer: Callable[..., None] | None = None
         self._start = 0
         self.episode = 0
+        self._began = np.zeros(n, np.int64)  # the step at which each world began
+        self._together: int | None = 0  # the step at which every world began, while they began together
+
+    @property
+    def played(self) -> np.ndarray:
+        """``(worlds,)`` the episodes each world has played since it began (a renewed world: since its renewal)."""
+        return self.episode - self._began
+
+    @property
+    def played_together(self) -> int | None:
+        """The episodes every world has played, while every world began at the same step; None otherwise."""
+        return None if self._together is None else self.episode - self._together
+
+    def set_task_share(self, share: np.ndarray) -> None:
+        """Each child's share of its resources that its tasks get, ``(worlds, children)`` or broadcast to it.
+
+        What learning leaves them (``learning_cost``, :func:`mgrao_core.equations.task_share`): the kernel
+        multiplies each weight by it where a task's quality is computed, as in a run (``Lanes.task_share``).
+        """
+        self._arrays["task_share"][:] = share
+
+    def renew(self, worlds: Sequence[int], seeds: Sequence[int]) -> None:
+        """Start worlds ``worlds`` afresh, ``worlds[j]`` as the engine's seed ``seeds[j]``; the others go on.
+
+        A renewed world is a new :class:`SteppedWorlds` of its seed would be: its world (resources, links), the
+        lanes' state as at episode 0 (every parent present, estimates at their start) and its draws from the
+        seed's first episode on, the rest of the current block drawn from its new streams now. The children's
+        task shares (:meth:`set_task_share`) are the learner's and stay.
+        """
+        rows = np.asarray(worlds, dtype=np.int64)
+        if not len(rows):
+            return
+        p = self.params
+        fresh = [draw_world(p, int(seed)) for seed in seeds]
+        lanes = allocate_lanes(p, [self._uniform], len(rows))
+        lanes["profiles"][:] = np.stack([world.profiles for world in fresh])
+        lanes["parent_types"][:] = np.stack([world.parent_types for world in fresh])
+        for name, array in self._arrays.items():
+            if name not in ("seed_index", "task_share"):  # a lane's index is its world's; its share the learner's
+                array[rows] = lanes[name]
+        renewed_worlds, renewed_several = kernel_worlds(p, fresh)
+        self._worlds.resources[rows] = renewed_worlds.resources
+        if self._several is not None:
+            self._several.per_resource[rows] = renewed_several.per_resource
+            self._several.needs[rows] = renewed_several.needs
+        if self._links is not None:
+            self._links[rows] = np.stack([draw_links(p, int(seed)) for seed in seeds])
+        seeds_now = list(self.seeds)
+        for row, seed, world in zip(rows.tolist(), seeds, fresh, strict=True):
+            seeds_now[row] = int(seed)
+            self._streams[row] = EpisodeStreams(p, int(seed), world)
+        self.seeds = tuple(seeds_now)
+        offset = self.episode - self._start
+        if self._draws is not None and offset < self.block:  # the rest of this block: the renewed worlds' first
+            drawn = block_draws([self._streams[row].draw(self.block - offset) for row in rows.tolist()])
+            for master, new in zip(self._block, drawn, strict=True):
+                master[offset:, rows, 0] = np.moveaxis(new, 1, 0)
+        self._began[rows] = self.episode
+        self._together = self.episode if (self._began == self.episode).all() else None
 
     @property
     def resources(self) -> np.ndarray:
@@ -111,7 +175,7 @@ class SteppedWorlds:
         """
         if self._draws is None or self.episode >= self._start + self.block:
             self._start = self.episode
-            self._draws = _by_episode(block_draws([stream.draw(self.block) for stream in self._streams]))
+            self._block, self._draws = _by_episode(block_draws([stream.draw(self.block) for stream in self._streams]))
         draws = self._draws[self.episode - self._start]
         if self._several is None:
             self._arrays["fixed_weights"][:] = weights
@@ -178,13 +242,16 @@ def _thread_functions() -> tuple[Callable[..., Any], Callable[..., Any]]:
     return numba.set_num_threads, numba.get_num_threads
 
 
-def _by_episode(draws: engine.Draws) -> list[engine.Draws]:
+def _by_episode(draws: engine.Draws) -> tuple[list[np.ndarray], list[engine.Draws]]:
     """A block's draws, episode by episode: entry ``j`` is episode ``j``'s as the kernel reads a block of one episode.
 
-    Each of its arrays is ``(seeds, 1, ...)``, a contiguous view of a copy of the block laid out episode first.
+    Returns:
+        The block's arrays laid out episode first, ``(episodes, seeds, 1, ...)`` (copies, one per field of
+        :class:`engine.Draws`), and each episode's draws, whose arrays are ``(seeds, 1, ...)``, contiguous views of
+        them (so that writing into the first changes the second).
     """
-    first = [list(np.ascontiguousarray(np.moveaxis(block, 1, 0)[:, :, None])) for block in draws]
-    return list(map(engine.Draws._make, zip(*first, strict=True)))
+    masters = [np.ascontiguousarray(np.moveaxis(block, 1, 0)[:, :, None]) for block in draws]
+    return masters, list(map(engine.Draws._make, zip(*map(list, masters), strict=True)))
 
 
 def _compiled(dispatcher: Any, arguments: tuple) -> Callable[..., None]:

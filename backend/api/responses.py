@@ -123,19 +123,51 @@ class ResourceWeights(BaseModel):
     groups: list[Any] | None
 
 
-class MeanWeights(BaseModel):
-    """Final weights: combined per child, and per parent group.
+class StoredBounds(BaseModel):
+    """The weights a run stores at most (``mgrao_core.budget``): beyond, the first children's that fit."""
 
-    ``groups`` is empty for uniform and oracle, or null when omitted beyond the size limit (with the reason).
-    With several resources (``n_resources`` > 1), ``combined`` and ``groups`` are the first resource's and
-    ``resources`` lists every resource's (MG-RAO keeps a PW per resource; the other families one split for
-    every resource); null with one resource.
+    combined_values: int
+    group_values: int
+
+
+class ChildrenPage(BaseModel):
+    """Which children an answer holds, and which a run stores (an answer of a page, or of more than 100 children)."""
+
+    offset: int = Field(description="The page's first child.")
+    count: int = Field(description="Children in the page (combined and groups hold one entry each).")
+    total: int = Field(description="The run's children (n_children).")
+    combined_stored: int = Field(description="The first children whose combined weights a run stores.")
+    groups_stored: int | None = Field(description="The first children whose parent-group weights a run stores; "
+                                                  "null when the algorithm learns none.")
+    bounds: StoredBounds
+
+
+class ChildMeans(BaseModel):
+    """A run's weights' mean over every child, as one child: ``combined`` and ``groups`` hold one entry."""
+
+    combined: list[Any]
+    groups: list[Any] | None
+    groups_omitted: str | None = None
+    resources: list[ResourceWeights] | None = None
+
+
+class MeanWeights(BaseModel):
+    """Final weights of a page of children: combined per child, and per parent group.
+
+    ``groups`` is empty for uniform and oracle, or null when omitted (beyond the size limit, or not stored),
+    with the reason. With several resources (``n_resources`` > 1), ``combined`` and ``groups`` are the first
+    resource's and ``resources`` lists every resource's (MG-RAO keeps a PW per resource; the other families one
+    split for every resource); null with one resource. ``children`` says which children the page holds (an
+    answer of a page, or of a run of more than 100 children); ``mean_over_children`` is the mean over every
+    child, for a run of more than 100 children.
     """
 
     combined: list[Any]
     groups: list[Any] | None
     groups_omitted: str | None = None
     resources: list[ResourceWeights] | None = None
+    children: ChildrenPage | None = None
+    mean_over_children: ChildMeans | None = None
 
 
 class SeedPct(BaseModel):

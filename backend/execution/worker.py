@@ -33,6 +33,7 @@ from backend.settings import Settings
 from backend.store import queue
 from backend.store.db import Database
 from backend.store.retry import Backoff, HealthClock, OutageLog, Stopping
+from backend.store.run_storage import stored_bytes
 
 if TYPE_CHECKING:
     from mgrao_core import ExperimentSpec
@@ -171,8 +172,7 @@ class Worker:
                         failed.append((claim, error))
                         continue
                     completed.append(plan.completed(claim, runs))
-                    held += sum(len(row["utilities"]) + len(row["combined_weights"]) + len(row["group_weights"])
-                                for row in completed[-1].rows)
+                    held += sum(stored_bytes(row) for row in completed[-1].rows)
                     if held > BATCH_BYTES:
                         store()
             store()

@@ -4,7 +4,8 @@ Runs are read a few at a time and folded into per-episode statistics, so the mem
 needs grows with the episodes of a configuration, not with its runs. Every answer is bounded:
 at most :data:`MAX_RESPONSE_VALUES` numbers in curves (beyond that the default downsamples and
 an explicit request is refused with 422 naming the limit) and at most
-:data:`backend.services.weights.MAX_WEIGHT_VALUES` learned weights per configuration. A job that is still
+:data:`backend.services.weights.MAX_WEIGHT_VALUES` learned weights per configuration, of the first page of children
+(:data:`backend.services.weights.CHILDREN_PAGE`). A job that is still
 running, or was cancelled or failed after storing some chunks, answers with what is stored, marked ``partial``.
 """
 

@@ -99,7 +99,7 @@ class Job(Base):
     compiling: Mapped[dict[str, Any] | None] = mapped_column(JSON, nullable=True)
     """While its worker compiles the engine for it: what (``mgrao_core.compiling.Compiling``) and since when."""
     compile_s: Mapped[float | None] = mapped_column(Float, nullable=True)
-    """Seconds its workers spent compiling the engine for it; None: none (migration 0017)."""
+    """Seconds its workers spent compiling the engine for it; None: none (migration 0018)."""
 
     tag_rows: Mapped[list[JobTag]] = relationship(cascade="all, delete-orphan", passive_deletes=True)
 
@@ -128,10 +128,11 @@ def saved_system_of(tags: Any) -> str | None:
 
 
 class Run(Base):
-    """One (algorithm, seed) run of a job: every episode utility and the final weights.
+    """One (algorithm, seed) run of a job: every episode utility and the final weights, within stated bounds.
 
     ``utilities`` holds the run's episodes as little-endian float64 bytes, episode ``e`` at
     offset ``8 e``; one row per (job, algorithm, seed), so a retried write cannot duplicate.
+    What a run keeps of its weights is :mod:`backend.store.run_storage`'s.
     """
 
     __tablename__ = "runs"
@@ -146,6 +147,11 @@ class Run(Base):
     combined_weights: Mapped[bytes] = mapped_column(LargeBinary)
     group_weights: Mapped[bytes] = mapped_column(LargeBinary)
     group_shape: Mapped[list[int]] = mapped_column(JSON)
+    weights_meta: Mapped[dict[str, Any] | None] = mapped_column(JSON, nullable=True, default=None)
+    """What the weights columns keep: ``{"children", "combined_children", "group_children", "means", "group_mean"}``
+    (:mod:`backend.store.run_storage`); null for runs stored before migration 0017, which kept every weight."""
+    child_means: Mapped[bytes | None] = mapped_column(LargeBinary, nullable=True, default=None)
+    """A run of more than 100 children: its weights' mean over every child (combined, then PW where kept)."""
     membership: Mapped[bytes | None] = mapped_column(LargeBinary, nullable=True, default=None)
     """Recorded parent-group memberships (int16) of an algorithm whose groups change; null otherwise."""
     membership_meta: Mapped[dict[str, Any] | None] = mapped_column(JSON, nullable=True, default=None)

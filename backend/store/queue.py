@@ -17,13 +17,13 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
 from sqlalchemy import delete, exists, func, or_, select, update
 from sqlalchemy.orm import Session
 
 from backend.store import dialect, summaries
 from backend.store.db import Database
 from backend.store.models import FAILED, QUEUED, RUNNING, SIMULATION, SUCCEEDED, Job, Run, utcnow
+from backend.store.run_storage import StoredRun, stored_runs
 from mgrao_core import Run as SimulatedRun
 from mgrao_core import summarise
 
@@ -195,61 +195,12 @@ def _beat(session: Session, claim: Claim, progress: float | None, compiling: Any
     return session.execute(update(Job).where(*_held(claim)).values(**values)).rowcount == 1
 
 
-def _blob(array: np.ndarray) -> bytes:
-    return np.ascontiguousarray(array, dtype="<f8").tobytes()
+def run_rows(job_id: int, runs: Iterable[SimulatedRun | StoredRun]) -> list[dict[str, Any]]:
+    """The ``runs`` table rows of a job's runs: the core's runs, or their stored form sent back by a Dask worker.
 
-
-MAX_MEMBERSHIP_VALUES = 100_000
-"""Recorded memberships stored per run (children x records x parents, int16): the first children that fit,
-at least one (records are at most :data:`mgrao_core.algorithms.adaptive.SNAPSHOTS`)."""
-
-
-def _membership(run: SimulatedRun) -> dict[str, Any]:
-    """A run's recorded memberships as int16 bytes and their shape (the first children within the bound)."""
-    history = getattr(run, "membership", None)
-    if history is None:
-        return {"membership": None, "membership_meta": None}
-    per_child = max(1, history.shape[1] * history.shape[2])
-    kept = history[: max(1, MAX_MEMBERSHIP_VALUES // per_child)]
-    return {"membership": np.ascontiguousarray(kept, dtype="<i2").tobytes(),
-            "membership_meta": {"shape": list(kept.shape), "every": int(run.membership_every)}}
-
-
-def run_rows(job_id: int, runs: Iterable[SimulatedRun]) -> list[dict[str, Any]]:
-    """The ``runs`` table rows of simulated runs (utilities and weights as little-endian float64).
-
-    A run whose groups change also keeps its recorded memberships (:func:`_membership`); every run its
-    :class:`~mgrao_core.TaskCounts` (all 0 where no task can fail).
+    What a run keeps, and within which bounds, is :func:`backend.store.run_storage.stored_run`'s.
     """
-    return [
-        {"job_id": job_id, "algorithm": run.algorithm, "seed": run.seed, "episodes": len(run.utilities),
-         "utilities": _blob(run.utilities)} | _weights(run) | _membership(run) | _tasks(run)
-        for run in runs
-    ]
-
-
-def _tasks(run: SimulatedRun) -> dict[str, int]:
-    """A run's task counts as its three columns."""
-    return {"tasks_allocated": int(run.tasks.allocated), "tasks_failed": int(run.tasks.failed),
-            "tasks_handed_over": int(run.tasks.handed_over)}
-
-
-def _weights(run: SimulatedRun) -> dict[str, Any]:
-    """A run's final weights as stored: with several resources, resource-major.
-
-    One resource: ``combined (children, n_types)``, ``group (children, m, n_types)``, ``group_shape [children,
-    m, n_types]``, as ever. ``R`` resources: ``combined (R, children, n_types)`` and ``group (R, children, m,
-    n_types)``, ``group_shape [R * children, m, n_types]``: the first ``children`` rows are the first resource's,
-    so a reader that does not know the resources reads the first one (``n_resources`` is in the job's params).
-    """
-    if run.resource_weights is None:
-        return {"combined_weights": _blob(run.combined_weights), "group_weights": _blob(run.group_weights),
-                "group_shape": list(run.group_weights.shape)}
-    groups = run.group_weights if run.resource_group_weights is None else run.resource_group_weights
-    n_resources, children, n_types = run.resource_weights.shape
-    return {"combined_weights": _blob(run.resource_weights),
-            "group_weights": _blob(groups) if groups.shape[-2] else b"",
-            "group_shape": [n_resources * children, int(groups.shape[-2]), n_types]}
+    return [{"job_id": job_id} | row for row in stored_runs(runs)]
 
 
 def store_runs(db: Database, *, claim: Claim, rows: Sequence[dict[str, Any]], progress: float) -> bool:

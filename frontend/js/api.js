@@ -186,7 +186,7 @@ export const api = {
   cancelJob: (id) => request('POST', `/jobs/${id}/cancel`),
   deleteJob: (id) => request('DELETE', `/jobs/${id}`),
   results: (id, query, opts) => request('GET', `/jobs/${id}/results`, { query, ...opts }),
-  weights: (id, seed, opts) => request('GET', `/jobs/${id}/weights`, { query: { seed }, ...opts }),
+  weights: (id, seed, page, opts) => request('GET', `/jobs/${id}/weights`, { query: { seed, ...page }, ...opts }),
   compare: (ids, points, opts) => request('GET', '/compare', { query: { jobs: ids.join(','), points }, ...opts }),
   compareStatistics: (ids, { reps, seed, aggregate } = {}, opts) => request('GET', '/compare/statistics',
     { query: { jobs: ids.join(','), reps, seed, aggregate: aggregate && aggregate.length ? aggregate.join(',') : undefined }, ...opts }),

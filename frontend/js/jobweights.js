@@ -5,6 +5,9 @@
 // the run: parents by recorded regroupings, each cell the parent's group (the paper's adaptive groups).
 // A system with several resources (n_resources > 1) shows one heatmap per resource, titled by resource:
 // MG-RAO keeps a PW per resource (the paper's pgw_{c,r,t}); the answer's `resources` lists each one's.
+// A system of more children than an answer's page (the answers then say which children they hold: `children`)
+// shows one child at a time, chosen by its number and loaded alone, or the mean over every child (stored with
+// each run: `mean_over_children`), and says what each run stored of its weights and why.
 
 import { api } from './api.js';
 import { h, notice, nextId } from './ui.js';
@@ -37,6 +40,21 @@ export function membershipFigure(membership, child) {
   };
 }
 
+/** What each run stores of a large system's weights, and what the view shows, from an answer's `children`. */
+export function childrenNote(page, seedIsMean) {
+  const n = (v) => Number(v).toLocaleString('en-US');
+  const combined = page.combined_stored === page.total ? 'every child' : `the first ${n(page.combined_stored)}`;
+  const groups = page.groups_stored === null || page.groups_stored === undefined ? ''
+    : page.groups_stored === page.total ? ' and the parent-group weights of every child'
+      : ` and the parent-group weights of the first ${n(page.groups_stored)}`;
+  const bound = page.bounds.combined_values === page.bounds.group_values
+    ? `a run keeps at most ${n(page.bounds.combined_values)} of each: ${n(page.bounds.combined_values * 8 / 1e6)} MB`
+    : `a run keeps at most ${n(page.bounds.combined_values)} and ${n(page.bounds.group_values)}`;
+  return `${n(page.total)} children: one child at a time, or their mean over every child. Each run stores the ` +
+    `combined weights of ${combined}${groups} (${bound}), and their mean over every child.` +
+    (seedIsMean ? ` The mean over seeds covers the first ${n(page.count)} children: choose a seed to see any child.` : '');
+}
+
 /**
  * The section. `results` is the job's results answer (its configurations carry the mean weights);
  * `state` keeps the chosen seed, configuration and child across redraws of a running job.
@@ -52,10 +70,18 @@ export function weightsSection({ jobId, results, plots, state }) {
   if (!state.algorithm || !configs.some((c) => c.algorithm === state.algorithm)) state.algorithm = preferred.algorithm;
   const hasOracle = configs.some((c) => c.algorithm === bestFixed);
 
-  const ids = { seed: nextId('wseed'), cfg: nextId('cfg'), child: nextId('child') };
+  // a system of more children than a page: one child by number (loaded alone), or the mean over every child
+  const paging = (configs.find((c) => c.weights.children) || { weights: {} }).weights.children || null;
+  const ids = { seed: nextId('wseed'), cfg: nextId('cfg'), child: nextId('child'), whole: nextId('whole') };
   const seedSel = h('select', { id: ids.seed, 'data-testid': 'weights-seed' });
   const cfgSel = h('select', { id: ids.cfg }, configs.map((c) => h('option', { value: c.algorithm, selected: c.algorithm === state.algorithm }, c.algorithm)));
-  const childSel = h('select', { id: ids.child });
+  const childSel = paging
+    ? h('input', { type: 'number', id: ids.child, min: 0, step: 1, value: state.child || 0, 'data-testid': 'weights-child' })
+    : h('select', { id: ids.child });
+  const wholeSel = paging ? h('select', { id: ids.whole, 'data-testid': 'weights-children' },
+    h('option', { value: 'one', selected: !state.whole }, 'one child'),
+    h('option', { value: 'all', selected: !!state.whole }, `mean over all ${paging.total.toLocaleString('en-US')} children`)) : null;
+  const childrenInfo = h('p', { class: 'help', id: 'weights-children-note', 'aria-live': 'polite', hidden: !paging });
   const heat = h('div', { class: 'chart heat', id: 'weights-heatmap', role: 'img', 'aria-label': 'Heatmap of a child’s parent-group weights per task type' });
   const bars = h('div', { class: 'chart bars', id: 'weights-bars', role: 'img', 'aria-label': 'A child’s combined weights per task type, beside the oracle’s allocation' });
   const seedNote = h('p', { class: 'help', id: 'weights-seed-note', 'aria-live': 'polite' });
@@ -78,10 +104,17 @@ export function weightsSection({ jobId, results, plots, state }) {
       h('option', { value: MEAN, selected: state.seed === MEAN }, `mean over ${nMean} seeds`));
   };
 
+  const offsetOf = (x) => (x.children ? x.children.offset : 0);
+  // a large system's view shows one child (or the mean over every child, in every answer): it asks for that child
+  // alone, a few kB, not the default page of 100 children's weights
+  const pageFor = () => (paging ? { child_offset: state.child || 0, children: 1 } : undefined);
+  const covers = (a) => !paging || a.seed === MEAN || state.whole || a.configurations.every((x) =>
+    (state.child || 0) >= offsetOf(x) && (state.child || 0) < offsetOf(x) + x.combined.length);
+
   const load = async () => {
     if (state.seed === MEAN && seeds) { answer = meanAnswer; return; }
     try {
-      const one = await api.weights(jobId, state.seed === MEAN || state.seed == null ? undefined : state.seed);
+      const one = await api.weights(jobId, state.seed === MEAN || state.seed == null ? undefined : state.seed, pageFor());
       seeds = one.seeds;
       if (state.seed !== MEAN) state.seed = one.seed;
       answer = state.seed === MEAN ? meanAnswer : one;
@@ -94,34 +127,63 @@ export function weightsSection({ jobId, results, plots, state }) {
     }
   };
 
+  // One child's weights of configuration x in the answer (or, with the mean over every child chosen, that mean):
+  // combined (types), groups (groups x types; null: left out, with why; [] or undefined: none learned), and each
+  // resource's groups. null when the answer does not hold the child.
+  const view = (x, child) => {
+    const one = (w, i) => ({
+      combined: w.combined[i], groups: w.groups === null ? null : (w.groups || [])[i], omitted: w.groups_omitted,
+      resources: (w.resources || []).map((r) => ({ resource: r.resource, groups: (r.groups || [])[i] })) });
+    if (paging && state.whole) return x.mean_over_children ? one(x.mean_over_children, 0) : null;
+    const i = child - offsetOf(x);
+    return i >= 0 && i < x.combined.length ? one(x, i) : null;
+  };
+
+  const pickChild = (c) => {
+    if (!paging) {
+      const nChildren = c.combined.length;
+      if (childSel.options.length !== nChildren) {
+        childSel.replaceChildren(...Array.from({ length: nChildren }, (_, i) => h('option', { value: i, selected: i === (state.child || 0) }, `child ${i}`)));
+      }
+      return Math.min(Number(childSel.value) || 0, nChildren - 1);
+    }
+    const page = c.children || paging;
+    const last = (answer.seed === MEAN ? page.count : page.combined_stored) - 1;
+    childSel.max = String(last);
+    childSel.disabled = !!state.whole;
+    const child = Math.max(0, Math.min(Math.floor(Number(childSel.value) || 0), last));
+    if (String(child) !== childSel.value) childSel.value = String(child);
+    childrenInfo.textContent = childrenNote(page, answer.seed === MEAN);
+    return child;
+  };
+
   const drawWeights = () => {
     if (!answer) return;
     const c = answer.configurations.find((x) => x.algorithm === cfgSel.value) || answer.configurations[0];
     state.algorithm = c.algorithm;
-    const nChildren = c.combined.length;
-    if (childSel.options.length !== nChildren) {
-      childSel.replaceChildren(...Array.from({ length: nChildren }, (_, i) => h('option', { value: i, selected: i === (state.child || 0) }, `child ${i}`)));
-    }
-    const child = Math.min(Number(childSel.value) || 0, nChildren - 1);
+    const child = pickChild(c);
     state.child = child;
-    const nTypes = c.combined[child].length;
+    const v = view(c, child);
+    if (!v) return; // its page is on its way (load)
+    const who = paging && state.whole ? `the mean over all ${paging.total.toLocaleString('en-US')} children` : `child ${child}`;
+    const nTypes = v.combined.length;
     const types = Array.from({ length: nTypes }, (_, i) => i);
     const failed = loadError ? `Cannot load one seed’s weights (${loadError}). ` : '';
     seedNote.textContent = failed + weightsNote(answer.seed, configs.find((x) => x.algorithm === c.algorithm)?.seeds_done ?? 0) +
       (hasOracle ? '' : ' This job did not run the oracle, so there is no best fixed allocation to set beside it.');
-    const g = (c.groups || [])[child];
+    const g = v.groups;
     const width = heat.clientWidth || 600;
     const height = heat.clientHeight || 380;
-    const perResource = (c.resources || []).filter((r) => ((r.groups || [])[child] || []).length);
-    drawResourceHeats(c, child, perResource, types);
+    const perResource = v.resources.filter((r) => (r.groups || []).length);
+    drawResourceHeats(perResource, types, who);
     if (perResource.length > 1) {
       purge(heat);
       heat.hidden = true;
-      heatNote.textContent = `${g.length} parent groups of child ${child} under ${c.algorithm}, one heatmap per ` +
+      heatNote.textContent = `${g.length} parent groups of ${who} under ${c.algorithm}, one heatmap per ` +
         `resource (a PW per resource)` + (answer.seed === MEAN ? ', mean over seeds.' : `, seed ${answer.seed}.`);
     } else if (g && g.length) {
       heat.hidden = false;
-      heatNote.textContent = `${g.length} parent groups of child ${child} under ${c.algorithm}` +
+      heatNote.textContent = `${g.length} parent groups of ${who} under ${c.algorithm}` +
         (answer.seed === MEAN ? ', mean over seeds.' : `, seed ${answer.seed}.`);
       draw(heat, [heatmapTrace(g, g.map((_, i) => i), types)], {
         xaxis: { title: { text: 'Task type' }, ...indexAxis(nTypes, width - 160, 22) },
@@ -131,33 +193,34 @@ export function weightsSection({ jobId, results, plots, state }) {
     } else {
       purge(heat);
       heat.hidden = true;
-      heatNote.textContent = c.groups === null ? `${c.algorithm}: ${c.groups_omitted}.`
+      heatNote.textContent = g === null ? `${c.algorithm}: ${v.omitted}.`
         : `${c.algorithm} stores no group weights; only its combined weights are shown.`;
     }
-    drawMembership(c, child, height);
+    drawMembership(c, paging && state.whole ? -1 : child - offsetOf(c), child, height);
     const shown = [c, ...answer.configurations.filter((x) => x.algorithm === bestFixed && x !== c)];
     draw(bars, shown.map((x) => ({
-      type: 'bar', name: x.algorithm === bestFixed ? `${x.algorithm} (best fixed allocation)` : x.algorithm, x: types, y: x.combined[child],
-      marker: { color: colours[x.algorithm]?.color || '#000000' }, meta: { kind: 'bar', config: x.algorithm, child },
+      type: 'bar', name: x.algorithm === bestFixed ? `${x.algorithm} (best fixed allocation)` : x.algorithm, x: types,
+      y: (view(x, child) || { combined: [] }).combined,
+      marker: { color: colours[x.algorithm]?.color || '#000000' }, meta: { kind: 'bar', config: x.algorithm, child: paging && state.whole ? 'mean' : child },
       hovertemplate: `${x.algorithm}, type %{x}: %{y:.4f}<extra></extra>`,
     })), {
       barmode: 'group', showlegend: true, legend: { orientation: 'h', y: 1.12 }, hovermode: 'closest',
-      xaxis: { title: { text: `Task type (child ${child}${c.resources ? ", resource 0" : ""})` }, ...indexAxis(nTypes, width - 100, 22) },
+      xaxis: { title: { text: `Task type (${who}${c.resources ? ", resource 0" : ""})` }, ...indexAxis(nTypes, width - 100, 22) },
       yaxis: { title: { text: 'Combined weight' } },
     });
   };
 
-  const drawResourceHeats = (c, child, perResource, types) => {
+  const drawResourceHeats = (perResource, types, who) => {
     // one heatmap per resource, each titled by its resource; none with one resource
     for (const old of resourceHeats.children) { purge(old); const i = plots.indexOf(old); if (i >= 0) plots.splice(i, 1); }
     resourceHeats.replaceChildren();
     resourceHeats.hidden = perResource.length < 2;
     if (perResource.length < 2) return;
     for (const r of perResource) {
-      const g = r.groups[child];
+      const g = r.groups; // the child's (or the mean's) PW of resource r (see view)
       const div = h('div', { class: 'chart heat', id: `weights-heatmap-resource-${r.resource}`, role: 'img',
         'data-testid': 'weights-resource-heatmap', 'data-resource': String(r.resource),
-        'aria-label': `Heatmap of child ${child}’s parent-group weights of resource ${r.resource} per task type` });
+        'aria-label': `Heatmap of ${who}’s parent-group weights of resource ${r.resource} per task type` });
       resourceHeats.append(div);
       plots.push(div);
       const width = div.clientWidth || 600;
@@ -172,17 +235,18 @@ export function weightsSection({ jobId, results, plots, state }) {
     }
   };
 
-  const drawMembership = (c, child, height) => {
+  const drawMembership = (c, index, child, height) => {
     // Only algorithms whose groups change store a membership (the weights answer says so: null otherwise);
-    // the mean over seeds has none, since every seed groups its own parents.
-    if (!c.membership || !c.membership.children[child]) {
+    // the mean over seeds has none, since every seed groups its own parents. `index` is the child's place in the
+    // answer's page (-1: the mean over children, which has none).
+    if (!c.membership || index < 0 || !c.membership.children[index]) {
       purge(member);
       member.hidden = true;
-      memberNote.textContent = c.membership ? `Child ${child}’s membership was not stored (only the first children fit the bound).`
-        : '';
+      memberNote.textContent = c.membership && index >= 0
+        ? `Child ${child}’s membership was not stored (only the first children fit the bound).` : '';
       return;
     }
-    const f = membershipFigure(c.membership, child);
+    const f = membershipFigure(c.membership, index);
     member.hidden = false;
     memberNote.textContent = `Group membership of child ${child} under ${c.algorithm}, seed ${answer.seed}: ` +
       `each parent’s group at episode 0 and after regroupings (a record every ${c.membership.every} episodes). ` +
@@ -204,7 +268,18 @@ export function weightsSection({ jobId, results, plots, state }) {
     drawWeights();
   });
   cfgSel.addEventListener('change', drawWeights);
-  childSel.addEventListener('change', () => { state.child = Number(childSel.value); drawWeights(); });
+  childSel.addEventListener('change', async () => {
+    state.child = Number(childSel.value);
+    if (answer && !covers(answer)) await load(); // a large system's child outside the page loaded: that child alone
+    drawWeights();
+  });
+  if (wholeSel) {
+    wholeSel.addEventListener('change', async () => {
+      state.whole = wholeSel.value === 'all';
+      if (answer && !covers(answer)) await load();
+      drawWeights();
+    });
+  }
   fillSeeds();
   queueMicrotask(async () => { await load(); drawWeights(); });
 
@@ -213,8 +288,9 @@ export function weightsSection({ jobId, results, plots, state }) {
     h('div', { class: 'controls' },
       h('label', { for: ids.seed }, 'Seed'), seedSel,
       h('label', { for: ids.cfg }, 'Configuration'), cfgSel,
+      ...(wholeSel ? [h('label', { for: ids.whole }, 'Children'), wholeSel] : []),
       h('label', { for: ids.child }, 'Child'), childSel),
-    seedNote, heatNote,
+    childrenInfo, seedNote, heatNote,
     h('div', { class: 'grid2' }, heat, bars),
     resourceHeats,
     memberNote, member);

@@ -332,9 +332,10 @@ def run_block(lanes, worlds, several, links, draws, env, utilities, outside, fai
                     for k in range(types_per_composite):
                         observed_child_of[p, k] = child_of[p, k]
                         observed_values[p, k] = values[p, k]
-            # 5. Values come back composite by composite, in a random order of parents.
-            for i in range(n_parents):
-                p = draws.order[s, e, i]
+            # 5. Values come back composite by composite, in a random order of parents: to each parent's estimates of
+            # its children (each parent's own: taken in the order of parents), and to the children, which learn them
+            # in the order they came back.
+            for p in range(n_parents):
                 if not sending[p]:
                     continue
                 if links is not None and n_links > 1:
@@ -343,6 +344,14 @@ def run_block(lanes, worlds, several, links, draws, env, utilities, outside, fai
                 elif links is None and n_children > 1:
                     update_estimates(lanes.estimates[lane, p], lanes.tries[lane, p], child_of[p], values[p], taq[p],
                                      env.per_composite)
+            # the learners that take the values parent by parent (MG-RAO on one resource learns below, child by child;
+            # a fixed family learns nothing)
+            in_order = (kind == MGRAO and several is not None) or kind == ADAPTIVE or kind == INDEPENDENT_Q \
+                or kind == BANDIT or kind == BALANCE
+            for i in range(n_parents if in_order else 0):
+                p = draws.order[s, e, i]
+                if not sending[p]:
+                    continue
                 if several is not None and mgrao_lanes is not None and kind == MGRAO:  # each resource's PW: its share
                     for r in range(n_resources):
                         for k in range(types_per_composite):
@@ -350,8 +359,6 @@ def run_block(lanes, worlds, several, links, draws, env, utilities, outside, fai
                             credit[p, k] = values[p, k] * shares[p, k, r] if env.by_share else values[p, k]
                         mgrao.learn(mgrao_lanes, Y, F, H, cs, G, rows, slot, n_rows, k_since_rebase, counts,
                                     rebase_due, row_kl, m, p, n_parents, learner_of, parent_types, credit)
-                elif mgrao_lanes is not None and kind == MGRAO:
-                    continue  # learnt below, child by child
                 elif adaptive_lanes is not None and kind == ADAPTIVE:
                     adaptive.learn(adaptive_lanes, adaptive_views, m, p, n_parents, child_of[p],
                                    parent_types[p], values[p])

@@ -213,7 +213,7 @@ def test_compare_keeps_its_groups_until_a_job_changes(client: TestClient, worker
 @pytest.mark.parametrize(
     ("body", "field", "text"),
     [
-        ({"params": {"n_parents": 5000}}, "n_parents", "[1, 3000]"),
+        ({"params": {"n_parents": 2_000_000}}, "n_parents", "[1, 1000000]"),
         ({"params": {"bogus": 1}}, "bogus", "unknown parameter"),
         ({"params": {"n_types": "many"}}, "n_types", "must be a number"),
         ({"params": {"types_per_composite": 30}}, "types_per_composite", "n_types = 20"),
@@ -252,9 +252,9 @@ def test_bad_input_is_422_naming_the_field_and_limit(client: TestClient, body: d
 
 
 def test_param_error_loc_points_into_params(client: TestClient) -> None:
-    detail = client.post("/api/jobs", json={**SMALL, "params": {"n_parents": 5000}}).json()["detail"][0]
+    detail = client.post("/api/jobs", json={**SMALL, "params": {"n_parents": 2_000_000}}).json()["detail"][0]
     assert detail["loc"] == ["body", "params", "n_parents"]
-    assert detail["msg"] == "n_parents: must be in [1, 3000] (got 5000)"
+    assert detail["msg"] == "n_parents: must be in [1, 1000000] (got 2000000)"
 
 
 @pytest.mark.parametrize(

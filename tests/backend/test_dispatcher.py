@@ -17,6 +17,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import httpx
+import large_job
 import numpy as np
 import pytest
 from sqlalchemy import func, select
@@ -165,6 +166,17 @@ def test_the_cluster_topology_end_to_end_over_rest(tmp_path: Path, topology: Top
             assert topology.job(job_id).worker_id.startswith("dispatcher:")
     finally:
         stop(server)
+
+
+def test_a_job_of_10000_children_on_the_cluster_stores_what_a_local_worker_stores(topology: Topology) -> None:
+    # issue 42, item 4: each Dask task sends back its runs as stored (the learner's PW of its first 1,000 children,
+    # 16 MB, not 160 MB), and the dispatcher stores them as a local worker does, bit for bit the core's
+    topology.start_cluster(workers=1)
+    topology.start_dispatcher()
+    job_id = topology.submit(make_spec("multi", large_job.ALGORITHMS, large_job.SEEDS, large_job.EPISODES,
+                                       large_job.PARAMS))
+    assert topology.wait(job_id, timeout=600).worker_id.startswith("dispatcher:")
+    large_job.assert_stored_within_bounds(topology.db, job_id)
 
 
 def test_at_most_threads_plus_margin_chunks_in_flight(topology: Topology) -> None:

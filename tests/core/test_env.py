@@ -317,6 +317,6 @@ def test_invalid_configurations_name_the_field(kwargs, field):
 def test_the_single_agent_env_refuses_unknown_reset_options_too():
     env = single_agent_env("single", episodes=3)
     env.reset(seed=4, options={})
-    with pytest.raises(ConfigError, match="options: unknown option reset_mask: this environment takes none"):
+    with pytest.raises(ConfigError, match="options: unknown option reset_mask: one world, which a reset starts"):
         env.reset(options={"reset_mask": np.array([True])})
     assert env.parallel.world_seed == 4

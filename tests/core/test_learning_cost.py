@@ -9,9 +9,10 @@ import pytest
 
 from mgrao_core import ConfigError, make_params, make_spec, run_experiment
 from mgrao_core import equations as eq
-from mgrao_core.algorithms import FAMILIES_BY_NAME, parse_algorithm, task_share
+from mgrao_core.algorithms import FAMILIES_BY_NAME, learned_by_max, parse_algorithm, task_share
 from mgrao_core.algorithms.base import Family
 from mgrao_core.env import parallel_env, vector_env
+from mgrao_core.presets import PRESETS
 from mgrao_core.statistics.pairing import own_values, world_digest
 
 from ._helpers import assert_matches_reference, assert_resources_match_reference
@@ -113,12 +114,30 @@ def test_a_cost_is_every_learners_own_so_a_cost_sweep_pairs_seed_by_seed():
     assert own_values("uniform", costly) == own_values("oracle", costly) == {}
 
 
-def test_the_environments_refuse_a_cost_they_cannot_price():
+def test_the_environments_price_a_cost_with_the_numbers_the_learner_declares():
+    # they refused any learning_cost (issue 44, item 4); now the caller declares what its learner keeps, and a
+    # built-in family's declared numbers give the engine's utilities (tests/core/test_vector_env.py)
     for make in (parallel_env, vector_env):
         with pytest.raises(ConfigError) as info:
             make("single", learning_cost=0.2)
-        assert info.value.field == "learning_cost"
+        assert info.value.field == "learned_numbers" and "must be declared under a learning_cost" in info.value.message
+        for bad in (-1, 1.5, True, [1, 2], "10", [[1, 2]], [None]):
+            with pytest.raises(ConfigError) as info:
+                make("single", learning_cost=0.2, learned_numbers=bad)
+            assert info.value.field == "learned_numbers" and "whole number" in info.value.message
     assert parallel_env("single", learning_cost=0.0).params.learning_cost == 0.0
+    params = make_params({"learning_cost": 0.4}, base=PRESETS["multi"].params)
+    most = learned_by_max(params)  # mgrao-max's: 10 * (2 * 20 + 1)
+    env = vector_env("multi", seeds=[0, 1], learning_cost=0.4, learned_numbers=[0, 41, most])
+    shares = [1.0, eq.task_share(0.4, 41, most), 0.6]
+    assert env.task_share.tolist() == [shares, shares] and env.learned_numbers.tolist() == [[0, 41, most]] * 2
+    env.learned_numbers = [[most, most, most], [0, 0, 1]]  # one per world and child, from the next episode on
+    assert env.task_share.tolist() == [[0.6] * 3, [1.0, 1.0, eq.task_share(0.4, 1, most)]]
+    single = parallel_env("multi", learning_cost=0.4, learned_numbers=41)
+    assert single.learned_numbers.tolist() == [41] * 3 and single._vector.task_share.tolist() == [[shares[1]] * 3]
+    with pytest.raises(ConfigError) as info:
+        env.learned_numbers = None
+    assert info.value.field == "learned_numbers"
 
 
 def test_chunks_blocks_and_threads_change_no_number_under_a_cost():

@@ -12,7 +12,7 @@ from mgrao_core import (
     make_spec,
     spec_from_dict,
 )
-from mgrao_core.budget import chunk_cost, plan_chunks, result_bytes
+from mgrao_core.budget import chunk_cost, plan_chunks, result_bytes, stored_weights
 
 
 def _error(**kwargs):
@@ -185,6 +185,28 @@ def test_stored_results_limit():
     assert info.value.field == "results"
     assert f"{MAX_RESULT_BYTES // 1024**2:,} MiB per experiment" in info.value.message
     assert result_bytes(make_spec("single", ["uniform"], seeds=10, episodes=100)) == 8 * 10 * (100 + 20)
+
+
+def test_stored_weights_are_bounded_per_run_and_counted():
+    # a system of at most 100 children keeps every weight, as before the bounds (and no means)
+    small = stored_weights(100, 50, 20)
+    assert (small.combined_children, small.group_children, small.means, small.values) == (100, 100, False,
+                                                                                        100 * 51 * 20)
+    # 10,000 children x 100 groups x 20 types: every child's combined weights, the first 1,000 children's PW
+    # (2,000,000 values, 16 MB, not 160 MB) and their means over every child
+    large = stored_weights(10_000, 100, 20)
+    assert (large.combined_children, large.group_children, large.means, large.group_mean) == (10_000, 1_000, True,
+                                                                                            True)
+    assert large.values == 10_000 * 20 + 2_000_000 + 20 + 100 * 20
+    # one child's PW over the bound: none stored, nor their mean; 200,000 children of 20 types: the first 100,000
+    huge = stored_weights(10, 200_000, 20)
+    assert (huge.group_children, huge.group_mean) == (0, False)
+    assert stored_weights(200_000, 0, 20).combined_children == 100_000
+    # the stored results a job may hold count what is stored: 20 seeds of 10,000 children under mgrao-100:1 fit
+    # the 2 GiB (they would take 3.3 GB with every child's PW)
+    params = {"n_children": 10_000, "n_parents": 20_000, "topology": "ring", "children_per_parent": 4}
+    spec = make_spec("multi", ["uniform", "mgrao-100:1"], seeds=20, episodes=100, overrides=params)
+    assert result_bytes(spec) == 8 * 20 * (2 * 100 + 10_000 * 20 + 20 + large.values) < MAX_RESULT_BYTES
 
 
 @pytest.mark.parametrize(("labels", "expected"), [

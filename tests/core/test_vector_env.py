@@ -30,9 +30,9 @@ AGENT_PRESETS = [name for name, preset in PRESETS.items() if preset.params.n_chi
 (``edge``: 500 x 5,000, hundreds of MB of observations a step) is the engine's alone (docs/platform.md)."""
 
 
-def engine_utilities(system: str, algorithm: str) -> np.ndarray:
+def engine_utilities(system: str, algorithm: str, overrides: dict | None = None) -> np.ndarray:
     """``(seeds, episodes)``: the engine's run of ``algorithm`` on SEEDS."""
-    result = run_experiment(make_spec(system, [algorithm], list(SEEDS), EPISODES))
+    result = run_experiment(make_spec(system, [algorithm], list(SEEDS), EPISODES, overrides=overrides or {}))
     return np.stack([run.utilities for run in result.runs])
 
 
@@ -69,6 +69,20 @@ def test_every_world_is_the_engines_world_of_its_seed(system, algorithm):
     env = vector_env(system, seeds=SEEDS, episodes=EPISODES)
     np.testing.assert_allclose(act(env, algorithm), engine_utilities(system, algorithm), rtol=0, atol=1e-12,
                                err_msg=f"{system} {algorithm}")
+
+
+@pytest.mark.parametrize("algorithm", ["mgrao-max", "mgrao-2:1", "mgrao-adaptive:2", "independent-q", "bandit"])
+def test_a_learner_declaring_a_builtin_familys_numbers_pays_the_engines_learning_cost(algorithm):
+    # the environments refused a learning_cost (issue 44, item 4): the caller now declares what its learner keeps
+    overrides = {"learning_cost": 0.3}
+    params = system_params("multi", overrides)
+    alg = parse_algorithm(algorithm, params.n_parents)
+    learned = family_of(alg).learned_numbers(alg, params)
+    env = vector_env("multi", seeds=SEEDS, episodes=EPISODES, learned_numbers=learned, **overrides)
+    costly = act(env, algorithm)
+    np.testing.assert_allclose(costly, engine_utilities("multi", algorithm, overrides), rtol=0, atol=1e-12,
+                               err_msg=algorithm)
+    assert not np.allclose(costly, engine_utilities("multi", algorithm), rtol=0, atol=1e-6)  # the cost is paid
 
 
 def test_zeros_are_uniform_in_every_world():
@@ -195,7 +209,7 @@ def test_reset_seeds_follow_gymnasiums_vector_convention():
     other = utilities(seed=[1, 2, 3])
     assert env.world_seeds == (1, 2, 3)
     np.testing.assert_array_equal(utilities(seed=5), first)  # 5, 6, 7
-    np.testing.assert_array_equal(utilities(), first)  # the constructor's worlds again
+    assert not (utilities() == first).any() and env.world_seeds != (5, 6, 7)  # fresh worlds (test_vector_api.py)
     np.testing.assert_array_equal(other[1], utilities(seed=[9, 2, 8])[1])  # a world is its seed's, wherever it is
     with pytest.raises(ConfigError, match="3 seeds, one per world"):
         env.reset(seed=[1, 2])
@@ -257,29 +271,22 @@ def test_bad_actions_are_refused_naming_the_child_and_nothing_is_stepped(make):
     assert env.episode == 2
 
 
-@pytest.mark.parametrize("vector", [False, True], ids=["parallel", "vector"])
-def test_reset_refuses_options_it_would_not_honour_and_resets_nothing(vector):
-    # reset(options={"reset_mask": ...}) (Gymnasium's vector autoreset: reset these worlds only) was accepted and
-    # reset every world (issue 47, item 12). The vector environment takes no option; the one-world environment
-    # refuses reset_mask and ignores other keys, as PettingZoo's API test needs (options={"options": 1}).
-    env = vector_env("single", seeds=[0, 1], episodes=3) if vector else parallel_env("single", episodes=3)
+def test_the_one_world_environment_refuses_a_partial_reset_and_ignores_other_options():
+    # reset(options={"reset_mask": ...}) was accepted and reset the world (issue 47, item 12). One world cannot be
+    # reset in part; other keys are ignored, as PettingZoo's API test needs (options={"options": 1}). The vector
+    # environment's options: tests/core/test_vector_api.py.
+    env = parallel_env("single", episodes=3)
     env.reset()
     env.step({agent: np.ones(env.action_space(agent).shape) for agent in env.agents})
-    seeds = env.world_seeds if vector else env.world_seed
-    refused = [({"reset_mask": np.array([True, False])}, "options: unknown option reset_mask: this environment "
-                                                         "takes none"),
-               ({"reset_mask": None, "b": 1}, "options: unknown option reset_mask: " if not vector else
-                "options: unknown options b, reset_mask: this environment takes none"),
-               (["reset_mask"], "options: must be a dict of options or None \\(got list\\)")]
-    if vector:
-        refused.append(({"options": 1}, "options: unknown option options: this environment takes none"))
-    for options, match in refused:
+    seed = env.world_seed
+    for options, match in [({"reset_mask": np.array([True])}, "options: unknown option reset_mask: one world"),
+                           ({"reset_mask": None, "b": 1}, "options: unknown option reset_mask: "),
+                           (["reset_mask"], "options: must be a dict of options or None \\(got list\\)")]:
         with pytest.raises(ConfigError, match=match):
             env.reset(options=options)
-        assert env.episode == 1 and (env.world_seeds if vector else env.world_seed) == seeds  # nothing reset
+        assert env.episode == 1 and env.world_seed == seed  # nothing reset
     env.reset(options={})  # no option at all, as None
-    if not vector:
-        env.reset(seed=1, options={"options": 1})  # PettingZoo's API test's probe
+    env.reset(seed=1, options={"options": 1})  # PettingZoo's API test's probe
     assert env.episode == 0
 
 
@@ -366,7 +373,7 @@ def _full_run(env):
     """Every step's observations, rewards, truncations and infos of a whole run, each world acting at random
     from a generator of its own seed (so that a world's actions do not depend on the others beside it)."""
     generators = [np.random.default_rng(seed) for seed in env.seeds]
-    env.reset()
+    env.reset(seed=list(env.seeds))  # (a reset without a seed after the first gives fresh worlds)
     steps = []
     while env.agents:
         actions = {agent: np.stack([g.random(env.action_space(agent).shape[1:]) for g in generators])

@@ -28,6 +28,7 @@ from backend.store import crud, summaries
 from backend.store.job_order import SORT_HELP, SORT_PATTERN
 from backend.store.models import MAX_JOB_ID, Job
 from mgrao_core import MAX_EPISODES, ConfigError
+from mgrao_core.params import MAX_AGENTS
 from mgrao_core.spec import MAX_SEED_VALUE
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"], route_class=StrictQueryRoute)
@@ -40,6 +41,12 @@ Points = Annotated[int | None, Query(ge=1, le=MAX_EPISODES, description="Downsam
 PctBySeed = Annotated[bool, Query(description="Add each seed's paired % from uniform (pct_by_seed).")]
 Seed = Annotated[int | None, Query(ge=0, le=MAX_SEED_VALUE,
                                    description="One of the job's seeds (default: its first stored).")]
+ChildOffset = Annotated[int | None, Query(ge=0, le=MAX_AGENTS - 1, description=(
+    "The first child of the page (default 0); below the job's n_children and the children whose weights a run "
+    "stores."))]
+Children = Annotated[int | None, Query(ge=1, le=weights.MAX_CHILDREN_PAGE, description=(
+    f"Children in the page (default {weights.CHILDREN_PAGE}; at most {weights.MAX_CHILDREN_PAGE:,}, and "
+    f"children x resources x types at most {weights.MAX_WEIGHT_VALUES:,})."))]
 
 
 @router.post("", status_code=status.HTTP_202_ACCEPTED, response_model=JobOut, dependencies=[Authorized],
@@ -188,9 +195,11 @@ def job_results(job_id: JobId, session: SessionDep, points: Points = None, inclu
 
 
 @router.get("/{job_id:int}/weights", response_model=Weights, responses=answers(found=True, conflict=True))
-def job_weights(job_id: JobId, session: SessionDep, seed: Seed = None) -> Response:
-    """Every configuration's final weights for one seed (the oracle's allocation among them where it ran)."""
-    return Response(analysis.dumps(weights.of_seed(session, job_id=job_id, seed=seed)), media_type="application/json")
+def job_weights(job_id: JobId, session: SessionDep, seed: Seed = None, child_offset: ChildOffset = None,
+                children: Children = None) -> Response:
+    """Every configuration's final weights for one seed and a page of children (the oracle's too where it ran)."""
+    answer = weights.of_seed(session, job_id=job_id, seed=seed, child_offset=child_offset, children=children)
+    return Response(analysis.dumps(answer), media_type="application/json")
 
 
 SLICE_BYTES = 1024**2

@@ -3,7 +3,7 @@
 ``runs.membership`` holds, as little-endian int16, each child's recorded memberships (each parent's
 group in each record: ``membership_meta.shape`` is ``[children, records, parents]``, the first record
 at episode 0 and one every ``membership_meta.every`` episodes after it); null for every other run and
-for every run stored before. Bounded per run (:data:`backend.store.queue.MAX_MEMBERSHIP_VALUES`).
+for every run stored before. Bounded per run (:data:`backend.store.run_storage.MAX_MEMBERSHIP_VALUES`).
 
 Revision ID: 0012
 Revises: 0011

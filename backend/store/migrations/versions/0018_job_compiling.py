@@ -5,16 +5,16 @@
 workers spent compiling the engine for it (null: none, or a job stored before this revision). A job's page shows
 its time queued, compiling and running apart from them (docs/service.md, "Compiling ahead").
 
-Revision ID: 0017
-Revises: 0016
+Revision ID: 0018
+Revises: 0017
 Create Date: 2026-11-28
 """
 
 import sqlalchemy as sa
 from alembic import op
 
-revision = "0017"
-down_revision = "0016"
+revision = "0018"
+down_revision = "0017"
 branch_labels = None
 depends_on = None
 
