@@ -487,7 +487,7 @@ export function waitingMessage(workers, pct, queue = null) {
   if (!workers) return `Waiting for a worker…${stored}`;
   const { warming = 0, ready = 0 } = workers;
   if (!ready && warming) {
-    return `Workers are warming up: loading the simulation kernel (compiling it takes about 20 s on a fresh ` +
+    return `Workers are warming up: loading the simulation kernel (compiling it takes about 25 s on a fresh ` +
       `install, a second or two after). The job starts when one is ready.${stored}`;
   }
   if (!ready) {
