@@ -98,6 +98,7 @@ EVERY_FAMILY = """
 """
 
 
+@pytest.mark.timeout(2 * DEADLINE_S)  # mgrao compile's 9 kernels of every family took over 900 s at load average 8-11
 def test_mgrao_compile_compiles_every_family_ahead_and_a_run_then_loads_with_the_same_numbers(tmp_path: Path) -> None:
     """Issue 43, item 2: a way to compile every family ahead, so that no job waits on the compiler; the kernel of
     every family runs a chunk of any families of its world, bit for bit as the chunk's own kernel."""
