@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import csv
+import functools
 import io
 import json
 import math
 import os
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
@@ -22,7 +23,7 @@ from mgrao_core.presets import PAPER_SYSTEMS, PRESETS
 from mgrao_core.reproduction import DEFAULT_SEEDS, READINGS, reproduction_table
 from mgrao_core.reproduction import reproduce as run_reproduction
 from mgrao_core.spec import MAX_SEED_VALUE
-from mgrao_core.statistics.report import text_table
+from mgrao_core.statistics.report import deciding_digits, text_table
 from mgrao_core.statistics.sequential import Verdict, coverage_of, parse_until, run_until, until_spec
 
 PROGRESS_BAR_WORK = 20_000_000
@@ -81,6 +82,14 @@ def _progress(label: str, show: bool) -> Iterator[Any]:
             bar.update(int(round(fraction * 1000)) - bar.pos)
 
         yield update
+
+
+def _compile_notices(bar: bool) -> Callable[[Any], None]:
+    """A run's ``on_compile``: each notice on a line of stderr, under a progress bar drawn there already."""
+    def say(notice: Any) -> None:
+        click.echo(("\n" if bar and notice.seconds is None else "") + f"mgrao: {notice.message}", err=True)
+
+    return say
 
 
 def _emit(text: str, out: str | None) -> None:
@@ -177,11 +186,13 @@ def run(ctx: click.Context, system: str | None, algorithms: str | None, seeds: i
         _fail(error)
     load_engine()
     started = time.perf_counter()
-    with _progress(f"{system}", spec.work >= PROGRESS_BAR_WORK) as update:
+    bar = spec.work >= PROGRESS_BAR_WORK
+    with _progress(f"{system}", bar) as update:
+        said = _compile_notices(bar)
         if until is None:
-            result, done = mgrao_core.run_experiment(spec, on_progress=update), None
+            result, done = mgrao_core.run_experiment(spec, on_progress=update, on_compile=said), None
         else:
-            done = run_until(spec, until, mgrao_core.run_experiment,
+            done = run_until(spec, until, functools.partial(mgrao_core.run_experiment, on_compile=said),
                              on_block=lambda _result, verdict: update(verdict.seeds / until.max_seeds))
             result, spec = done.result, done.result.spec
     elapsed = time.perf_counter() - started
@@ -264,6 +275,7 @@ def reproduce(seeds: int, first_seed: int, episodes: int, reading: str, sets: tu
             results = run_reproduction(
                 _seed_range(seeds, first_seed), episodes, overrides,
                 on_progress=lambda name, f: update((order[name] + f) / count),
+                on_compile=_compile_notices(seeds * episodes >= 30_000),
             )
     except ConfigError as error:
         _fail(error)
@@ -276,9 +288,10 @@ def reproduce(seeds: int, first_seed: int, episodes: int, reading: str, sets: tu
         return
     blocks = []
     for name, rows in table["systems"].items():
-        body = [
-            [label, _fmt(r["pct_from_uniform"]), _interval(r["ci95"]),
-             _fmt(r["paper_pct_from_uniform"]) + (" *" if r["paper_outside_ci"] else "  "),
+        judged = {label: deciding_digits(r["ci95"], r["paper_pct_from_uniform"]) for label, r in rows.items()}
+        body = [  # an interval and the paper's figure to the decimal that shows the verdict (the paper view's rule)
+            [label, _fmt(r["pct_from_uniform"]), _interval(r["ci95"], judged[label]),
+             _fmt(r["paper_pct_from_uniform"], judged[label]) + (" *" if r["paper_outside_ci"] else "  "),
              _fmt(r["pct_of_max"]), _fmt(r["paper_pct_of_max"])]
             for label, r in rows.items() if label != "uniform"
         ]

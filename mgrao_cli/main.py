@@ -13,6 +13,7 @@ import click
 COMMANDS = {
     "algorithms": "mgrao_cli.algorithms:algorithms",
     "compare": "mgrao_cli.compare:compare",
+    "compile": "mgrao_cli.compiling:compile_engine",
     "run": "mgrao_cli.experiments:run",
     "reproduce": "mgrao_cli.experiments:reproduce",
     "serve": "mgrao_cli.service_commands:serve",

@@ -59,6 +59,7 @@ def reproduce(
     overrides: Mapping[str, Any] | None = None,
     systems: Sequence[str] = PAPER_SYSTEMS,
     on_progress: Callable[[str, float], None] | None = None,
+    on_compile: Callable[[Any], None] | None = None,
 ) -> dict[str, ExperimentResult]:
     """Run each system's preset with the paper's algorithms; ``on_progress(system, fraction)``.
 
@@ -68,6 +69,7 @@ def reproduce(
         overrides: parameters changed in every system (e.g. a reading from :data:`READINGS`).
         systems: which presets (the paper's four by default).
         on_progress: called with the system's name and its fraction done.
+        on_compile: told when the engine is compiled (:func:`mgrao_core.runner.run_experiment`).
     """
     from mgrao_core import runner  # the compiled engine, loaded when a reproduction runs
 
@@ -75,7 +77,7 @@ def reproduce(
     for name in systems:
         spec = make_spec(name, seeds=seeds, episodes=episodes, overrides=overrides)
         callback = None if on_progress is None else (lambda f, name=name: on_progress(name, f))
-        results[name] = runner.run_experiment(spec, on_progress=callback)
+        results[name] = runner.run_experiment(spec, on_progress=callback, on_compile=on_compile)
     return results
 
 

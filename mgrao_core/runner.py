@@ -7,7 +7,9 @@ cancellation checks. Lanes never interact, so neither the chunking nor the block
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Iterable, Sequence
+from dataclasses import replace
 
 import numpy as np
 
@@ -15,6 +17,7 @@ from mgrao_core import engine
 from mgrao_core.algorithms import FAMILIES, LEARNERS, family_of
 from mgrao_core.algorithms.base import FixedFamily
 from mgrao_core.budget import MAX_CHUNK_BYTES, block_episodes, plan_chunks
+from mgrao_core.compiling import Compiling, estimate_seconds, parts_of
 from mgrao_core.errors import Cancelled, NumericalError
 from mgrao_core.lanes import allocate_lanes
 from mgrao_core.results import ExperimentResult, Run, TaskCounts
@@ -23,6 +26,7 @@ from mgrao_core.world import EpisodeDraws, EpisodeStreams, World, draw_links, dr
 
 ProgressCallback = Callable[[float], None]
 StopCheck = Callable[[], bool]
+CompileCallback = Callable[[Compiling], None]
 
 
 def _build_lanes(spec: ExperimentSpec, worlds: Sequence[World], seeds: Sequence[int],
@@ -102,12 +106,64 @@ def check_finite(runs: Iterable[Run]) -> None:
                                      "a value is not finite; nothing was stored")
 
 
+def _kernel_types(head: tuple, finish_head: tuple, learners: tuple) -> tuple[tuple, tuple]:
+    """The signatures of :func:`engine.run_block` and :func:`engine.finish` on these arguments."""
+    return (engine.argument_types(engine.run_block, (*head, *learners)),
+            engine.argument_types(engine.finish, (*finish_head, *learners)))
+
+
+def _has_code(types: tuple[tuple, tuple]) -> bool:
+    return engine.has_code(engine.run_block, types[0]) and engine.has_code(engine.finish, types[1])
+
+
+def ready_kernel(spec: ExperimentSpec, arrays: dict[str, np.ndarray], head: tuple, finish_head: tuple,
+                 learners: tuple, on_compile: CompileCallback | None = None) -> tuple:
+    """The learners' lanes to run a chunk with, its kernel compiled or loaded (:mod:`mgrao_core.compiling`).
+
+    The chunk's own kernel (its families' lanes, ``None`` for the others) where it is at hand (this process, or
+    numba's cache); else the kernel of every family, with the other families' lanes empty, where that one is;
+    else the chunk's own is compiled now, ``on_compile`` told before (a :class:`Compiling` without ``seconds``)
+    and after (with them). The numbers do not depend on which kernel runs them.
+
+    Args:
+        spec: the chunk's experiment.
+        arrays: every array of the chunk's lanes, by name.
+        head: the kernel's arguments before the learners' lanes (its first block's).
+        finish_head: :func:`engine.finish`'s arguments before them.
+        learners: each learner family's lanes, ``None`` for a family without lanes in the chunk.
+        on_compile: told of a compile, before and after.
+    """
+    own = _kernel_types(head, finish_head, learners)
+    if _has_code(own):
+        return learners
+    if any(lanes is None for lanes in learners):
+        every = tuple(f.compiled_lanes(arrays, spec.params) for f in LEARNERS)
+        if _has_code(_kernel_types(head, finish_head, every)):
+            return every
+    _compile(spec, own, on_compile)
+    return learners
+
+
+def _compile(spec: ExperimentSpec, types: tuple[tuple, tuple], on_compile: CompileCallback | None) -> None:
+    """Compile the kernel and its finish for ``types``, ``on_compile`` told before and after."""
+    parts = parts_of(spec)
+    notice = Compiling(parts, estimate_seconds(parts))
+    if on_compile is not None:
+        on_compile(notice)
+    started = time.perf_counter()
+    engine.run_block.compile(types[0])
+    engine.finish.compile(types[1])
+    if on_compile is not None:
+        on_compile(replace(notice, seconds=time.perf_counter() - started))
+
+
 def run_chunk(
     spec: ExperimentSpec,
     seeds: Sequence[int],
     on_progress: ProgressCallback | None = None,
     should_stop: StopCheck | None = None,
     episodes_per_block: int | None = None,
+    on_compile: CompileCallback | None = None,
 ) -> tuple[Run, ...]:
     """Simulate every algorithm of ``spec`` over ``seeds`` (a chunk), in the order algorithms x seeds.
 
@@ -118,6 +174,8 @@ def run_chunk(
         should_stop: polled inside the oracle's estimate (see :mod:`mgrao_core.oracle`) and before every
             block.
         episodes_per_block: override the block size (results do not depend on it).
+        on_compile: told when the engine is compiled for the chunk (its combination met for the first time),
+            before and after (:class:`mgrao_core.compiling.Compiling`; see :func:`ready_kernel`).
 
     Raises:
         Cancelled: ``should_stop`` returned True.
@@ -140,8 +198,11 @@ def run_chunk(
             raise Cancelled(f"stopped after {done} of {spec.episodes} episodes")
         count = min(block, spec.episodes - done)
         out = np.zeros((len(lanes.kind), count))
-        engine.run_block(lanes, world, several, links, block_draws([s.draw(count) for s in streams]), environment,
-                         out, None, failing, *learners)
+        head = (lanes, world, several, links, block_draws([s.draw(count) for s in streams]), environment, out, None,
+                failing)
+        if done == 0:
+            learners = ready_kernel(spec, arrays, head, (lanes, several), learners, on_compile)
+        engine.run_block(*head, *learners)
         utilities[:, done : done + count] = out
         done += count
         if on_progress is not None:
@@ -188,6 +249,7 @@ def run_experiment(
     should_stop: StopCheck | None = None,
     episodes_per_block: int | None = None,
     memory_budget: int = MAX_CHUNK_BYTES,
+    on_compile: CompileCallback | None = None,
 ) -> ExperimentResult:
     """Simulate every (algorithm, seed) run of ``spec``, a chunk of seeds at a time.
 
@@ -198,6 +260,7 @@ def run_experiment(
         episodes_per_block: override the block size (results do not depend on it).
         memory_budget: bytes a chunk may allocate (see :mod:`mgrao_core.budget`); the runs
             themselves, every episode utility, accumulate on top.
+        on_compile: told when the engine is compiled for the experiment (see :func:`run_chunk`).
 
     Returns:
         The utilities of every episode of every run and each learner's final weights.
@@ -212,6 +275,28 @@ def run_experiment(
         share = len(chunk) / len(spec.seeds)
         start = sum(len(c) for c in chunks[:i]) / len(spec.seeds)
         progress = None if on_progress is None else (lambda f, start=start, share=share: on_progress(start + f * share))
-        for run in run_chunk(spec, chunk, progress, should_stop, episodes_per_block):
+        for run in run_chunk(spec, chunk, progress, should_stop, episodes_per_block, on_compile):
             by_key[(run.algorithm, run.seed)] = run
     return ExperimentResult(spec=spec, runs=tuple(by_key[(a, s)] for a in spec.algorithms for s in spec.seeds))
+
+
+def compile_for(spec: ExperimentSpec, on_compile: CompileCallback | None = None) -> bool:
+    """Compile (or load) the kernel of ``spec``'s own combination without running it; whether it compiled.
+
+    What ``mgrao compile`` does for each experiment of :func:`mgrao_core.compiling.ahead` (one seed of it is
+    prepared, the oracle's estimate included, which compiles its own functions the first time). Unlike a run it
+    never falls back to the kernel of every family: it makes the combination's own kernel (see
+    :func:`ready_kernel`) and stores it in numba's cache.
+    """
+    p = spec.params
+    seed = spec.seeds[0]
+    worlds = [draw_world(p, seed)]
+    arrays, lanes, learners = _build_lanes(spec, worlds, (seed,), None)
+    world, several = kernel_worlds(p, worlds)
+    head = (lanes, world, several, kernel_links(p, (seed,)), block_draws([EpisodeStreams(p, seed, worlds[0]).draw(1)]),
+            engine.environment_of(p), np.zeros((len(lanes.kind), 1)), None, kernel_failing(p, arrays))
+    types = _kernel_types(head, (lanes, several), learners)
+    if _has_code(types):
+        return False
+    _compile(spec, types, on_compile)
+    return True

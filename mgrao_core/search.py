@@ -618,8 +618,17 @@ def _range_corners(plan: StudyPlan) -> list[dict[str, Any]]:
 
 
 def _check_trial(plan: StudyPlan, params: Mapping[str, Any]) -> None:
+    """Raise a ConfigError naming ``space`` where a trial of ``params`` is no valid experiment, in the fields' words.
+
+    "a trial with n_parents = 15 is not a valid experiment: mgrao-25:1: x must be a divisor of n_parents = 15":
+    a refused configuration's message names its label (not its place in a list); a parameter's, the parameter.
+    """
+    trial = ", ".join(f"{name} = {value}" for name, value in params.items())
     for system in plan.systems:
         try:
             plan._spec(system, params)
         except ConfigError as error:
-            raise ConfigError("space", f"the trial {dict(params)} is not a valid experiment: {error}") from None
+            what = error.message if error.field.split("[")[0] in ("algorithms", "base.algorithms") \
+                else f"{error.field.removeprefix('base.').removeprefix('params.')}: {error.message}"
+            on = f" of {system}" if len(plan.systems) > 1 else ""
+            raise ConfigError("space", f"a trial{on} with {trial} is not a valid experiment: {what}") from None

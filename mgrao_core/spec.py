@@ -6,7 +6,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
-from mgrao_core.algorithms import Algorithm, parse_algorithms, task_share
+from mgrao_core.algorithms import Algorithm, parse_algorithms, task_share, valid_labels
 from mgrao_core.budget import MAX_CHUNK_BYTES, MAX_RESULT_BYTES, chunk_cost, result_bytes
 from mgrao_core.errors import ConfigError, WorkLimitError, raise_all
 from mgrao_core.params import SystemParams, complete_params, make_params
@@ -126,7 +126,8 @@ def make_spec(
 
     Args:
         system: a preset name.
-        algorithms: labels; the preset's (the paper's table) when omitted.
+        algorithms: labels; when omitted, the preset's (the paper's table) valid for the system's parents (a
+            saved system of large with 30 parents leaves out ``mgrao-25:1``).
         seeds: a count ``S`` (seeds ``0 .. S-1``) or an explicit list.
         episodes: episodes per run.
         overrides: parameters to change on top of the preset.
@@ -152,11 +153,14 @@ def make_spec(
 
     params = checked(lambda: make_params(overrides, base=preset.params))
     refused = {e.field for error in errors for e in getattr(error, "errors", (error,))}
-    given = tuple(preset.algorithms if algorithms is None else algorithms)
     # an x of mgrao-x:y is checked against the parents given, or the preset's where other parameters are refused;
     # against the grammar alone where the count of parents is; a y likewise against the children
     parents = None if "n_parents" in refused else (params or preset.params).n_parents
     children = None if "n_children" in refused else (params or preset.params).n_children
+    if algorithms is None:  # the preset's, those valid with its parents as overridden (large with 30: no mgrao-25:1)
+        given = tuple(preset.algorithms) if parents is None else valid_labels(preset.algorithms, parents, children)
+    else:
+        given = tuple(algorithms)
     parsed = None
     if len(given) > MAX_ALGORITHMS:
         errors.append(ConfigError("algorithms", f"at most {MAX_ALGORITHMS} algorithms (got {len(given)})"))

@@ -195,6 +195,29 @@ class AlgorithmLabel(BaseModel):
                                                            "system).")
 
 
+class Share(BaseModel):
+    """A share of each child's resources (0-1): the mean over children and runs, and the least and most."""
+
+    mean: Number
+    low: Number
+    high: Number
+
+
+class LearningOutcome(BaseModel):
+    """What a learner configuration's learning came to over its stored runs (null for uniform and the oracle)."""
+
+    groups: dict[str, int] | None = Field(description="Children (counted once per run) by their number of parent "
+                                                      "groups at the end: mgrao-balance's from its recorded "
+                                                      "memberships (the children recorded), x for mgrao-x:1 and "
+                                                      "mgrao-adaptive:x; null for a learner without groups.")
+    children: int = Field(description="The children counted in groups (one per child and run).")
+    groups_change: bool = Field(description="Whether its children's group count changes as they learn "
+                                            "(mgrao-balance): then groups is what they ended with.")
+    taken: Share | None = Field(description="The share of each child's resources its learning took at the end "
+                                            "(learning_cost; mgrao-balance's by its groups then); null without a "
+                                            "learning cost.")
+
+
 class ResultConfiguration(BaseModel):
     """One configuration of a job's results."""
 
@@ -204,6 +227,7 @@ class ResultConfiguration(BaseModel):
     summary: Summary
     episodes: Band
     weights: MeanWeights
+    learning: LearningOutcome | None = None
     seeds: list[SeedCurve] | None = None
     pct_by_seed: list[SeedPct] | None = None
     """With ``?pct_by_seed=true``: each seed's paired % from uniform, in the job's seed order."""
@@ -215,6 +239,9 @@ class Results(BaseModel):
     job: JobOut
     paper: dict[str, float] | None
     partial: bool
+    oracle_caveats: list[str] | None = Field(None, description="A job with the oracle: why it is no upper bound in "
+                                                               "the job's system ([] when it is one); null without "
+                                                               "it.")
     algorithms: list[AlgorithmLabel] = Field(description="The registry's description of each of the job's "
                                                          "algorithms (as GET /api/algorithms?label= gives it).")
     points: int
@@ -273,7 +300,11 @@ class CompareGroup(BaseModel):
                                                "logged from outside).")
     external: bool
     episodes_per_run: int
-    job_ids: list[int] = Field(description="The jobs whose runs it takes.")
+    job_ids: list[int] = Field(description="Every job read for it, in the order asked: those whose runs it takes "
+                                           "and those only checked (checked_job_ids).")
+    checked_job_ids: list[int] = Field(description="Jobs read whose every seed an earlier job gave first (a job whose "
+                                                   "seeds are a subset of another's): their runs are checked against "
+                                                   "those (mismatched_seeds), none counted twice.")
     mismatched_seeds: list[int] = Field(description="Seeds whose pooled runs differ between jobs (the first job's is "
                                                     "used): built-in runs of one configuration should be identical.")
     summary: Summary
@@ -356,7 +387,7 @@ class ComparisonStatistics(BaseModel):
     protocol: dict[str, Any]
     configurations: list[dict[str, Any]] = Field(description="Each configuration's system (its world's name), "
                                                              "base (the preset), label, algorithm, params, job_ids, "
-                                                             "mismatched_seeds.")
+                                                             "checked_job_ids, mismatched_seeds.")
 
 
 class SampleEfficiency(BaseModel):

@@ -368,6 +368,12 @@ class JobOut(BaseModel):
     started_at: str | None
     finished_at: str | None
     duration_s: float | None
+    queued_s: float | None = Field(None, description="Seconds from its submission to its (last) start: waiting in "
+                                                     "the queue, for a free or warmed-up worker.")
+    compile_s: float | None = Field(None, description="Seconds of its run spent compiling the engine for it (a "
+                                                      "combination met for the first time); null: none.")
+    compiling: dict[str, Any] | None = Field(None, description="While its worker compiles the engine for it: "
+                                                               "message, parts, estimate_s, since; else null.")
     version: str
     study_id: int | None = None
     trial_id: int | None = None

@@ -1,5 +1,8 @@
 """Heartbeats of claimed jobs, on a background thread: alive, their progress, and whether still ours.
 
+A job whose worker compiles the engine for it says so (:meth:`Heartbeats.compiling`) from the next beat on,
+until the compile is done, and adds the seconds it took to the job's ``compile_s``.
+
 A worker holds one claimed job at a time, the dispatcher several. For each, the thread writes the
 heartbeat every ``heartbeat_s`` and the progress at most every ``progress_s`` (one conditional
 update each); when an update matches no row the job was cancelled or taken over, and
@@ -13,10 +16,15 @@ import logging
 import threading
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 from backend.store import queue
 from backend.store.db import Database
+from backend.store.models import utcnow
 from backend.store.retry import HealthClock, OutageLog
+
+if TYPE_CHECKING:
+    from mgrao_core.compiling import Compiling
 
 log = logging.getLogger("mgrao.heartbeats")
 
@@ -28,6 +36,13 @@ class _Beat:
     written: float = -1.0
     last: float = field(default_factory=time.monotonic)
     lost: bool = False
+    compiling: Any = queue.UNCHANGED  # what to write of a compile under way: a notice, None once done
+    compiled_s: float = 0.0  # seconds of compiling not written yet
+
+    @property
+    def news(self) -> bool:
+        """Something to write beyond the heartbeat: progress, or a compile begun or done."""
+        return self.progress != self.written or self.compiling is not queue.UNCHANGED or self.compiled_s > 0
 
 
 class Heartbeats(threading.Thread):
@@ -59,6 +74,24 @@ class Heartbeats(threading.Thread):
             if job_id in self._beats:
                 self._beats[job_id].progress = fraction
 
+    def compiling(self, job_id: int, notice: Compiling) -> None:
+        """The worker compiles the engine for the job (``notice.seconds`` None) or has (its seconds).
+
+        Written now, by the caller's thread (a job as small as a compiled chunk ends before the next beat): the job
+        says so while it lasts, and counts the seconds in its ``compile_s``. A write that fails is left to the
+        next beat.
+        """
+        with self._lock:
+            beat = self._beats.get(job_id)
+            if beat is None or beat.lost:
+                return
+            if notice.seconds is None:
+                beat.compiling = notice.as_dict() | {"since": utcnow().isoformat() + "Z"}
+            else:
+                beat.compiling = None
+                beat.compiled_s += notice.seconds
+        self._beat(beat)
+
     def lost(self, job_id: int) -> bool:
         """Whether a beat found the job no longer ours (cancelled, or re-queued and claimed again)."""
         with self._lock:
@@ -77,15 +110,23 @@ class Heartbeats(threading.Thread):
         while not self._closed.wait(tick):
             with self._lock:
                 due = [b for b in self._beats.values() if not b.lost and (
-                    b.progress != b.written or time.monotonic() - b.last >= self.heartbeat_s)]
+                    b.news or time.monotonic() - b.last >= self.heartbeat_s)]
             for beat in due:
                 self._beat(beat)
 
     def _beat(self, beat: _Beat) -> None:
-        progress = beat.progress if beat.progress != beat.written else None
+        with self._lock:
+            progress = beat.progress if beat.progress != beat.written else None
+            compiling, compiled_s = beat.compiling, beat.compiled_s
+            beat.compiling, beat.compiled_s = queue.UNCHANGED, 0.0
         try:
-            ours = queue.heartbeat(self.db, claim=beat.claim, progress=progress)
+            ours = queue.heartbeat(self.db, claim=beat.claim, progress=progress, compiling=compiling,
+                                   compiled_s=compiled_s)
         except Exception as error:  # a busy database must not stop the beats; the next one retries
+            with self._lock:  # what was not written is written by the next beat (unless newer news replaced it)
+                if beat.compiling is queue.UNCHANGED:
+                    beat.compiling = compiling
+                beat.compiled_s += compiled_s
             if self.health is not None:
                 self.health.failure()
             self.outage.failed(error)

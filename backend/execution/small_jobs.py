@@ -91,8 +91,12 @@ def one_numba_thread() -> Iterator[None]:
 
 
 def run_small_job(spec: ExperimentSpec, chunks: Sequence[Sequence[int]],
-                  should_stop: Callable[[], bool] | None = None) -> list:
-    """Every run of a small job's remaining ``chunks``, in order (raises what :func:`mgrao_core.run_chunk` raises)."""
+                  should_stop: Callable[[], bool] | None = None, on_compile: Callable[..., None] | None = None) -> list:
+    """Every run of a small job's remaining ``chunks``, in order (raises what :func:`mgrao_core.run_chunk` raises).
+
+    ``on_compile`` is told of a compile of the engine for it (:class:`mgrao_core.compiling.Compiling`).
+    """
     from mgrao_core import run_chunk
 
-    return [run for chunk in chunks for run in run_chunk(spec, tuple(chunk), should_stop=should_stop)]
+    return [run for chunk in chunks
+            for run in run_chunk(spec, tuple(chunk), should_stop=should_stop, on_compile=on_compile)]

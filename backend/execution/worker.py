@@ -37,6 +37,7 @@ from backend.store.run_storage import stored_bytes
 
 if TYPE_CHECKING:
     from mgrao_core import ExperimentSpec
+    from mgrao_core.compiling import Compiling
 
 log = logging.getLogger("mgrao.worker")
 T = TypeVar("T")
@@ -79,6 +80,14 @@ class Worker:
         from mgrao_core import make_spec, run_experiment
 
         run_experiment(make_spec("single", seeds=1, episodes=2))
+
+    def compile_notices(self, beats: Heartbeats, job_id: int) -> Callable[[Compiling], None]:
+        """What a run tells of a compile for the job: into its log, and through ``beats`` into the job."""
+        def notice(compiling: Compiling) -> None:
+            log.info("job %s: %s", job_id, compiling.message)
+            beats.compiling(job_id, compiling)
+
+        return notice
 
     def persist(self, call: Callable[[], T], what: str) -> T:
         """``call()``, retried on database errors until it succeeds (see :mod:`backend.store.retry`)."""
@@ -151,7 +160,8 @@ class Worker:
                         continue
                     try:
                         runs = run_small_job(plan.spec, plan.chunks, should_stop=lambda job_id=claim.job_id:
-                                             beats.lost(job_id) or self.shutdown.is_set())
+                                             beats.lost(job_id) or self.shutdown.is_set(),
+                                             on_compile=self.compile_notices(beats, claim.job_id))
                     except Cancelled:
                         if not beats.lost(claim.job_id):
                             left.append(claim)
@@ -196,7 +206,8 @@ class Worker:
                     def progress(fraction: float, chunk: tuple[int, ...] = chunk, finished: int = finished) -> None:
                         beats.set_progress(claim.job_id, (finished + fraction * len(chunk)) / seeds)
 
-                    runs = run_chunk(plan.spec, chunk, on_progress=progress, should_stop=should_stop)
+                    runs = run_chunk(plan.spec, chunk, on_progress=progress, should_stop=should_stop,
+                                     on_compile=self.compile_notices(beats, claim.job_id))
                     rows = queue.run_rows(claim.job_id, runs)
                     del runs
                     finished += len(chunk)

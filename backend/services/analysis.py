@@ -26,7 +26,7 @@ from backend.services import weights
 from backend.services.cache import AnswerCache
 from backend.services.memory import trim
 from backend.store.crud import get_job, job_dict
-from backend.store.models import RUN_READ_BATCH, SUCCEEDED, Job, Run
+from backend.store.models import RUN_READ_BATCH, SIMULATION, SUCCEEDED, Job, Run
 from backend.store.summaries import in_seed_order, summary_dict
 from mgrao_core import (
     PRESETS,
@@ -35,10 +35,13 @@ from mgrao_core import (
     TaskCounts,
     complete_params,
     final_utilities,
+    make_params,
     paired_pct_from_uniform,
     summarise,
 )
-from mgrao_core.algorithms import describe_label
+from mgrao_core.algorithms import describe_label, family_of, groups_at_end, parse_algorithm, task_share
+from mgrao_core.algorithms.oracle import LABEL as ORACLE
+from mgrao_core.algorithms.oracle import bound_caveats
 from mgrao_core.reproduction import PAPER_EPISODES
 from mgrao_core.statistics.summary import BASELINE
 
@@ -100,6 +103,46 @@ def _stream(session: Session, job_ids: Sequence[int], *columns: Any) -> Iterator
     yield from session.execute(statement)
 
 
+class Learning:
+    """What a learner configuration's learning came to over its stored runs (docs/api.md, "Results": ``learning``).
+
+    Its children's parent groups at the end, and the share of their resources that learning took then.
+    """
+
+    def __init__(self, label: str, params: Any) -> None:
+        self.algorithm = parse_algorithm(label, params.n_parents)
+        self.family = family_of(self.algorithm)
+        self.params = params
+        self.recorded: dict[int, int] = {}
+
+    def add(self, membership: bytes | None, meta: dict[str, Any] | None) -> None:
+        """A run's recorded membership (of a family whose groups change): each recorded child's groups at the end."""
+        if self.family.groups_change and membership is not None and meta:
+            for groups in groups_at_end(weights.membership_history(membership, meta)).tolist():
+                self.recorded[groups] = self.recorded.get(groups, 0) + 1
+
+    def answer(self, runs: int) -> dict[str, Any] | None:
+        """``{"groups", "children", "taken"}`` over ``runs`` runs, or None for a configuration that learns nothing."""
+        if not self.family.learns:
+            return None
+        if self.family.groups_change:
+            groups = dict(sorted(self.recorded.items()))
+        else:
+            groups = {self.algorithm.n_groups: runs * self.params.n_children} if self.algorithm.n_groups else {}
+        children = sum(groups.values())
+        taken = None
+        if getattr(self.params, "learning_cost", 0.0):
+            if self.family.groups_change:
+                shares = {g: 1.0 - task_share(self.algorithm, self.params, g) for g in groups}
+                taken = {"mean": sum(shares[g] * n for g, n in groups.items()) / children,
+                         "low": min(shares.values()), "high": max(shares.values())} if groups else None
+            else:
+                share = 1.0 - task_share(self.algorithm, self.params)
+                taken = {"mean": share, "low": share, "high": share}
+        return {"groups": {str(g): n for g, n in groups.items()} or None, "children": children,
+                "groups_change": self.family.groups_change, "taken": taken}
+
+
 def _configurations(session: Session, job: Job, points: int | None, include_seeds: bool,
                     pct_by_seed: bool = False) -> dict[str, Any]:
     algorithms = job.config["algorithms"]
@@ -115,13 +158,17 @@ def _configurations(session: Session, job: Job, points: int | None, include_seed
     used = choose_points("points" if not include_seeds else "include_seeds", points, episodes, curves)
     per_seed: dict[str, list[dict[str, Any]]] = {a: [] for a in algorithms}
     tasks = {a: TaskCounts() for a in algorithms}
-    for algorithm, seed, blob, allocated, failed, handed_over in _stream(
+    params = job_params(job)
+    learning = {a: Learning(a, params) for a in algorithms} if params is not None else {}
+    for algorithm, seed, blob, allocated, failed, handed_over, membership, membership_meta in _stream(
             session, [job.id], Run.algorithm, Run.seed, Run.utilities, Run.tasks_allocated, Run.tasks_failed,
-            Run.tasks_handed_over):
+            Run.tasks_handed_over, Run.membership, Run.membership_meta):
         values = np.frombuffer(blob, dtype="<f8")
         stats[algorithm].add(values)
         finals[algorithm][seed] = float(final_utilities(values)[0])
         tasks[algorithm] += TaskCounts(allocated, failed, handed_over)
+        if algorithm in learning:
+            learning[algorithm].add(membership, membership_meta)
         if include_seeds:
             one = EpisodeStats(episodes)
             one.add(values)
@@ -138,6 +185,7 @@ def _configurations(session: Session, job: Job, points: int | None, include_seed
             "summary": summary_dict(summaries[algorithm], tasks[algorithm]),
             "episodes": stats[algorithm].band_arrays(used),
             "weights": weights.mean_over_seeds(session, job.id, algorithm),
+            "learning": learning[algorithm].answer(len(finals[algorithm])) if algorithm in learning else None,
         }
         if pct_by_seed:
             entry["pct_by_seed"] = _pct_by_seed(ordered[algorithm], ordered.get(BASELINE), seed_order)
@@ -145,6 +193,33 @@ def _configurations(session: Session, job: Job, points: int | None, include_seed
             entry["seeds"] = sorted(per_seed[algorithm], key=lambda s: seed_order.get(s["seed"], 0))
         configurations.append(entry)
     return {"points": used, "configurations": configurations}
+
+
+def job_params(job: Job) -> Any:
+    """A simulated job's resolved parameters (the core's).
+
+    None for a job logged from outside, or one of a label the registry no longer knows.
+    """
+    if job.kind != SIMULATION:
+        return None
+    try:
+        params = make_params(complete_params(job.config["params"]))
+        for label in job.config["algorithms"]:
+            parse_algorithm(label, params.n_parents)
+    except ConfigError:
+        return None
+    return params
+
+
+def oracle_caveats(job: Job) -> list[str] | None:
+    """Why the job's oracle is no upper bound in its system (:func:`bound_caveats`; [] when it is one).
+
+    None for a job without the oracle.
+    """
+    params = job_params(job)
+    if params is None or ORACLE not in job.config["algorithms"]:
+        return None
+    return bound_caveats(params)
 
 
 def _pct_by_seed(by_seed: dict[int, float], baseline: dict[int, float] | None,
@@ -205,7 +280,7 @@ def job_results_parts(session: Session, *, job_id: int, points: int | None = Non
         body = RESULTS_CACHE.get_or_build(key, build)
     expected = len(job.config["seeds"]) * len(job.config["algorithms"])
     head = {"job": job_dict(job), "paper": paper_figures(job), "partial": partial or stored < expected,
-            "algorithms": described(job.config["algorithms"])}
+            "oracle_caveats": oracle_caveats(job), "algorithms": described(job.config["algorithms"])}
     return dumps(head)[:-1] + b",", body
 
 

@@ -111,6 +111,17 @@ class Configuration:
                 self.mismatched.append(seed)
 
     @property
+    def job_ids(self) -> list[int]:
+        """Every job read for the configuration, in the order asked: those whose runs stand and those only checked."""
+        return list(dict.fromkeys(job.id for job in self.jobs))
+
+    @property
+    def checked_job_ids(self) -> list[int]:
+        """The jobs read whose every seed an earlier job gave first: checked against it (``mismatched``), none used."""
+        standing = {job_id for job_id, _, _ in self.taken.values()}
+        return [job_id for job_id in self.job_ids if job_id not in standing]
+
+    @property
     def finals(self) -> dict[int, float]:
         """Seed -> final utility, in seed order."""
         return {seed: self.taken[seed][2] for seed in sorted(self.taken)}
@@ -371,7 +382,7 @@ def _groups(session: Session, gathered: Gathered, points: int | None) -> list[di
                 "algorithm": c.algorithm, "label": c.label, "system": gathered.systems[digest],
                 "base": gathered.bases[digest], "world": name,
                 "params": c.own, "external": c.external, "episodes_per_run": episodes,
-                "job_ids": list(dict.fromkeys(job_id for job_id, _, _ in c.taken.values())),
+                "job_ids": c.job_ids, "checked_job_ids": c.checked_job_ids,
                 "mismatched_seeds": sorted(c.mismatched), "non_finite_seeds": sorted(c.non_finite),
                 "summary": summary_dict(summary, c.task_counts),
                 "episodes": stats.band_arrays(choose_points("points", points, episodes, curves)),
@@ -477,7 +488,7 @@ def _described_configurations(gathered: Gathered) -> list[dict[str, Any]]:
     """What each configuration of an answer is: its world, algorithm, own parameters, jobs and mismatched seeds."""
     return [{"system": gathered.worlds[c.world], "base": gathered.bases[c.world], "label": c.label,
              "algorithm": c.algorithm, "params": c.own,
-             "external": c.external, "job_ids": list(dict.fromkeys(job_id for job_id, _, _ in c.taken.values())),
+             "external": c.external, "job_ids": c.job_ids, "checked_job_ids": c.checked_job_ids,
              "mismatched_seeds": sorted(c.mismatched), "non_finite_seeds": sorted(c.non_finite)}
             for c in gathered.configurations]
 

@@ -20,6 +20,7 @@ from sqlalchemy.orm import Session
 from backend.errors import Conflict, InvalidSpec, NotFound
 from backend.store.models import SAVED_SYSTEM_TAG_PREFIX, SavedSystem, utcnow
 from mgrao_core import PRESETS, ConfigError, make_params
+from mgrao_core.algorithms import valid_labels
 
 NAME_PATTERN = "^[a-z][a-z0-9-]{0,31}$"
 """A saved system's name: 1-32 characters, a lowercase letter then lowercase letters, digits or ``-``."""
@@ -59,11 +60,16 @@ def checked_params(base: str, params: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def saved_dict(saved: SavedSystem) -> dict[str, Any]:
-    """A saved system as the API shows it: its definition, and the resolved parameters and base's algorithms."""
+    """A saved system as the API shows it: its definition, the resolved parameters and its default configurations.
+
+    Those are the base's that are valid for it: ``large30`` (large with 30 parents) leaves out ``mgrao-25:1``,
+    whose 25 groups do not divide its parents, so that a form filled with them can be run as it is.
+    """
     preset = PRESETS.get(saved.base)
     resolved = make_params(saved.params, base=preset.params).as_dict() if preset else {}
     return {"name": saved.name, "description": saved.description, "base": saved.base, "params": saved.params,
-            "resolved": resolved, "algorithms": list(preset.algorithms) if preset else []}
+            "resolved": resolved,
+            "algorithms": list(valid_labels(preset.algorithms, resolved["n_parents"])) if preset else []}
 
 
 def definition(saved: SavedSystem) -> dict[str, Any]:

@@ -5,7 +5,10 @@ The browser receives at most a few thousand numbers per plot, however many trial
 * ``history``: the best objective so far after each trial (at most :data:`MAX_POINTS` points,
   always keeping every point where the best improved);
 * ``importance``: per dimension, the share of the objective's variance explained by that dimension
-  alone (the correlation ratio eta squared over the dimension's values or quantile bins);
+  alone (the correlation ratio eta squared over the dimension's values or quantile bins), and how often
+  the trials' objectives shuffled over their values explain as much (``p_value``, a permutation test of
+  :data:`PERMUTATIONS` shuffles, seeded): with few trials per value, eta squared is large whatever the
+  parameter does (4 trials of 4 values: 1.00), and the test says so;
 * ``slices``: per dimension, the objective of each trial against the dimension's value with the
   trial's own 95% interval over seeds (at most :data:`MAX_POINTS` trials, best first), and the mean
   per value or bin with its 95% interval over trials;
@@ -30,6 +33,46 @@ from mgrao_core.statistics.student import t_quantile
 
 MAX_POINTS = 1000
 BINS = 12
+PERMUTATIONS = 499
+"""Shuffles of a permutation test of eta squared (its p-value is at least 1 / 500)."""
+PERMUTED_TRIALS = 1000
+"""Trials a permutation test takes at most (an even spread of them), so that it stays fast."""
+
+
+def permuted(values: np.ndarray, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """The trials a permutation test takes (their indices) and :data:`PERMUTATIONS` shuffles of their objectives.
+
+    Seeded, so that the same study answers the same; shared by every dimension's test.
+    """
+    keep = np.arange(values.size)
+    if values.size > PERMUTED_TRIALS:
+        keep = np.linspace(0, values.size - 1, PERMUTED_TRIALS).round().astype(int)
+    rng = np.random.default_rng(seed)
+    return keep, np.array([rng.permutation(values[keep]) for _ in range(PERMUTATIONS)])
+
+
+def eta_squared_p_value(values: np.ndarray, groups: np.ndarray, shuffles: tuple[np.ndarray, np.ndarray]) -> float:
+    """How often shuffled objectives explain as much variance as ``values`` do over ``groups`` (eta squared).
+
+    ``(1 + #{shuffles at least as large}) / (1 + PERMUTATIONS)``: near 1 where the grouping explains no more than
+    chance would with these trials (every trial its own group: always 1), small where it does. ``shuffles`` is
+    :func:`permuted`'s answer for ``values``.
+    """
+    keep, shuffled = shuffles
+    values, groups = np.asarray(values, dtype=float)[keep], np.asarray(groups)[keep]
+    if values.size < 3 or np.var(values) == 0:
+        return 1.0
+    onehot = np.zeros((values.size, int(groups.max()) + 1))
+    onehot[np.arange(values.size), groups] = 1.0
+    counts = onehot.sum(axis=0)
+    used = counts > 0
+
+    def between(v: np.ndarray) -> np.ndarray:  # between-group sum of squares of each row of v
+        sums = v @ onehot[:, used]
+        return (sums**2 / counts[used]).sum(axis=-1)
+
+    observed = between(values[None, :])[0]
+    return float((1 + np.sum(between(shuffled) >= observed - 1e-12 * abs(observed))) / (1 + PERMUTATIONS))
 
 
 def _finished(session: Session, study_id: int) -> list[Any]:
@@ -89,7 +132,8 @@ def study_plots(session: Session, study_id: int, x: str | None = None, y: str | 
     order = sorted(range(len(rows)), key=lambda i: -values[i] if maximize else values[i])
     shown = sorted(set(order[: MAX_POINTS // 5]) | set(_even(list(range(len(rows))), MAX_POINTS - MAX_POINTS // 5)))
     total = float(np.var(values)) if len(values) > 1 else 0.0
-    importance, slices = {}, {}
+    importance, slices, p_values, levels = {}, {}, {}, {}
+    shuffles = permuted(np.asarray(values, dtype=float), seed=study_id)
     for name in names:
         raw = [r.params.get(name) for r in rows]
         labels, groups = _groups(raw, numeric[name], len(set(raw)))
@@ -98,6 +142,9 @@ def study_plots(session: Session, study_id: int, x: str | None = None, y: str | 
             members[g].append(v)
         between = sum(len(m) * (np.mean(m) - np.mean(values)) ** 2 for m in members.values()) / max(1, len(values))
         importance[name] = float(between / total) if total > 0 else 0.0
+        p_values[name] = eta_squared_p_value(np.asarray(values), np.asarray(groups, dtype=int), shuffles) if rows \
+            else 1.0
+        levels[name] = len(members)
         means = [_mean_ci(members[g]) if members[g] else (None, None, None) for g in range(len(labels))]
         slices[name] = {
             "x": [raw[i] for i in shown], "value": [values[i] for i in shown],
@@ -107,7 +154,8 @@ def study_plots(session: Session, study_id: int, x: str | None = None, y: str | 
                      "high": [m[2] for m in means], "count": [len(members[g]) for g in range(len(labels))]},
         }
     share = sum(importance.values())
-    out["importance"] = {name: {"eta_squared": value, "share": value / share if share > 0 else 0.0}
+    out["importance"] = {name: {"eta_squared": value, "share": value / share if share > 0 else 0.0,
+                                "p_value": p_values[name], "groups": levels[name]}
                          for name, value in importance.items()}
     out["slices"] = slices
 

@@ -161,6 +161,11 @@ def _answer(combined: np.ndarray, groups: np.ndarray | None, n_groups: int, omit
     return out
 
 
+def membership_history(blob: bytes, meta: dict[str, Any]) -> np.ndarray:
+    """A run's recorded memberships as stored, ``(children, records, n_parents)``: each parent's group."""
+    return np.frombuffer(blob, dtype="<i2").reshape(meta["shape"])
+
+
 def _means(blob: bytes | None, layout: Layout) -> tuple[np.ndarray, np.ndarray | None] | None:
     """A run's mean over every child as read (:meth:`Layout.means_column`).
 
@@ -246,7 +251,7 @@ def _membership(blob: bytes, meta: dict[str, Any], offset: int, count: int) -> d
 
     Per child, per record, each parent's group.
     """
-    history = np.frombuffer(blob, dtype="<i2").reshape(meta["shape"])
+    history = membership_history(blob, meta)
     return {"every": meta["every"], "children": history[offset: offset + count].tolist()}
 
 

@@ -68,6 +68,7 @@ def job_dict(job: Job | Row, config: dict[str, Any] | None = None) -> dict[str, 
     duration = None
     if job.started_at is not None and job.finished_at is not None:
         duration = round((job.finished_at - job.started_at).total_seconds(), 3)
+    queued = None if job.started_at is None else round(max(0.0, (job.started_at - job.created_at).total_seconds()), 3)
     return {
         "id": job.id, "name": job.name, "tags": list(job.tags), "notes": job.notes,
         "system": job.system, "algorithms": config["algorithms"], "seeds": config["seeds"],
@@ -75,7 +76,9 @@ def job_dict(job: Job | Row, config: dict[str, Any] | None = None) -> dict[str, 
         "status": job.status, "progress": job.progress, "attempts": job.attempts, "error": job.error,
         "requeue_reason": job.requeue_reason,
         "created_at": iso(job.created_at), "started_at": iso(job.started_at),
-        "finished_at": iso(job.finished_at), "duration_s": duration, "version": job.version,
+        "finished_at": iso(job.finished_at), "duration_s": duration, "queued_s": queued,
+        "compile_s": job.compile_s, "compiling": job.compiling if job.status == RUNNING else None,
+        "version": job.version,
         "study_id": job.study_id, "trial_id": job.trial_id, "kind": job.kind,
         "saved_system": saved_system_of(job.tags),
         "until": config.get("until"), "stopped": stopped_of(job.status, config, job.stopped),
@@ -285,7 +288,8 @@ def _filters(*, status: str | None, system: str | None, tag: str | None, q: str 
 
 LISTED = (Job.id, Job.name, Job.tags, Job.notes, Job.system, cast(Job.config, Text).label("config_json"),
           Job.config_hash, Job.status, Job.progress, Job.attempts, Job.error, Job.requeue_reason, Job.created_at,
-          Job.started_at, Job.finished_at, Job.version, Job.study_id, Job.trial_id, Job.kind, Job.stopped)
+          Job.started_at, Job.finished_at, Job.version, Job.study_id, Job.trial_id, Job.kind, Job.stopped,
+          Job.compiling, Job.compile_s)
 """The columns a listing shows: no ORM objects, and the configuration as its stored JSON text.
 
 orjson reads that text several times faster than the JSON type's ``json.loads`` (PostgreSQL's

@@ -2,7 +2,8 @@
 
 ``sort`` is one of (each with an optional leading ``-`` for descending):
 
-* ``created_at``, ``name``, ``status``;
+* ``created_at``, ``name``, ``status``; unnamed jobs (the dashboard's "job 12") come after every named one
+  in either direction, by id;
 * ``param.NAME`` for any parameter of the schema (``param.learning_rate``);
 * ``final_mean:CONFIGURATION``, ``pct_from_uniform:CONFIGURATION``, ``pct_of_max:CONFIGURATION``, a
   configuration's stored summary (``-pct_from_uniform:mgrao-max``).
@@ -41,6 +42,12 @@ class JobOrder(Keyset):
     """A parsed ``sort`` of jobs: a keyset order, and the join a configuration's result needs."""
 
     configuration: str | None = None  # the summary's configuration, when ordering by a result
+    blank_last: bool = False
+    """An empty text (a job without a name) comes after every other value, in either direction, by id.
+
+    Each part is read along the column's index (:meth:`parts`): the others (``value <> ''``), then, where a page is
+    not full, :meth:`blanks` (``value = ''``, in id order); a page that ends among the blanks has a cursor of key
+    ``''``."""
 
     def valued(self, statement: Select) -> tuple[Select, ColumnElement]:
         """The jobs with the value; a result's are joined to their summary and ordered by its ``job_id``.
@@ -61,9 +68,26 @@ class JobOrder(Keyset):
                 JobSummary, and_(JobSummary.job_id == Job.id, JobSummary.algorithm == self.configuration))
         return super().unvalued(statement)
 
+    def parts(self, statement: Select, cursor: str | None) -> list[Select]:
+        """As :meth:`Keyset.parts`; with ``blank_last``, the rows with a non-empty value, then the blanks."""
+        if not self.blank_last:
+            return super().parts(statement, cursor)
+        among_blanks = bool(cursor) and self.decode(cursor)[0] == ""
+        parts = [] if among_blanks else [self.apply(statement.where(self.value != ""), cursor)]
+        return [*parts, self.blanks(statement, cursor if among_blanks else None)]
 
-def _order(text: str, descending: bool, value: ColumnElement, kind: str, configuration: str | None = None) -> JobOrder:
-    return JobOrder(text, descending, value, kind, Job.id, "job", configuration)
+    def blanks(self, statement: Select, cursor: str | None = None) -> Select:
+        """``statement``'s rows whose value is empty, after ``cursor``'s id, in id order (this order's direction)."""
+        statement = statement.where(self.value == "")
+        if cursor:
+            after = self.decode(cursor)[1]
+            statement = statement.where(self.row_id < after if self.descending else self.row_id > after)
+        return statement.order_by(self.row_id.desc() if self.descending else self.row_id.asc())
+
+
+def _order(text: str, descending: bool, value: ColumnElement, kind: str, configuration: str | None = None,
+           blank_last: bool = False) -> JobOrder:
+    return JobOrder(text, descending, value, kind, Job.id, "job", configuration, blank_last)
 
 
 def _configuration(label: str) -> str:
@@ -80,7 +104,7 @@ def parse_sort(text: str) -> JobOrder:
     name = text[1:] if descending else text
     if name in _COLUMNS:
         column, kind = _COLUMNS[name]
-        return _order(text, descending, column, kind)
+        return _order(text, descending, column, kind, blank_last=name == "name")
     if name.startswith("param."):
         parameter = _PARAMETERS.get(name[len("param."):])
         if parameter is None:

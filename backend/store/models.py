@@ -97,6 +97,10 @@ class Job(Base):
 
     stopped: Mapped[dict[str, Any] | None] = mapped_column(JSON, nullable=True)
     """A job with a stopping rule (``config["until"]``): the rule's last verdict and every block's (migration 0014)."""
+    compiling: Mapped[dict[str, Any] | None] = mapped_column(JSON, nullable=True)
+    """While its worker compiles the engine for it: what (``mgrao_core.compiling.Compiling``) and since when."""
+    compile_s: Mapped[float | None] = mapped_column(Float, nullable=True)
+    """Seconds its workers spent compiling the engine for it; None: none (migration 0018)."""
 
     tag_rows: Mapped[list[JobTag]] = relationship(cascade="all, delete-orphan", passive_deletes=True)
     search_row: Mapped[JobSearch | None] = relationship(cascade="all, delete-orphan", passive_deletes=True)

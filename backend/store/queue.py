@@ -120,7 +120,7 @@ def claim(db: Database, *, worker_id: str, stale_after_s: float, max_attempts: i
         lease = str(uuid.uuid4())
         row = session.execute(
             update(Job).where(Job.id == oldest, *claimable)
-            .values(status=RUNNING, lease=lease, worker_id=worker_id, attempts=Job.attempts + 1,
+            .values(status=RUNNING, lease=lease, worker_id=worker_id, attempts=Job.attempts + 1, compiling=None,
                     started_at=utcnow(), heartbeat_at=dialect.db_now(session), finished_at=None)
             .returning(Job.id, Job.config, Job.attempts)
         ).first()
@@ -158,7 +158,7 @@ def claim_batch(db: Database, *, worker_id: str, stale_after_s: float, max_attem
         lease = str(uuid.uuid4())
         rows = session.execute(
             update(Job).where(Job.id.in_(picked), Job.status == QUEUED)
-            .values(status=RUNNING, lease=lease, worker_id=worker_id, attempts=Job.attempts + 1,
+            .values(status=RUNNING, lease=lease, worker_id=worker_id, attempts=Job.attempts + 1, compiling=None,
                     started_at=utcnow(), heartbeat_at=dialect.db_now(session), finished_at=None)
             .returning(Job.id, Job.config, Job.attempts, Job.work)
         ).all()
@@ -167,16 +167,31 @@ def claim_batch(db: Database, *, worker_id: str, stale_after_s: float, max_attem
                 for row in sorted(rows, key=lambda row: order[row.id])]
 
 
-def heartbeat(db: Database, *, claim: Claim, progress: float | None = None) -> bool:
-    """Record that the worker is alive (and its progress); False when the job is no longer ours."""
+UNCHANGED: Any = object()
+"""A heartbeat's ``compiling`` that leaves the job's as it is."""
+
+
+def heartbeat(db: Database, *, claim: Claim, progress: float | None = None, compiling: Any = UNCHANGED,
+              compiled_s: float = 0.0) -> bool:
+    """Record that the worker is alive (and its progress); False when the job is no longer ours.
+
+    ``compiling`` is what the worker compiles for the job now (a :class:`mgrao_core.compiling.Compiling` as JSON,
+    with ``since``), None once it is done, :data:`UNCHANGED` otherwise; ``compiled_s`` seconds of compiling to
+    add to the job's ``compile_s``.
+    """
     with db.write() as session:
-        return _beat(session, claim, progress)
+        return _beat(session, claim, progress, compiling, compiled_s)
 
 
-def _beat(session: Session, claim: Claim, progress: float | None) -> bool:
+def _beat(session: Session, claim: Claim, progress: float | None, compiling: Any = UNCHANGED,
+          compiled_s: float = 0.0) -> bool:
     values: dict[str, Any] = {"heartbeat_at": dialect.db_now(session)}
     if progress is not None:
         values["progress"] = progress
+    if compiling is not UNCHANGED:
+        values["compiling"] = compiling
+    if compiled_s:
+        values["compile_s"] = func.coalesce(Job.compile_s, 0.0) + compiled_s
     return session.execute(update(Job).where(*_held(claim)).values(**values)).rowcount == 1
 
 

@@ -163,6 +163,19 @@ export const api = {
     systemsCache = null;
     return saved;
   },
+  listSaved: () => request('GET', '/systems/saved'),
+  getSaved: (name) => request('GET', `/systems/saved/${encodeURIComponent(name)}`),
+  /** Replace a saved system's definition; the systems' cache is read again after. */
+  replaceSaved: async (name, body) => {
+    const saved = await request('PUT', `/systems/saved/${encodeURIComponent(name)}`, { body });
+    systemsCache = null;
+    return saved;
+  },
+  /** Forget a saved system (its jobs stay); the systems' cache is read again after. */
+  deleteSaved: async (name) => {
+    await request('DELETE', `/systems/saved/${encodeURIComponent(name)}`);
+    systemsCache = null;
+  },
   listJobs: (query, opts) => request('GET', '/jobs', { query, ...opts }),
   jobChanges: (since, opts) => request('GET', '/jobs/changes', { query: { since }, ...opts }),
   getJob: (id, opts) => request('GET', `/jobs/${id}`, opts),

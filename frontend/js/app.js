@@ -1,4 +1,5 @@
-// Hash router: #/runs, #/new, #/jobs/<id>, #/compare?jobs=1,2&smooth=5, #/studies, #/studies/new, #/studies/<id>. Each view module exports
+// Hash router: #/runs, #/new, #/jobs/<id>, #/compare?jobs=1,2&smooth=5, #/studies, #/studies/new, #/studies/<id>,
+// #/systems, #/systems/<name>. Each view module exports
 // mount(container, params, ctx) and may return a cleanup function (stop polling, purge plots).
 
 import { api, savedToken, setToken } from './api.js';
@@ -12,6 +13,7 @@ import * as studies from './studies.js';
 import * as study from './study.js';
 import * as newstudy from './newstudy.js';
 import * as paper from './paper.js';
+import * as systems from './systems.js';
 import { installShortcuts } from './shortcuts.js';
 import { startJobsPoll, pollJobsSoon } from './livejobs.js';
 
@@ -29,6 +31,8 @@ const routes = [
   { re: /^\/studies\/new$/, view: newstudy, nav: 'studies', title: 'New study' },
   { re: /^\/studies\/(\d+)$/, view: study, nav: 'studies', title: 'Study' },
   { re: /^\/paper$/, view: paper, nav: 'paper', title: 'Ours against the paper' },
+  { re: /^\/systems$/, view: systems, nav: 'systems', title: 'Systems' },
+  { re: /^\/systems\/([a-z][a-z0-9-]{0,31})$/, view: systems, nav: 'systems', title: 'System' },
 ];
 
 /** Context handed to views. */
@@ -73,6 +77,7 @@ async function render() {
   const m = route.re.exec(path);
   const routeParams = { ...params };
   if (route.view === job || route.view === study) routeParams.id = Number(m[1]);
+  if (route.view === systems && m[1]) routeParams.name = m[1];
   try {
     const c = await route.view.mount(main, routeParams, { ...ctx, generation: gen });
     if (gen === generation) cleanup = c;

@@ -199,20 +199,35 @@ export function meanBandTraces(name, series, color, smooth = 1, legendgroup = na
   ];
 }
 
-const LAYER = { band: 0, seed: 1 };
+const LAYER = { seed: 0, band: 1 };
 
-/** The traces with every band first, then the seeds, then the lines: no band is drawn over a line. */
+/** The traces with the seeds first, then every band, then the lines: neither seeds nor bands cover a mean line. */
 export function bandsBelow(traces) {
   const layer = (t) => LAYER[t.meta && t.meta.kind] ?? 2;
   return traces.map((t, i) => [t, i]).sort((a, b) => layer(a[0]) - layer(b[0]) || a[1] - b[1]).map(([t]) => t);
 }
 
-/** Thin lines for individual seeds of a configuration. */
-export function seedTraces(name, seeds, color, smooth = 1, legendgroup = name) {
-  return (seeds || []).map((s) => ({
+/** Individual seeds drawn per configuration at most: more hide the mean and band they are drawn beneath. */
+export const SEED_SAMPLE = 20;
+
+/** At most `most` of `seeds`, spread evenly over them in their order (the first and the last among them). */
+export function sampleSeeds(seeds, most = SEED_SAMPLE) {
+  const all = seeds || [];
+  if (all.length <= most) return all.slice();
+  if (most <= 1) return all.slice(0, most);
+  return Array.from({ length: most }, (_, i) => all[Math.round((i * (all.length - 1)) / (most - 1))]);
+}
+
+/**
+ * Faint lines for individual seeds of a configuration: a sample of at most SEED_SAMPLE (sampleSeeds), drawn
+ * beneath the bands and mean lines (bandsBelow), fainter the more configurations share the chart.
+ */
+export function seedTraces(name, seeds, color, smooth = 1, legendgroup = name, configurations = 1) {
+  const alpha = Math.max(0.12, 0.35 / Math.sqrt(Math.max(1, configurations)));
+  return sampleSeeds(seeds).map((s) => ({
     type: 'scatter', mode: 'lines', x: s.episode, y: centredAverage(s.episode, s.utility, smooth),
     name: `${name} seed ${s.seed}`, legendgroup, showlegend: false, hoverinfo: 'skip',
-    line: { width: 0.8, color: rgba(color, 0.45) }, meta: { kind: 'seed', config: name, seed: s.seed },
+    line: { width: 0.7, color: rgba(color, alpha) }, meta: { kind: 'seed', config: name, seed: s.seed },
   }));
 }
 

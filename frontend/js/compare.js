@@ -243,7 +243,11 @@ export async function mount(root, params, ctx) {
       return h('tr', { class: shown.has(keys[i]) ? '' : 'muted' },
         h('th', { scope: 'row' }, h('span', { class: 'dot', style: `background: ${styles[i].color}`, 'aria-hidden': 'true' }), labels[i]),
         h('td', { class: 'job-links' }, (g.job_ids || []).map((jobId, k) => [k ? ', ' : '',
-          h('a', { href: `#/jobs/${jobId}`, title: `Job ${jobId}` }, `#${jobId}`)])),
+          (g.checked_job_ids || []).includes(jobId)
+            ? h('span', { class: 'checked-job', title: `Job ${jobId} was read and its runs checked against the ` +
+              'jobs before it: each of its seeds is theirs too, so none is counted twice' },
+            h('a', { href: `#/jobs/${jobId}` }, `#${jobId}`), ' (checked)')
+            : h('a', { href: `#/jobs/${jobId}`, title: `Job ${jobId}` }, `#${jobId}`)])),
         h('td', { class: 'num' }, s.n_runs ?? '–'),
         h('td', { class: `num paired${s.partial ? ' partial' : ''}`, title: s.partial ? `only ${s.n_paired} of its ${s.n_runs} seeds ` +
           'pair with uniform' : null }, pairedText(s), s.partial ? ' ◐' : ''),

@@ -3,7 +3,7 @@
 // validates; its 422 messages are shown beside the inputs named by each error's field path.
 
 import { h, nextId, debounce } from './ui.js';
-import { fieldErrors, changedParams, workBudget, workText } from './stats.js';
+import { fieldErrors, changedParams, ownWords, workBudget, workText } from './stats.js';
 import { fmtParam } from './studydata.js';
 import { groupTitle } from './jobconfig.js';
 import { argumentForms, argumentOf, argumentProblem, compareArguments, families, fmtBytes, labelFor, literalLabels, memoryOf, memoryPerChild, readArguments, ready, sortLabels, validText } from './algorithms.js';
@@ -22,6 +22,11 @@ export function rangeText(p) {
   const lo = p.minimum === null || p.minimum === undefined ? '−∞' : p.minimum;
   const hi = p.maximum === null || p.maximum === undefined ? '∞' : p.maximum;
   return `range ${p.exclusive_minimum ? '(' : '['}${lo}, ${hi}]`;
+}
+
+/** The field path of a form's argument box (`algorithms:mgrao-{x}:1`): where its refused labels are shown. */
+export function argumentPath(form) {
+  return `algorithms:${form.template}`;
 }
 
 /** A form's template as people read it: `mgrao-<x>:1`, `mgrao-<x>:<y>`. */
@@ -175,14 +180,17 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
   const algoErr = h('span', { class: 'field-error', id: nextId('algoerr'), 'aria-live': 'polite' });
   const argumentFields = argumentForms(fams).map(({ family, form }) => {
     const input = h('input', { type: 'text', name: `${family}-${argumentName(form)}`, class: 'argument-values',
-      placeholder: form.second_argument ? 'e.g. 5:2, 10:4' : 'e.g. 2, 5', id: nextId('arg'), dataset: { template: form.template } });
+      placeholder: form.second_argument ? 'e.g. 5:2, 10:4' : 'e.g. 2, 5', id: nextId('arg'),
+      dataset: { template: form.template, field: argumentPath(form) } });
     const check = h('small', { class: 'help argument-check', id: nextId('argcheck'), 'aria-live': 'polite' });
-    input.setAttribute('aria-describedby', `${input.id}-help ${check.id} ${algoErr.id}`);
+    const error = h('span', { class: 'field-error', id: nextId('argerr'), 'aria-live': 'polite' });
+    input.setAttribute('aria-describedby', `${input.id}-help ${check.id} ${error.id} ${algoErr.id}`);
     const block = h('div', { class: 'field' },
       h('label', { for: input.id }, `Values of ${argumentName(form)} in ${templateText(form)}`), input,
       h('small', { class: 'help', id: `${input.id}-help` },
         `Comma separated; each adds a configuration ${templateText(form)}: ${form.description}.`),
-      check);
+      check, error);
+    errorEls.set(argumentPath(form), { input, error }); // a label of this form that is refused: marked here alone
     return { form, input, check, block };
   });
   errorEls.set('algorithms', { input: algoBoxes[0] || argumentFields[0]?.input, error: algoErr });
@@ -315,8 +323,10 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
     input.addEventListener('input', () => {
       const target = [...errorEls.values()].find((e) => e.input === input);
       if (!target) return;
-      if (input.validity.badInput) {
-        target.error.textContent = `Not a number: must be ${range}.`;
+      const outside = input.validity.rangeUnderflow || input.validity.rangeOverflow || input.validity.stepMismatch;
+      if (input.validity.badInput || outside) {
+        target.error.textContent = input.validity.badInput ? `Not a number: must be ${range}.`
+          : `Must be ${range} (got ${input.value}).`;
         target.error.dataset.local = '1';
         input.setAttribute('aria-invalid', 'true');
       } else if (target.error.dataset.local) {
@@ -409,7 +419,21 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
     return system;
   }
 
-  /** The experiment as the API takes it; {invalidArguments} when an argument field cannot be read. */
+  /**
+   * What the argument boxes hold that is no value (`abc` in "1, abc, 3"), as errors beside their boxes
+   * (`{field, msg}`, as the API's detail), in the box's own words: the server never sees them.
+   */
+  function argumentErrors() {
+    return argumentFields.map((f) => [f, readArguments(f.input.value, f.form).invalid]).filter(([, bad]) => bad.length)
+      .map(([f, bad]) => ({ field: argumentPath(f.form), local: true, msg: `${bad.join(', ')}: not ${bad.length > 1 ? 'values' : 'a value'} ` +
+        `of ${argumentName(f.form)} (${f.form.second_argument ? 'type pairs of whole numbers, e.g. 5:2' : 'type whole numbers, e.g. '
+        + (currentForm(f.form.template)?.valid || [2, 5]).slice(0, 2).join(', ')})` }));
+  }
+
+  /**
+   * The experiment as the API takes it, the values of the argument boxes that can be read; with `invalidArguments`
+   * (the tokens that cannot, their errors from argumentErrors) when some cannot.
+   */
   function read() {
     const labels = algoBoxes.filter((cb) => cb.checked).map((cb) => cb.value);
     const invalid = [];
@@ -418,8 +442,8 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
       invalid.push(...typed.invalid);
       labels.push(...typed.values.sort(compareArguments).map((v) => labelFor(f.form, v)));
     }
-    if (invalid.length) return { invalidArguments: invalid };
     return {
+      ...(invalid.length ? { invalidArguments: invalid } : {}),
       system: systemSel.value,
       algorithms: sortLabels(labels),
       seeds: seedsIn.value === '' ? seedsIn.value : Number(seedsIn.value),
@@ -469,18 +493,40 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
     }
   }
 
+  /**
+   * A refused configuration (`algorithms[3]`) as the box at fault: the argument box of its form, or its own
+   * checkbox; its message without the path (it names the label). Other items as they are.
+   */
+  function atFault(item, labels) {
+    const field = typeof item.field === 'string' ? item.field : '';
+    const match = /^(?:base\.)?algorithms\[(\d+)\]$/.exec(field);
+    if (!match || !labels[Number(match[1])]) return item;
+    const label = labels[Number(match[1])];
+    const msg = String(item.msg || '').replace(/^(?:base\.)?algorithms\[\d+\]: /, '');
+    const box = argumentFields.find((f) => argumentOf(currentForm(f.form.template) || f.form, label) !== null);
+    if (box) return { ...item, field: argumentPath(box.form), msg };
+    const cb = algoBoxes.find((c) => c.value === label);
+    return cb ? { ...item, field: `algorithms=${label}`, msg } : { ...item, msg };
+  }
+
   /** Put each 422 message beside its input (`keyOf` maps the API's field path to ours). */
   function showErrors(err, summary, what, keyOf = (key) => key) {
-    const byField = fieldErrors(err.detail, knownParams);
+    const sent = read().algorithms || [];
+    for (const cb of algoBoxes) { // a refused literal label: its checkbox alone, the message under the list
+      errorEls.set(`algorithms=${cb.value}`, { input: cb, error: algoErr, alone: true });
+    }
+    const detail = Array.isArray(err.detail) ? err.detail.map((item) => atFault(item, sent)) : err.detail;
+    const byField = fieldErrors(detail, knownParams);
     const unplaced = [];
     let first = null;
     for (const [apiPath, msg] of Object.entries(byField)) {
       const path = keyOf(apiPath);
       const target = errorEls.get(path) || errorEls.get(path.replace(/\[\d+\]$/, '')); // algorithms[3]: beside the list
-      if (!target) { unplaced.push(msg); continue; }
-      target.error.textContent = target.error.textContent ? `${target.error.textContent}; ${msg}` : msg;
+      if (!target) { unplaced.push(ownWords(path, msg)); continue; }
+      const words = ownWords(path, msg);
+      target.error.textContent = target.error.textContent ? `${target.error.textContent}; ${words}` : words;
       target.input.setAttribute('aria-invalid', 'true');
-      target.input.closest('.field, fieldset')?.classList.add('invalid');
+      if (!target.alone) target.input.closest('.field, fieldset')?.classList.add('invalid');
       if (path.startsWith('params.') || path.startsWith('space.')) advanced.open = true;
       first ||= target.input;
     }
@@ -493,8 +539,14 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
       }
     }
     const msgs = Object.keys(byField).length ? unplaced : [err.message];
+    const placed = Object.keys(byField).length - unplaced.length;
+    const refused = (Array.isArray(detail) && detail.some((item) => !item.local)) ? `The server rejected the ${what}`
+      : `The ${what} was not started`; // a box's unreadable values never reach the server
+    const lead = !Object.keys(byField).length ? `The ${what} could not be started.`
+      : (placed ? `${refused}; see the marked fields${unplaced.length ? ', and:' : '.'}`
+        : `${refused}:`); // "see the marked fields" only where a field is marked
     const box = h('div', { class: 'notice error', role: 'alert', tabindex: '-1' },
-      h('p', {}, err.lead || (Object.keys(byField).length ? `The server rejected the ${what}; see the marked fields.` : `The ${what} could not be started.`)),
+      h('p', {}, err.lead || lead),
       msgs.length ? h('ul', {}, msgs.map((m) => h('li', {}, m))) : null);
     summary.replaceChildren(box);
     if (first && !unplaced.length) first.focus();
@@ -506,7 +558,7 @@ export function experimentFields(schema, params, { decorate = null, seeds = 3, f
 
   return {
     fieldBlock, errorEls, systemSel, systemDesc, algoFieldset, algoBoxes, argumentFields, seedsIn, episodesIn, advanced,
-    paramInputs, preset, applyPreset, read, load, addSaved, definition, clearErrors, showErrors, keptNote, budgetBlock, updateBudget,
+    paramInputs, preset, applyPreset, read, argumentErrors, load, addSaved, definition, clearErrors, showErrors, keptNote, budgetBlock, updateBudget,
     currentForm, described: () => described, onValid: (listener) => validListeners.push(listener),
     onPreset: (listener) => presetListeners.push(listener),
   };

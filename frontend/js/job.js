@@ -4,8 +4,8 @@
 
 import { api } from './api.js';
 import { h, statusCell, jobMeta, notice, editJobDialog, confirmDialog, cancelConsequence, keepLabel, nextId, downloadText, downloadWithToken } from './ui.js';
-import { draw, purge, loadPlotly, meanBandTraces, seedTraces, utilityLayout, bandsBelow, bandAlpha, withEvents } from './charts.js';
-import { fmtNumber, fmtPct, fmtCI, pctProgress, waitingMessage, smoothingNote, episodesPerPoint, bandCaution, DEFINITIONS, SUMMARY_COLUMNS, summaryCells, seedPoints, MIN_SEED_POINTS } from './stats.js';
+import { draw, purge, loadPlotly, meanBandTraces, seedTraces, SEED_SAMPLE, utilityLayout, bandsBelow, bandAlpha, withEvents } from './charts.js';
+import { fmtNumber, fmtPct, fmtCI, decidingDigits, compilingText, maxNote, groupsText, takenText, pctProgress, waitingMessage, smoothingNote, episodesPerPoint, bandCaution, DEFINITIONS, SUMMARY_COLUMNS, summaryCells, seedPoints, MIN_SEED_POINTS } from './stats.js';
 import { algorithmStyles } from './colours.js';
 import { compareLabels, ready, rememberAnswer } from './algorithms.js';
 import { axisControls, withAxis, tableCsvButton } from './chartcontrols.js';
@@ -141,7 +141,8 @@ export async function mount(root, params, ctx) {
         h('span', { class: `badge status-${job.status}` },
           job.status === 'running' ? h('span', { class: 'spinner', 'aria-hidden': 'true' }) : null, job.status),
         h('progress', { class: 'big', max: 100, value: pct, 'aria-label': 'Job progress', id: 'job-progress' }),
-        h('span', { class: 'pct', role: 'status', id: 'job-waiting' }, job.status === 'queued' ? waiting : `Running: ${pct}% done`)),
+        h('span', { class: 'pct', role: 'status', id: 'job-waiting' }, job.status === 'queued' ? waiting
+          : (job.compiling ? `Running: ${compilingText(job.compiling)}` : `Running: ${pct}% done`))),
       ...[requeueNote()].filter(Boolean));
     } else if (job.status === 'failed') {
       statusBox.replaceChildren(notice('error', 'This job failed.', h('pre', { class: 'error-text' }, job.error || 'No reason was recorded.')));
@@ -315,7 +316,7 @@ export async function mount(root, params, ctx) {
       const styles = algorithmStyles(job.algorithms.concat(data.configurations.map((c) => c.algorithm)));
       data.configurations.forEach((c) => {
         const style = styles[c.algorithm];
-        if (showSeeds) traces.push(...seedTraces(c.algorithm, c.seeds, style.color, smooth));
+        if (showSeeds) traces.push(...seedTraces(c.algorithm, c.seeds, style.color, smooth, c.algorithm, data.configurations.length));
         traces.push(...meanBandTraces(c.algorithm, c.episodes, style.color, smooth, c.algorithm, style.dash,
           { bands: showBands, symbol: style.symbol, fillAlpha: bandAlpha(data.configurations.length) }));
       });
@@ -325,7 +326,9 @@ export async function mount(root, params, ctx) {
         runs: c.seeds_done ?? (c.summary || {}).n_runs, episodes: c.episodes }))) : '';
       chart.dataset.rendered = String(Date.now());
       chartStatus.textContent = '';
-      smoothNote.textContent = smoothingNote(smooth, episodesPerPoint((data.configurations[0] || {}).episodes?.episode), showBands);
+      const most = Math.max(0, ...data.configurations.map((c) => (c.seeds || []).length));
+      smoothNote.textContent = smoothingNote(smooth, episodesPerPoint((data.configurations[0] || {}).episodes?.episode),
+        showBands, showSeeds ? { drawn: Math.min(most, SEED_SAMPLE), of: most } : null);
       ctx.setQuery({ smooth: smooth > 1 ? smooth : '', seeds: showSeeds ? '1' : '', bands: showBands ? '' : '0' });
     };
     redrawUtility = redraw;
@@ -347,7 +350,7 @@ export async function mount(root, params, ctx) {
     });
 
     body.replaceChildren(
-      ...[partialNote(r)].filter(Boolean),
+      ...[partialNote(r), oracleCaveat(r)].filter(Boolean),
       h('section', { 'aria-labelledby': 'h-util' },
         h('h2', { id: 'h-util' }, 'System utility per episode'),
         h('div', { class: 'controls' },
@@ -356,7 +359,7 @@ export async function mount(root, params, ctx) {
           h('label', { class: 'check', for: bandsId }, bandsCb, ' 95% bands'), chartStatus),
         seedsNote, axisUi.element, chart, smoothNote, caution),
       summaryTable(r),
-      ...[tasksSection({ job, results: r, plots })].filter(Boolean),
+      ...[learningSection(r), tasksSection({ job, results: r, plots })].filter(Boolean),
       weightsSection({ jobId: id, results: r, plots, state: weightsState }),
       h('section', { 'aria-labelledby': 'h-dl' }, h('h2', { id: 'h-dl' }, 'Download'),
         h('p', { class: 'downloads' },
@@ -390,6 +393,41 @@ export async function mount(root, params, ctx) {
       `${what}. Seeds stored: ${done}. Means and intervals are over the stored seeds only.`);
   }
 
+  /** Where the oracle is no upper bound in the job's system, why (as compare says it), above the results. */
+  function oracleCaveat(r) {
+    const caveats = r.oracle_caveats || [];
+    if (!caveats.length) return null;
+    return h('div', { class: 'notice warn oracle-caveat', id: 'oracle-caveat', role: 'note' },
+      h('strong', {}, 'The oracle is no upper bound here. '),
+      'It is the best fixed allocation of a child that receives every task of a stationary stream, with one ' +
+      'resource; this system departs from that, so a learner can beat it and it can fall below uniform: ',
+      h('ul', {}, caveats.map((c) => h('li', {}, c))));
+  }
+
+  /** What learning took: each learner's parent groups at the end and the share of resources it paid for them. */
+  function learningSection(r) {
+    const learners = r.configurations.filter((c) => c.learning);
+    const cost = Number((job.params || {}).learning_cost) || 0;
+    if (!learners.some((c) => c.learning.taken || c.learning.groups_change)) return null;
+    const table = h('table', { class: 'summary learning-table', id: 'learning-table' },
+      h('thead', {}, h('tr', {}, ['Configuration', 'Parent groups at the end', 'Resources learning took']
+        .map((c) => h('th', { scope: 'col' }, c)))),
+      h('tbody', {}, learners.map((c) => h('tr', { 'data-algorithm': c.algorithm },
+        h('th', { scope: 'row' }, c.algorithm),
+        h('td', { class: 'groups' }, groupsText(c.learning)),
+        h('td', { class: 'num taken' }, cost ? takenText(c.learning) : 'nothing (no learning_cost)')))));
+    return h('section', { 'aria-labelledby': 'h-learning' },
+      h('h2', { id: 'h-learning' }, 'What learning took'),
+      h('div', { class: 'table-wrap' }, table),
+      h('p', { class: 'help' }, cost
+        ? `learning_cost ${cost}: learning takes that share of every resource from mgrao-max’s children, and from ` +
+          'others in proportion to what they keep (docs: “The cost of learning”); the rest goes to their tasks. ' +
+          'A range is over the children and seeds: mgrao-balance pays for the groups each child has.'
+        : 'Without a learning_cost, learning takes nothing from the tasks.',
+        ' Children are counted once per seed; mgrao-balance’s groups are those its children ended with (their ' +
+        'recorded memberships).'));
+  }
+
   function summaryTable(r) {
     const paper = r.paper || null;
     const table = h('table', { class: 'summary' },
@@ -401,15 +439,16 @@ export async function mount(root, params, ctx) {
       h('tbody', {}, r.configurations.map((c) => {
         const s = c.summary || {};
         const pv = paper ? paper[c.algorithm] : undefined;
+        const judged = pv === undefined || pv === null ? 1 : decidingDigits(s.pct_ci95, pv); // the paper view's rule
         return h('tr', {},
           h('th', { scope: 'row' }, c.algorithm),
           h('td', { class: 'num' }, s.n_runs ?? '–'),
           h('td', { class: 'num' }, fmtNumber(s.final_mean)),
           h('td', { class: 'num ci' }, fmtCI(s.ci95)),
           h('td', { class: 'num' }, fmtPct(s.pct_from_uniform)),
-          h('td', { class: 'num ci' }, fmtCI(s.pct_ci95, 1, true)),
+          h('td', { class: 'num ci pct-ci' }, fmtCI(s.pct_ci95, judged, true)),
           h('td', { class: 'num' }, fmtPct(s.pct_of_max, 1, false)),
-          paper ? h('td', { class: 'num paper' }, pv === undefined || pv === null ? '–' : fmtPct(pv)) : null);
+          paper ? h('td', { class: 'num paper' }, pv === undefined || pv === null ? '–' : fmtPct(pv, judged)) : null);
       })));
     return h('section', { 'aria-labelledby': 'h-sum' },
       h('h2', { id: 'h-sum' }, 'Final utility ', tableCsvButton(`job-${id}-final-utility.csv`, () => [
@@ -417,6 +456,7 @@ export async function mount(root, params, ctx) {
         ...r.configurations.map((c) => [c.algorithm, ...summaryCells(c.summary),
           ...(paper ? [paper[c.algorithm] ?? null] : [])])])),
       h('div', { class: 'table-wrap' }, table),
+      ...[maxNote(r.configurations)].filter(Boolean).map((text) => h('p', { class: 'notice warn', id: 'max-note' }, text)),
       h('p', { class: 'help definitions' }, DEFINITIONS));
   }
 

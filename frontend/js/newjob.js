@@ -100,11 +100,8 @@ export async function mount(root, params, ctx) {
     ev.preventDefault();
     fields.clearErrors(summary);
     await fields.described(); // the typed configurations' order
-    const experiment = fields.read();
-    if (experiment.invalidArguments) {
-      showErrors({ detail: [{ field: 'algorithms', msg: `not a value: ${experiment.invalidArguments.join(', ')} (type whole numbers like 2, 5; pairs like 5:2 for x:y)` }] });
-      return;
-    }
+    const { invalidArguments, ...experiment } = fields.read();
+    const local = invalidArguments ? fields.argumentErrors() : []; // said with the server's, in one pass
     fields.updateBudget();
     // The server's check says every refused field at once, each field's own rule before the work limit on their
     // product (seeds of 1e9: "at most 1000", not "over the work limit" with every factor marked).
@@ -123,7 +120,7 @@ export async function mount(root, params, ctx) {
     try {
       // Checked first (always 200): a refusal is shown beside its fields without a 422 in the console.
       const verdict = await api.checkJob(body);
-      if (!verdict.valid) { showErrors({ detail: verdict.detail }); return; }
+      if (!verdict.valid || local.length) { showErrors({ detail: [...local, ...(verdict.detail || [])] }); return; }
       const job = await api.createJob(body);
       ctx.navigate(`/jobs/${job.id}`);
     } catch (e) {

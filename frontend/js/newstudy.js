@@ -284,11 +284,7 @@ export async function mount(root, params, ctx) {
     fields.clearErrors(summary);
     const showErrors = (err) => fields.showErrors(err, summary, 'study', studyFieldKey);
     await fields.described(); // the typed configurations' order
-    const base = fields.read();
-    if (base.invalidArguments) {
-      showErrors({ detail: [{ field: 'algorithms', msg: `not a value: ${base.invalidArguments.join(', ')} (type whole numbers like 2, 5; pairs like 5:2 for x:y)` }] });
-      return;
-    }
+    const { invalidArguments, ...base } = fields.read();
     const rows = [...sweeps.values()].map((e) => e.read());
     if (groupsTick.checked) {
       const parsed = parseValues(groupsIn.value, 'int');
@@ -298,12 +294,19 @@ export async function mount(root, params, ctx) {
       const parsed = parseValues(teamIn.value, 'int');
       rows.push({ name: 'team_size', mode: 'values', values: parsed.values, invalid: parsed.invalid });
     }
-    const bad = rows.filter((r) => r.invalid && r.invalid.length);
-    if (bad.length) {
-      showErrors({ detail: bad.map((r) => ({ field: `space.${r.name}`, msg: `space.${r.name}: not a value: ${r.invalid.join(', ')}` })) });
+    const systems = [fields.systemSel.value, ...alsoBoxes.filter((cb) => cb.checked && cb.value !== fields.systemSel.value).map((cb) => cb.value)];
+    const local = [...(invalidArguments ? fields.argumentErrors() : []),
+      ...rows.filter((r) => r.invalid && r.invalid.length).map((r) => ({ field: `space.${r.name}`, local: true,
+        msg: `not ${r.invalid.length > 1 ? 'values' : 'a value'}: ${r.invalid.join(', ')}` }))];
+    if (local.length) { // not sent while a value cannot be read; the base experiment's own errors said with them
+      let detail = [];
+      try {
+        const verdict = await api.checkJob({ ...base, system: systems[0] });
+        detail = verdict.valid ? [] : verdict.detail;
+      } catch { /* the study's own answer says the rest */ }
+      showErrors({ detail: [...local, ...detail] });
       return;
     }
-    const systems = [fields.systemSel.value, ...alsoBoxes.filter((cb) => cb.checked && cb.value !== fields.systemSel.value).map((cb) => cb.value)];
     const num = (el) => (el.value === '' ? el.value : Number(el.value));
     const body = studyBody({ ...base, system: systems.length > 1 ? systems : systems[0] }, rows, {
       name: nameIn.value.trim() || `${systems.join('+')}: ${rows.map((r) => r.name).join(' × ') || 'study'}`,

@@ -4,10 +4,10 @@
 
 import { api } from './api.js';
 import { h, notice } from './ui.js';
-import { fmtPct, fmtCI } from './stats.js';
+import { fmtPct, fmtCI, decidingDigits } from './stats.js';
 import { compareLabels, ready, rememberAnswer } from './algorithms.js';
 import { algorithmStyles } from './colours.js';
-import { paperRows, agreement, choosePaperJob, fmtSeedPercentile, decidingDigits } from './paperdata.js';
+import { paperRows, agreement, choosePaperJob, fmtSeedPercentile } from './paperdata.js';
 import { tableCsvButton } from './chartcontrols.js';
 
 const DOC_URL = '/project-docs/reproduction.html';

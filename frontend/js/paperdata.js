@@ -94,19 +94,3 @@ export function agreement(rows) {
   return `${inside} of ${judged.length} figures hold the paper's value within our 95% interval` +
     (judged.length < rows.length ? ` (${rows.length - judged.length} not run yet).` : '.');
 }
-
-/**
- * The decimals at which a 95% interval reads as on the side of `value` that it is: one (`digits`) unless rounding
- * hides the verdict (the paper's +28.0% outside [+23.3%, +27.99%] would read as its end), then as many as tell them
- * apart, at most `most`.
- */
-export function decidingDigits(ci, value, digits = 1, most = 4) {
-  if (!Array.isArray(ci) || !Number.isFinite(ci[0]) || !Number.isFinite(ci[1]) || !Number.isFinite(value)) return digits;
-  const outside = value < ci[0] || value > ci[1];
-  for (let d = digits; d < most; d += 1) {
-    const at = (x) => Number(x.toFixed(d));
-    if ((at(value) < at(ci[0]) || at(value) > at(ci[1])) === outside) return d;
-  }
-  return most;
-}
-

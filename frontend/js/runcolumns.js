@@ -57,7 +57,10 @@ export function cellInterval(job, column) {
 /** The optional columns from the view's query: `result=mgrao-max` and `cols=learning_rate,trace_decay`. */
 export function columnsFromQuery(result, cols, knownParams) {
   const out = [];
-  if (result) for (const r of RESULT_COLUMNS) out.push({ kind: 'result', configuration: result, ...r });
+  for (const r of result ? RESULT_COLUMNS : []) {
+    if (r.field === 'pct_of_max' && result === 'mgrao-max') continue; // its own gain's share: 100% by definition
+    out.push({ kind: 'result', configuration: result, ...r });
+  }
   for (const name of (cols || '').split(',').map((s) => s.trim()).filter(Boolean)) {
     if (knownParams.has(name) && !out.some((c) => c.kind === 'param' && c.name === name)) {
       out.push({ kind: 'param', name, title: name });

@@ -40,11 +40,20 @@ export function episodesPerPoint(episodes) {
   return Math.max(1, Math.round((episodes[episodes.length - 1] - episodes[0]) / (episodes.length - 1)));
 }
 
-/** One line saying what the chart's smoothing is, in episodes, whatever the downsampling. */
-export function smoothingNote(window, perPoint, bands = true) {
+/**
+ * One line saying what the chart draws and its smoothing, in episodes, whatever the downsampling. `seeds`
+ * (`{drawn, of}`: individual seeds drawn per configuration, of how many) when they are shown.
+ */
+export function smoothingNote(window, perPoint, bands = true, seeds = null) {
   const w = Math.max(1, Math.floor(Number(window) || 1));
   const points = perPoint > 1 ? ` Each plotted point is already the mean of ${perPoint} consecutive episodes.` : '';
-  const lines = bands ? 'Lines: mean over seeds; bands: its 95% interval.' : 'Lines: mean over seeds (95% bands hidden).';
+  const mean = seeds ? 'Thick lines: mean over seeds' : 'Lines: mean over seeds';
+  let lines = bands ? `${mean}; bands: its 95% interval.` : `${mean} (95% bands hidden).`;
+  if (seeds) {
+    lines += seeds.drawn < seeds.of
+      ? ` Faint lines beneath: ${seeds.drawn} of each configuration’s ${seeds.of} seeds, spread evenly over them.`
+      : ` Faint lines beneath: each of its ${seeds.of} ${seeds.of === 1 ? 'seed' : 'seeds'}.`;
+  }
   if (w === 1) return `${lines} Not smoothed.${points}`;
   return `${lines} Smoothed with a centred mean over ${w} episodes ` +
     `(${(w - 1) / 2} before and after each${bands ? '; the band likewise' : ''}).${points}`;
@@ -94,6 +103,49 @@ export function badIds(value) {
 export const DEFINITIONS = 'Final mean: system utility averaged over the last 10 episodes, then over seeds (95% t-interval). ' +
   '% from uniform: gain over uniform, paired seed by seed (same worlds), over the seeds shared with uniform (Paired). ' +
   '% of max: this configuration’s gain over uniform as a share of mgrao-max’s, on the seeds all three share.';
+
+/**
+ * What a reader of "% of max" should know where mgrao-max is not the yardstick they assume ('' where it is):
+ * configurations that gain more over uniform than mgrao-max (above 100%), or none at all where mgrao-max gained
+ * nothing (the column is empty). `configurations`: `{algorithm, summary}` of one world.
+ */
+export function maxNote(configurations) {
+  const rows = (configurations || []).filter((c) => c && c.summary);
+  const max = rows.find((c) => c.algorithm === 'mgrao-max');
+  if (!max) return '';
+  if (!isFiniteNumber(max.summary.pct_of_max)) {
+    return '% of max is not given: mgrao-max gained nothing over uniform here, so no share of its gain means anything.';
+  }
+  const above = rows.filter((c) => c.algorithm !== 'mgrao-max' && isFiniteNumber(c.summary.pct_of_max) &&
+    c.summary.pct_of_max > 100);
+  if (!above.length) return '';
+  const named = above.map((c) => `${c.algorithm} (${fmtPct(c.summary.pct_of_max, 1, false)})`);
+  const list = named.length > 1 ? `${named.slice(0, -1).join(', ')} and ${named[named.length - 1]}` : named[0];
+  return `mgrao-max is not the best here: ${list} ${above.length > 1 ? 'gain' : 'gains'} more over uniform than it ` +
+    'does. % of max is a share of mgrao-max’s gain, not of the best configuration’s: rank them by % from uniform.';
+}
+
+/**
+ * A learner's parent groups at the end (`learning` of a results configuration): "1" where every child has one
+ * count, else each count with its children, "5 groups: 4 of 6 children; 10 groups: 2 of 6". '–' without groups.
+ */
+export function groupsText(learning) {
+  const groups = learning && learning.groups;
+  if (!groups) return '–';
+  const counts = Object.entries(groups).map(([g, n]) => [Number(g), n]).sort((a, b) => a[0] - b[0]);
+  if (counts.length === 1 && !learning.groups_change) return String(counts[0][0]);
+  const of = learning.children;
+  return counts.map(([g, n]) => `${g} ${g === 1 ? 'group' : 'groups'}: ${n} of ${of} ${of === 1 ? 'child' : 'children'}`)
+    .join('; ');
+}
+
+/** The share of a child's resources learning took (`learning.taken`): "12.5%", or "8.0% (5.0–12.5%)" where it varies. */
+export function takenText(learning) {
+  const t = learning && learning.taken;
+  if (!t || !isFiniteNumber(t.mean)) return '–';
+  const pct = (x) => (100 * x).toFixed(1);
+  return t.high - t.low > 5e-4 ? `${pct(t.mean)}% (${pct(t.low)}–${pct(t.high)}%)` : `${pct(t.mean)}%`;
+}
 
 /** The export columns of a configuration's summary: numbers, units in the names (`summaryCells`). */
 export const SUMMARY_COLUMNS = ['n_runs', 'n_paired', 'final_mean_utility', 'final_ci95_low_utility',
@@ -209,6 +261,35 @@ export function fieldErrors(detail, knownParams = new Set()) {
   return out;
 }
 
+const RANGE_ENDS = { low: 'from', high: 'to', steps: 'steps', log: 'log scale' };
+
+/** What a form calls the field of an API path: `learning_rate` for `base.params.learning_rate`, '' for a label. */
+export function fieldName(path) {
+  const p = String(path || '');
+  let m;
+  if ((m = /^(?:base\.)?params\.(\w+)$/.exec(p))) return m[1];
+  if ((m = /^space\.(\w+)\.(low|high|steps|log)$/.exec(p))) return `${m[1]} (${RANGE_ENDS[m[2]]})`;
+  if ((m = /^space\.(\w+)\.values\[(\d+)\]$/.exec(p))) return `${m[1]} (value ${Number(m[2]) + 1})`;
+  if ((m = /^space\.(\w+)(?:\.values)?$/.exec(p))) return m[1];
+  if (/^(?:base\.)?algorithms\[\d+\]$/.test(p)) return '';
+  if (p === 'space') return 'the parameters swept';
+  if ((m = /^(?:base\.|until\.)(\w+)$/.exec(p))) return m[1];
+  return p;
+}
+
+/**
+ * A refusal as shown beside its field, in the field's own words: the API's path that opens it
+ * ("space.learning_rate.high: ...") as the form names that field ("learning_rate (to): ..."); a refused label's
+ * path left out (its message names the label).
+ */
+export function ownWords(path, msg) {
+  const text = String(msg || '');
+  const m = /^([\w.[\]-]+): /.exec(text);
+  if (!m) return text;
+  const name = fieldName(m[1]);
+  return name ? `${name}: ${text.slice(m[0].length)}` : text.slice(m[0].length);
+}
+
 // ---- formatting -------------------------------------------------------------------------
 
 export function fmtNumber(x, digits = 3) {
@@ -228,6 +309,23 @@ export function fmtCI(ci, digits = 3, pct = false) {
   if (!Array.isArray(ci) || ci.length < 2 || !isFiniteNumber(ci[0]) || !isFiniteNumber(ci[1])) return '';
   const f = pct ? (v) => fmtPct(v, digits) : (v) => fmtNumber(v, digits);
   return `[${f(ci[0])}, ${f(ci[1])}]`;
+}
+
+/**
+ * The one rounding rule of an interval shown against a figure it is judged by (the paper's % from uniform): the
+ * decimals at which both read as on the side of `value` that it is. One (`digits`) unless rounding hides the verdict
+ * (the paper's +28.0% outside [+23.28%, +27.99%] would read as its end, [+23.3%, +28.0%]), then as many as tell
+ * them apart, at most `most`. Every view that shows the interval beside that figure (the paper view, a job's page)
+ * writes both with these decimals; `deciding_digits` of mgrao_core/statistics/report.py is the command line's.
+ */
+export function decidingDigits(ci, value, digits = 1, most = 4) {
+  if (!Array.isArray(ci) || !Number.isFinite(ci[0]) || !Number.isFinite(ci[1]) || !Number.isFinite(value)) return digits;
+  const outside = value < ci[0] || value > ci[1];
+  for (let d = digits; d < most; d += 1) {
+    const at = (x) => Number(x.toFixed(d));
+    if ((at(value) < at(ci[0]) || at(value) > at(ci[1])) === outside) return d;
+  }
+  return most;
 }
 
 export function fmtDuration(seconds) {
@@ -295,6 +393,41 @@ export function systemDescription(job) {
   return job && job.saved_system ? `${job.saved_system} (saved system, based on ${job.system})` : systemName(job);
 }
 
+/**
+ * A job's seeds as its header says them: the count, and for a job run until a question is answered (`until`),
+ * "20 of at most 500" (the seeds judged so far, or run, of the rule's most).
+ */
+export function seedsText(job) {
+  if (!job || !job.until) return String(seedCount(job));
+  const run = job.stopped && isFiniteNumber(job.stopped.seeds) && job.stopped.seeds > 0 ? job.stopped.seeds
+    : (job.status === 'succeeded' ? seedCount(job) : 0);
+  return `${run} of at most ${job.until.max_seeds}`;
+}
+
+/**
+ * Where a job's time went, for its header: [label, text] pairs: queued (from its submission to its start: waiting
+ * for a worker, or for one to warm up), compiling the engine for it, and running (the rest of its run).
+ */
+export function jobTimes(job) {
+  const compiling = isFiniteNumber(job.compile_s) ? job.compile_s : 0;
+  const running = isFiniteNumber(job.duration_s) ? Math.max(0, job.duration_s - compiling) : null;
+  return [
+    ['Queued', fmtDuration(job.queued_s)],
+    ['Compiling', job.compiling ? 'under way' : (compiling > 0 ? fmtDuration(compiling) : (job.started_at ? 'none' : '–'))],
+    ['Running', fmtDuration(running)],
+  ];
+}
+
+/** A running job's compile (its `compiling`) as the job page says it: the notice and how long so far. */
+export function compilingText(compiling, nowMs = Date.now()) {
+  if (!compiling || !compiling.message) return '';
+  const since = Date.parse(compiling.since || '');
+  const so = Number.isFinite(since) ? ` (${fmtDuration(Math.max(0, (nowMs - since) / 1000))} so far)` : '';
+  const message = compiling.message.charAt(0).toUpperCase() + compiling.message.slice(1);
+  return `${message}${so}. The engine is cached once compiled: later jobs of these families start at once ` +
+    '(“mgrao compile” compiles every family ahead).';
+}
+
 /** Number of seeds of a job (its `seeds` list, or a count). */
 export function seedCount(job) {
   if (!job) return 0;
@@ -354,7 +487,7 @@ export function waitingMessage(workers, pct, queue = null) {
   if (!workers) return `Waiting for a worker…${stored}`;
   const { warming = 0, ready = 0 } = workers;
   if (!ready && warming) {
-    return `Workers are warming up: loading the simulation kernel (compiling it takes about 20 s on a fresh ` +
+    return `Workers are warming up: loading the simulation kernel (compiling it takes about 25 s on a fresh ` +
       `install, a second or two after). The job starts when one is ready.${stored}`;
   }
   if (!ready) {

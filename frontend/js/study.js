@@ -8,7 +8,8 @@ import { h, notice, nextId, confirmDialog } from './ui.js';
 import { draw, purge, loadPlotly } from './charts.js';
 import { fmtDate, fmtNumber } from './stats.js';
 import {
-  sortTrials, pageOf, fmtParam, historyTraces, importanceTrace, sliceTraces, studyHeatmapTrace, parallelPlot,
+  sortTrials, pageOf, fmtParam, historyTraces, importanceTrace, importanceNote, bestText, sliceTraces,
+  studyHeatmapTrace, parallelPlot,
 } from './studydata.js';
 import { objectiveText, studyProgress } from './studies.js';
 import { ruleText } from './jobrule.js';
@@ -101,7 +102,7 @@ export async function mount(root, params, ctx) {
     const pairs = [
       ['Method', `${s.method}${detail.definition.seed ? ` (seed ${detail.definition.seed})` : ''}`],
       ['Objective', objectiveText(s.objective)],
-      ['Best', best ? `${fmtNumber(best.value, 4)} at trial ${best.number}: ${Object.entries(best.params).map(([k, v]) => `${k} ${fmtParam(v)}`).join(', ')}` : '–'],
+      ['Best', bestText(best, detail.trials, base.until ? null : (base.seeds || []).length, (v) => fmtNumber(v, 4))],
       ['Base', `${[].concat(base.system).map((s) => (typeof s === 'string' ? s : s.name)).join(', ')}; ${base.until
         ? `seeds from ${base.first_seed ?? 0} until the rule answers` : `${base.seeds.length} seeds`} × ${base.episodes} episodes`],
       ...(base.until ? [['Stopping rule', ruleText(base.until)]] : []),
@@ -160,7 +161,7 @@ export async function mount(root, params, ctx) {
       h('span', { class: 'pct' }, `page ${shown.page + 1} of ${shown.pages} (${detail.trials.length} trials)`),
       h('button', { type: 'button', class: 'secondary small', disabled: shown.page >= shown.pages - 1, onclick: () => { page += 1; renderTable(); } }, 'Next'));
     const atMost = detail.trials.filter((t) => (t.max_seeds_jobs || []).length).length;
-    tableBox.replaceChildren(
+    tableBox.replaceChildren(...[ // no "null" where there is no note
       h('h2', { id: 'h-trials' }, 'Trials'),
       h('p', { class: 'help' }, 'Sort by any column; a row opens its job (a study over several systems has a job per system).'),
       atMost ? h('p', { class: 'notice warn', id: 'max-seeds-trials', role: 'status' },
@@ -172,7 +173,7 @@ export async function mount(root, params, ctx) {
           dims.map((d) => header(d, `param:${d}`, true)), header(objectiveName(), 'value', true),
           h('th', { scope: 'col', class: 'num' }, '95% CI over seeds'), h('th', { scope: 'col' }, 'Jobs'), h('th', { scope: 'col' }, 'Error'))),
         h('tbody', {}, rows))),
-      ...(shown.pages > 1 ? [pager] : []));
+      ...(shown.pages > 1 ? [pager] : [])].filter(Boolean));
   }
 
   // ---- plots -----------------------------------------------------------------------------
@@ -188,7 +189,9 @@ export async function mount(root, params, ctx) {
   const slicesBox = h('div', { class: 'slices' });
   const xSel = h('select', { id: nextId('hx') });
   const ySel = h('select', { id: nextId('hy') });
-  const plotsNote = h('p', { class: 'help', 'aria-live': 'polite' });
+  const plotsNote = h('p', { class: 'help', 'aria-live': 'polite', id: 'plots-note' });
+  const importanceCaution = h('p', { class: 'help warn-text', id: 'importance-note', role: 'status' });
+  const plotsGrid = h('div');
   for (const sel of [xSel, ySel]) {
     sel.addEventListener('change', async () => {
       heatX = xSel.value;
@@ -203,11 +206,11 @@ export async function mount(root, params, ctx) {
     for (const [sel, value, fallback] of [[xSel, heatX, dims[0]], [ySel, heatY, dims[1] || dims[0]]]) {
       sel.replaceChildren(...dims.map((d) => h('option', { value: d, selected: d === (value || fallback) }, d)));
     }
-    plotsBox.replaceChildren(
-      h('h2', { id: 'h-plots' }, 'What the trials show'), plotsNote,
+    plotsGrid.replaceChildren(
       h('div', { class: 'grid2' },
         h('figure', {}, h('figcaption', {}, 'Best so far'), historyChart),
-        h('figure', {}, h('figcaption', {}, 'Parameter importance (η²: variance explained by each parameter alone)'), importanceChart)),
+        h('figure', {}, h('figcaption', {}, 'Parameter importance (η²: variance explained by each parameter alone)'),
+          importanceChart, importanceCaution)),
       h('div', { class: 'grid2' },
         h('figure', {}, h('figcaption', {}, 'Heatmap: mean objective'),
           h('div', { class: 'controls' }, h('label', { for: xSel.id }, 'x'), xSel, h('label', { for: ySel.id }, 'y'), ySel),
@@ -215,6 +218,7 @@ export async function mount(root, params, ctx) {
         h('figure', {}, h('figcaption', {}, 'Parallel coordinates'), parallelChart)),
       h('h3', {}, 'Slices: the objective (95% CI over seeds) against each parameter, with the mean per value'),
       slicesBox);
+    plotsBox.replaceChildren(h('h2', { id: 'h-plots' }, 'What the trials show'), plotsNote, plotsGrid);
   }
 
   async function loadPlots() {
@@ -233,6 +237,9 @@ export async function mount(root, params, ctx) {
     const name = objectiveName();
     plotsNote.textContent = p.trials ? `${p.trials} trials with an objective; plots of large studies show at most 1,000 trials, the best first.`
       : 'No trial has an objective yet: the plots fill in as trials finish.';
+    plotsGrid.hidden = !p.trials; // nothing is known yet: no axes drawn around nothing
+    if (!p.trials) { plotsBox.dataset.rendered = String(Date.now()); return; }
+    importanceCaution.textContent = importanceNote(p.importance, p.trials);
     const axis = (text, extra = {}) => ({ title: { text }, zeroline: false, ...extra });
     await draw(historyChart, historyTraces(p.history, name), { xaxis: axis('Trial'), yaxis: axis(name), hovermode: 'closest' });
     await draw(importanceChart, [importanceTrace(p.importance)], { xaxis: axis('η²', { range: [0, 1] }), yaxis: { automargin: true }, hovermode: 'closest', showlegend: false, margin: { l: 140, r: 16, t: 24, b: 52 } });

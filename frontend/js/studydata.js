@@ -169,10 +169,53 @@ export function importanceTrace(importance) {
   const names = Object.keys(importance).sort((a, b) => importance[a].eta_squared - importance[b].eta_squared);
   return {
     type: 'bar', orientation: 'h', y: names, x: names.map((n) => importance[n].eta_squared),
-    marker: { color: BLUE }, meta: { kind: 'importance' },
-    customdata: names.map((n) => importance[n].share),
-    hovertemplate: '%{y}: η² %{x:.3f} (%{customdata:.0%} of the sum)<extra></extra>',
+    marker: { color: names.map((n) => (noisy(importance[n]) ? GREY : BLUE)) }, meta: { kind: 'importance' },
+    customdata: names.map((n) => [importance[n].share, importance[n].p_value ?? null]),
+    hovertemplate: '%{y}: η² %{x:.3f} (%{customdata[0]:.0%} of the sum; permutation p %{customdata[1]:.3f})<extra></extra>',
   };
+}
+
+/** Significance level under which a parameter's importance is told apart from noise (its permutation test). */
+export const IMPORTANCE_LEVEL = 0.05;
+
+function noisy(entry) {
+  return !(typeof entry.p_value === 'number' && entry.p_value < IMPORTANCE_LEVEL);
+}
+
+/**
+ * What the importance plot cannot tell (''): the parameters whose η² shuffled objectives reach as often as
+ * IMPORTANCE_LEVEL or more (their permutation test), with the trials behind them.
+ */
+export function importanceNote(importance, trials) {
+  const names = Object.keys(importance || {}).filter((n) => noisy(importance[n]));
+  if (!names.length) return '';
+  const each = names.map((n) => `${n} (η² ${importance[n].eta_squared.toFixed(2)}, p = ${(importance[n].p_value ?? 1).toFixed(2)})`);
+  return `Not told apart from noise with ${trials} ${trials === 1 ? 'trial' : 'trials'}: ${each.join(', ')}. ` +
+    'Shuffled over the same values, the trials’ objectives explain as much that often (greyed); more trials per ' +
+    'value tell.';
+}
+
+/**
+ * The best trial as the study's header says it: its objective with the 95% interval over seeds and the seeds, and
+ * the trials that cannot be told apart from it (their objective inside that interval), the runner-up first.
+ */
+export function bestText(best, trials, seeds, fmt) {
+  if (!best) return '–';
+  const params = Object.entries(best.params).map(([k, v]) => `${k} ${fmtParam(v)}`).join(', ');
+  const ci = Array.isArray(best.ci95) && best.ci95.every((x) => typeof x === 'number')
+    ? ` [${fmt(best.ci95[0])}, ${fmt(best.ci95[1])}]` : '';
+  const over = seeds ? ` over ${seeds} ${seeds === 1 ? 'seed' : 'seeds'}` : '';
+  let text = `${fmt(best.value)}${ci}${ci ? ` (95% interval${over})` : over} at trial ${best.number}: ${params}`;
+  if (ci) {
+    const [low, high] = best.ci95;
+    const close = trials.filter((t) => t !== best && typeof t.value === 'number' && t.value >= low && t.value <= high)
+      .sort((a, b) => Math.abs(best.value - a.value) - Math.abs(best.value - b.value));
+    if (close.length) {
+      text += `. Not told apart from ${close.length === 1 ? 'trial' : `${close.length} trials`} whose objective lies ` +
+        `in that interval (the nearest: trial ${close[0].number}, ${fmt(close[0].value)})`;
+    }
+  }
+  return text;
 }
 
 /** A slice: each trial (its 95% CI as an error bar) and the mean per value or bin with its CI. */

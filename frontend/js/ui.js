@@ -1,6 +1,6 @@
 // Small DOM helpers shared by the views: element builder, status badges, dialogs.
 
-import { fmtDate, fmtDuration, pctProgress, seedCount, systemDescription } from './stats.js';
+import { fmtDate, fmtDuration, jobTimes, pctProgress, seedsText, systemDescription } from './stats.js';
 import { api, authorizedFetch, getToken } from './api.js';
 
 /** h('button', {class: 'x', onclick: f}, 'text', child) -> element. Attributes starting with "on" are listeners. */
@@ -46,7 +46,8 @@ export function statusCell(job) {
   const pct = pctProgress(job.progress);
   return h('div', { class: 'status-progress' }, badge, kind,
     h('progress', { max: 100, value: pct, 'aria-label': `Job ${job.id} progress` }),
-    h('span', { class: 'pct' }, `${pct}%`));
+    job.compiling ? h('span', { class: 'pct compiling', title: job.compiling.message }, 'compiling')
+      : h('span', { class: 'pct' }, `${pct}%`));
 }
 
 /** The mark of a run logged from outside (docs/platform.md), or null for a job the service simulated. */
@@ -60,11 +61,11 @@ export function jobMeta(job) {
   return [
     ['System', systemDescription(job)],
     ['Configurations', (job.algorithms || []).join(', ')],
-    ['Seeds', seedCount(job)],
+    ['Seeds', seedsText(job)],
     ['Episodes', job.episodes],
     ['Tags', (job.tags || []).join(', ') || '–'],
     ['Created', fmtDate(job.created_at)],
-    ['Duration', fmtDuration(job.duration_s)],
+    ...jobTimes(job),
     ['Attempts', job.attempts ?? '–'],
     ['Config hash', job.config_hash ? String(job.config_hash).slice(0, 12) : '–'],
     ['Version', job.version || '–'],

@@ -77,11 +77,13 @@ def learned_by_max(params: System) -> int:
     return mgrao.FAMILY.learned_numbers(Algorithm(MGRAO_MAX, mgrao.FAMILY.name, params.n_parents), params)
 
 
-def task_share(algorithm: Algorithm, params: System) -> float:
+def task_share(algorithm: Algorithm, params: System, groups: int | None = None) -> float:
     """The share of each child's resources its tasks get under ``learning_cost`` (:func:`.equations.task_share`).
 
-    What ``algorithm``'s children learn (:meth:`Family.learned_numbers`) priced against ``mgrao-max``'s; 1 without
-    a cost (the paper's experiments: nothing computed, every family's numbers unchanged).
+    What ``algorithm``'s children learn (:meth:`Family.learned_numbers`; with ``groups``, what a child with that
+    many groups keeps, :meth:`Family.learned_with`: ``mgrao-balance``'s changes as it runs) priced against
+    ``mgrao-max``'s; 1 without a cost (the paper's experiments: nothing computed, every family's numbers unchanged).
+    What learning takes is the rest, ``1 - task_share``.
 
     Raises:
         ConfigError: naming ``learning_cost``, for a learner that does not declare what it learns.
@@ -89,11 +91,26 @@ def task_share(algorithm: Algorithm, params: System) -> float:
     cost = getattr(params, "learning_cost", 0.0)
     if not cost:
         return 1.0
+    family = family_of(algorithm)
     try:
-        learned = family_of(algorithm).learned_numbers(algorithm, params)
+        learned = (family.learned_numbers(algorithm, params) if groups is None
+                   else family.learned_with(algorithm, params, groups))
     except NotImplementedError as error:
         raise ConfigError("learning_cost", str(error)) from None
     return equations.task_share(cost, learned, learned_by_max(params))
+
+
+def groups_at_end(history: Any) -> Any:
+    """Each child's number of parent groups in its last recorded membership.
+
+    Args:
+        history: a run's recorded memberships ``(children, records, n_parents)`` (:meth:`Family.membership`),
+            each parent's group ``0 .. m - 1`` in each record.
+
+    Returns:
+        ``(children,)`` the groups of each child's last record (every group holds a parent: ``m <= n_parents``).
+    """
+    return history[:, -1, :].max(axis=1) + 1
 
 
 def parse_algorithms(labels: list[str] | tuple[str, ...], n_parents: int | None,
@@ -117,6 +134,23 @@ def parse_algorithms(labels: list[str] | tuple[str, ...], n_parents: int | None,
             )
         seen[algorithm.label] = i
     return tuple(parsed)
+
+
+def valid_labels(labels: list[str] | tuple[str, ...], n_parents: int | None,
+                 n_children: int | None = None) -> tuple[str, ...]:
+    """The labels valid in a system of ``n_parents`` parents and ``n_children`` children, in their order.
+
+    ``mgrao-25:1`` leaves a 30-parent one, ``mgrao-5:2`` a 3-child one. A preset's configurations are its default;
+    where overrides change its parents or children, these are what is left of them.
+    """
+    valid = []
+    for label in labels:
+        try:
+            parse_algorithm(label, n_parents, n_children=n_children)
+        except ConfigError:
+            continue
+        valid.append(label)
+    return tuple(valid)
 
 
 def sort_key(label: str) -> tuple[int, int, str]:
@@ -182,9 +216,12 @@ __all__ = [
     "describe_label",
     "divisors",
     "family_of",
+    "groups_at_end",
     "parent_groups",
     "parse_algorithm",
     "parse_algorithms",
     "registry",
     "sort_key",
+    "task_share",
+    "valid_labels",
 ]

@@ -206,6 +206,9 @@ class Family:
     reference: str | None = None
     """A learner's dense reference step: the entry (:func:`load`) of a function ``(params, algorithm, world,
     seed)`` returning one :class:`ReferenceChild` per child."""
+    groups_change: bool = False
+    """Whether a child's number of parent groups changes as it runs (``mgrao-balance``): its recorded membership
+    (:meth:`membership`) then says how many it ended with, and :meth:`learned_with` what it keeps with them."""
 
     @property
     def own_parameters(self) -> tuple[str, ...]:
@@ -253,6 +256,13 @@ class Family:
             raise NotImplementedError(f"{self.name} does not declare the numbers its children learn "
                                       "(Family.learned_numbers), so learning_cost cannot price its learning")
         return 0
+
+    def learned_with(self, algorithm: Algorithm, params: System, groups: int) -> int:
+        """The numbers one child keeps while it has ``groups`` parent groups.
+
+        :meth:`learned_numbers`, unless the family's group count changes (:attr:`groups_change`).
+        """
+        return self.learned_numbers(algorithm, params)
 
     def initialise(self, arrays: Mapping[str, np.ndarray], lanes: np.ndarray, params: System) -> None:
         """Set the initial state of the family's ``lanes`` that the declared fills do not (nothing by default).

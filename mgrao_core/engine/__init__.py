@@ -11,7 +11,7 @@ Everything here is checked against the dense reference (:mod:`mgrao_core.referen
 """
 
 import mgrao_core._numba_cache  # noqa: F401, I001  (first: picks a writable numba cache before numba loads)
-from mgrao_core.engine.cache import bind_to_sources, load_without_compiler
+from mgrao_core.engine.cache import argument_types, bind_to_sources, has_code, load_without_compiler
 from mgrao_core.engine.environment import Environment, environment_of
 from mgrao_core.engine.kernel import Draws, Failing, Lanes, Outside, SeveralResources, Worlds, finish, run_block
 from mgrao_core.engine.observation import child_observations
@@ -20,6 +20,7 @@ bind_to_sources([run_block, finish, child_observations])
 load_without_compiler([run_block, finish, child_observations])
 
 __all__ = [
+    "argument_types",
     "child_observations",
     "Draws",
     "Environment",
@@ -30,5 +31,6 @@ __all__ = [
     "Worlds",
     "environment_of",
     "finish",
+    "has_code",
     "run_block",
 ]

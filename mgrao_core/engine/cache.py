@@ -12,13 +12,17 @@ target context's "refresh", about 0.15 s of a process that runs for under a seco
 compiling needs and running machine code does not. :func:`load_without_compiler` makes a load
 initialise only numba's runtime (the allocator the compiled code calls); a miss compiles as before,
 and compiling refreshes the context itself.
+
+:func:`has_code` tells, before a call, whether it would compile: the runner says so while it does
+(:class:`mgrao_core.compiling.Compiling`), and runs a chunk on the kernel of every family where that one is
+at hand and the chunk's own is not.
 """
 
 from __future__ import annotations
 
 import hashlib
 import warnings
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -67,6 +71,32 @@ def bind_to_sources(dispatchers: Iterable[Any], digest: str | None = None) -> No
             continue
         if not (isinstance(stamp, tuple) and len(stamp) == 2 and stamp[1] == digest):
             cache_file._source_stamp = (stamp, digest)
+
+
+def argument_types(dispatcher: Any, arguments: Sequence[Any]) -> tuple:
+    """The numba types of ``arguments`` as ``dispatcher`` types a call: the signature it compiles or looks up."""
+    return tuple(dispatcher.typeof_pyval(a) for a in arguments)
+
+
+def has_code(dispatcher: Any, types: tuple) -> bool:
+    """Whether a call of ``dispatcher`` on arguments of ``types`` runs without compiling.
+
+    True when this process compiled or loaded that signature already, or when numba's on-disk cache holds it
+    for the current compiled sources (:func:`bind_to_sources`): a load of well under a second. False where it
+    would compile, and wherever numba's cache does not look as expected (no cache, other internals): what
+    is not known to be there is taken to be compiled.
+    """
+    if types in dispatcher.overloads:
+        return True
+    cache = getattr(dispatcher, "_cache", None)
+    index_key = getattr(cache, "_index_key", None)
+    cache_file = getattr(cache, "_cache_file", None)
+    if index_key is None or not hasattr(cache_file, "_load_index") or not getattr(cache, "_enabled", True):
+        return False
+    try:
+        return index_key(types, dispatcher.targetctx.codegen()) in cache_file._load_index()
+    except Exception:  # noqa: BLE001  (an unreadable index is a cache that will compile)
+        return False
 
 
 def load_without_compiler(dispatchers: Iterable[Any]) -> None:

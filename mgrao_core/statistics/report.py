@@ -22,18 +22,48 @@ FORMATS = ("table", "csv", "latex", "json")
 _TITLES = {"mean": "Mean", "median": "Median", "iqm": "IQM", "optimality_gap": "Optimality gap"}
 
 
-def text_table(headers: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
-    """Columns padded to their widest cell, the first left-aligned and the others right-aligned."""
+def text_table(headers: Sequence[str], rows: Sequence[Sequence[str]], text_columns: int = 1) -> str:
+    """Columns padded to their widest cell: the first ``text_columns`` (names) left-aligned, the numbers right."""
     widths = [max([len(h), *(len(r[i]) for r in rows)]) for i, h in enumerate(headers)]
     line = "  ".join(h.ljust(w) for h, w in zip(headers, widths, strict=True))
-    body = ["  ".join(c.rjust(w) if i else c.ljust(w) for i, (c, w) in enumerate(zip(r, widths, strict=True)))
-            for r in rows]
+    body = ["  ".join(c.rjust(w) if i >= text_columns else c.ljust(w)
+                      for i, (c, w) in enumerate(zip(r, widths, strict=True))) for r in rows]
     return "\n".join([line, "-" * len(line), *body])
 
 
 def _fixed(value: float, digits: int) -> str:
     """``value`` to ``digits`` decimals, a rounding residue (``-1e-17``) as the zero it is."""
     return f"{0.0 if abs(value) < 0.5 * 10**-digits else value:.{digits}f}"
+
+
+def deciding_digits(interval: Sequence[float | None] | None, value: float | None, digits: int = 1,
+                    most: int = 4) -> int:
+    """The one rounding rule of an interval shown against a figure it is judged by (the paper's % from uniform).
+
+    The decimals at which the interval's ends and ``value`` read as on the side of it that ``value`` is: ``digits``
+    unless rounding hides the verdict (the paper's 28.0 outside [23.28, 27.99] would read as its end at one
+    decimal), then as many as tell them apart, at most ``most``. The dashboard's ``decidingDigits``
+    (frontend/js/stats.js) is the same rule.
+
+    Args:
+        interval: the interval's ends (``None`` or a missing end: ``digits``).
+        value: the figure judged against it (``None``: ``digits``).
+        digits: the decimals shown when they suffice.
+        most: the decimals shown at most.
+
+    Returns:
+        The decimals to write both with.
+    """
+    if (not interval or value is None or any(v is None or not math.isfinite(v) for v in interval)
+            or not math.isfinite(value)):
+        return digits
+    low, high = interval
+    outside = value < low or value > high
+    for d in range(digits, most):
+        at = [float(f"{x:.{d}f}") for x in (value, low, high)]
+        if (at[0] < at[1] or at[0] > at[2]) == outside:
+            return d
+    return most
 
 
 def _number(value: float | None, digits: int) -> str:
@@ -65,9 +95,9 @@ def _seed_ranges(seeds: Sequence[int]) -> str:
 
 
 def protocol_lines(answer: Mapping[str, Any]) -> list[str]:
-    """The protocol as sentences: per system its episodes and seeds, then the methods."""
+    """The protocol as sentences, one a line: per system its episodes and seeds, then the methods."""
     p = answer["protocol"]
-    lines = [f"{name}: {p['episodes'][name]} episodes, seeds {_seed_ranges(p['seeds'][name])}"
+    lines = [f"{name}: {p['episodes'][name]} episodes, seeds {_seed_ranges(p['seeds'][name])}."
              for name in p["episodes"]]
     aggregated = answer["aggregated"]
     if aggregated["systems"]:
@@ -110,7 +140,7 @@ def table(answer: Mapping[str, Any]) -> str:
              _number(s["final_mean"], 3), _interval(s["ci95"], 3), _number(s["pct_from_uniform"], 1),
              _interval(s["pct_ci95"], 1)] for system, label, s in _rows(answer)]
     out = [text_table(["system", "configuration", "runs", "paired", "final mean", "95% CI", "% from uniform",
-                       "95% CI"], rows)]
+                       "95% CI"], rows, text_columns=2)]
     if any(s.get("partial") for _, _, s in _rows(answer)):
         out.append("* only some of its seeds pair with uniform: its % from uniform stands on n_paired seeds")
     if answer["aggregate"]:
@@ -175,8 +205,12 @@ def _latex_interval(value: float | None, pair: Sequence[float | None] | None, di
 
 
 def latex(answer: Mapping[str, Any]) -> str:
-    """A LaTeX ``table``: the protocol as its caption, a ``tabular`` per system and configuration, one of aggregates."""
-    caption = " ".join(latex_escape(line) for line in protocol_lines(answer))
+    """A LaTeX ``table``: the protocol as its caption, a ``tabular`` per system and configuration, one of aggregates.
+
+    The caption is the protocol's sentences, each on a line of its own in the source (a world's episodes and seeds
+    one sentence per world), which LaTeX sets as one paragraph.
+    """
+    caption = "\n".join(latex_escape(line) for line in protocol_lines(answer))
     lines = ["% needs \\usepackage{booktabs}", "\\begin{table}", "\\centering",
              f"\\caption{{{caption}}}", "\\begin{tabular}{llrrll}", "\\toprule",
              "System & Configuration & Runs & Paired & Final mean [95\\% CI] & \\% from uniform [95\\% CI] \\\\",

@@ -113,10 +113,13 @@ def test_x_to_y_other_than_one():
 
 
 def test_preset_algorithms_checked_against_overridden_parents():
-    # the large preset's 25:1 does not divide 40 parents
-    error = _error(system="large", overrides={"n_parents": 40})
+    # the large preset's 25:1 does not divide 40 parents: given, it is refused naming its place and the valid x
+    preset = make_spec("large").algorithms
+    error = _error(system="large", algorithms=list(preset), overrides={"n_parents": 40})
     assert error.field == "algorithms[5]"
     assert "valid: 1, 2, 4, 5, 8, 10, 20, 40" in error.message
+    # left to the preset, its labels valid with 40 parents are taken (issue 43, item 3: a saved large30's defaults)
+    assert make_spec("large", overrides={"n_parents": 40}).algorithms == tuple(a for a in preset if a != "mgrao-25:1")
 
 
 @pytest.mark.parametrize(("name", "value", "limit"), [

@@ -78,6 +78,7 @@ class Balance(Family):
                    "split differ by at least balance_tolerance times what learning costs (learning_cost), up to a "
                    "bound of M groups.")
     rank = 1  # beside MG-RAO: after uniform, before the oracle
+    groups_change = True
     parameters = (
         Parameter("balance_every", "int", 10, "Episodes between two of mgrao-balance's decisions to split its groups.",
                   NAME, 1, 1_000_000),
@@ -162,6 +163,10 @@ class Balance(Family):
     def learned_numbers(self, algorithm: Algorithm, params: System) -> int:
         """The most a child keeps: :meth:`learned_for` the bound's ``M`` groups (each episode it pays for its own)."""
         return self.learned_for(algorithm.n_groups, params)
+
+    def learned_with(self, algorithm: Algorithm, params: System, groups: int) -> int:
+        """What a child with ``groups`` groups keeps and pays for: :meth:`learned_for`."""
+        return self.learned_for(groups, params)
 
     def initialise(self, arrays: Mapping[str, np.ndarray], lanes: np.ndarray, params: System) -> None:
         """One group per child, its row active (as ``mgrao-1:1``'s: the same operations); every parent in group 0.

@@ -25,6 +25,8 @@ test('bands: light enough to read the lines through, under every line, and left 
   assert.ok(1 - (1 - bandAlpha(50)) ** 50 < 0.32 && 1 - (1 - bandAlpha(5)) ** 5 < 0.32);
   assert.match(meanBandTraces('a', s, '#0072B2', 1, 'a', 'solid', { fillAlpha: bandAlpha(50) })[0].fillcolor, /, 0\.007\)$/);
   assert.deepEqual(bandsBelow([...a, ...b]).map((t) => `${t.meta.kind} ${t.meta.config}`), ['band a', 'band b', 'mean a', 'mean b']);
+  const seed = { meta: { kind: 'seed', config: 'a' } };
+  assert.deepEqual(bandsBelow([...a, seed]).map((t) => t.meta.kind), ['seed', 'band', 'mean']); // seeds beneath
   assert.deepEqual(meanBandTraces('a', s, '#0072B2', 1, 'a', 'solid', { bands: false }).map((t) => t.meta.kind), ['mean']);
   const marked = meanBandTraces('a', s, '#0072B2', 1, 'a', 'dash', { symbol: 'square' })[1];
   assert.equal(marked.mode, 'lines+markers');
@@ -42,4 +44,16 @@ test('withEvents: a dashed line per scheduled event that fires, labelled with it
   assert.deepEqual(marked.shapes.map((s) => [s.x0, s.x1, s.yref, s.line.dash]), [[50, 50, 'paper', 'dash'], [60, 60, 'paper', 'dash']]);
   assert.deepEqual(marked.annotations.map((a) => a.text), ['new-profiles 30%', 'frequencies → 4 50%']);
   assert.equal(marked.xaxis, plain.xaxis);
+});
+
+test('sampleSeeds: at most SEED_SAMPLE seeds, spread evenly, the first and last among them', async () => {
+  const { sampleSeeds, seedTraces, SEED_SAMPLE } = await import('../../../frontend/js/charts.js');
+  const seeds = Array.from({ length: 100 }, (_, i) => ({ seed: i, episode: [0, 1], utility: [1, 2] }));
+  const sample = sampleSeeds(seeds).map((s) => s.seed);
+  assert.equal(sample.length, SEED_SAMPLE);
+  assert.equal(sample[0], 0);
+  assert.equal(sample[sample.length - 1], 99);
+  assert.equal(new Set(sample).size, SEED_SAMPLE);
+  assert.deepEqual(sampleSeeds(seeds.slice(0, 3)).map((s) => s.seed), [0, 1, 2]);
+  assert.equal(seedTraces('a', seeds, '#123456').length, SEED_SAMPLE);
 });

@@ -77,7 +77,7 @@ test('paperRows: where the paper falls among our seeds, from the results\' pct_b
 });
 
 test('decidingDigits: one decimal unless rounding hides which side of the interval the paper lies', async () => {
-  const { decidingDigits } = await import('../../../frontend/js/paperdata.js');
+  const { decidingDigits } = await import('../../../frontend/js/stats.js');
   assert.equal(decidingDigits([23.31, 27.99], 28.0), 2); // outside by 0.01: +27.99% against +28.00%
   assert.equal(decidingDigits([23.31, 27.2], 28.0), 1); // plainly outside
   assert.equal(decidingDigits([23.31, 28.04], 28.0), 1); // within, and reads within

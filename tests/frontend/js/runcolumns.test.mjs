@@ -5,10 +5,15 @@ import { sortKey, nextSort, sortState, cellText, cellInterval, columnsFromQuery,
 const known = new Set(['learning_rate', 'load_sharing']);
 
 test('columnsFromQuery: three result columns for a configuration, then known parameters once each', () => {
-  const cols = columnsFromQuery('mgrao-max', 'learning_rate, nope,learning_rate,load_sharing', known);
-  assert.deepEqual(cols.map(sortKey), ['final_mean:mgrao-max', 'pct_from_uniform:mgrao-max', 'pct_of_max:mgrao-max',
+  const cols = columnsFromQuery('mgrao-1:1', 'learning_rate, nope,learning_rate,load_sharing', known);
+  assert.deepEqual(cols.map(sortKey), ['final_mean:mgrao-1:1', 'pct_from_uniform:mgrao-1:1', 'pct_of_max:mgrao-1:1',
     'param.learning_rate', 'param.load_sharing']);
   assert.deepEqual(columnsFromQuery('', '', known), []);
+});
+
+test('columnsFromQuery: mgrao-max has no "% of max" column (a share of its own gain, 100% in every job)', () => {
+  assert.deepEqual(columnsFromQuery('mgrao-max', '', known).map(sortKey),
+    ['final_mean:mgrao-max', 'pct_from_uniform:mgrao-max']);
 });
 
 test('nextSort toggles the direction of the current key, else starts with the column default', () => {
@@ -22,10 +27,10 @@ test('nextSort toggles the direction of the current key, else starts with the co
 });
 
 test('cells: results with their interval, parameters as shown, dashes where a job has no value', () => {
-  const [mean, pct, ofMax, rate, sharing] = columnsFromQuery('mgrao-max', 'learning_rate,load_sharing', known);
+  const [mean, pct, ofMax, rate, sharing] = columnsFromQuery('mgrao-1:1', 'learning_rate,load_sharing', known);
   const job = {
     params: { learning_rate: 0.05, load_sharing: false },
-    summaries: { 'mgrao-max': { n_runs: 3, final_mean: 1.23456, ci95: [1.1, 1.4], pct_from_uniform: 12.345, pct_ci95: [2, 20.5], pct_of_max: 100 } },
+    summaries: { 'mgrao-1:1': { n_runs: 3, final_mean: 1.23456, ci95: [1.1, 1.4], pct_from_uniform: 12.345, pct_ci95: [2, 20.5], pct_of_max: 100 } },
   };
   assert.equal(cellText(job, mean), '1.235');
   assert.equal(cellText(job, pct), '+12.3%');

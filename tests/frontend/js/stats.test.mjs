@@ -44,6 +44,9 @@ test('episodesPerPoint and smoothingNote say what a line is, in episodes', () =>
   assert.match(smoothingNote(1, 1), /Not smoothed\.$/);
   assert.match(smoothingNote(11, 1), /centred mean over 11 episodes \(5 before and after each/);
   assert.match(smoothingNote(11, 17), /already the mean of 17 consecutive episodes/);
+  assert.match(smoothingNote(1, 1, true, { drawn: 20, of: 100 }),
+    /^Thick lines: mean over seeds; bands: its 95% interval\. Faint lines beneath: 20 of each configuration’s 100 seeds/);
+  assert.match(smoothingNote(1, 1, false, { drawn: 3, of: 3 }), /Faint lines beneath: each of its 3 seeds\./);
 });
 
 test('smoothSeries smooths mean and band, keeps episodes', () => {
@@ -198,4 +201,54 @@ test('showsTaskRates: a nonzero rate, or a job whose tasks can fail; fmtRate: a 
   assert.equal(showsTaskRates([zero], [{ task_need: 1.5 }]), true);  // can fail, even where none did
   assert.equal(showsTaskRates([{}, undefined], [undefined, { task_need: 0 }]), false);  // an older answer
   assert.deepEqual([0, 0.1234, 1, 0.0001, null].map(fmtRate), ['0.0%', '12.3%', '100.0%', '<0.1%', '–']);
+});
+
+test('maxNote: says so where a configuration gains more than mgrao-max, or mgrao-max gained nothing', async () => {
+  const { maxNote } = await import('../../../frontend/js/stats.js');
+  const c = (algorithm, pct) => ({ algorithm, summary: { pct_of_max: pct } });
+  assert.equal(maxNote([c('uniform', 0), c('mgrao-1:1', 80), c('mgrao-max', 100)]), '');
+  const note = maxNote([c('uniform', 0), c('mgrao-1:1', 116.4), c('mgrao-max', 100), c('oracle', 273.7)]);
+  assert.match(note, /^mgrao-max is not the best here: mgrao-1:1 \(116\.4%\) and oracle \(273\.7%\) gain more/);
+  assert.match(maxNote([c('mgrao-max', null), c('mgrao-1:1', null)]), /mgrao-max gained nothing over uniform/);
+  assert.equal(maxNote([c('uniform', 0), c('mgrao-1:1', 120)]), ''); // no mgrao-max: the column is empty anyway
+});
+
+test('groupsText and takenText: a learner\'s groups at the end and what learning took', async () => {
+  const { groupsText, takenText } = await import('../../../frontend/js/stats.js');
+  assert.equal(groupsText({ groups: { 5: 6 }, children: 6, groups_change: false }), '5');
+  assert.equal(groupsText({ groups: { 10: 2, 5: 4 }, children: 6, groups_change: true }),
+    '5 groups: 4 of 6 children; 10 groups: 2 of 6 children');
+  assert.equal(groupsText({ groups: null, children: 0 }), '–');
+  assert.equal(takenText({ taken: { mean: 0.125, low: 0.125, high: 0.125 } }), '12.5%');
+  assert.equal(takenText({ taken: { mean: 0.08, low: 0.05, high: 0.125 } }), '8.0% (5.0–12.5%)');
+  assert.equal(takenText({ taken: null }), '–');
+});
+
+test('seedsText, jobTimes, compilingText: a header that says how many seeds of how many, and where time went', async () => {
+  const { seedsText, jobTimes, compilingText } = await import('../../../frontend/js/stats.js');
+  assert.equal(seedsText({ seeds: [0, 1, 2] }), '3');
+  const until = { until: { max_seeds: 500 }, seeds: Array.from({ length: 500 }, (_, i) => i), status: 'running' };
+  assert.equal(seedsText({ ...until, stopped: { seeds: 20 } }), '20 of at most 500');
+  assert.equal(seedsText({ ...until, stopped: { seeds: 0 } }), '0 of at most 500');
+  assert.deepEqual(jobTimes({ queued_s: 100.2, compile_s: 279, duration_s: 279.132, started_at: 'x' }),
+    [['Queued', '1 min 40 s'], ['Compiling', '4 min 39 s'], ['Running', '132 ms']]);
+  assert.deepEqual(jobTimes({ queued_s: 0.5, compile_s: null, duration_s: 2, started_at: 'x' }).map((p) => p[1]),
+    ['500 ms', 'none', '2.0 s']);
+  const text = compilingText({ message: 'compiling the engine for bandit: first time only, about 20 s',
+    since: '2026-11-28T10:00:00Z' }, Date.parse('2026-11-28T10:00:40Z'));
+  assert.match(text, /^Compiling the engine for bandit: first time only, about 20 s \(40\.0 s so far\)\. /);
+  assert.equal(compilingText(null), '');
+});
+
+test('ownWords: a refusal beside its field in the field\'s words, not the API\'s path', async () => {
+  const { ownWords } = await import('../../../frontend/js/stats.js');
+  assert.equal(ownWords('space.learning_rate', 'space.learning_rate.high: must be at most 1 (got 10)'),
+    'learning_rate (to): must be at most 1 (got 10)');
+  assert.equal(ownWords('params.n_types', 'base.params.n_types: must be in [2, 200] (got 1)'), 'n_types: must be in [2, 200] (got 1)');
+  assert.equal(ownWords('algorithms:mgrao-{x}:1', 'mgrao-25:1: x must be a divisor of n_parents = 30'),
+    'mgrao-25:1: x must be a divisor of n_parents = 30');
+  assert.equal(ownWords('algorithms', 'algorithms[1]: mgrao-25:1: x must be a divisor'), 'mgrao-25:1: x must be a divisor');
+  assert.equal(ownWords('seeds', 'seeds: must be at least 1 (got -5)'), 'seeds: must be at least 1 (got -5)');
+  assert.equal(ownWords('space', 'space: a trial with n_parents = 15 is not a valid experiment: ...'),
+    'the parameters swept: a trial with n_parents = 15 is not a valid experiment: ...');
 });

@@ -142,3 +142,20 @@ test('bandName: digits enough to tell the ends of a band apart, one value when i
   assert.equal(bandName(39.31, 39.52), '39.31 … 39.52');
   assert.equal(bandName(39.3, 39.3), '39.3');
 });
+
+test('importanceNote and bestText: say when importance or the best trial cannot be told apart from noise', async () => {
+  const { importanceNote, bestText, fmtParam } = await import('../../../frontend/js/studydata.js');
+  const importance = { learning_rate: { eta_squared: 1, share: 0.5, p_value: 1, groups: 4 },
+    trace_decay: { eta_squared: 0.9, share: 0.5, p_value: 0.002, groups: 2 } };
+  const note = importanceNote(importance, 4);
+  assert.match(note, /^Not told apart from noise with 4 trials: learning_rate \(η² 1\.00, p = 1\.00\)\. /);
+  assert.doesNotMatch(note, /trace_decay/);
+  assert.equal(importanceNote({ a: { eta_squared: 0.5, p_value: 0.01 } }, 40), '');
+  const trials = [{ number: 0, value: 10, ci95: [5, 15], params: { x: 1 } }, { number: 1, value: 27.96, ci95: [9.4, 45.8], params: { x: 2 } },
+    { number: 2, value: 20, ci95: [10, 30], params: { x: 3 } }, { number: 3, value: 2, ci95: [0, 4], params: { x: 4 } }];
+  const fmt = (v) => v.toFixed(1);
+  assert.equal(bestText(trials[1], trials, 3, fmt), '28.0 [9.4, 45.8] (95% interval over 3 seeds) at trial 1: x 2. ' +
+    'Not told apart from 2 trials whose objective lies in that interval (the nearest: trial 2, 20.0)');
+  assert.equal(bestText(null, trials, 3, fmt), '–');
+  assert.equal(typeof fmtParam, 'function');
+});
