@@ -34,5 +34,5 @@ def test_each_recipe_calls_the_kernel_with_the_signature_it_is_listed_under(name
 
 def test_the_census_is_small_and_says_what_each_signature_costs() -> None:
     # the allowed signatures, with their compile times alone (python -m tests.support.kernels measure)
-    assert len(ALLOWED) <= 18, f"{len(ALLOWED)} kernels to compile for the tests: {ALLOWED}"
+    assert len(ALLOWED) <= 19, f"{len(ALLOWED)} kernels to compile for the tests: {ALLOWED}"
     assert all(recipe.seconds > 0 for recipe in CENSUS.values())

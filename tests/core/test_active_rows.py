@@ -38,12 +38,18 @@ def final_lanes(monkeypatch):
     seen = []
     finish = engine.finish
 
-    def keep(lanes, several, mgrao_lanes, *other_learners):
-        finish(lanes, several, mgrao_lanes, *other_learners)
-        seen.append(SimpleNamespace(groups=lanes.groups, n_rows=mgrao_lanes.n_rows, slot=mgrao_lanes.slot,
-                                    counts=mgrao_lanes.counts))
+    class Keep:
+        """engine.finish, keeping what it leaves; numba's questions of it (its types, its cache) go to finish."""
 
-    monkeypatch.setattr(engine, "finish", keep)
+        def __call__(self, lanes, several, mgrao_lanes, *other_learners):
+            finish(lanes, several, mgrao_lanes, *other_learners)
+            seen.append(SimpleNamespace(groups=lanes.groups, n_rows=mgrao_lanes.n_rows, slot=mgrao_lanes.slot,
+                                        counts=mgrao_lanes.counts))
+
+        def __getattr__(self, name):
+            return getattr(finish, name)
+
+    monkeypatch.setattr(engine, "finish", Keep())
     return seen
 
 

@@ -84,17 +84,19 @@ def test_a_first_compile_is_said_before_and_after_and_never_again(tmp_path: Path
     assert "uniform" in compiled.stdout and "bandit" in compiled.stdout  # the table, on stdout as ever
 
 
-EVERY_FAMILY = """
+LABEL_SETS = (["uniform", "mgrao-1:1", "mgrao-max"], ["uniform", "independent-q", "bandit"], ["oracle"])
+"""Three chunks of other families (each also a kernel of the suite's census, tests/support/kernels.py)."""
+EVERY_FAMILY = f"""
     import json
     from mgrao_core import make_spec, run_experiment
     said = []
-    runs = {}
-    for labels in (["uniform", "mgrao-1:1", "mgrao-max"], ["uniform", "independent-q"], ["oracle"]):
+    runs = {{}}
+    for labels in {LABEL_SETS!r}:
         spec = make_spec("single", labels, seeds=[3, 4], episodes=12)
         result = run_experiment(spec, on_compile=lambda notice: said.append(notice.message))
-        runs |= {f"{r.algorithm} {r.seed}": [r.utilities.tolist(), r.combined_weights.ravel().tolist()]
-                 for r in result.runs}
-    print(json.dumps({"said": said, "runs": runs}))
+        runs |= {{f"{{r.algorithm}} {{r.seed}}": [r.utilities.tolist(), r.combined_weights.ravel().tolist()]
+                 for r in result.runs}}
+    print(json.dumps({{"said": said, "runs": runs}}))
 """
 
 
@@ -111,7 +113,7 @@ def test_mgrao_compile_compiles_every_family_ahead_and_a_run_then_loads_with_the
     assert sum(": compiled before" in line for line in again.stderr.splitlines()) == len(ahead()), again.stderr
     (answer,) = fresh_process(EVERY_FAMILY, tmp_path)
     assert answer["said"] == [], answer["said"]  # none of the three compiled its own kernel
-    for labels in (["uniform", "mgrao-1:1", "mgrao-max"], ["uniform", "independent-q"], ["oracle"]):
+    for labels in LABEL_SETS:
         for run in run_experiment(make_spec("single", labels, seeds=[3, 4], episodes=12)).runs:
             utilities, weights = answer["runs"][f"{run.algorithm} {run.seed}"]
             assert np.array_equal(run.utilities, utilities), run.algorithm  # bit for bit
