@@ -7,7 +7,7 @@ import { h, statusCell, jobMeta, notice, editJobDialog, confirmDialog, cancelCon
 import { draw, purge, loadPlotly, meanBandTraces, seedTraces, SEED_SAMPLE, utilityLayout, bandsBelow, bandAlpha, withEvents } from './charts.js';
 import { fmtNumber, fmtPct, fmtCI, decidingDigits, compilingText, maxNote, groupsText, takenText, pctProgress, waitingMessage, smoothingNote, episodesPerPoint, bandCaution, DEFINITIONS, SUMMARY_COLUMNS, summaryCells, seedPoints, MIN_SEED_POINTS } from './stats.js';
 import { algorithmStyles } from './colours.js';
-import { compareLabels, ready, rememberAnswer } from './algorithms.js';
+import { compareLabels, ready, rememberAnswer, roleLabel } from './algorithms.js';
 import { axisControls, withAxis, tableCsvButton } from './chartcontrols.js';
 import { fmtParam } from './studydata.js';
 import { configRows, differenceSummary, summaryCsv, configJson, listLines } from './jobconfig.js';
@@ -456,7 +456,7 @@ export async function mount(root, params, ctx) {
         ...r.configurations.map((c) => [c.algorithm, ...summaryCells(c.summary),
           ...(paper ? [paper[c.algorithm] ?? null] : [])])])),
       h('div', { class: 'table-wrap' }, table),
-      ...[maxNote(r.configurations)].filter(Boolean).map((text) => h('p', { class: 'notice warn', id: 'max-note' }, text)),
+      ...[maxNote(r.configurations, roleLabel('reference'))].filter(Boolean).map((text) => h('p', { class: 'notice warn', id: 'max-note' }, text)),
       h('p', { class: 'help definitions' }, DEFINITIONS));
   }
 

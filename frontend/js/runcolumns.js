@@ -54,11 +54,14 @@ export function cellInterval(job, column) {
   return `95% CI [${ci[0].toFixed(digits)}${unit}, ${ci[1].toFixed(digits)}${unit}] over ${s.n_runs} seeds`;
 }
 
-/** The optional columns from the view's query: `result=mgrao-max` and `cols=learning_rate,trace_decay`. */
-export function columnsFromQuery(result, cols, knownParams) {
+/**
+ * The optional columns from the view's query: `result=mgrao-max` and `cols=learning_rate,trace_decay`; `reference`
+ * is the registry's reference configuration (% of max is a share of its gain: its own column would be 100%).
+ */
+export function columnsFromQuery(result, cols, knownParams, reference = null) {
   const out = [];
   for (const r of result ? RESULT_COLUMNS : []) {
-    if (r.field === 'pct_of_max' && result === 'mgrao-max') continue; // its own gain's share: 100% by definition
+    if (r.field === 'pct_of_max' && result === reference) continue; // its own gain's share: 100% by definition
     out.push({ kind: 'result', configuration: result, ...r });
   }
   for (const name of (cols || '').split(',').map((s) => s.trim()).filter(Boolean)) {

@@ -23,7 +23,8 @@ export async function mount(root, params, ctx) {
   let schema = null;
   try { schema = await api.systems(); } catch { /* the banner reports an unreachable server */ }
   const knownParams = new Set(schema ? schema.parameters.map((p) => p.name) : []);
-  let columns = columnsFromQuery(filters.result, filters.cols, knownParams);
+  const reference = schema ? schema.algorithms.reference : null; // % of max's yardstick (mgrao-max)
+  let columns = columnsFromQuery(filters.result, filters.cols, knownParams, reference);
   const selected = new Set();
   const rows = new Map(); // id -> {job, tr}
   let cursor = null;
@@ -224,7 +225,7 @@ export async function mount(root, params, ctx) {
     filters.result = resultSel.value;
     filters.cols = paramBoxes.map((l) => l.querySelector('input')).filter((cb) => cb.checked).map((cb) => cb.value).join(',');
     const before = columns.map(sortKey).join();
-    columns = columnsFromQuery(filters.result, filters.cols, knownParams);
+    columns = columnsFromQuery(filters.result, filters.cols, knownParams, reference);
     const sortKeyNow = filters.sort.replace(/^-/, '');
     const builtIn = SORTS.some(([v]) => v === filters.sort);
     if (!builtIn && !columns.some((c) => sortKey(c) === sortKeyNow)) { filters.sort = '-created_at'; fillSorts(); }

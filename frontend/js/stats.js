@@ -105,24 +105,24 @@ export const DEFINITIONS = 'Final mean: system utility averaged over the last 10
   '% of max: this configuration’s gain over uniform as a share of mgrao-max’s, on the seeds all three share.';
 
 /**
- * What a reader of "% of max" should know where mgrao-max is not the yardstick they assume ('' where it is):
- * configurations that gain more over uniform than mgrao-max (above 100%), or none at all where mgrao-max gained
- * nothing (the column is empty). `configurations`: `{algorithm, summary}` of one world.
+ * What a reader of "% of max" should know where `reference` (the registry's reference configuration, mgrao-max) is
+ * not the yardstick they assume ('' where it is): configurations that gain more over uniform than it (above 100%),
+ * or none at all where it gained nothing (the column is empty). `configurations`: `{algorithm, summary}` of one world.
  */
-export function maxNote(configurations) {
+export function maxNote(configurations, reference) {
   const rows = (configurations || []).filter((c) => c && c.summary);
-  const max = rows.find((c) => c.algorithm === 'mgrao-max');
+  const max = reference ? rows.find((c) => c.algorithm === reference) : null;
   if (!max) return '';
   if (!isFiniteNumber(max.summary.pct_of_max)) {
-    return '% of max is not given: mgrao-max gained nothing over uniform here, so no share of its gain means anything.';
+    return `% of max is not given: ${reference} gained nothing over uniform here, so no share of its gain means anything.`;
   }
-  const above = rows.filter((c) => c.algorithm !== 'mgrao-max' && isFiniteNumber(c.summary.pct_of_max) &&
+  const above = rows.filter((c) => c.algorithm !== reference && isFiniteNumber(c.summary.pct_of_max) &&
     c.summary.pct_of_max > 100);
   if (!above.length) return '';
   const named = above.map((c) => `${c.algorithm} (${fmtPct(c.summary.pct_of_max, 1, false)})`);
   const list = named.length > 1 ? `${named.slice(0, -1).join(', ')} and ${named[named.length - 1]}` : named[0];
-  return `mgrao-max is not the best here: ${list} ${above.length > 1 ? 'gain' : 'gains'} more over uniform than it ` +
-    'does. % of max is a share of mgrao-max’s gain, not of the best configuration’s: rank them by % from uniform.';
+  return `${reference} is not the best here: ${list} ${above.length > 1 ? 'gain' : 'gains'} more over uniform than it ` +
+    `does. % of max is a share of ${reference}’s gain, not of the best configuration’s: rank them by % from uniform.`;
 }
 
 /**

@@ -151,6 +151,7 @@ def test_a_job_shows_every_parameter_with_the_new_ones_at_their_default(monkeypa
             progress = 0.0
             attempts = 0
             error = requeue_reason = started_at = finished_at = created_at = study_id = trial_id = stopped = None
+            compiling = compile_s = None
             version = "x"
             kind = "simulation"
 

@@ -54,11 +54,11 @@ def test_non_divisor_is_rejected_with_the_valid_divisors(label, n, valid):
     assert f"n_parents = {n}" in info.value.message
 
 
-def test_ratio_other_than_x_to_one_is_rejected():
+def test_a_ratio_whose_y_does_not_divide_the_children_is_rejected_naming_the_valid_values():
     with pytest.raises(ConfigError) as info:
-        parse_algorithm("mgrao-2:3", 10)
+        parse_algorithm("mgrao-2:3", 10, n_children=4)
     assert info.value.field == "algorithm"
-    assert "y = 3" in info.value.message
+    assert "y must be a divisor of n_children = 4" in info.value.message and "1, 2, 4" in info.value.message
 
 
 @pytest.mark.parametrize("label", ["greedy", "mgrao", "mgrao-x:1", "mgrao-1:1:1", "mgrao-1234567890:1", "", None, 3])

@@ -138,16 +138,12 @@ def signature_of(recipe: Recipe) -> str:
 
     kernel = engine.run_block
 
-    class NameIt:
-        """The kernel, named where it would be called; what else is asked of it (its types, its cache) it answers."""
+    from tests.support.standin import StandIn
 
-        def __call__(self, *arguments: Any) -> None:
-            raise _Named(kernel_name(arguments))
+    def name_it(*arguments: Any) -> None:
+        raise _Named(kernel_name(arguments))
 
-        def __getattr__(self, name: str) -> Any:
-            return getattr(kernel, name)
-
-    engine.run_block = NameIt()
+    engine.run_block = StandIn(kernel, name_it)
     try:
         recipe.run()
     except _Named as named:

@@ -12,7 +12,7 @@ test('columnsFromQuery: three result columns for a configuration, then known par
 });
 
 test('columnsFromQuery: mgrao-max has no "% of max" column (a share of its own gain, 100% in every job)', () => {
-  assert.deepEqual(columnsFromQuery('mgrao-max', '', known).map(sortKey),
+  assert.deepEqual(columnsFromQuery('mgrao-max', '', known, 'mgrao-max').map(sortKey),
     ['final_mean:mgrao-max', 'pct_from_uniform:mgrao-max']);
 });
 
