@@ -8,11 +8,14 @@ import signal
 import subprocess
 from collections.abc import Callable
 from pathlib import Path
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import httpx
+from sqlalchemy import create_engine, event
 
 from backend.execution.worker import Worker
+from backend.store import crud
+from backend.store.db import Database, alembic_config
 from mgrao_cli.supervisor import stop_processes
 from tests.support.local_service import free_port, mgrao_command, serve_command, wait_healthy
 from tests.support.waiting import wait_until
@@ -119,3 +122,31 @@ class Service:
         """:func:`~tests.support.waiting.wait_until`, with the tail of each log if it times out."""
         return wait_until(predicate, timeout, what, step=step, details=lambda: self.logs(tail=3000))
 
+
+
+def alembic_to(db_url: str, action: Callable[[Any, str], None], revision: str) -> None:
+    """Run alembic's ``action`` (``command.upgrade`` or ``command.downgrade``) to ``revision`` on ``db_url``."""
+    engine = create_engine(db_url)
+    config = alembic_config()
+    with engine.connect() as connection:
+        config.attributes["connection"] = connection
+        action(config, revision)
+        connection.commit()
+    engine.dispose()
+
+
+def listing_statements(db: Database, containing: str = "ORDER BY", **listing: Any) -> list[tuple[str, Any]]:
+    """The SQL and parameters of each statement containing ``containing`` that crud.list_jobs runs for ``listing``."""
+    seen: list[tuple[str, Any]] = []
+
+    def capture(_conn: Any, _cursor: Any, statement: str, parameters: Any, _context: Any, _many: bool) -> None:
+        if containing in statement:
+            seen.append((statement, parameters))
+
+    event.listen(db.engine, "before_cursor_execute", capture)
+    try:
+        with db.session() as session:
+            crud.list_jobs(session, **listing)
+    finally:
+        event.remove(db.engine, "before_cursor_execute", capture)
+    return seen

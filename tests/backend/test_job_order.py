@@ -7,13 +7,13 @@ import base64
 import json
 
 import pytest
-from sqlalchemy import delete, event, func, select
+from sqlalchemy import delete, func, select
 
 from backend.store import crud, summaries
 from backend.store.db import Database
 from backend.store.models import JobSummary
 from mgrao_core import make_spec, run_experiment
-from tests.backend.backend_helpers import drain
+from tests.backend.backend_helpers import drain, listing_statements
 
 LEARNING_RATES = [0.3, 0.05, 0.5, 0.1, 0.2]
 
@@ -138,18 +138,7 @@ def test_summaries_are_written_once_and_backfilled(settings, finished_jobs):
 
 def page_query(db: Database, **listing) -> tuple[str, object]:
     """The SQL and parameters with which crud.list_jobs reads a page (the statement with ORDER BY)."""
-    seen: list[tuple[str, object]] = []
-
-    def capture(_conn, _cursor, statement, parameters, _context, _executemany) -> None:
-        if "ORDER BY" in statement:
-            seen.append((statement, parameters))
-
-    event.listen(db.engine, "before_cursor_execute", capture)
-    try:
-        with db.session() as session:
-            crud.list_jobs(session, **listing)
-    finally:
-        event.remove(db.engine, "before_cursor_execute", capture)
+    seen = listing_statements(db, **listing)
     assert len(seen) == 1, seen
     return seen[0]
 

@@ -10,15 +10,15 @@ from pathlib import Path
 import pytest
 import sqlalchemy as sa
 from alembic import command
-from backend_helpers import BASE_URL
+from backend_helpers import BASE_URL, alembic_to, listing_statements
 from fastapi.testclient import TestClient
-from sqlalchemy import create_engine, event, func, insert, select
+from sqlalchemy import create_engine, func, insert, select
 
 from backend.api.app import create_app
 from backend.errors import BadQuery
 from backend.settings import Settings
 from backend.store import crud, external
-from backend.store.db import Database, alembic_config
+from backend.store.db import Database
 from backend.store.models import JobSearch, JobSummary
 from mgrao_core import make_spec
 
@@ -110,7 +110,7 @@ def test_the_migration_writes_the_search_rows_of_stored_jobs(db_url: str) -> Non
             for name, notes, tags in LABELS:
                 crud.create_job(session, spec=spec, name=name, notes=notes, tags=tags)
         db.dispose()
-        _alembic(db_url, command.downgrade, "0017")
+        alembic_to(db_url, command.downgrade, "0017")
         engine = create_engine(db_url)
         assert "job_search" not in sa.inspect(engine).get_table_names()
         engine.dispose()
@@ -119,16 +119,6 @@ def test_the_migration_writes_the_search_rows_of_stored_jobs(db_url: str) -> Non
             assert _searched(db, q) == _old_search(q), q
     finally:
         db.dispose()
-
-
-def _alembic(db_url: str, action, revision: str) -> None:
-    engine = create_engine(db_url)
-    config = alembic_config()
-    with engine.connect() as connection:
-        config.attributes["connection"] = connection
-        action(config, revision)
-        connection.commit()
-    engine.dispose()
 
 
 # ---- sorts on a result: the rows with the value in index order, then those without ---------------------------
@@ -164,18 +154,7 @@ def test_a_result_sort_pages_in_the_order_of_value_is_null_value_id(db: Database
 
 def _page_plans(db: Database, containing: str = "ORDER BY", **listing) -> list[str]:
     """The database's plan of each statement with which crud.list_jobs reads a page (those ``containing``)."""
-    seen: list[tuple[str, object]] = []
-
-    def capture(_conn, _cursor, statement, parameters, _context, _executemany) -> None:
-        if containing in statement:
-            seen.append((statement, parameters))
-
-    event.listen(db.engine, "before_cursor_execute", capture)
-    try:
-        with db.session() as session:
-            crud.list_jobs(session, **listing)
-    finally:
-        event.remove(db.engine, "before_cursor_execute", capture)
+    seen = listing_statements(db, containing, **listing)
     plans = []
     with db.engine.connect() as connection:
         for statement, parameters in seen:

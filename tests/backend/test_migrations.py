@@ -24,7 +24,7 @@ from backend.store.crud import config_hash
 from backend.store.db import Database, alembic_config
 from backend.store.models import Job, Run
 from mgrao_core import make_spec
-from tests.backend.backend_helpers import drain
+from tests.backend.backend_helpers import alembic_to, drain
 
 FIXTURE = Path(__file__).resolve().parents[1] / "fixtures" / "legacy_jobs_0001.json"
 LEGACY = json.loads(FIXTURE.read_text())
@@ -244,18 +244,8 @@ def test_jobs_that_succeeded_before_summaries_were_stored_get_them_from_their_ru
         db.dispose()
 
 
-def _alembic(db_url: str, action, revision: str) -> None:
-    engine = create_engine(db_url)
-    config = alembic_config()
-    with engine.connect() as connection:
-        config.attributes["connection"] = connection
-        action(config, revision)
-        connection.commit()
-    engine.dispose()
-
-
 def test_jobs_stored_before_external_runs_are_simulations_and_downgrade_drops_external_runs(db_url: str) -> None:
-    _alembic(db_url, command.upgrade, "0008")
+    alembic_to(db_url, command.upgrade, "0008")
     engine = create_engine(db_url)
     with engine.begin() as connection:
         _insert_job(connection, LEGACY["jobs"][0]["config"], LEGACY["jobs"][0]["config_hash"], "old",
@@ -274,7 +264,7 @@ def test_jobs_stored_before_external_runs_are_simulations_and_downgrade_drops_ex
             external.append_batch(session, job_id=job.id, key="b", digest="d",
                                   pieces=[external.Piece(0, 0, np.array([1.0]))], weights=[])
         assert created and job.kind == "external"
-        _alembic(db_url, command.downgrade, "0008")  # the external run goes: no earlier revision tells it apart
+        alembic_to(db_url, command.downgrade, "0008")  # the external run goes: no earlier revision tells it apart
         with db.session() as session:
             assert session.execute(text("SELECT name FROM jobs")).scalars().all() == ["old"]
             assert session.execute(text("SELECT count(*) FROM runs")).scalar() == 0
@@ -301,7 +291,7 @@ def test_saved_systems_table_comes_with_0011_and_goes_on_downgrade(db_url: str) 
         with db.session() as session:
             assert [s.params for s in saved_systems.list_saved(session)] == [{"n_parents": 12}]
         db.dispose()
-        _alembic(db_url, command.downgrade, "0010")
+        alembic_to(db_url, command.downgrade, "0010")
         engine = create_engine(db_url)
         assert "saved_systems" not in sa.inspect(engine).get_table_names()
         engine.dispose()
@@ -320,8 +310,8 @@ def test_summaries_stored_before_0013_get_the_seeds_their_paired_figures_stand_o
     with engine.begin() as connection:  # as 0012 stored it: no pairing counts, one run of uniform gone
         connection.execute(text("DELETE FROM runs WHERE algorithm = 'uniform' AND seed = 2"))
     engine.dispose()
-    _alembic(db_url, command.downgrade, "0012")
-    _alembic(db_url, command.upgrade, "0013")
+    alembic_to(db_url, command.downgrade, "0012")
+    alembic_to(db_url, command.upgrade, "0013")
     with create_engine(db_url).connect() as connection:
         rows = connection.execute(text("SELECT algorithm, n_runs, n_paired, n_paired_max FROM job_summaries "
                                        "WHERE job_id = :id ORDER BY algorithm"), {"id": job["id"]}).all()
@@ -334,7 +324,7 @@ def test_runs_and_summaries_stored_before_0015_count_no_tasks_and_answer_rates_o
     from backend.api.app import create_app
     from tests.backend.backend_helpers import BASE_URL
 
-    _alembic(db_url, command.upgrade, "0014")
+    alembic_to(db_url, command.upgrade, "0014")
     config = make_spec("single", ["uniform"], seeds=1, episodes=1).as_dict()
     blob = np.array([1.5]).tobytes()
     engine = create_engine(db_url)
@@ -360,7 +350,7 @@ def test_runs_and_summaries_stored_before_0015_count_no_tasks_and_answer_rates_o
             assert client.get("/api/jobs/1/results").json()["configurations"][0]["summary"].items() >= rates.items()
             assert client.get("/api/compare?jobs=1").json()["groups"][0]["summary"].items() >= rates.items()
         db.dispose()
-        _alembic(db_url, command.downgrade, "0014")  # the counts go; the run and its summary stay
+        alembic_to(db_url, command.downgrade, "0014")  # the counts go; the run and its summary stay
         engine = create_engine(db_url)
         with engine.connect() as connection:
             assert "tasks_failed" not in {c["name"] for c in sa.inspect(connection).get_columns("runs")}
@@ -392,7 +382,7 @@ def _figure(value: str | int | None) -> float | int | None:
 
 def _store_as_0015(db_url: str) -> list[int]:
     """The fixture's jobs at revision 0015: succeeded, their runs, and their summaries as the t table made them."""
-    _alembic(db_url, command.upgrade, "0015")
+    alembic_to(db_url, command.upgrade, "0015")
     engine = create_engine(db_url)
     ids = []
     with engine.begin() as connection:
