@@ -19,22 +19,42 @@ from mgrao_cli.engine_loading import load_engine
 
 
 def _described(spec) -> str:  # noqa: ANN001  (an ExperimentSpec, imported with the engine)
-    from mgrao_core.compiling import AHEAD_WORLDS, parts_of
+    from mgrao_core.compiling import AHEAD_WORLDS, kind_name, parts_of
 
     if len(spec.algorithms) < 5:
         return f"{spec.system}'s configurations ({', '.join(spec.algorithms)})"
     world = [p for p in parts_of(spec) if p in AHEAD_WORLDS]
-    return "every family, " + (" and ".join(world) if world else "one resource, complete, no task fails")
+    described = " and ".join(world) if world else "one resource, complete, no task fails"
+    return f"every family, {described} ({kind_name(frozenset(world))})"
+
+
+def _kinds(context: click.Context, parameter: click.Parameter, text: str) -> list:  # noqa: ARG001  (click's callback)
+    from mgrao_core.compiling import kinds_from_text
+
+    try:
+        return kinds_from_text(text)
+    except ValueError as error:
+        raise click.BadParameter(str(error)) from error
 
 
 @click.command("compile")
-def compile_engine() -> None:
+@click.option("--worlds", default="all", show_default=True, callback=_kinds,
+              help="The kinds of world to compile for: 'all', or kinds separated by commas, each 'plain' (one "
+                   "resource, complete, no task fails: the paper's, whose configurations' own kernel comes with it) "
+                   "or parts joined by '+' from several, sparse, failing (e.g. plain,several+failing).")
+@click.option("--list", "listing", is_flag=True, help="List the kernels it would compile, and compile none.")
+def compile_engine(worlds: list, listing: bool) -> None:
     """Compile the engine of every family ahead, for each kind of world (first time only; minutes on 2 cores)."""
-    load_engine()
     from mgrao_core.compiling import ahead
+
+    specs = ahead(kinds=worlds)
+    if listing:
+        for i, spec in enumerate(specs, 1):
+            click.echo(f"{i}/{len(specs)} {_described(spec)}")
+        return
+    load_engine()
     from mgrao_core.runner import compile_for
 
-    specs = ahead()
     click.echo(f"compiling the engine ahead: {len(specs)} kernels, into {os.environ.get('NUMBA_CACHE_DIR', '?')}",
                err=True)
     started = time.perf_counter()

@@ -91,19 +91,57 @@ AHEAD_WORLDS = {SEVERAL: {"n_resources": 2}, SPARSE: {"topology": "ring", "child
                 FAILING: {"task_need": 1.0}}
 """What gives a world each part that changes the kernel's arguments (on ``multi``: 3 children, 10 parents)."""
 
+WORLD_NAMES = {"several": SEVERAL, "sparse": SPARSE, "failing": FAILING}
+"""The short name of each part of a kind of world, as ``mgrao compile --worlds`` takes them."""
+PLAIN = "plain"
+"""The kind of world without any part: one resource, complete, no task fails (the paper's)."""
 
-def ahead(system: str = "multi") -> list[ExperimentSpec]:
+
+def kinds_of_world() -> list[frozenset[str]]:
+    """Every kind of world, as the set of its parts: plain first, then every subset of :data:`AHEAD_WORLDS`."""
+    return [frozenset(parts) for size in range(len(AHEAD_WORLDS) + 1)
+            for parts in itertools.combinations(AHEAD_WORLDS, size)]
+
+
+def kind_name(kind: frozenset[str]) -> str:
+    """A kind of world by its short names, ``+``-joined in :data:`WORLD_NAMES`' order (``plain`` without parts)."""
+    return "+".join(short for short, part in WORLD_NAMES.items() if part in kind) or PLAIN
+
+
+def kinds_from_text(text: str) -> list[frozenset[str]]:
+    """The kinds of world ``text`` names, in :func:`kinds_of_world`'s order.
+
+    ``text`` is ``all``, or kinds separated by commas, each ``plain`` or short names (:data:`WORLD_NAMES`) joined by
+    ``+``: ``plain,several+failing``.
+
+    Raises:
+        ValueError: a name that is not a part of a world, naming it and the valid ones.
+    """
+    if text.strip() == "all":
+        return kinds_of_world()
+    wanted = set()
+    for item in (t.strip() for t in text.split(",")):
+        names = [n.strip() for n in item.split("+")]
+        unknown = [n for n in names if n not in WORLD_NAMES and not (n == PLAIN and len(names) == 1)]
+        if unknown:
+            raise ValueError(f"{unknown[0]!r} is not a kind of world: give 'all', or kinds separated by commas, each "
+                             f"'{PLAIN}' or parts joined by '+' from {', '.join(WORLD_NAMES)}")
+        wanted.add(frozenset(WORLD_NAMES[n] for n in names if n != PLAIN))
+    return [kind for kind in kinds_of_world() if kind in wanted]
+
+
+def ahead(system: str = "multi", kinds: list[frozenset[str]] | None = None) -> list[ExperimentSpec]:
     """The experiments whose kernels ``mgrao compile`` compiles, the paper's default configurations first.
 
-    Then a one-seed, one-episode experiment of every family for each kind of world (every subset of
-    :data:`AHEAD_WORLDS`). The kernel of every family runs any chunk of its kind of world (see the module's
-    docstring); the paper's own is compiled too, so that the first run of the paper's configurations loads
-    exactly what it compiles alone.
+    Then a one-seed, one-episode experiment of every family for each kind of world (``kinds``, default every
+    subset of :data:`AHEAD_WORLDS`). The kernel of every family runs any chunk of its kind of world (see the
+    module's docstring); the paper's own is compiled too where the plain kind is, so that the first run of the
+    paper's configurations loads exactly what it compiles alone.
     """
-    specs = [make_spec("single", seeds=1, episodes=1)]
+    kinds = kinds_of_world() if kinds is None else kinds
+    specs = [make_spec("single", seeds=1, episodes=1)] if frozenset() in kinds else []
     labels = every_family(system)
-    for size in range(len(AHEAD_WORLDS) + 1):
-        for parts in itertools.combinations(AHEAD_WORLDS, size):
-            overrides = {k: v for part in parts for k, v in AHEAD_WORLDS[part].items()}
-            specs.append(make_spec(system, labels, seeds=1, episodes=1, overrides=overrides))
+    for kind in kinds:
+        overrides = {k: v for part in AHEAD_WORLDS if part in kind for k, v in AHEAD_WORLDS[part].items()}
+        specs.append(make_spec(system, labels, seeds=1, episodes=1, overrides=overrides))
     return specs
