@@ -13,7 +13,7 @@ import pytest
 
 from mgrao_core.algorithms import LEARNERS
 from mgrao_core.engine.kernel import run_block
-from tests.support.kernels import CENSUS, OPTIONAL, PARTS, signature_of
+from tests.support.kernels import CENSUS, OPTIONAL, PARTS, in_census, signature_of
 
 ALLOWED = sorted(CENSUS)
 
@@ -34,5 +34,14 @@ def test_each_recipe_calls_the_kernel_with_the_signature_it_is_listed_under(name
 
 def test_the_census_is_small_and_says_what_each_signature_costs() -> None:
     # the allowed signatures, with their compile times alone (python -m tests.support.kernels measure)
-    assert len(ALLOWED) <= 19, f"{len(ALLOWED)} kernels to compile for the tests: {ALLOWED}"
+    assert len(ALLOWED) <= 9, f"{len(ALLOWED)} kernels to compile for the tests: {ALLOWED}"
     assert all(recipe.seconds > 0 for recipe in CENSUS.values())
+
+
+def test_a_chunk_of_fewer_families_runs_on_the_census_kernel_of_every_family_of_its_world() -> None:
+    # the runner runs it there, unless numba's cache holds its own kernel (a user's may): neither compiles
+    every = "+".join(PARTS[4:])
+    assert in_census("fixed") and in_census("mgrao") and in_census("independent-q+bandit")
+    assert in_census(f"several+failing+{every}") and in_census("several+failing+mgrao-balance")
+    assert not in_census("failing") and not in_census("links+mgrao-balance")  # no kernel of every family there
+    assert in_census("links+mgrao") and in_census("several+outside")  # the census's own

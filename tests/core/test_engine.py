@@ -132,30 +132,35 @@ def test_compiled_estimates_per_composite_keep_one_running_mean_of_taq_per_child
 
 def test_the_kernel_is_compiled_for_the_families_a_job_runs(monkeypatch):
     # a family with no lane, and several resources of a one-resource system, reach the kernel as None, so numba
-    # compiles (and caches) a kernel without their code: the paper's configurations compile in a third of the time
+    # compiles (and caches) a kernel without their code: the paper's configurations compile in a third of the time.
+    # What a chunk's own combination is, as the runner asks for it (where the kernel of every family is cached and
+    # the chunk's own is not, the chunk runs on that one, with the same numbers: tests/core/test_compiling.py).
     from numba import types
 
-    from mgrao_core import engine
+    from mgrao_core import runner
 
-    run_block = engine.run_block
+    ready = runner.ready_kernel
     calls = []
-    monkeypatch.setattr(engine, "run_block", lambda *args: calls.append(args) or run_block(*args))
+    monkeypatch.setattr(runner, "ready_kernel",
+                        lambda spec, arrays, head, finish_head, learners, *rest: calls.append(
+                            (head, finish_head, learners)) or ready(spec, arrays, head, finish_head, learners, *rest))
 
     def nones(algorithms, overrides=None):
         calls.clear()
         run_experiment(make_spec("single", algorithms, seeds=1, episodes=2, overrides=overrides))
-        several, links, outside, failing, learners = calls[0][2], calls[0][3], calls[0][7], calls[0][8], calls[0][9:]
+        head, _, learners = calls[0]
+        several, links, outside, failing = head[2], head[3], head[7], head[8]
         assert links is None  # a complete world: no links drawn, the sparse code not compiled
         assert outside is None  # a run has no environment outside it (mgrao_core.env's steps do)
         assert failing is None  # no task can fail (task_need 0)
         return [several is None] + [lanes is None for lanes in learners]
 
     assert nones(["uniform", "mgrao-1:1", "mgrao-max"]) == [True, False, True, True, True, True]
-    # (the learners without MG-RAO, and every one but balance with several resources: signatures other tests compile)
     assert nones(["uniform", "independent-q", "bandit"]) == [True, True, True, False, False, True]
     assert nones(["mgrao-max", "mgrao-adaptive:2", "independent-q", "bandit"], {"n_resources": 2}) == [
         False, False, False, False, False, True]
     assert nones(["uniform"]) == [True, True, True, True, True, True]
-    # and numba compiled a kernel of that signature: uniform alone, without any learner's code, several resources,
-    # observations, tasks that fail or links of a sparse world
-    assert any(sum(isinstance(t, types.NoneType) for t in sig) == 4 + len(LEARNERS) for sig in run_block.signatures)
+    # and the kernel it compiles for uniform alone has no learner's code, several resources, observations, tasks
+    # that fail or links of a sparse world: every optional argument is None in its types
+    own, _ = runner._kernel_types(*calls[0])
+    assert sum(isinstance(t, types.NoneType) for t in own) == 4 + len(LEARNERS)

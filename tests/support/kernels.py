@@ -7,7 +7,11 @@ neither typed nor compiled). A signature is named by the optional arguments it h
 ``fixed`` without any: fixed families alone). Each costs between a quarter of a minute and a few minutes to compile
 with an empty cache (the more families, the longer), so the suite keeps to the :data:`CENSUS`: a test that runs the
 kernel on another signature fails (tests/conftest.py), and adding one is a decision with its cost (the census's
-``seconds``, measured with ``python -m tests.support.kernels measure``). tests/test_kernel_census.py checks that
+``seconds``, measured with ``python -m tests.support.kernels measure``). Most of it is the kernel of every family
+for each kind of world the tests run several families in: the runner runs a chunk whose own kernel is not compiled
+on that one (:func:`mgrao_core.runner.ready_kernel`), so one compile serves every combination of families of its
+world, where a kernel per combination cost half as much again (19 signatures: 305 s against 256 s in two processes,
+load average about 3). tests/test_kernel_census.py checks that
 each recipe gives its signature and that :data:`OPTIONAL` is every optional argument of the kernel.
 
 In a parallel run (``pytest -n``) the census is compiled before the first test, by as many processes as the run has
@@ -55,8 +59,8 @@ class Recipe:
     overrides: Mapping[str, Any] = field(default_factory=dict)
     stepped: bool = False
     seconds: float = 60.0
-    """Its compile time alone, on a cache holding what ``fixed`` compiled (``python -m tests.support.kernels
-    measure``; the census's figures were measured on 2 cores under a load average of about 6): what it costs."""
+    """What it costs: its seconds in the census's compile from an empty cache, two processes at once on 2 cores
+    (load average about 3; ``python -m tests.support.kernels measure`` compiles each alone and prints its seconds)."""
 
     def run(self) -> None:
         """Run it: 1 seed, 2 episodes (compiling or loading its kernel)."""
@@ -83,29 +87,36 @@ FAILING = {"task_need": 1.5}
 MGRAO, ADAPTIVE, BALANCE = "mgrao-1:1", "mgrao-adaptive:2", "mgrao-balance"
 LEARNERS = (MGRAO, ADAPTIVE, "independent-q", "bandit")
 
-CENSUS: dict[str, Recipe] = {  # fixed's seconds: what it compiles first, with an empty cache
-    "fixed": Recipe("single", ("uniform", "oracle"), seconds=35),
-    "mgrao": Recipe("single", ("uniform", MGRAO), seconds=14),
-    "outside": Recipe("single", stepped=True, seconds=12),
-    "several+outside": Recipe("single", overrides=SEVERAL, stepped=True, seconds=21),
-    "several+outside+failing": Recipe("single", overrides=SEVERAL | FAILING, stepped=True, seconds=34),
-    "failing+mgrao": Recipe("single", ("uniform", MGRAO), FAILING, seconds=28),
-    "several+mgrao": Recipe("single", ("uniform", MGRAO), SEVERAL, seconds=61),
-    "several+failing+mgrao": Recipe("single", ("uniform", MGRAO), SEVERAL | FAILING, seconds=85),
-    "several+failing+mgrao+mgrao-balance": Recipe("cloud", ("uniform", MGRAO, BALANCE), seconds=98),
-    # the sparse worlds' two, measured on a quiet machine (load average 1-1.6; links+mgrao took 113 s at 7)
-    "links+mgrao": Recipe("multi", ("uniform", MGRAO), SPARSE, seconds=19),
-    "several+links+mgrao": Recipe("multi", ("uniform", MGRAO), SEVERAL | SPARSE, seconds=28),
-    "several+mgrao-balance": Recipe("single", ("uniform", BALANCE), SEVERAL, seconds=40),
-    "independent-q+bandit": Recipe("single", ("uniform", "independent-q", "bandit"), seconds=21),
-    "mgrao+independent-q+bandit": Recipe("single", ("uniform", MGRAO, "independent-q", "bandit"), seconds=29),
-    "mgrao+mgrao-balance": Recipe("single", ("uniform", MGRAO, BALANCE), seconds=75),
-    "mgrao-adaptive+mgrao-balance": Recipe("single", ("uniform", ADAPTIVE, BALANCE), seconds=96),
-    "mgrao+mgrao-adaptive": Recipe("single", ("uniform", MGRAO, ADAPTIVE), seconds=85),
-    "mgrao+mgrao-adaptive+independent-q+bandit": Recipe("single", ("uniform", *LEARNERS), seconds=128),
-    "several+mgrao+mgrao-adaptive+independent-q+bandit": Recipe("single", ("uniform", *LEARNERS), SEVERAL, seconds=70),
+EVERY = ("uniform", "oracle", *LEARNERS, BALANCE)
+"""Every family: the runner runs a chunk of fewer families on this kernel of its kind of world, where that one is
+compiled and the chunk's own is not, with the same numbers (mgrao_core.runner.ready_kernel)."""
+
+CENSUS: dict[str, Recipe] = {  # seconds: each one's compile in the census's own run (see Recipe.seconds)
+    # every family, for the three kinds of world whose chunks the tests run with several families
+    "mgrao+mgrao-adaptive+independent-q+bandit+mgrao-balance": Recipe("single", EVERY, seconds=107),
+    "several+mgrao+mgrao-adaptive+independent-q+bandit+mgrao-balance": Recipe("single", EVERY, SEVERAL, seconds=72),
+    "several+failing+mgrao+mgrao-adaptive+independent-q+bandit+mgrao-balance": Recipe("single", EVERY,
+                                                                                     SEVERAL | FAILING, seconds=71),
+    # the other kinds' tests run the fixed allocations and MG-RAO alone: their own kernels are smaller
+    "failing+mgrao": Recipe("single", ("uniform", MGRAO), FAILING, seconds=27),
+    "links+mgrao": Recipe("multi", ("uniform", MGRAO), SPARSE, seconds=18),
+    "several+links+mgrao": Recipe("multi", ("uniform", MGRAO), SEVERAL | SPARSE, seconds=40),
+    # the environments' steps (an outside, no learner)
+    "outside": Recipe("single", stepped=True, seconds=10),
+    "several+outside": Recipe("single", overrides=SEVERAL, stepped=True, seconds=17),
+    "several+outside+failing": Recipe("single", overrides=SEVERAL | FAILING, stepped=True, seconds=31),
 }
 """Every signature the tests may compile, by name, with a run that compiles it."""
+
+
+def in_census(name: str) -> bool:
+    """Whether a test may run the kernel on the signature ``name``: the census's, or any of a kind of world whose kernel
+    of every family the census has. The runner runs such a chunk on that one (nothing compiled) unless numba's cache
+    holds the chunk's own kernel, as a user's cache may after ``mgrao run``: loading it compiles nothing either."""
+    if name in CENSUS:
+        return True
+    world = [part for part in name.split("+") if part in PARTS[:4]]
+    return "+".join([*world, *PARTS[4:]]) in CENSUS
 
 
 def kernel_name(arguments: Sequence[Any]) -> str:
@@ -299,23 +310,15 @@ def precompile(names: Sequence[str] | None = None, processes: int = 2, timeout: 
 
 
 def measure(names: Sequence[str]) -> dict[str, float]:
-    """Each named signature's compile time alone: in a process of its own, on a numba cache that holds what ``fixed``
-    compiled (what every kernel calls) and nothing else (the census's ``seconds``)."""
-    import shutil
+    """Each named signature's compile time alone: in a process of its own, with an empty numba cache."""
     import tempfile
 
     results = {}
-    with tempfile.TemporaryDirectory(prefix="mgrao-census-") as tmp:
-        environment = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
-        base = Path(tmp) / "fixed"
-        precompile(["fixed"], processes=1, env=environment | {"XDG_CACHE_HOME": str(base)})
-        for name in names:
-            home = Path(tmp) / "measure"
-            shutil.rmtree(home, ignore_errors=True)
-            shutil.copytree(base, home)
-            results[name] = precompile([name], processes=1, env=environment | {"XDG_CACHE_HOME": str(home)}
-                                       ).seconds[name]
-            print(f"{name}: {results[name]:.1f} s", flush=True)
+    environment = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
+    for name in names:
+        with tempfile.TemporaryDirectory(prefix="mgrao-census-") as home:
+            results[name] = precompile([name], processes=1, env=environment | {"XDG_CACHE_HOME": home}).seconds[name]
+        print(f"{name}: {results[name]:.1f} s", flush=True)
     return results
 
 
