@@ -13,9 +13,10 @@ with ``CI=true``, a JUnit report added through ``PYTEST_ADDOPTS``. It prints:
   the wall time: their sum over the wall time is how busy the workers were), and the slowest files.
 
 ``--baseline REV`` measures that revision the same way first (an earlier one runs ``pytest`` on one process). The
-machine's load average is printed before and after: a figure taken under load is not a quiet machine's.
-``--durations JUNIT.xml`` writes tests/support/durations.json (each test file's seconds, the order of a parallel
-run: tests/support/scheduling.py) from a run's report instead, and measures nothing.
+machine's load average is printed before and after: a figure taken under load is not a quiet machine's, and the
+cores' idle share while the tests ran is the whole machine's (/proc/stat). ``--junit PATH`` keeps the measured
+revision's JUnit report. ``--durations JUNIT.xml`` writes tests/support/durations.json (each test file's seconds,
+the order of a parallel run: tests/support/scheduling.py) from a run's report instead, and measures nothing.
 """
 
 from __future__ import annotations
@@ -76,7 +77,13 @@ def load() -> str:
     return " ".join(Path("/proc/loadavg").read_text().split()[:3])
 
 
-def measure(revision: str) -> dict:
+def cpu_times() -> tuple[int, int]:
+    """The machine's CPU time so far, in clock ticks: (idle, all), from /proc/stat (idle and I/O wait count as idle)."""
+    fields = [int(x) for x in Path("/proc/stat").read_text().splitlines()[0].split()[1:]]
+    return fields[3] + fields[4], sum(fields[:8])
+
+
+def measure(revision: str, keep_junit: Path | None = None) -> dict:
     """Clone ``revision`` and time its ``.ci/run`` (see the module); the phases' seconds."""
     with tempfile.TemporaryDirectory(prefix="mgrao-bench-suite-") as tmp:
         clone, cache, junit = Path(tmp) / "mgrao", Path(tmp) / "cache", Path(tmp) / "junit.xml"
@@ -102,10 +109,16 @@ def measure(revision: str) -> dict:
                     marks.setdefault("session", now)
                 if KERNELS.search(line):
                     marks["kernels"] = now
+                    idle_at_tests = cpu_times()
                     marks["compile"] = float(KERNELS.search(line)[2])
                     marks["signatures"] = int(KERNELS.search(line)[1])
             process.wait(timeout=DEADLINE_S)
         total = time.monotonic() - start
+        if "kernels" in marks:  # how busy the machine's cores were while the tests ran (other users' work included)
+            idle, every = (now - then for now, then in zip(cpu_times(), idle_at_tests, strict=True))
+            marks["idle"] = idle / every
+        if keep_junit is not None and junit.exists():
+            keep_junit.write_bytes(junit.read_bytes())
         summary = next((line for line in reversed(tail) if re.search(r"\d+ (passed|failed)", line)), "")
         result = {"revision": revision, "total": total, "returncode": process.returncode, "summary": summary,
                   "load": load(), **marks}
@@ -136,6 +149,8 @@ def report(result: dict) -> None:
         print(f"    {directory:20s} {seconds:7.0f} s of tests ({seconds / busy:.0%})")
     if total > tests_start:
         print(f"    (the tests' seconds summed: {busy:.0f} s, {busy / (total - tests_start):.2f} per second of wall)")
+    if "idle" in result:
+        print(f"    (the machine's cores idle {result['idle']:.0%} of the time while the tests ran)")
     for name, seconds in sorted(result["files"].items(), key=lambda item: -item[1])[:10]:
         print(f"      {seconds:6.0f} s  {name}")
 
@@ -147,6 +162,7 @@ def main() -> None:
     parser.add_argument("--json", type=Path, help="also write the results there")
     parser.add_argument("--durations", type=Path, metavar="JUNIT",
                         help="write tests/support/durations.json from this JUnit report, and measure nothing")
+    parser.add_argument("--junit", type=Path, help="keep the measured revision's JUnit report there (for --durations)")
     args = parser.parse_args()
     if args.durations:
         write_durations(args.durations)
@@ -154,7 +170,7 @@ def main() -> None:
     revisions = [args.baseline, args.commit] if args.baseline else [args.commit]
     results = []
     for revision in revisions:
-        results.append(measure(revision))
+        results.append(measure(revision, args.junit if revision == args.commit else None))
         report(results[-1])
     if args.json:
         args.json.write_text(json.dumps(results, indent=1))
