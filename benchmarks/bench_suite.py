@@ -105,7 +105,9 @@ def measure(revision: str, keep_junit: Path | None = None) -> dict:
                 now = time.monotonic() - start
                 log.write(line)
                 tail.append(line.rstrip())
-                if "test session starts" in line:
+                if line.startswith("Successfully installed"):  # pip's last line: pytest starts next
+                    marks.setdefault("installed", now)
+                if "test session starts" in line:  # printed after the census is compiled (tests/conftest.py)
                     marks.setdefault("session", now)
                 if KERNELS.search(line):
                     marks["kernels"] = now
@@ -135,8 +137,9 @@ def measure(revision: str, keep_junit: Path | None = None) -> dict:
 
 
 def report(result: dict) -> None:
-    total, session = result["total"], result.get("session", result["total"])
-    tests_start = result.get("kernels", session)
+    total = result["total"]
+    session = result.get("installed", result.get("session", total))
+    tests_start = max(result.get("kernels", session), result.get("session", session))
     print(f"\n{result['revision']}: {total:.0f} s ({total / 60:.1f} min) in all, exit {result['returncode']}, "
           f"load average after {result['load']}")
     print(f"  install  {session:7.0f} s   system packages if missing, virtualenv, pip install -e '.[test]'")
