@@ -215,7 +215,9 @@ def test_a_dask_worker_killed_mid_job(topology: Topology) -> None:
 
 
 def test_a_dask_worker_frozen_mid_job(tmp_path: Path, pg_url: str) -> None:
-    setup = Topology(tmp_path, pg_url, scheduler_env={"DASK_DISTRIBUTED__SCHEDULER__WORKER_TTL": "4s"})
+    # the scheduler checks its workers' heartbeats every worker-ttl, and drops one silent for the ttl or 10
+    # heartbeats (5 s on a small cluster), whichever is longer: 1 s checks every second, and drops it after 5 s
+    setup = Topology(tmp_path, pg_url, scheduler_env={"DASK_DISTRIBUTED__SCHEDULER__WORKER_TTL": "1s"})
     frozen = None
     try:
         setup.start_cluster(workers=2)

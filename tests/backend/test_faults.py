@@ -10,6 +10,7 @@ where the file system has no such flag the tests that need it skip, saying so.
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import signal
 import sqlite3
@@ -96,6 +97,13 @@ def _wait_succeeded(service: Service, job_id: int) -> None:
     service.wait_for(lambda: service.get(f"/api/jobs/{job_id}").json()["status"] == "succeeded", what=f"job {job_id}")
 
 
+def _logged(service: Service, pattern: str, what: str) -> None:
+    """Wait until a process's log has ``pattern`` (a regular expression). A database call that fails is logged at its
+    first failure, and the tries after it once one goes through (:class:`backend.store.retry.OutageLog`): the
+    evidence that a process met the fault and kept trying, where the tests slept a few seconds before."""
+    service.wait_for(lambda: re.search(pattern, service.logs()), timeout=60, what=what, step=0.05)
+
+
 def test_read_only_database(service: Service, immutable) -> None:
     _fast_faults(service)
     service.start_server(workers=2)
@@ -139,7 +147,10 @@ def test_deleted_database_directory(tmp_path: Path) -> None:
         assert health.status_code == 503 and "is missing (moved or deleted)" in health.json()["database"], health.text
         acknowledged, codes = _submit(service, 13)
         assert acknowledged == 0 and set(codes) == {503}
-        time.sleep(2)
+        _logged(service, r"worker \S+ polling the queue failed \(unable to open database file\)",
+                "the worker's poll to fail on the lost file")
+        _logged(service, r"refreshing worker \S+ in the workers table failed \(unable to open database file\)",
+                "the worker's refresh of its row to fail on the lost file")
         assert _alive(service.server) and not directory.exists()  # nothing recreated the lost file
     finally:
         service.stop()
@@ -178,7 +189,8 @@ def test_write_lock_held_by_another_process(service: Service) -> None:
         assert refused.status_code == 503 and refused.headers["content-type"].startswith("application/json")
         assert "locked" in refused.json()["detail"] and "was not queued" in refused.json()["detail"]
         assert service.get("/api/health").status_code == 503
-        time.sleep(3)  # the standalone worker polls into the lock meanwhile
+        _logged(service, rf"refreshing worker \S+:{lone.pid} in the workers table failed \(database is locked\)",
+                "the standalone worker to write into the lock (its row's refresh, after the 1 s busy timeout)")
         assert _alive(service.server, lone)
     finally:
         locker.execute("ROLLBACK")
@@ -195,12 +207,15 @@ def test_a_worker_started_on_a_read_only_database_waits_and_then_works(service: 
     job = _accepted(service)
     immutable(db_file, True)
     lone = service.start_worker()
-    time.sleep(4)  # migrate and claim fail: the worker retries instead of exiting
-    assert _alive(lone)
+    _logged(service, rf"worker \S+:{lone.pid} polling the queue failed \(attempt to write a readonly database\)",
+            "the worker's claim to fail on the read-only file")
+    assert _alive(lone)  # the claim failed: the worker retries instead of exiting
     assert service.get(f"/api/jobs/{job}").json()["status"] == "queued"
     immutable(db_file, False)
     _wait_succeeded(service, job)
     assert _alive(lone, service.server)
+    _logged(service, rf"worker \S+:{lone.pid} polling the queue goes through again",  # retried, logged
+            "the worker to log that its claims go through again")  # once the batch it claimed is stored
 
 
 def test_a_restarted_worker_does_not_bring_back_a_missing_database(service: Service) -> None:
@@ -213,7 +228,8 @@ def test_a_restarted_worker_does_not_bring_back_a_missing_database(service: Serv
     for pid in children(service.server.pid):  # the supervisor restarts the worker it loses
         os.kill(pid, signal.SIGKILL)
     service.wait_for(lambda: len(children(service.server.pid)) >= 1 and not db_file.exists(), what="restart")
-    time.sleep(3)  # the new worker tries to migrate meanwhile
+    _logged(service, r"migrating the database failed \(the database file \S+ does not exist",
+            "the new worker's migration to fail on the missing file")
     assert not db_file.exists()  # nothing recreated it empty
     assert service.get("/api/health").status_code == 503
     acknowledged, codes = _submit(service, 5)
@@ -222,6 +238,7 @@ def test_a_restarted_worker_does_not_bring_back_a_missing_database(service: Serv
     service.wait_for(lambda: service.get("/api/health").status_code == 200, what="health after moving back")
     later = _accepted(service)
     _wait_succeeded(service, later)  # the restarted worker found the file and works
+    assert "migrating the database goes through again" in service.logs()  # retried, not given up
     assert _stored_jobs(db_file) == 2
 
 

@@ -39,8 +39,8 @@ def _computing(seed: int, what: str = "computing") -> str:
 def _start(service: Service, **settings: object) -> list[int]:
     """The service with the stored jobs of :data:`JOBS`, run by a worker process that is then stopped."""
     service.env.update({f"MGRAO_{name.upper()}": str(value) for name, value in settings.items()})
+    worker = service.start_worker()  # first: it loads while the server starts (the database is migrated already)
     service.start_server(workers=0)
-    worker = service.start_worker()
     ids = [service.post("/api/jobs", json=job).json()["id"] for job in JOBS]
     for job_id in ids:
         service.wait_for(lambda job_id=job_id: service.get(f"/api/jobs/{job_id}").json()["status"] == "succeeded",

@@ -139,14 +139,31 @@ class PostgresServer:
             try:
                 os.kill(self.pid, signal.SIGINT)
                 deadline = time.monotonic() + 30
-                while time.monotonic() < deadline:
-                    os.kill(self.pid, 0)
+                while time.monotonic() < deadline and _running(self.pid):
                     time.sleep(0.05)
-                os.kill(self.pid, signal.SIGKILL)
+                if _running(self.pid):
+                    os.kill(self.pid, signal.SIGKILL)
             except ProcessLookupError:
                 pass
             self.pid = None
         shutil.rmtree(self.root, ignore_errors=True)
+
+
+def _running(pid: int) -> bool:
+    """``pid`` exists and has not exited. The postmaster is not our child (``pg_ctl`` started it): once it has
+    exited it stays a zombie until process 1 reaps it, which took 2 s and more here, and a zombie still answers
+    ``kill(pid, 0)``."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except FileNotFoundError:
+        return False
+    except (OSError, IndexError):  # no /proc: ask the kernel, zombies counted as running
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return False
+        return True
+    return state not in ("Z", "X")
 
 
 @contextmanager
