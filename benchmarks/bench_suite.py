@@ -109,15 +109,15 @@ def measure(revision: str, keep_junit: Path | None = None) -> dict:
                     marks.setdefault("installed", now)
                 if "test session starts" in line:  # printed after the census is compiled (tests/conftest.py)
                     marks.setdefault("session", now)
-                if KERNELS.search(line):
+                if census := KERNELS.search(line):
                     marks["kernels"] = now
                     idle_at_tests = cpu_times()
-                    marks["compile"] = float(KERNELS.search(line)[2])
-                    marks["signatures"] = int(KERNELS.search(line)[1])
+                    marks["compile"] = float(census[2])
+                    marks["signatures"] = int(census[1])
             process.wait(timeout=DEADLINE_S)
         total = time.monotonic() - start
         if "kernels" in marks:  # how busy the machine's cores were while the tests ran (other users' work included)
-            idle, every = (now - then for now, then in zip(cpu_times(), idle_at_tests, strict=True))
+            idle, every = (after - before for after, before in zip(cpu_times(), idle_at_tests, strict=True))
             marks["idle"] = idle / every
         if keep_junit is not None and junit.exists():
             keep_junit.write_bytes(junit.read_bytes())
