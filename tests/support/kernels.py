@@ -11,8 +11,8 @@ kernel on another signature fails (tests/conftest.py), and adding one is a decis
 for each kind of world the tests run several families in: the runner runs a chunk whose own kernel is not compiled
 on that one (:func:`mgrao_core.runner.ready_kernel`), so one compile serves every combination of families of its
 world, where a kernel per combination cost a fifth more (19 signatures: 305 s against 256 s in two processes,
-load average about 3). tests/test_kernel_census.py checks that
-each recipe gives its signature and that :data:`OPTIONAL` is every optional argument of the kernel.
+load average about 3). tests/test_kernel_census.py checks that each recipe gives its signature and that
+:data:`OPTIONAL` is every optional argument of the kernel.
 
 In a parallel run (``pytest -n``) the census is compiled before the first test, by as many processes as the run has
 workers, the longest first, and never two processes compiling one family's steps at once (:func:`precompile`,
