@@ -23,6 +23,19 @@ def job(service: Service, job_id: int) -> dict:
     return service.get(f"/api/jobs/{job_id}").json()
 
 
+# Long enough (about 2 s of work alone) that a poll sees it running before it ends, even under load.
+LONG_JOB = {"system": "large", "seeds": 4, "episodes": 10000}
+
+
+def running(service: Service, job_id: int) -> bool:
+    """True once the job runs with progress stored; raises if it ended before it could be seen running."""
+    state = job(service, job_id)
+    if state["status"] in ("succeeded", "failed", "cancelled"):
+        raise AssertionError(f"job {job_id} ended ({state['status']}) before it was seen running: it is too short "
+                             "for a test that kills its worker mid-job")
+    return state["status"] == "running" and state["progress"] > 0
+
+
 def stored_matches_core(service: Service, job_id: int, **spec: object) -> None:
     text = service.get(f"/api/jobs/{job_id}/episodes").text
     rows = list(csv.DictReader(io.StringIO(text)))
@@ -111,10 +124,10 @@ def test_many_workers_run_each_of_200_jobs_exactly_once(service: Service) -> Non
 
 def test_worker_killed_mid_job_is_requeued_and_finished(service: Service) -> None:
     service.start_server(workers=0)
-    spec = {"system": "single", "seeds": 4, "episodes": 30000}
+    spec = LONG_JOB
     job_id = service.post("/api/jobs", json=spec).json()["id"]
     victim = service.start_worker()
-    service.wait_for(lambda: job(service, job_id)["progress"] > 0, what="the job to make progress")
+    service.wait_for(lambda: running(service, job_id), what="the job to make progress")
     victim.send_signal(signal.SIGKILL)
     victim.wait()
     assert job(service, job_id)["status"] == "running"
@@ -130,11 +143,11 @@ def test_whole_service_killed_and_restarted_loses_no_acknowledged_job(service: S
     worker = service.start_worker()
     accepted = []
     for i in range(12):
-        body = {"system": "single", "seeds": 2, "episodes": 8000 if i == 0 else 20, "name": f"r{i}"}
+        body = {**LONG_JOB, "name": "r0"} if i == 0 else {"system": "single", "seeds": 2, "episodes": 20, "name": f"r{i}"}
         response = service.post("/api/jobs", json=body)
         assert response.status_code == 202
         accepted.append(response.json()["id"])
-    service.wait_for(lambda: job(service, accepted[0])["status"] == "running", what="a running job")
+    service.wait_for(lambda: running(service, accepted[0]), what="the long job to make progress")
     worker.send_signal(signal.SIGKILL)
     worker.wait()
     service.kill_server()
@@ -146,4 +159,4 @@ def test_whole_service_killed_and_restarted_loses_no_acknowledged_job(service: S
     )
     listed = service.get("/api/jobs?limit=200").json()
     assert sorted(j["id"] for j in listed["data"]) == sorted(accepted)
-    stored_matches_core(service, accepted[0], system="single", seeds=2, episodes=8000)
+    stored_matches_core(service, accepted[0], **LONG_JOB)
