@@ -143,7 +143,8 @@ def test_whole_service_killed_and_restarted_loses_no_acknowledged_job(service: S
     worker = service.start_worker()
     accepted = []
     for i in range(12):
-        body = {**LONG_JOB, "name": "r0"} if i == 0 else {"system": "single", "seeds": 2, "episodes": 20, "name": f"r{i}"}
+        short = {"system": "single", "seeds": 2, "episodes": 20}
+        body = {**(LONG_JOB if i == 0 else short), "name": f"r{i}"}
         response = service.post("/api/jobs", json=body)
         assert response.status_code == 202
         accepted.append(response.json()["id"])
