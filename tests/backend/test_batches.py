@@ -115,20 +115,20 @@ def test_a_grid_study_of_small_trials_runs_every_cell_once_across_a_killed_servi
     service.env["MGRAO_STUDY_POLL_S"] = "0.3"
     service.start_server(workers=1)
     study = {"name": "batches", "method": "grid", "base": SMALL,
-             "space": {"learning_rate": {"low": 0.01, "high": 0.5, "steps": 8, "log": True},
+             "space": {"learning_rate": {"low": 0.01, "high": 0.5, "steps": 16, "log": True},
                        "trace_decay": {"low": 0.1, "high": 0.99, "steps": 8}},
              "objective": {"configuration": "mgrao-max", "metric": "pct_from_uniform"},
-             "max_trials": 64, "max_in_flight": 30}
+             "max_trials": 128, "max_in_flight": 30}  # about a second of trials left when the kill lands
     study_id = service.post("/api/studies", json=study).json()["study"]["id"]
     status = lambda: service.get(f"/api/studies/{study_id}", params={"trials": "false"}).json()["study"]  # noqa: E731
     service.wait_for(lambda: status()["trials"].get("succeeded", 0) >= 5, timeout=120, what="five trials",
                      step=0.02)
     service.kill_server()  # its worker follows it (its lifeline), in the middle of a batch or between two
-    assert status_after_kill(db_url, study_id) < 64
+    assert status_after_kill(db_url, study_id) < 128
 
     service.start_server(workers=2)
     service.wait_for(lambda: status()["status"] == "finished", timeout=240, what="the study finished")
-    assert status()["trials"] == {"succeeded": 64}
+    assert status()["trials"] == {"succeeded": 128}
     db = Database(db_url)
     try:
         with db.session() as session:
@@ -136,11 +136,11 @@ def test_a_grid_study_of_small_trials_runs_every_cell_once_across_a_killed_servi
             per_trial = Counter(session.scalars(select(Job.trial_id).where(Job.study_id == study_id)))
     finally:
         db.dispose()
-    assert numbers == list(range(64))  # every cell made once
-    assert len(per_trial) == 64 and set(per_trial.values()) == {1}  # one job each
+    assert numbers == list(range(128))  # every cell made once
+    assert len(per_trial) == 128 and set(per_trial.values()) == {1}  # one job each
     per_job, distinct, total = _runs(db_url)
-    assert set(per_job.values()) == {2} and len(per_job) == 64
-    assert distinct == total == 128  # no run stored twice
+    assert set(per_job.values()) == {2} and len(per_job) == 128
+    assert distinct == total == 256  # no run stored twice
 
 
 def status_after_kill(db_url: str, study_id: int) -> int:

@@ -271,17 +271,24 @@ def test_the_scheduler_restarted_mid_job(topology: Topology) -> None:
 def test_the_dispatcher_killed_mid_job_and_its_successor_resumes(topology: Topology) -> None:
     topology.start_cluster(workers=2)
     first = topology.start_dispatcher(MGRAO_JOB_MEMORY_MIB="16")
-    job_id = topology.submit(_big())
-    topology.wait_for(lambda: topology.stored_seeds(job_id) >= 4, "a few stored chunks")
+    big = make_spec("large", seeds=72, episodes=600)  # 11 chunks: more than a second left after the first
+    job_id = topology.submit(big)
+
+    def a_few_stored() -> bool:
+        if topology.job(job_id).status == "succeeded":
+            raise AssertionError("the job ended before its dispatcher was killed: it is too short")
+        return topology.stored_seeds(job_id) >= 4
+
+    topology.wait_for(a_few_stored, "a few stored chunks")
     first.send_signal(signal.SIGKILL)
     first.wait()
     with topology.db.session() as session:
         kept = {(r.algorithm, r.seed): r.id for r in session.scalars(select(Run).where(Run.job_id == job_id))}
-    assert 0 < len(kept) < len(_big().seeds) * 7
+    assert 0 < len(kept) < len(big.seeds) * 7
     topology.start_dispatcher(MGRAO_JOB_MEMORY_MIB="16")
     job = topology.wait(job_id)
     assert job.attempts == 2 and "re-queued" not in (job.error or "")
-    ids = topology.assert_stored_exactly_once(job_id, _big())
+    ids = topology.assert_stored_exactly_once(job_id, big)
     assert all(ids[key] == row_id for key, row_id in kept.items())  # the stored chunks were not redone
 
 
@@ -317,13 +324,19 @@ def test_a_job_with_a_stopping_rule_runs_block_by_block_and_its_successor_resume
     verdicts and seeds as the rule run in one process, every run of the seeds judged stored once."""
     from mgrao_core.statistics.sequential import run_until, stopped_dict, until_spec
 
-    rule = {"half_width": 0.5, "block": 4, "max_seeds": 24}
+    rule = {"half_width": 0.05, "block": 4, "max_seeds": 48}  # undecided to 48 seeds: blocks left at the kill
     spec, until = until_spec("large", None, 7, 300, {}, rule)
     topology.start_cluster(workers=2)
     first = topology.start_dispatcher(MGRAO_JOB_MEMORY_MIB="16")  # several chunks a block
     with topology.db.write() as session:
         job_id = crud.create_job(session, spec=spec, until=until).id
-    topology.wait_for(lambda: (topology.job(job_id).stopped or {}).get("seeds", 0) >= 8, "two blocks judged")
+    def two_blocks() -> bool:
+        job = topology.job(job_id)
+        if job.status == "succeeded":
+            raise AssertionError(f"the rule decided before its dispatcher was killed: {job.stopped}")
+        return (job.stopped or {}).get("seeds", 0) >= 8
+
+    topology.wait_for(two_blocks, "two blocks judged")
     first.send_signal(signal.SIGKILL)
     first.wait()
     topology.start_dispatcher(MGRAO_JOB_MEMORY_MIB="16")

@@ -61,8 +61,8 @@ def test_serve_with_workers_runs_cancels_and_stops_cleanly(service: Service) -> 
     assert [c["algorithm"] for c in results["configurations"]] == ["uniform", "mgrao-1:1", "mgrao-max"]
 
     # a long job: seen running with progress, then cancelled
-    long = service.post("/api/jobs", json={"system": "single", "seeds": 4, "episodes": 60000}).json()
-    service.wait_for(lambda: job(service, long["id"])["progress"] > 0, what="progress")
+    long = service.post("/api/jobs", json=LONG_JOB).json()
+    service.wait_for(lambda: running(service, long["id"]), what="progress")
     assert service.post(f"/api/jobs/{long['id']}/cancel", headers=JSON).json()["status"] == "cancelled"
     after = service.post("/api/jobs", json={"system": "single", "seeds": 1, "episodes": 10}).json()
     service.wait_for(lambda: job(service, after["id"])["status"] == "succeeded", what="next job")

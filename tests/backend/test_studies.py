@@ -285,8 +285,9 @@ def test_writes_need_the_token_when_one_is_set(auth_client: TestClient) -> None:
 
 # ---- real processes --------------------------------------------------------------------------
 
+# trials of about 0.2 s each, so that a kill lands while some are still to be made
 PROCESS_STUDY = grid(3, 3, base={"system": "single", "algorithms": ["uniform", "mgrao-max"], "seeds": 3,
-                                 "episodes": 4000}, max_in_flight=3)
+                                 "episodes": 20000}, max_in_flight=3)
 
 
 def _status(service: Service, study_id: int) -> dict:
@@ -318,7 +319,13 @@ def test_a_study_resumes_after_the_whole_service_is_killed(service: Service, db_
     service.env["MGRAO_STUDY_POLL_S"] = "0.3"
     service.start_server(workers=1)
     study_id = service.post("/api/studies", json=PROCESS_STUDY).json()["study"]["id"]
-    service.wait_for(lambda: _status(service, study_id)["trials"].get("succeeded", 0) >= 2, what="two trials")
+    def two_trials() -> bool:
+        trials = _status(service, study_id)["trials"]
+        if sum(trials.values()) >= 9:
+            raise AssertionError(f"every trial was made before the kill: {trials}; the trials are too short")
+        return trials.get("succeeded", 0) >= 2
+
+    service.wait_for(two_trials, what="two trials")
     service.kill_server()  # its workers follow it (their lifeline)
     before = _count_trials(db_url, study_id)
     assert before < 9

@@ -247,8 +247,9 @@ def test_a_dead_workers_jobs_are_handed_back_at_once_and_each_stored_exactly_onc
     service.env["MGRAO_STALE_AFTER_S"] = "300"
     service.start_server(workers=1)
     [worker] = workers_of(service, 1)
-    small = {"system": "single", "seeds": 2, "episodes": 400, "algorithms": ["uniform", "mgrao-max"]}
-    ids = [service.post("/api/jobs", json=small).json()["id"] for _ in range(12)]
+    # small jobs (batched), about 0.3 s in all: the worker is killed while it runs them, not after it stored them
+    small = {"system": "single", "seeds": 2, "episodes": 1000, "algorithms": ["uniform", "mgrao-max"]}
+    ids = [service.post("/api/jobs", json=small).json()["id"] for _ in range(40)]
     alone = {"system": "large", "seeds": 40, "episodes": 2000, "algorithms": ["uniform", "mgrao-1:1", "mgrao-max"]}
     ids.append(service.post("/api/jobs", json=alone).json()["id"])
     engine = create_engine(service.db_url)

@@ -79,7 +79,7 @@ def test_the_work_budget_fills_in_and_marks_what_drives_it(browser, server, scre
 
 
 # About a minute of work for one worker: it stays running while the queued jobs are looked at.
-SLOW = {"system": "large", "algorithms": ["uniform", "mgrao-1:1"], "seeds": 30, "episodes": 3000,
+SLOW = {"system": "large", "algorithms": ["uniform", "mgrao-1:1"], "seeds": 6, "episodes": 15000,
         "params": {"n_parents": 1000}}
 
 
