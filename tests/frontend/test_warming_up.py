@@ -39,7 +39,7 @@ def test_a_job_waiting_for_warming_workers_says_so(browser, cold_server, screens
                                timeout=30000)
         page.screenshot(path=str(screenshots / "job-warming-up.png"))
         # compiled: the worker reports ready, runs the job, and the header counts it as a worker
-        page.locator("#utility-chart .main-svg").first.wait_for(timeout=300000)  # a compile, on a busy machine
+        page.locator("#utility-chart .main-svg").first.wait_for(timeout=180000)
         page.evaluate("window.dispatchEvent(new CustomEvent('jobs-changed'))")
         page.wait_for_function("() => /· 1 worker$/.test(document.getElementById('health').textContent)",
                                timeout=15000)
