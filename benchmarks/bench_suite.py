@@ -5,11 +5,10 @@ It clones the repository into a temporary directory (``git clone``, then ``REV``
 empty cache home (``XDG_CACHE_HOME``: numba's cache and pip's, as on a new CI machine) and runs ``.ci/run`` there
 with ``CI=true``, a JUnit report added through ``PYTEST_ADDOPTS``. It prints:
 
-* install: from the start to pip's last line (the system packages when missing, the virtualenv, ``pip install -e
-  ".[test]"``);
-* tests: from then to pytest's last line, with the whole run's counts, and the census of kernels
-  (tests/support/kernels.py), which is compiled beside the first tests: its signatures and seconds, from the line
-  pytest prints at the end (a revision before that compiled it before the tests: it shows as a phase, compile);
+* install: from the start to pytest's first line (the system packages when missing, the virtualenv, ``pip
+  install -e ".[test]"``);
+* compile: the census of kernels compiled before the tests (tests/support/kernels.py; the line pytest prints);
+* tests: from then to pytest's last line, with the whole run's counts;
 * by directory: each test directory's tests' own seconds, summed (on several workers, these add up to more than
   the wall time: their sum over the wall time is how busy the workers were), and the slowest files.
 
@@ -41,15 +40,13 @@ KERNELS = re.compile(r"kernels: (\d+) signatures compiled or loaded in ([\d.]+) 
 
 
 def test_seconds(junit: Path) -> dict[str, float]:
-    """Each test's seconds (setup, call and teardown) in a JUnit report, by its node id, less any wait for the census
-    of kernels (its ``census_wait_s`` property, tests/conftest.py): the wait is the census's, not the test's."""
+    """Each test's seconds (setup, call and teardown) in a JUnit report, by its node id."""
     seconds: dict[str, float] = {}
     for case in ET.parse(junit).getroot().iter("testcase"):
         parts = case.get("classname", "").split(".")
         module = next((i for i, part in enumerate(parts) if part.startswith("test_")), len(parts) - 1)
         nodeid = "/".join(parts[: module + 1]) + ".py::" + "::".join([*parts[module + 1:], case.get("name", "")])
-        waited = sum(float(p.get("value") or 0) for p in case.iter("property") if p.get("name") == "census_wait_s")
-        seconds[nodeid] = seconds.get(nodeid, 0.0) + max(0.0, float(case.get("time") or 0) - waited)
+        seconds[nodeid] = seconds.get(nodeid, 0.0) + float(case.get("time") or 0)
     return seconds
 
 
@@ -110,19 +107,16 @@ def measure(revision: str, keep_junit: Path | None = None) -> dict:
                 tail.append(line.rstrip())
                 if line.startswith("Successfully installed"):  # pip's last line: pytest starts next
                     marks.setdefault("installed", now)
-                if "test session starts" in line and "session" not in marks:
-                    marks["session"] = now
-                    if "kernels" not in marks:  # the census is compiled beside the tests (since it came before)
-                        idle_at_tests = cpu_times()
+                if "test session starts" in line:  # printed after the census is compiled (tests/conftest.py)
+                    marks.setdefault("session", now)
                 if census := KERNELS.search(line):
                     marks["kernels"] = now
-                    if "session" not in marks:  # a revision that compiled the census before the tests
-                        idle_at_tests = cpu_times()
+                    idle_at_tests = cpu_times()
                     marks["compile"] = float(census[2])
                     marks["signatures"] = int(census[1])
             process.wait(timeout=DEADLINE_S)
         total = time.monotonic() - start
-        if "session" in marks:  # how busy the machine's cores were while the tests ran (other users' work included)
+        if "kernels" in marks:  # how busy the machine's cores were while the tests ran (other users' work included)
             idle, every = (after - before for after, before in zip(cpu_times(), idle_at_tests, strict=True))
             marks["idle"] = idle / every
         if keep_junit is not None and junit.exists():
@@ -144,19 +138,15 @@ def measure(revision: str, keep_junit: Path | None = None) -> dict:
 
 def report(result: dict) -> None:
     total = result["total"]
-    installed = result.get("installed", result.get("session", total))
-    before = "kernels" in result and result["kernels"] < result.get("session", total)  # the census, then the tests
-    tests_start = max(result["kernels"], result["session"]) if before else installed
+    session = result.get("installed", result.get("session", total))
+    tests_start = max(result.get("kernels", session), result.get("session", session))
     print(f"\n{result['revision']}: {total:.0f} s ({total / 60:.1f} min) in all, exit {result['returncode']}, "
           f"load average after {result['load']}")
-    print(f"  install  {installed:7.0f} s   system packages if missing, virtualenv, pip install -e '.[test]'")
-    if before:
-        print(f"  compile  {tests_start - installed:7.0f} s   pytest's start and {result['signatures']} kernel "
+    print(f"  install  {session:7.0f} s   system packages if missing, virtualenv, pip install -e '.[test]'")
+    if "compile" in result:
+        print(f"  compile  {tests_start - session:7.0f} s   pytest's start and {result['signatures']} kernel "
               f"signatures ({result['compile']:.0f} s compiling)")
     print(f"  tests    {total - tests_start:7.0f} s   {result['summary'].strip('= ')}")
-    if "compile" in result and not before:
-        print(f"    (the census of {result['signatures']} kernel signatures: {result['compile']:.0f} s compiling, "
-              "beside the first tests)")
     busy = sum(result["by_directory"].values())
     for directory, seconds in sorted(result["by_directory"].items(), key=lambda item: -item[1]):
         print(f"    {directory:20s} {seconds:7.0f} s of tests ({seconds / busy:.0%})")

@@ -1,21 +1,16 @@
 """The whole suite's set-up: its kernels compiled once, the slowest tests first, and the census of kernels kept.
 
 In a parallel run (the README's ``pytest -n auto --dist worksteal``, pytest-xdist) the controlling process compiles
-the census of kernels (tests/support/kernels.py) while the first tests run, as many at once as there are workers;
-``--precompile yes`` does it in a run without workers too, ``--precompile no`` never. The tests that compile from
-scratch in caches of their own (marked ``own_kernels``) run first, the others wait for the census, and each part
-runs slowest first (tests/support/scheduling.py), so that the last minutes do not wait on one long test. Every
-test fails that runs the kernel on a signature outside the census.
+the census of kernels (tests/support/kernels.py) before the workers start, as many at once as there are workers;
+``--precompile yes`` does it in a run without workers too, ``--precompile no`` never. Tests then run slowest first
+(tests/support/scheduling.py), so that the last minutes do not wait on one long test. Every test fails that runs
+the kernel on a signature outside the census.
 """
 
 from __future__ import annotations
 
 import asyncio
-import os
-import shutil
-import tempfile
 from collections.abc import Iterator
-from pathlib import Path
 
 import pytest
 
@@ -40,47 +35,23 @@ def _workers(config: pytest.Config) -> int:
     return int(numprocesses) if getattr(config.option, "dist", "no") != "no" else 0
 
 
-_census: kernels.Beside | None = None
-
-
 @pytest.hookimpl(tryfirst=True)
 def pytest_sessionstart(session: pytest.Session) -> None:
-    """Start compiling the census before xdist starts its workers (its own sessionstart comes after this one): they
-    inherit where it says it is done (:data:`kernels.CENSUS_ENV`)."""
-    global _census
+    """Compile the census before xdist starts its workers (its own sessionstart comes after this one)."""
     config = session.config
     mode = config.getoption("precompile")
     if hasattr(config, "workerinput") or mode == "no" or (mode == "auto" and not _workers(config)):
         return
-    outcome = Path(tempfile.mkdtemp(prefix="mgrao-census-")) / "census.json"
-    os.environ[kernels.CENSUS_ENV] = str(outcome)
-    _census = kernels.Beside(outcome, processes=max(1, _workers(config)))
-
-
-def pytest_sessionfinish(session: pytest.Session) -> None:
-    """Stop the census's compile if the tests ended first (a run of a few tests)."""
-    if _census is not None:
-        _census.close()
-        os.environ.pop(kernels.CENSUS_ENV, None)
-        shutil.rmtree(_census.outcome.parent, ignore_errors=True)
-
-
-def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
-    """Say what the census's compile did."""
-    global _census
-    census, _census = _census, None
-    if census is None:
+    reporter = config.pluginmanager.get_plugin("terminalreporter")
+    write = reporter.write_line if reporter is not None else lambda line, **_: print(line)
+    try:
+        done = kernels.precompile(processes=max(1, _workers(config)))
+    except RuntimeError as error:  # the tests that need a kernel compile it, and fail, each with its own traceback
+        write(f"kernels: compiling the census failed, the tests compile what they need: {error}", red=True)
         return
-    if census.stopped:  # a run of a few tests, which needed none of what was left
-        terminalreporter.write_line(f"kernels: the census's compile was {census.error}")
-    elif census.done is None:  # the tests that needed a kernel compiled it, and failed, each with its own traceback
-        terminalreporter.write_line(f"kernels: compiling the census failed, the tests compiled what they needed: "
-                                    f"{census.error}", red=True)
-    else:
-        done = census.done
-        slowest = ", ".join(f"{name} {s:.0f} s" for name, s in sorted(done.seconds.items(), key=lambda i: -i[1])[:3])
-        terminalreporter.write_line(f"kernels: {len(done.seconds)} signatures compiled or loaded in {done.wall:.1f} s "
-                                    f"by {done.processes} processes beside the first tests (slowest: {slowest})")
+    slowest = sorted(done.seconds.items(), key=lambda item: -item[1])[:3]
+    write(f"kernels: {len(done.seconds)} signatures compiled or loaded in {done.wall:.1f} s by {done.processes} "
+          "processes (slowest: " + ", ".join(f"{name} {s:.0f} s" for name, s in slowest) + ")")
 
 
 @pytest.hookimpl(trylast=True)
@@ -88,21 +59,9 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     scheduling.slowest_first(config, items)
 
 
-@pytest.fixture(scope="session")
-def census() -> None:
-    """The census of kernels compiled, when this run compiles it beside its first tests: for a fixture wider than a
-    test that runs the kernel, or starts processes that do (a test's own wait comes after such fixtures)."""
-    kernels.wait_for_census()
-
-
 @pytest.fixture(autouse=True)
-def _kernels_of_the_census(request: pytest.FixtureRequest) -> Iterator[None]:
-    """Wait for the census unless the test compiles in a cache of its own (``own_kernels``), then fail the test if it
-    ran the kernel on a signature outside the census (see tests/support/kernels.py)."""
-    if request.node.get_closest_marker("own_kernels") is None:
-        waited = kernels.wait_for_census()
-        if waited >= 0.1:  # not the test's own time: tests/support/durations.json leaves it out
-            request.node.user_properties.append(("census_wait_s", round(waited, 1)))
+def _kernels_of_the_census() -> Iterator[None]:
+    """Fail a test that ran the kernel on a signature outside the census (see tests/support/kernels.py)."""
     before = len(kernels.loaded_signatures())
     yield
     signatures = kernels.loaded_signatures()

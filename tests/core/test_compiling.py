@@ -31,7 +31,6 @@ from mgrao_core.compiling import (
     kinds_of_world,
     parts_of,
 )
-from tests.support import kernels
 
 pytestmark = pytest.mark.slow
 ROOT = Path(__file__).resolve().parents[2]
@@ -77,7 +76,6 @@ SAY = """
 """
 
 
-@pytest.mark.own_kernels
 def test_a_first_compile_is_said_before_and_after_and_never_again(tmp_path: Path) -> None:
     """Issue 43, item 2: a job sat at "Running: 0% done" for minutes, nothing saying a kernel was compiling."""
     (first,) = fresh_process(SAY, tmp_path)
@@ -145,7 +143,6 @@ def test_mgrao_compile_lists_every_familys_kernel_for_each_kind_of_world_or_the_
         assert "is not a kind of world" in refused.stderr and "several, sparse, failing" in refused.stderr
 
 
-@pytest.mark.own_kernels
 def test_mgrao_compile_compiles_every_family_ahead_and_a_run_then_loads_with_the_same_numbers(tmp_path: Path) -> None:
     """Issue 43, item 2: a way to compile every family ahead, so that no job waits on the compiler; the kernel of
     every family runs a chunk of any families of its world, bit for bit as the chunk's own kernel.
@@ -163,7 +160,6 @@ def test_mgrao_compile_compiles_every_family_ahead_and_a_run_then_loads_with_the
     assert sum(": compiled before" in line for line in again.stderr.splitlines()) == 2, again.stderr
     (answer,) = fresh_process(EVERY_FAMILY, tmp_path)
     assert answer["said"] == [], answer["said"]  # none of the three compiled its own kernel
-    kernels.wait_for_census()  # the same runs in this process, on the suite's kernels
     for labels in LABEL_SETS:
         for run in run_experiment(make_spec("single", labels, seeds=[3, 4], episodes=12)).runs:
             utilities, weights = answer["runs"][f"{run.algorithm} {run.seed}"]

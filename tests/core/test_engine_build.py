@@ -17,7 +17,7 @@ import pytest
 import mgrao_core
 from mgrao_core.algorithms import LEARNERS
 
-pytestmark = [pytest.mark.slow, pytest.mark.own_kernels]  # each in a copy of the package, with its own cache
+pytestmark = pytest.mark.slow
 
 PACKAGE = Path(mgrao_core.__file__).resolve().parent
 RUN = """

@@ -25,8 +25,6 @@ from mgrao_core._numba_cache import choose_cache_dir
 from tests.support.docs_crawl import crawl_docs
 from tests.support.local_service import free_port, stop, wait_healthy
 
-pytestmark = pytest.mark.own_kernels  # each process it starts has a cache of its own, or none
-
 ROOT = Path(__file__).resolve().parents[2]
 
 

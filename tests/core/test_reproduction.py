@@ -7,7 +7,7 @@ from mgrao_core.reproduction import reproduce, reproduction_table
 
 
 @pytest.fixture(scope="module")
-def table(census):
+def table():
     return reproduction_table(reproduce(seeds=3, episodes=20))
 
 

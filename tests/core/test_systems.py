@@ -191,7 +191,7 @@ ORDERING_SEEDS = 40
 
 
 @pytest.fixture(scope="module")
-def summaries(census):
+def summaries():
     """The paper's systems under the default reading at a modest seed count (fixed seeds: not flaky)."""
     return {s: run_experiment(make_spec(s, seeds=ORDERING_SEEDS, episodes=100)) for s in ("single", "multi", "large")}
 

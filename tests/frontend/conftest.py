@@ -89,7 +89,7 @@ def settled_boxes(page, selectors: list[str], what: str, timeout: float = 30.0) 
 
 
 @pytest.fixture(scope="session")
-def server(tmp_path_factory: pytest.TempPathFactory, census: None) -> Iterator[str]:
+def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     """Base URL of a running service. MGRAO_DASHBOARD_URL points the tests at an existing one instead."""
     external = os.environ.get("MGRAO_DASHBOARD_URL")
     if external:

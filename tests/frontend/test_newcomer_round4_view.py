@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import pytest
-
 from tests.frontend.conftest import page_at, running_service
 from tests.frontend.test_compare_view import wait_succeeded
 from tests.frontend.test_dashboard import api
@@ -167,7 +165,6 @@ def test_a_hundred_seeds_are_drawn_as_a_faint_sample_beneath_the_means_under_a_t
         assert errors == [], errors
 
 
-@pytest.mark.own_kernels  # its worker compiles in a cache of its own
 def test_the_job_page_says_while_the_engine_compiles_for_it_and_shows_queued_compiling_and_running_apart(
         browser, tmp_path, screenshots):
     """Issue 43, items 2 and 11: a job sat at "Running: 0% done" while a kernel compiled for the first time, and

@@ -52,7 +52,7 @@ def wait_succeeded(base: str, job_id: int, timeout: float = 120.0) -> None:
 
 
 @pytest.fixture(scope="module")
-def protected(tmp_path_factory: pytest.TempPathFactory, census: None) -> Iterator[tuple[str, int]]:
+def protected(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, int]]:
     """A protected service with one finished job: (base URL, job id)."""
     with running_service(tmp_path_factory.mktemp("protected"), workers=1, MGRAO_API_TOKEN=TOKEN,
                          MGRAO_PROTECT_READS="true") as base:

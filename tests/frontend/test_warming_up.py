@@ -23,7 +23,6 @@ def cold_server(tmp_path: Path) -> Iterator[str]:
         yield base
 
 
-@pytest.mark.own_kernels  # its worker compiles in a cache of its own
 def test_a_job_waiting_for_warming_workers_says_so(browser, cold_server, screenshots):
     job = post_job(cold_server, {"system": "single", "seeds": 2, "episodes": 20, "name": "first job"})
     # the header reads the workers when the page loads (then every 10 s): load it once the worker has said so

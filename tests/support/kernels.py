@@ -14,13 +14,11 @@ world, where a kernel per combination cost a fifth more (19 signatures: 305 s ag
 load average about 3). tests/test_kernel_census.py checks that each recipe gives its signature and that
 :data:`OPTIONAL` is every optional argument of the kernel.
 
-In a parallel run (``pytest -n``) the census is compiled while the first tests run, by as many processes as the run
-has workers, the longest first, and never two processes compiling one family's steps at once (:func:`precompile`,
-on a thread of the controlling process: :class:`Beside`, started by tests/conftest.py). The first tests are those
-that compile from scratch on purpose, in caches of their own (marked ``own_kernels``); every other test, and every
-fixture wider than a test that runs the kernel (through the ``census`` fixture), waits for the census
-(:func:`wait_for_census`) and then loads every kernel from numba's cache. ``python -m tests.support.kernels compile
-NAME...`` compiles some in this process, ``list`` lists the census, ``measure`` times each signature alone.
+In a parallel run (``pytest -n``) the census is compiled before the first test, by as many processes as the run has
+workers, the longest first, and never two processes compiling one family's steps at once (:func:`precompile`,
+called by tests/conftest.py): the tests then load every kernel from numba's cache (tests that compile from
+scratch on purpose use caches of their own). ``python -m tests.support.kernels compile NAME...`` compiles some
+in this process, ``list`` lists the census, ``measure`` times each signature alone.
 """
 
 from __future__ import annotations
@@ -31,7 +29,6 @@ import json
 import os
 import subprocess
 import sys
-import threading
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -49,8 +46,6 @@ PARTS = ("several", "links", "outside", "failing", "mgrao", "mgrao-adaptive", "i
 
 COMPILE_TIMEOUT_S = 2400.0
 """The deadline of compiling the whole census (about 5 minutes on 2 quiet cores, 17 under a load average of 7)."""
-CENSUS_ENV = "MGRAO_TEST_CENSUS"
-"""The path of the file that says a run's census is compiled (written by :class:`Beside`; its processes inherit it)."""
 
 
 @dataclass(frozen=True)
@@ -253,7 +248,7 @@ class _Compiler:
 
 
 def precompile(names: Sequence[str] | None = None, processes: int = 2, timeout: float = COMPILE_TIMEOUT_S,
-               env: Mapping[str, str] | None = None, stop: threading.Event | None = None) -> Precompiled:
+               env: Mapping[str, str] | None = None) -> Precompiled:
     """Compile the named signatures (default: the whole census) in ``processes`` processes at once.
 
     Each process takes the longest signature left (the census's ``seconds``) whose families' compiled steps no
@@ -262,8 +257,7 @@ def precompile(names: Sequence[str] | None = None, processes: int = 2, timeout: 
     them. A process with nothing it may take waits for the others.
 
     Raises:
-        RuntimeError: a process failed, the whole did not finish within ``timeout`` seconds (its output says why),
-            or ``stop`` was set (its processes are killed).
+        RuntimeError: a process failed, or the whole did not finish within ``timeout`` seconds (its output says why).
     """
     import selectors
     import tempfile
@@ -289,10 +283,7 @@ def precompile(names: Sequence[str] | None = None, processes: int = 2, timeout: 
                         pending.remove(take)
                         compiler.give(take, _steps(take) - compiled)
                 left = deadline - time.monotonic()
-                events = selector.select(timeout=min(max(0.0, left), 0.5))
-                if stop is not None and stop.is_set():
-                    raise RuntimeError("stopped: the tests ended first; left: "
-                                       + ", ".join([*(c.name for c in compilers if c.name), *pending]))
+                events = selector.select(timeout=max(0.0, left))
                 if not events and left <= 0:
                     raise RuntimeError(f"compiling the kernels took more than {timeout:g} s; left: "
                                        + ", ".join([*(c.name for c in compilers if c.name), *pending]))
@@ -316,50 +307,6 @@ def precompile(names: Sequence[str] | None = None, processes: int = 2, timeout: 
                 compiler.process.wait(timeout=60)
                 compiler.process.stdout.close()
     return Precompiled(seconds, time.perf_counter() - start, len(compilers))
-
-
-class Beside:
-    """The census compiled on a thread of this process while tests run, then ``outcome`` written (JSON: ``ok``, and
-    ``error`` when it failed): :func:`wait_for_census` waits for that file."""
-
-    def __init__(self, outcome: Path, processes: int) -> None:
-        self.outcome = outcome
-        self.done: Precompiled | None = None
-        self.error: str | None = None
-        self.stopped = False
-        """Whether it was stopped (:meth:`close`) before it was done."""
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._compile, args=(processes,), name="census", daemon=True)
-        self._thread.start()
-
-    def _compile(self, processes: int) -> None:
-        try:
-            self.done = precompile(processes=processes, stop=self._stop)
-        except Exception as error:  # noqa: BLE001 - any failure is the tests' to meet: they compile what they need
-            self.error = str(error)
-            self.stopped = self._stop.is_set()
-        written = self.outcome.with_suffix(".part")
-        written.write_text(json.dumps({"ok": self.error is None, "error": self.error}))
-        written.replace(self.outcome)  # whole or not at all: a waiting process never reads half of it
-
-    def close(self) -> None:
-        """Stop compiling what is left (the tests ended first) and wait for the thread."""
-        self._stop.set()
-        self._thread.join(timeout=120)
-
-
-def wait_for_census(timeout: float = COMPILE_TIMEOUT_S + 120) -> float:
-    """Wait until this run's census is compiled, or failed (then each test compiles what it needs): the seconds
-    waited. At once when the run compiles no census beside its tests (no :data:`CENSUS_ENV`)."""
-    from tests.support.waiting import wait_until
-
-    outcome = os.environ.get(CENSUS_ENV)
-    if not outcome or os.path.exists(outcome):
-        return 0.0
-    start = time.monotonic()
-    wait_until(lambda: os.path.exists(outcome), timeout, "the census of kernels to be compiled (tests/conftest.py)",
-               step=0.2)
-    return time.monotonic() - start
 
 
 def measure(names: Sequence[str]) -> dict[str, float]:

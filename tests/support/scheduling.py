@@ -6,9 +6,7 @@ a long test that comes late leaves the other workers idle meanwhile. :func:`slow
 by their time (tests/support/durations.json: a long test is a unit of its own, and the other tests of a file are
 one; a unit it does not list counts as quick), deals them, slowest first, to N shares of equal counts (each unit
 to the share with the least time), and puts the shares one after the other, so that each worker's own part
-begins with its slow units. Units of tests that compile in caches of their own (marked ``own_kernels``) are dealt
-before all others: they run while the census of kernels is compiled, which the others wait for
-(tests/conftest.py). A file's other tests stay together and in their order (its module fixtures are set
+begins with its slow units. A file's other tests stay together and in their order (its module fixtures are set
 up once per worker), and units of equal time keep the order they came in (a random one under ``-p randomly``).
 ``python benchmarks/bench_suite.py --durations JUNIT.xml`` rewrites the file from a run's JUnit report.
 """
@@ -49,10 +47,7 @@ def slowest_first(config: pytest.Config, items: list[pytest.Item]) -> None:
     files: dict[str, list[pytest.Item]] = {}
     for item in items:  # a unit: a test listed on its own, or the other tests of a file
         files.setdefault(item.nodeid if item.nodeid in seconds else item.nodeid.split("::", 1)[0], []).append(item)
-    def own(name: str) -> bool:  # needs no census: dealt first
-        return all(item.get_closest_marker("own_kernels") is not None for item in files[name])
-
-    by_time = sorted(files, key=lambda name: (not own(name), -seconds.get(name, 0.0)))  # stable: ties keep their order
+    by_time = sorted(files, key=lambda name: -seconds.get(name, 0.0))  # stable: equal times keep their order
     sizes = []
     left = len(items)
     for i in range(workers):  # the counts xdist gives: len(pending) // workers_remaining, in turn
