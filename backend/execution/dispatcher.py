@@ -25,7 +25,6 @@ from __future__ import annotations
 import logging
 import os
 import socket
-import threading
 import time
 from collections import deque
 from collections.abc import Sequence
@@ -38,7 +37,7 @@ from backend.execution.dask_tasks import PLUGIN_NAME, WarmUp, simulate_batch, si
 from backend.execution.failures import Failure, failure
 from backend.execution.heartbeats import Heartbeats
 from backend.execution.lifecycle import Ended, Lifecycle, Plan
-from backend.execution.lifeline import stop_on_signals
+from backend.execution.lifeline import StopEvent, stop_on_signals
 from backend.execution.presence import Presence, refresh_interval
 from backend.execution.small_jobs import packed, small_spec
 from backend.settings import Settings
@@ -114,7 +113,7 @@ class Dispatcher:
         self.address = address
         self.db = Database(settings.database_url, settings.db_busy_timeout_s)
         self.dispatcher_id = dispatcher_id or f"dispatcher:{socket.gethostname()}:{os.getpid()}"
-        self.shutdown = threading.Event()
+        self.shutdown = StopEvent()  # set by a signal handler
         self.client: Client | None = None
         self.jobs: dict[int, _Job] = {}
         self.batches: dict[str, _Batch] = {}

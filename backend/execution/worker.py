@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import logging
 import os
-import threading
 from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, TypeVar
 
@@ -26,7 +25,7 @@ from backend import wakeup
 from backend.execution.handback import local_worker_id
 from backend.execution.heartbeats import Heartbeats
 from backend.execution.lifecycle import Ended, Lifecycle, Plan
-from backend.execution.lifeline import stop_on_signals
+from backend.execution.lifeline import StopEvent, stop_on_signals
 from backend.execution.presence import Presence, refresh_interval
 from backend.execution.small_jobs import BATCH_BYTES, one_numba_thread, run_small_job, small_spec
 from backend.settings import Settings
@@ -55,7 +54,7 @@ class Worker:
         self.settings = settings
         self.db = Database(settings.database_url, settings.db_busy_timeout_s)
         self.worker_id = worker_id or local_worker_id(os.getpid())
-        self.shutdown = threading.Event()
+        self.shutdown = StopEvent()  # set by a signal handler
         self.wake: wakeup.Listener | None = None
         self.health = HealthClock()
         self.lifecycle = Lifecycle(self.db, settings, owner_id=self.worker_id, shutdown=self.shutdown,

@@ -103,3 +103,35 @@ def test_a_worker_started_by_hand_outlives_the_shell_that_started_it(families: l
     assert alive(family.child), "a worker without a supervisor stopped when its parent died"
     os.kill(family.child, signal.SIGTERM)
     assert wait_gone(family.child, timeout=30), "the worker did not stop within 30 s of SIGTERM"
+
+
+
+SIGNALLED = """
+import os, signal, time
+from backend.execution.lifeline import StopEvent, stop_on_signals
+stop, calls = StopEvent(), []
+
+def on_stop(*_):
+    calls.append(1)
+    os.kill(os.getpid(), signal.SIGTERM)  # a second SIGTERM while the first is handled
+    time.sleep(0.01)  # (its handler would run here)
+    stop.set()
+
+stop_on_signals(on_stop)
+with stop._stop_cond:  # the main thread inside the flag's lock, as in a wait, when the signal lands
+    os.kill(os.getpid(), signal.SIGTERM)
+    time.sleep(0.01)  # the handler runs here, in this thread, and takes the lock again
+print(len(calls), stop.is_set(), stop.wait(0), flush=True)
+"""
+
+
+def test_a_stop_signal_that_lands_inside_the_stop_flags_lock_or_its_own_handler_does_not_hang(tmp_path: Path) -> None:
+    # a worker started by serve's watcher thread got serve's SIGTERM and the parent-death SIGTERM at once: the
+    # second handler ran inside the first one's threading.Event.set and waited for the lock that set held, and the
+    # worker hung until it was killed 30 s later (seen in the suite's teardowns of test_supervisor.py)
+    script = tmp_path / "signalled.py"
+    script.write_text(SIGNALLED)
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[2]))
+    done = subprocess.run([sys.executable, str(script)], env=env, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.split() == ["1", "True", "True"]  # one stop, the second signal dropped while it ran
