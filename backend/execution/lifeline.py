@@ -39,43 +39,20 @@ log = logging.getLogger("mgrao.lifeline")
 
 
 class StopEvent(threading.Event):
-    """A process's stop flag, set by its signal handlers: :class:`threading.Event` with a reentrant lock.
+    """A process's stop flag, set by its signal handlers: :class:`threading.Event` on a reentrant lock.
 
     A Python signal handler runs in the main thread between two of its bytecodes, so it may run while the main
     thread is inside the event's own lock: in :meth:`wait`, or in the :meth:`set` of a first signal when a second
     comes (``mgrao serve``'s SIGTERM and the parent-death SIGTERM of a worker that serve's watcher thread started
-    arrive together). With :class:`threading.Event`'s lock the handler then waited for its own thread: the worker
-    hung until it was killed, 30 s later. Here it takes the lock again and goes on. A handler that runs between a
-    :meth:`wait`'s look at the flag and its sleep wakes nobody: that wait sleeps out its timeout (the workers' and
-    the dispatcher's waits have one).
+    arrive together). On :class:`threading.Event`'s own lock the handler then waited for its own thread: the
+    worker hung until it was killed, 30 s later. Here it takes the lock again and goes on. A handler that runs
+    between a :meth:`wait`'s look at the flag and its sleep wakes nobody: that wait sleeps out its timeout (the
+    workers' and the dispatcher's waits have one).
     """
 
     def __init__(self) -> None:
         super().__init__()
-        self._stop_cond = threading.Condition(threading.RLock())
-        self._stopped = False
-
-    def is_set(self) -> bool:
-        """Whether the flag is set."""
-        return self._stopped
-
-    def set(self) -> None:
-        """Set the flag and wake every waiter."""
-        with self._stop_cond:
-            self._stopped = True
-            self._stop_cond.notify_all()
-
-    def clear(self) -> None:
-        """Clear the flag."""
-        with self._stop_cond:
-            self._stopped = False
-
-    def wait(self, timeout: float | None = None) -> bool:
-        """Wait until the flag is set or ``timeout`` seconds passed: the flag."""
-        with self._stop_cond:
-            if not self._stopped:
-                self._stop_cond.wait(timeout)
-            return self._stopped
+        self._cond = threading.Condition(threading.RLock())  # the lock every method of Event takes
 
 
 def stop_on_signals(stop: Callable[..., object]) -> None:

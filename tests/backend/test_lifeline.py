@@ -105,7 +105,6 @@ def test_a_worker_started_by_hand_outlives_the_shell_that_started_it(families: l
     assert wait_gone(family.child, timeout=30), "the worker did not stop within 30 s of SIGTERM"
 
 
-
 SIGNALLED = """
 import os, signal, time
 from backend.execution.lifeline import StopEvent, stop_on_signals
@@ -118,7 +117,7 @@ def on_stop(*_):
     stop.set()
 
 stop_on_signals(on_stop)
-with stop._stop_cond:  # the main thread inside the flag's lock, as in a wait, when the signal lands
+with stop._cond:  # the main thread inside the flag's lock, as in a wait, when the signal lands
     os.kill(os.getpid(), signal.SIGTERM)
     time.sleep(0.01)  # the handler runs here, in this thread, and takes the lock again
 print(len(calls), stop.is_set(), stop.wait(0), flush=True)
