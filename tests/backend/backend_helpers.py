@@ -16,11 +16,13 @@ from sqlalchemy import create_engine, event
 from backend.execution.worker import Worker
 from backend.store import crud
 from backend.store.db import Database, alembic_config
+from backend.store.models import CANCELLED, FAILED, SUCCEEDED
 from mgrao_cli.supervisor import stop_processes
 from tests.support.local_service import free_port, mgrao_command, serve_command, wait_healthy
 from tests.support.waiting import wait_until
 
 T = TypeVar("T")
+ENDED = (SUCCEEDED, FAILED, CANCELLED)
 
 TOKEN = "s3cret-token"
 JSON = {"Content-Type": "application/json"}  # what a write without a body must still say
@@ -121,6 +123,21 @@ class Service:
                  step: float = 0.1) -> T:
         """:func:`~tests.support.waiting.wait_until`, with the tail of each log if it times out."""
         return wait_until(predicate, timeout, what, step=step, details=lambda: self.logs(tail=3000))
+
+    def wait_mid_job(self, job_id: int, condition: Callable[[dict], bool], what: str) -> dict:
+        """Wait until the job (its ``GET /api/jobs/ID``), still queued or running, meets ``condition``: that answer.
+
+        Fails at once if the job ended first: a test that kills or looks at a job mid-run needs work that outlasts
+        its polls, and a job too short for it would otherwise wait out the whole deadline.
+        """
+        def mid_job() -> dict | None:
+            state = self.get(f"/api/jobs/{job_id}").json()
+            if state["status"] in ENDED:
+                raise AssertionError(f"job {job_id} ended ({state['status']}) before {what}: its work is too short "
+                                     "for a test that acts on it mid-run")
+            return state if condition(state) else None
+
+        return self.wait_for(mid_job, what=what)
 
 
 

@@ -20,6 +20,7 @@ import httpx
 import large_job
 import numpy as np
 import pytest
+from backend_helpers import ENDED
 from sqlalchemy import func, select
 
 from backend.store import crud
@@ -91,6 +92,18 @@ class Topology:
 
     def wait_for(self, predicate, what: str, timeout: float = 120, step: float = 0.1):
         return wait_until(predicate, timeout, what, step=step, details=self.logs)
+
+    def wait_mid_job(self, job_id: int, condition, what: str) -> Job:
+        """Wait until the job, still queued or running, meets ``condition`` (given its row); fail at once if it
+        ended first (a test that kills its dispatcher mid-job needs work that outlasts its polls)."""
+        def mid_job() -> Job | None:
+            job = self.job(job_id)
+            if job.status in ENDED:
+                raise AssertionError(f"job {job_id} ended ({job.status}) before {what}: its work is too short for a "
+                                     f"test that acts on it mid-run; {job.stopped or ''}")
+            return job if condition(job) else None
+
+        return self.wait_for(mid_job, what)
 
     def finished(self, job_id: int) -> bool:
         """The job succeeded (False while it is queued or running; any other end fails the test)."""
@@ -274,12 +287,7 @@ def test_the_dispatcher_killed_mid_job_and_its_successor_resumes(topology: Topol
     big = make_spec("large", seeds=72, episodes=600)  # 11 chunks: more than a second left after the first
     job_id = topology.submit(big)
 
-    def a_few_stored() -> bool:
-        if topology.job(job_id).status == "succeeded":
-            raise AssertionError("the job ended before its dispatcher was killed: it is too short")
-        return topology.stored_seeds(job_id) >= 4
-
-    topology.wait_for(a_few_stored, "a few stored chunks")
+    topology.wait_mid_job(job_id, lambda _: topology.stored_seeds(job_id) >= 4, "a few stored chunks")
     first.send_signal(signal.SIGKILL)
     first.wait()
     with topology.db.session() as session:
@@ -330,13 +338,7 @@ def test_a_job_with_a_stopping_rule_runs_block_by_block_and_its_successor_resume
     first = topology.start_dispatcher(MGRAO_JOB_MEMORY_MIB="16")  # several chunks a block
     with topology.db.write() as session:
         job_id = crud.create_job(session, spec=spec, until=until).id
-    def two_blocks() -> bool:
-        job = topology.job(job_id)
-        if job.status == "succeeded":
-            raise AssertionError(f"the rule decided before its dispatcher was killed: {job.stopped}")
-        return (job.stopped or {}).get("seeds", 0) >= 8
-
-    topology.wait_for(two_blocks, "two blocks judged")
+    topology.wait_mid_job(job_id, lambda job: (job.stopped or {}).get("seeds", 0) >= 8, "two blocks judged")
     first.send_signal(signal.SIGKILL)
     first.wait()
     topology.start_dispatcher(MGRAO_JOB_MEMORY_MIB="16")

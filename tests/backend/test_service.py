@@ -27,12 +27,7 @@ def job(service: Service, job_id: int) -> dict:
 LONG_JOB = {"system": "large", "seeds": 4, "episodes": 10000}
 
 
-def running(service: Service, job_id: int) -> bool:
-    """True once the job runs with progress stored; raises if it ended before it could be seen running."""
-    state = job(service, job_id)
-    if state["status"] in ("succeeded", "failed", "cancelled"):
-        raise AssertionError(f"job {job_id} ended ({state['status']}) before it was seen running: it is too short "
-                             "for a test that kills its worker mid-job")
+def making_progress(state: dict) -> bool:
     return state["status"] == "running" and state["progress"] > 0
 
 
@@ -62,7 +57,7 @@ def test_serve_with_workers_runs_cancels_and_stops_cleanly(service: Service) -> 
 
     # a long job: seen running with progress, then cancelled
     long = service.post("/api/jobs", json=LONG_JOB).json()
-    service.wait_for(lambda: running(service, long["id"]), what="progress")
+    service.wait_mid_job(long["id"], making_progress, "progress")
     assert service.post(f"/api/jobs/{long['id']}/cancel", headers=JSON).json()["status"] == "cancelled"
     after = service.post("/api/jobs", json={"system": "single", "seeds": 1, "episodes": 10}).json()
     service.wait_for(lambda: job(service, after["id"])["status"] == "succeeded", what="next job")
@@ -127,7 +122,7 @@ def test_worker_killed_mid_job_is_requeued_and_finished(service: Service) -> Non
     spec = LONG_JOB
     job_id = service.post("/api/jobs", json=spec).json()["id"]
     victim = service.start_worker()
-    service.wait_for(lambda: running(service, job_id), what="the job to make progress")
+    service.wait_mid_job(job_id, making_progress, "the job to make progress")
     victim.send_signal(signal.SIGKILL)
     victim.wait()
     assert job(service, job_id)["status"] == "running"
@@ -142,13 +137,13 @@ def test_whole_service_killed_and_restarted_loses_no_acknowledged_job(service: S
     service.start_server(workers=0)
     worker = service.start_worker()
     accepted = []
+    short = {"system": "single", "seeds": 2, "episodes": 20}
     for i in range(12):
-        short = {"system": "single", "seeds": 2, "episodes": 20}
         body = {**(LONG_JOB if i == 0 else short), "name": f"r{i}"}
         response = service.post("/api/jobs", json=body)
         assert response.status_code == 202
         accepted.append(response.json()["id"])
-    service.wait_for(lambda: running(service, accepted[0]), what="the long job to make progress")
+    service.wait_mid_job(accepted[0], making_progress, "the long job to make progress")
     worker.send_signal(signal.SIGKILL)
     worker.wait()
     service.kill_server()

@@ -129,13 +129,8 @@ def test_a_worker_killed_between_blocks_resumes_to_the_same_decision(tmp_path, d
         rule = {"half_width": 0.05, "block": 2, "max_seeds": 40}  # undecided to 40 seeds: blocks left at the kill
         job = service.post("/api/jobs", json={"system": "single", "episodes": 6000, "first_seed": 40,
                                               "until": rule}).json()
-        def two_blocks() -> bool:
-            state = service.get(f"/api/jobs/{job['id']}").json()
-            if state["status"] == "succeeded":
-                raise AssertionError(f"the rule decided before its worker was killed: {state['stopped']}")
-            return (state["stopped"] or {}).get("seeds", 0) >= 4
-
-        service.wait_for(two_blocks, what="two blocks judged")
+        service.wait_mid_job(job["id"], lambda state: (state["stopped"] or {}).get("seeds", 0) >= 4,
+                             "two blocks judged")
         os.kill(first.pid, signal.SIGKILL)
         first.wait(timeout=30)
         service.start_worker()
