@@ -13,7 +13,7 @@ import pytest
 
 from mgrao_core.algorithms import LEARNERS
 from mgrao_core.engine.kernel import run_block
-from tests.support.kernels import CENSUS, OPTIONAL, PARTS, in_census, signature_of
+from tests.support.kernels import CENSUS, OPTIONAL, PARTS, _steps, in_census, next_to_compile, signature_of
 
 ALLOWED = sorted(CENSUS)
 
@@ -45,3 +45,19 @@ def test_a_chunk_of_fewer_families_runs_on_the_census_kernel_of_every_family_of_
     assert in_census(f"several+failing+{every}") and in_census("several+failing+mgrao-balance")
     assert not in_census("failing") and not in_census("links+mgrao-balance")  # no kernel of every family there
     assert in_census("links+mgrao") and in_census("several+outside")  # the census's own
+
+
+def test_an_idle_compiler_waits_for_steps_another_is_compiling_unless_one_signature_is_left() -> None:
+    every = "+".join(PARTS[4:])
+    one, several, failing = every, f"several+{every}", f"several+failing+{every}"
+    longest_first = sorted(CENSUS, key=lambda name: -CENSUS[name].seconds)
+    assert longest_first[0] == one and next_to_compile(longest_first, set(), set()) == one
+    # while the first kernel of every family compiles its families' steps, the other process takes what needs none
+    compiling = _steps(one)
+    free = next_to_compile(longest_first[1:], set(), compiling)
+    assert free is not None and not _steps(free) & compiling and free not in (several, failing)
+    assert next_to_compile([several, failing], set(), compiling) is None  # two left that need them: it waits
+    # at the end: the other compiles several resources' balance steps for `several`, and `failing` is left alone
+    cached = compiling | {"failing"}
+    assert next_to_compile([failing], cached, _steps(several) - cached) == failing
+    assert next_to_compile([], cached, set()) is None
