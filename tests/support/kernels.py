@@ -18,7 +18,7 @@ In a parallel run (``pytest -n``) the census is compiled before the first test, 
 workers, the longest first, two processes compiling one family's steps at once only for the last signature
 (:func:`precompile`, called by tests/conftest.py): the tests then load every kernel from numba's cache (tests that
 compile from scratch on purpose use caches of their own). ``python -m tests.support.kernels compile NAME...``
-compiles some in this process, ``list`` lists the census, ``measure`` times each signature alone.
+compiles some in this process, ``list`` lists the census, ``measure`` times each signature alone, ``fresh`` the whole.
 """
 
 from __future__ import annotations
@@ -228,7 +228,7 @@ def next_to_compile(pending: Sequence[str], compiled: set[str], others: set[str]
     every pending one shares such steps and one is left, that one: its steps are then compiled twice, by this process
     on a core that would otherwise idle until the other process ends. At the census's end these are the several
     resources' balance steps of its last kernel of every family: the whole census from empty caches in two processes
-    took 162 s this way and 199 s waiting (load average about 1.3).
+    took 162 s this way and 199 s waiting (load average about 1.3; ``python -m tests.support.kernels fresh``).
     """
     free = next((name for name in pending if not (_steps(name) - compiled) & others), None)
     return free if free is not None or len(pending) != 1 else pending[0]
@@ -335,6 +335,19 @@ def measure(names: Sequence[str]) -> dict[str, float]:
     return results
 
 
+def fresh(names: Sequence[str], processes: int) -> Precompiled:
+    """The named signatures compiled as a parallel run compiles them (:func:`precompile`), from an empty numba cache."""
+    import tempfile
+
+    environment = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
+    with tempfile.TemporaryDirectory(prefix="mgrao-census-") as home:
+        done = precompile(names, processes=processes, env=environment | {"XDG_CACHE_HOME": home})
+    print(f"{len(done.seconds)} signatures in {done.wall:.1f} s by {done.processes} processes (load average "
+          + " ".join(f"{x:.2f}" for x in os.getloadavg()) + "): "
+          + ", ".join(f"{name} {seconds:.0f} s" for name, seconds in done.seconds.items()), flush=True)
+    return done
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m tests.support.kernels", description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -343,6 +356,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     compile_.add_argument("names", nargs="*", help="census names (default: all)")
     measure_ = sub.add_parser("measure", help="each signature's compile time with an empty cache")
     measure_.add_argument("names", nargs="*", help="census names (default: all)")
+    fresh_ = sub.add_parser("fresh", help="compile as a parallel run does, from an empty cache, and time the whole")
+    fresh_.add_argument("names", nargs="*", help="census names (default: all)")
+    fresh_.add_argument("--processes", type=int, default=2, help="processes at once (default: 2)")
     sub.add_parser("list", help="the census, with each signature's seconds")
     args = parser.parse_args(argv)
     def report(name: str, seconds: float) -> None:
@@ -354,6 +370,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         compile_here(args.names or CENSUS, report)
     elif args.command == "measure":
         measure(args.names or list(CENSUS))
+    elif args.command == "fresh":
+        fresh(args.names or list(CENSUS), args.processes)
     else:
         for name, recipe in CENSUS.items():
             print(f"{name:50s} {recipe.seconds:6.0f} s  {recipe}")
