@@ -322,26 +322,27 @@ def precompile(names: Sequence[str] | None = None, processes: int = 2, timeout: 
     return Precompiled(seconds, time.perf_counter() - start, len(compilers))
 
 
-def measure(names: Sequence[str]) -> dict[str, float]:
-    """Each named signature's compile time alone: in a process of its own, with an empty numba cache."""
+def _from_empty_cache(names: Sequence[str], processes: int) -> Precompiled:
+    """:func:`precompile` of ``names`` in a cache home of its own, empty, without the caller's ``NUMBA_*`` settings."""
     import tempfile
 
-    results = {}
     environment = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
+    with tempfile.TemporaryDirectory(prefix="mgrao-census-") as home:
+        return precompile(names, processes=processes, env=environment | {"XDG_CACHE_HOME": home})
+
+
+def measure(names: Sequence[str]) -> dict[str, float]:
+    """Each named signature's compile time alone: in a process of its own, with an empty numba cache."""
+    results = {}
     for name in names:
-        with tempfile.TemporaryDirectory(prefix="mgrao-census-") as home:
-            results[name] = precompile([name], processes=1, env=environment | {"XDG_CACHE_HOME": home}).seconds[name]
+        results[name] = _from_empty_cache([name], processes=1).seconds[name]
         print(f"{name}: {results[name]:.1f} s", flush=True)
     return results
 
 
 def fresh(names: Sequence[str], processes: int) -> Precompiled:
     """The named signatures compiled as a parallel run compiles them (:func:`precompile`), from an empty numba cache."""
-    import tempfile
-
-    environment = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
-    with tempfile.TemporaryDirectory(prefix="mgrao-census-") as home:
-        done = precompile(names, processes=processes, env=environment | {"XDG_CACHE_HOME": home})
+    done = _from_empty_cache(names, processes)
     print(f"{len(done.seconds)} signatures in {done.wall:.1f} s by {done.processes} processes (load average "
           + " ".join(f"{x:.2f}" for x in os.getloadavg()) + "): "
           + ", ".join(f"{name} {seconds:.0f} s" for name, seconds in done.seconds.items()), flush=True)
