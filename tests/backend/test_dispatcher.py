@@ -25,7 +25,7 @@ from sqlalchemy import func, select
 
 from backend.store import crud
 from backend.store.db import Database
-from backend.store.models import Job, Run
+from backend.store.models import CANCELLED, FAILED, SUCCEEDED, Job, Run
 from mgrao_core import ExperimentSpec, make_spec, run_experiment
 from tests.support.dask_cluster import DaskCluster
 from tests.support.local_service import free_port, mgrao_command, serve_command, stop, wait_healthy
@@ -108,9 +108,9 @@ class Topology:
     def finished(self, job_id: int) -> bool:
         """The job succeeded (False while it is queued or running; any other end fails the test)."""
         job = self.job(job_id)
-        if job.status in ("failed", "cancelled"):
+        if job.status in (FAILED, CANCELLED):
             raise AssertionError(f"job {job_id} is {job.status}: {job.error}\n{self.logs()}")
-        return job.status == "succeeded"
+        return job.status == SUCCEEDED
 
     def stored_seeds(self, job_id: int) -> int:
         with self.db.session() as session:
