@@ -110,11 +110,14 @@ UNPRIVILEGED = 65534  # nobody
 SIMULATION = """
 import mgrao_core, numba
 from mgrao_core import make_spec, run_experiment
-result = run_experiment(make_spec("single", seeds=2, episodes=5))
+result = run_experiment(make_spec("single", ["uniform", "bandit"], seeds=2, episodes=5))
 print("MGRAO_CORE", mgrao_core.__file__)
 print("CACHE_DIR", numba.config.CACHE_DIR)
 print("UTILITIES", result.runs[-1].utilities.tolist())
 """
+"""A simulation that compiles the kernel and a learner's steps, each cached in a directory of its own: the fixed
+allocations and bandit, whose kernel compiles in about half the time of MG-RAO's (these tests are about where the cache
+goes, not what it holds)."""
 
 
 @dataclass
