@@ -6,7 +6,7 @@ empty cache home (``XDG_CACHE_HOME``: numba's cache and pip's, as on a new CI ma
 with ``CI=true``, a JUnit report added through ``PYTEST_ADDOPTS``. It prints:
 
 * install: from the start to pytest's first line (the system packages when missing, the virtualenv, ``pip
-  install -e ".[test]"``);
+  install --no-compile -e ".[test]"``);
 * compile: the census of kernels compiled before the tests (tests/support/kernels.py; the line pytest prints);
 * tests: from then to pytest's last line, with the whole run's counts;
 * by directory: each test directory's tests' own seconds, summed (on several workers, these add up to more than
@@ -142,7 +142,7 @@ def report(result: dict) -> None:
     tests_start = max(result.get("kernels", session), result.get("session", session))
     print(f"\n{result['revision']}: {total:.0f} s ({total / 60:.1f} min) in all, exit {result['returncode']}, "
           f"load average after {result['load']}")
-    print(f"  install  {session:7.0f} s   system packages if missing, virtualenv, pip install -e '.[test]'")
+    print(f"  install  {session:7.0f} s   system packages if missing, virtualenv, pip install (the README's)")
     if "compile" in result:
         print(f"  compile  {tests_start - session:7.0f} s   pytest's start and {result['signatures']} kernel "
               f"signatures ({result['compile']:.0f} s compiling)")
