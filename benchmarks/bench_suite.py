@@ -6,7 +6,7 @@ empty cache home (``XDG_CACHE_HOME``: numba's cache and pip's, as on a new CI ma
 with ``CI=true``, a JUnit report added through ``PYTEST_ADDOPTS``. It prints:
 
 * install: from the start to pytest's first line (the system packages when missing, the virtualenv, ``pip
-  install --no-compile -e ".[test]"``);
+  install -e ".[test]"``);
 * compile: the census of kernels compiled before the tests (tests/support/kernels.py; the line pytest prints);
 * tests: from then to pytest's last line, with the whole run's counts;
 * by directory: each test directory's tests' own seconds, summed (on several workers, these add up to more than
