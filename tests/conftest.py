@@ -12,13 +12,11 @@ from __future__ import annotations
 
 import asyncio
 from collections.abc import Iterator
-from pathlib import Path
 
 import pytest
 
 from tests.support import kernels, scheduling
-
-ROOT = Path(__file__).resolve().parents[1]
+from tests.support.project import ROOT, packages
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
@@ -48,10 +46,8 @@ def byte_compile_the_project() -> None:
     writes the files whatever that variable says, and every process reads them.
     """
     import compileall
-    import tomllib
 
-    found = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"]["find"]
-    for name in sorted({pattern.rstrip("*") for pattern in found["include"]}) + ["tests/support"]:
+    for name in [*packages(), "tests/support"]:
         if (ROOT / name).is_dir():
             compileall.compile_dir(ROOT / name, quiet=1)
 

@@ -3,15 +3,14 @@
 from __future__ import annotations
 
 import importlib.util
-import tomllib
 from pathlib import Path
 
-from tests.conftest import ROOT, byte_compile_the_project
+from tests.conftest import byte_compile_the_project
+from tests.support.project import ROOT, packages
 
 
 def test_every_module_of_the_projects_packages_and_the_tests_helpers_is_byte_compiled() -> None:
-    found = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"]["find"]
-    places = [ROOT / pattern.rstrip("*") for pattern in found["include"]] + [ROOT / "tests" / "support"]
+    places = [ROOT / name for name in packages()] + [ROOT / "tests" / "support"]
     sources = [path for place in places if place.is_dir() for path in place.rglob("*.py")]
     assert any(p.parts[-2:] == ("engine", "kernel.py") for p in sources) and len(sources) > 100, len(sources)
     compiled = {p: Path(importlib.util.cache_from_source(str(p))) for p in sources}
