@@ -31,6 +31,7 @@ from mgrao_core.compiling import (
     kinds_of_world,
     parts_of,
 )
+from tests.support.kernels import FROM_SCRATCH
 
 pytestmark = pytest.mark.slow
 ROOT = Path(__file__).resolve().parents[2]
@@ -41,7 +42,7 @@ def in_process(arguments: list[str], cache: Path, returncode: int = 0) -> subpro
     """Run ``python ARGUMENTS`` from the checkout with numba's cache in ``cache`` (empty: as after an install), and
     check that it exits with ``returncode``."""
     environment = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
-    environment |= {"NUMBA_CACHE_DIR": str(cache), "PYTHONPATH": str(ROOT)}
+    environment |= FROM_SCRATCH | {"NUMBA_CACHE_DIR": str(cache), "PYTHONPATH": str(ROOT)}
     done = subprocess.run([sys.executable, *arguments], cwd=ROOT, env=environment, capture_output=True, text=True,
                           timeout=DEADLINE_S)
     assert done.returncode == returncode, done.stderr[-3000:]

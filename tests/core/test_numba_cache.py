@@ -23,6 +23,7 @@ import pytest
 
 from mgrao_core._numba_cache import choose_cache_dir
 from tests.support.docs_crawl import crawl_docs
+from tests.support.kernels import FROM_SCRATCH
 from tests.support.local_service import free_port, stop, wait_healthy
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -93,7 +94,8 @@ def test_a_writable_package_without_a_usable_cache_dir_compiles_uncached_and_wri
     temp.mkdir()
     (temp / f"mgrao-numba-{os.getuid()}").write_text("")  # a file where the private directory would be
     environment = {k: v for k, v in os.environ.items() if not k.startswith(("NUMBA_", "XDG_"))}
-    environment |= {"PYTHONPATH": str(copy), "HOME": str(home), "TMPDIR": str(temp), "NUMBA_NUM_THREADS": "1"}
+    environment |= FROM_SCRATCH | {"PYTHONPATH": str(copy), "HOME": str(home), "TMPDIR": str(temp),
+                                   "NUMBA_NUM_THREADS": "1"}
     done = subprocess.run([sys.executable, "-c", SIMULATION], cwd=tmp_path, env=environment, capture_output=True,
                           text=True, timeout=300, check=False)
     assert done.returncode == 0, done.stderr[-3000:]
@@ -131,7 +133,7 @@ class ReadOnlyInstall:
         """The simulation as ``nobody``, HOME missing, TMPDIR ``temp``, in a fresh environment."""
         environ = {"PATH": "/usr/bin:/bin", "HOME": str(self.root / "no-such-home"), "TMPDIR": str(temp),
                    "PYTHONPATH": os.pathsep.join([str(self.site_dir), *self.deps]), "NUMBA_DEBUG_CACHE": "1",
-                   "NUMBA_NUM_THREADS": "1", **env}
+                   "NUMBA_NUM_THREADS": "1", **FROM_SCRATCH, **env}
         argv = ["runuser", "-u", "nobody", "--", "env", "-i", *(f"{k}={v}" for k, v in environ.items()),
                 self.python, "-c", SIMULATION]
         return subprocess.run(argv, cwd=temp, capture_output=True, text=True, timeout=300, check=False)

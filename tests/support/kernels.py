@@ -47,6 +47,16 @@ PARTS = ("several", "links", "outside", "failing", "mgrao", "mgrao-adaptive", "i
 COMPILE_TIMEOUT_S = 2400.0
 """The deadline of compiling the whole census (about 5 minutes on 2 quiet cores, 17 under a load average of 7)."""
 
+FROM_SCRATCH = {"NUMBA_OPT": "1"}
+"""What a test that compiles the engine from scratch on purpose, in a cache of its own, adds to its processes'
+environment: numba's LLVM level 1, where numba's default is 3. Those tests check how the engine compiles and caches
+(where the files go, what an edit recompiles, what is said while it compiles, that a cached kernel loads without
+numba's compiler), none of which depends on how hard LLVM optimises; at level 1 the same kernels compile 12-18% faster
+and compute the same bits (``benchmarks/bench_numba_opt.py``), which the tests that compare numbers check against the
+census's. (At level 0 numba cannot cache the kernel at all: "it uses dynamic globals".) The census, on which every
+other test's numbers run, and the quick start, which is the README's commands as a user types them, keep numba's
+default: the suite tests the machine code users run."""
+
 
 @dataclass(frozen=True)
 class Recipe:
