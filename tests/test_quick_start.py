@@ -30,7 +30,7 @@ import pytest
 from tests.support.local_service import free_port, stop, wait_healthy
 from tests.test_packaging import quick_start_commands
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.same_worker]  # one clone and home: the second order reuses the first's
 
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGES = ["mgrao_core", "mgrao_cli", "backend", "frontend", "mgrao_docs"]
