@@ -5,13 +5,15 @@ from __future__ import annotations
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from alembic import command
-from alembic.config import Config
 from sqlalchemy import Engine
 from sqlalchemy.orm import Session, sessionmaker
 
 from backend.store import dialect
+
+if TYPE_CHECKING:
+    from alembic.config import Config
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 
@@ -93,7 +95,13 @@ class Database:
 
 
 def alembic_config() -> Config:
-    """The Alembic configuration, located from the installed package's files."""
+    """The Alembic configuration, located from the installed package's files.
+
+    Alembic is imported here, not with the module: a worker process reads and writes the store but never migrates it,
+    and importing Alembic cost each of them about a tenth of a second of CPU.
+    """
+    from alembic.config import Config
+
     config = Config(str(PACKAGE_DIR / "alembic.ini"))
     config.set_main_option("script_location", str(PACKAGE_DIR / "migrations"))
     return config
@@ -101,6 +109,8 @@ def alembic_config() -> Config:
 
 def upgrade(engine: Engine) -> None:
     """Apply every pending migration in one write transaction (safe from several processes)."""
+    from alembic import command
+
     config = alembic_config()
     with engine.connect() as connection:
         dialect.relax_foreign_keys(connection)  # before the transaction: table rebuilds must not cascade
