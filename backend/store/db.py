@@ -98,7 +98,7 @@ def alembic_config() -> Config:
     """The Alembic configuration, located from the installed package's files.
 
     Alembic is imported here, not with the module: a worker process reads and writes the store but never migrates it,
-    and importing Alembic cost each of them about a tenth of a second of CPU.
+    and importing Alembic cost each of them about a fifth of a CPU-second (0.78 against 0.59 for backend.processes).
     """
     from alembic.config import Config
 

@@ -88,7 +88,7 @@ def test_job_execution_imports_no_study() -> None:
 
 def test_a_worker_process_imports_no_migrations() -> None:
     """A worker reads and writes the store but never migrates it: Alembic is imported by migrating alone (about a
-    tenth of a CPU-second of each worker process's start)."""
+    fifth of a CPU-second of each worker process's start)."""
     code = ("import sys, backend.processes; "
             "assert not [m for m in sys.modules if m.split('.')[0] == 'alembic'], sorted(sys.modules)")
     subprocess.run([sys.executable, "-c", code], check=True, timeout=60)
