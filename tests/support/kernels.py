@@ -32,10 +32,9 @@ import sys
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
-ROOT = Path(__file__).resolve().parents[2]
+from tests.support.project import ROOT
 
 OPTIONAL = ("several", "links", "outside", "failing", "mgrao_lanes", "adaptive_lanes", "independent_q_lanes",
             "bandit_lanes", "balance_lanes")
